@@ -1,0 +1,25 @@
+//! dynotraj-core: the fixed-size, `no_std`, allocation-free heart of dynotraj.
+//!
+//! Everything here runs unchanged on a Cortex-M4F ECU and on the host. The core never does I/O
+//! and never reads a clock: callers pass bytes, frames and timestamps in and take messages out.
+//! Every capacity is a named const or a const generic; running out of room is a documented,
+//! counted outcome, never a panic.
+//!
+//! Modules:
+//! - [`limits`]: the named capacities and the paper's horizons and limits.
+//! - [`wire`]: every message of the pipeline, and its framing (postcard + CRC-32 + COBS).
+//! - [`geometry`]: SE(3)/SE(2) helpers, camera-to-bird's-eye projection, angle wrapping.
+//! - [`smooth`]: the unicycle EKF (the paper's GT+EKF baseline) and its fixed-window RTS smoother.
+//! - [`predict`]: unicycle dynamics and the baseline predictors (constant velocity, CTRA).
+//! - [`metrics`]: ADE, FDE, ACE and RPE.
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod geometry;
+pub mod limits;
+pub mod metrics;
+pub mod predict;
+pub mod smooth;
+pub mod wire;
+
+pub use geometry::{BevState, Point2};

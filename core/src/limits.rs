@@ -1,0 +1,26 @@
+//! Named capacities of the core and the paper's fixed horizons and physical limits.
+//!
+//! The capacities follow the ECU budget of DESIGN.md: 16 tracked objects, 256 static tracks and
+//! 128 points per object, a 30-frame horizon.
+
+/// Prediction horizon in frames (the paper: 30 frames, "1.5 s" at its assumed 20 Hz).
+pub const HORIZON: usize = 30;
+/// Most history frames (before the current one) fed to a predictor.
+pub const MAX_HISTORY: usize = 6;
+/// Fewest history frames (before the current one) a forecast needs.
+pub const MIN_HISTORY: usize = 1;
+/// Shortest run of consecutive frames that makes an object eligible: one history frame, the
+/// current frame and the horizon (the paper's 32).
+pub const MIN_ELIGIBLE_RUN: usize = MIN_HISTORY + 1 + HORIZON;
+/// Most objects tracked at once.
+pub const MAX_OBJECTS: usize = 16;
+/// Most static (background) feature tracks per frame.
+pub const MAX_STATIC_TRACKS: usize = 256;
+/// Most feature points per object per frame.
+pub const MAX_POINTS_PER_OBJECT: usize = 128;
+/// The paper's turn-rate limit, rad/s (applied as |omega| <= this).
+pub const MAX_TURN_RATE: f32 = 0.7;
+/// The paper's acceleration limit, m/s^2 (applied as |a| <= this).
+pub const MAX_ACCEL: f32 = 4.0;
+/// The frame rate the paper assumes for KITTI, Hz (the cameras really run at 10 Hz).
+pub const PAPER_FRAME_RATE_HZ: f32 = 20.0;

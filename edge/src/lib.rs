@@ -1,0 +1,2 @@
+//! dynotraj-edge: the firmware loop.
+#![no_std]

@@ -1,0 +1,1 @@
+//! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
