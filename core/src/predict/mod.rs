@@ -1,1 +1,53 @@
-//! predict (in progress).
+//! Forecasting: unicycle dynamics with the paper's limits, and the baseline predictors.
+//!
+//! A forecast is made at the current frame s from a history of bird's-eye states, oldest first,
+//! whose last element is frame s; it holds positions for frames s+1 ..= s+HORIZON.
+
+mod baseline;
+mod unicycle;
+
+pub use baseline::{constant_velocity, ctra, Baseline};
+pub use unicycle::{clamp_controls, unicycle_step};
+
+use crate::geometry::{BevState, Point2};
+use crate::limits::{HORIZON, MAX_HISTORY, MIN_HISTORY};
+
+/// Positions for the next [`HORIZON`] frames.
+pub type Forecast = [Point2; HORIZON];
+
+/// Why a forecast could not be made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PredictError {
+    /// The history holds fewer than `MIN_HISTORY + 1` states (history plus the current frame).
+    HistoryTooShort,
+    /// A history state has a non-finite field.
+    NonFinite,
+    /// The frame period is not a positive finite number.
+    BadFramePeriod,
+}
+
+/// A forecaster of one object's future positions.
+pub trait Predictor {
+    /// Fills `out` with the positions of the next [`HORIZON`] frames after the last state of
+    /// `history` (oldest first, current last; only the last `MAX_HISTORY + 1` states are used).
+    ///
+    /// # Errors
+    /// See [`PredictError`].
+    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError>;
+}
+
+/// Checks a history and frame period, and returns the usable tail (at most `MAX_HISTORY + 1`
+/// states, at least `MIN_HISTORY + 1`).
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn checked_history(history: &[BevState], dt: f32) -> Result<&[BevState], PredictError> {
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(PredictError::BadFramePeriod);
+    }
+    if history.len() < MIN_HISTORY + 1 {
+        return Err(PredictError::HistoryTooShort);
+    }
+    let tail = history.get(history.len().saturating_sub(MAX_HISTORY + 1)..).unwrap_or(history);
+    if tail.iter().all(BevState::is_finite) { Ok(tail) } else { Err(PredictError::NonFinite) }
+}

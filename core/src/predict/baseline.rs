@@ -1,0 +1,106 @@
+//! Baseline predictors: constant velocity (CV) and constant turn rate and acceleration (CTRA).
+
+use super::{checked_history, unicycle_step, Forecast, PredictError, Predictor};
+use crate::geometry::{angle_diff, BevState, Point2};
+
+/// Constant velocity: the velocity of the last two positions, held for the whole horizon.
+///
+/// It reads positions only (not the source's heading or speed), so it is the same predictor on
+/// every source.
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn constant_velocity(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    let h = checked_history(history, dt)?;
+    let [.., prev, cur] = h else { return Err(PredictError::HistoryTooShort) };
+    let (vx, vy) = ((cur.x - prev.x) / dt, (cur.y - prev.y) / dt);
+    for (k, p) in out.iter_mut().enumerate() {
+        let t = (k + 1) as f32 * dt;
+        *p = Point2::new(cur.x + vx * t, cur.y + vy * t);
+    }
+    Ok(())
+}
+
+/// Constant turn rate and acceleration on the unicycle, from the source's current heading and
+/// speed; turn rate and acceleration are the last frame-to-frame changes of heading and speed,
+/// clamped to the paper's limits. The speed stops at zero instead of reversing: a braking
+/// vehicle halts, it does not drive backwards.
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn ctra(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    let h = checked_history(history, dt)?;
+    let [.., prev, cur] = h else { return Err(PredictError::HistoryTooShort) };
+    let turn_rate = angle_diff(cur.heading, prev.heading) / dt;
+    let accel = (cur.speed - prev.speed) / dt;
+    let mut s = *cur;
+    for p in out.iter_mut() {
+        let a = accel.max(-s.speed.max(0.0) / dt);
+        s = unicycle_step(&s, turn_rate, a, dt);
+        *p = s.position();
+    }
+    Ok(())
+}
+
+/// The baseline predictors as one [`Predictor`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Baseline {
+    /// [`constant_velocity`].
+    ConstantVelocity,
+    /// [`ctra`].
+    Ctra,
+}
+
+impl Predictor for Baseline {
+    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+        match self {
+            Self::ConstantVelocity => constant_velocity(history, dt, out),
+            Self::Ctra => ctra(history, dt, out),
+        }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use crate::limits::{HORIZON, MAX_TURN_RATE};
+
+    fn st(x: f32, y: f32, heading: f32, speed: f32) -> BevState {
+        BevState { x, y, heading, speed }
+    }
+
+    #[test]
+    fn cv_extrapolates_the_last_displacement() {
+        let h = [st(0.0, 0.0, 0.0, 0.0), st(1.0, 0.5, 0.0, 0.0)];
+        let mut out = [Point2::default(); HORIZON];
+        constant_velocity(&h, 0.1, &mut out).unwrap_or_default();
+        assert!((out[0].x - 2.0).abs() < 1e-5 && (out[0].y - 1.0).abs() < 1e-5);
+        assert!((out[HORIZON - 1].x - 31.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn ctra_turn_is_clamped_and_braking_stops() {
+        let dt = 0.1;
+        let h = [st(0.0, 0.0, 0.0, 10.0), st(1.0, 0.0, 0.5, 10.0)];
+        let mut out = [Point2::default(); HORIZON];
+        ctra(&h, dt, &mut out).unwrap_or_default();
+        // Heading after the horizon is 0.5 + 0.7 * 3 s at most: the path bends left but no more.
+        let last = out[HORIZON - 1];
+        let prev = out[HORIZON - 2];
+        let final_heading = libm::atan2f(last.y - prev.y, last.x - prev.x);
+        assert!(final_heading <= 0.5 + MAX_TURN_RATE * dt * HORIZON as f32 + 0.05);
+        let brake = [st(0.0, 0.0, 0.0, 2.0), st(0.2, 0.0, 0.0, 1.5)];
+        ctra(&brake, dt, &mut out).unwrap_or_default();
+        assert!(out.windows(2).all(|w| w[1].x >= w[0].x - 1e-6), "never reverses");
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let mut out = [Point2::default(); HORIZON];
+        assert_eq!(constant_velocity(&[st(0.0, 0.0, 0.0, 0.0)], 0.1, &mut out), Err(PredictError::HistoryTooShort));
+        let h = [st(0.0, 0.0, 0.0, 0.0), st(f32::NAN, 0.0, 0.0, 0.0)];
+        assert_eq!(ctra(&h, 0.1, &mut out), Err(PredictError::NonFinite));
+        assert_eq!(ctra(&[st(0.0, 0.0, 0.0, 0.0); 2], 0.0, &mut out), Err(PredictError::BadFramePeriod));
+    }
+}
