@@ -1,0 +1,136 @@
+//! The paper's trajectory sources built from labelled runs: GT (the labels), GT+EKF (the
+//! forward unicycle EKF: causal), and GT+RTS (a fixed-lag RTS smoother: has seen later frames).
+
+use std::fmt;
+use std::str::FromStr;
+
+use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
+use dynotraj_core::BevState;
+
+/// Look-ahead window of the GT+RTS source, frames (as DynoSAM's sliding window of 20).
+pub const RTS_WINDOW: usize = 20;
+
+/// Where the states of a run come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Source {
+    /// The labels: positions and headings as annotated, finite-difference speed.
+    Gt,
+    /// The labels through the forward unicycle EKF: each state uses only frames up to its own
+    /// (what an online vehicle knows).
+    GtEkf,
+    /// The labels through a fixed-lag RTS smoother: each state has seen up to
+    /// `RTS_WINDOW - 1` later frames. Not causal; reported apart.
+    GtRts,
+}
+
+impl Source {
+    /// Every source.
+    pub const ALL: [Self; 3] = [Self::Gt, Self::GtEkf, Self::GtRts];
+
+    /// The command-line name.
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match self {
+            Self::Gt => "gt",
+            Self::GtEkf => "gt-ekf",
+            Self::GtRts => "gt-rts",
+        }
+    }
+
+    /// True when each state depends only on frames up to its own.
+    #[must_use]
+    pub const fn is_causal(&self) -> bool {
+        !matches!(self, Self::GtRts)
+    }
+
+    /// The states of this source for one run of consecutive labelled frames `labels`, frame
+    /// period `dt`. The output has one state per input frame.
+    #[must_use]
+    pub fn apply(&self, labels: &[BevState], dt: f32) -> Vec<BevState> {
+        match self {
+            Self::Gt => labels.to_vec(),
+            Self::GtEkf => {
+                let mut ekf = UnicycleEkf::new(EkfParams::vehicle(dt));
+                measurements(labels, dt)
+                    .map(|z| {
+                        ekf.step(&z);
+                        ekf.state().unwrap_or_default()
+                    })
+                    .collect()
+            }
+            Self::GtRts => {
+                let mut rts = FixedLagRts::<RTS_WINDOW>::new(EkfParams::vehicle(dt));
+                let mut out: Vec<BevState> = measurements(labels, dt).filter_map(|z| rts.push(&z)).collect();
+                let done = out.len();
+                out.resize(done + rts.len(), BevState::default());
+                rts.smooth_into(|i, s| out[done + i] = s);
+                out
+            }
+        }
+    }
+}
+
+/// The EKF's measurements of a run: position and heading as labelled, speed as the backward
+/// finite difference (none at the first frame: no earlier frame is known then).
+fn measurements(labels: &[BevState], dt: f32) -> impl Iterator<Item = Measurement> + '_ {
+    labels.iter().enumerate().map(move |(i, s)| Measurement {
+        position: Some(s.position()),
+        heading: Some(s.heading),
+        speed: i.checked_sub(1).map(|j| labels[j].position().distance(&s.position()) / dt),
+    })
+}
+
+impl fmt::Display for Source {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Source {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|src| src.name() == s)
+            .ok_or_else(|| format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn noisy_line(n: usize) -> Vec<BevState> {
+        (0..n)
+            .map(|k| {
+                let wobble = if k % 2 == 0 { 0.3 } else { -0.3 };
+                BevState { x: k as f32, y: wobble, heading: wobble * 0.3, speed: 10.0 + 5.0 * wobble }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_source_keeps_one_state_per_frame() {
+        for src in Source::ALL {
+            for n in [1, 5, RTS_WINDOW, RTS_WINDOW + 7] {
+                let out = src.apply(&noisy_line(n), 0.1);
+                assert_eq!(out.len(), n, "{src} {n}");
+                assert!(out.iter().all(BevState::is_finite));
+            }
+        }
+    }
+
+    #[test]
+    fn the_filter_is_causal_and_the_smoother_is_not() {
+        let base = noisy_line(40);
+        let mut changed = base.clone();
+        changed[30].y += 5.0;
+        for src in [Source::GtEkf, Source::GtRts] {
+            let a = src.apply(&base, 0.1);
+            let b = src.apply(&changed, 0.1);
+            let early_equal = a[..30].iter().zip(&b[..30]).all(|(p, q)| p == q);
+            assert_eq!(early_equal, src.is_causal(), "{src}");
+        }
+    }
+}
