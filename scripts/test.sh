@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Sets the machine up (idempotent) and runs every check of the project: the no_std core built
+# for the Cortex-M4F target, clippy's no-panic rules on core, and the whole test suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+source scripts/env.sh
+
+echo "== core for thumbv7em-none-eabihf"
+cargo build -p dynotraj-core -p dynotraj-edge --lib --target thumbv7em-none-eabihf --release
+echo "== clippy (core: no unwrap/expect/panic/indexing)"
+cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
+cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
+echo "== tests"
+cargo test --workspace
