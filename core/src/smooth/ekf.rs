@@ -88,7 +88,8 @@ impl Measurement {
     }
 }
 
-/// Indices of the state vector.
+/// Indices of the state vector [x, y, heading, speed]. nalgebra names them x, y, z, w, which the
+/// code uses (as `.z` for heading, `.w` for speed) for panic-free access.
 const X: usize = 0;
 const Y: usize = 1;
 const HEADING: usize = 2;
@@ -187,10 +188,10 @@ impl UnicycleEkf {
     /// Propagates state and covariance by one frame; returns the transition Jacobian.
     fn predict(&mut self) -> Matrix4<f32> {
         let dt = self.params.dt;
-        let (h, v) = (self.x[HEADING], self.x[SPEED]);
+        let (h, v) = (self.x.z, self.x.w);
         let (s, c) = (libm::sinf(h), libm::cosf(h));
-        self.x[X] += v * c * dt;
-        self.x[Y] += v * s * dt;
+        self.x.x += v * c * dt;
+        self.x.y += v * s * dt;
         #[rustfmt::skip]
         let f = Matrix4::new(
             1.0, 0.0, -v * s * dt, c * dt,
@@ -209,25 +210,26 @@ impl UnicycleEkf {
     fn update(&mut self, z: &Measurement) {
         let ps = self.params.position_sigma;
         if let Some(pos) = z.position {
-            self.scalar_update(X, pos.x - self.x[X], ps * ps);
-            self.scalar_update(Y, pos.y - self.x[Y], ps * ps);
+            self.scalar_update(X, pos.x - self.x.x, ps * ps);
+            self.scalar_update(Y, pos.y - self.x.y, ps * ps);
         }
         if let Some(h) = z.heading {
             let hs = self.params.heading_sigma;
-            self.scalar_update(HEADING, angle_diff(h, self.x[HEADING]), hs * hs);
+            self.scalar_update(HEADING, angle_diff(h, self.x.z), hs * hs);
         }
         if let Some(v) = z.speed {
             let vs = self.params.speed_measurement_sigma();
-            self.scalar_update(SPEED, v - self.x[SPEED], vs * vs);
+            self.scalar_update(SPEED, v - self.x.w, vs * vs);
         }
-        self.x[HEADING] = wrap_angle(self.x[HEADING]);
+        self.x.z = wrap_angle(self.x.z);
     }
 
     /// Kalman update with the measurement of state component `i`, innovation `innovation` and
     /// variance `r`, in Joseph-free form (P - K S K^T), then symmetrised.
     fn scalar_update(&mut self, i: usize, innovation: f32, r: f32) {
         let col = self.p.column(i).into_owned();
-        let s = col[i] + r;
+        let Some(&pii) = col.get(i) else { return };
+        let s = pii + r;
         if !(s.is_finite() && s > 0.0) {
             return;
         }
@@ -241,13 +243,13 @@ impl UnicycleEkf {
 /// The bird's-eye state held in a state vector.
 #[must_use]
 pub(crate) fn state_of(x: &Vector4<f32>) -> BevState {
-    BevState { x: x[X], y: x[Y], heading: wrap_angle(x[HEADING]), speed: x[SPEED] }
+    BevState { x: x.x, y: x.y, heading: wrap_angle(x.z), speed: x.w }
 }
 
 /// The difference `a - b` of two state vectors with the heading wrapped.
 pub(crate) fn state_diff(a: &Vector4<f32>, b: &Vector4<f32>) -> Vector4<f32> {
     let mut d = a - b;
-    d[HEADING] = angle_diff(a[HEADING], b[HEADING]);
+    d.z = angle_diff(a.z, b.z);
     d
 }
 
