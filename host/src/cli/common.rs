@@ -1,0 +1,98 @@
+//! Options and loading shared by the commands.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use clap::Args;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::wire::ObjectClass;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::kitti::TrackingDir;
+use crate::sequence::{load_ground_truth, GroundTruthSequence};
+use crate::trajectory::{EligibilityRule, MovingRule};
+
+/// The paper's test sequences (Table IV).
+pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
+
+/// Where the data is and how to read it.
+#[derive(Debug, Args)]
+pub struct DataArgs {
+    /// A KITTI tracking split folder holding label_02/, calib/ and ego poses (oxts/,
+    /// ego_poses_orbslam3/ or poses/), e.g. ../shared/kitti/tracking/training.
+    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
+    pub kitti: PathBuf,
+    /// Frame rate in Hz used for speeds and the dynamics. The paper treats KITTI as 20 Hz
+    /// (its cameras really run at 10 Hz); horizons stay 30 frames either way.
+    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    pub rate: f32,
+    /// Object classes considered (KITTI type names, comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist", value_name = "LIST")]
+    pub classes: Vec<String>,
+    /// An object moves when its net displacement over a run is at least this many metres per
+    /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
+    #[arg(long, default_value_t = 0.1, value_name = "METRES")]
+    pub min_step: f32,
+}
+
+impl DataArgs {
+    /// The frame period, seconds.
+    ///
+    /// # Errors
+    /// When the rate is not a positive finite number.
+    pub fn dt(&self) -> anyhow::Result<f32> {
+        anyhow::ensure!(self.rate.is_finite() && self.rate > 0.0, "--rate: expected a positive frame rate in Hz, found {}", self.rate);
+        Ok(1.0 / self.rate)
+    }
+
+    /// The eligibility rule from the options.
+    ///
+    /// # Errors
+    /// When a class name is not a KITTI type.
+    pub fn rule(&self) -> anyhow::Result<EligibilityRule> {
+        let classes = self
+            .classes
+            .iter()
+            .map(|c| {
+                ObjectClass::from_kitti_name(c.trim()).with_context(|| {
+                    format!("--classes: `{c}` is not a KITTI type (Car, Van, Truck, Pedestrian, Person_sitting, Cyclist, Tram, Misc)")
+                })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        anyhow::ensure!(self.min_step >= 0.0, "--min-step: expected metres >= 0, found {}", self.min_step);
+        Ok(EligibilityRule { classes, moving: MovingRule { min_step_m: self.min_step }, ..EligibilityRule::default() })
+    }
+
+    /// Opens the folder and loads `sequences` (all present when empty), with a progress bar.
+    ///
+    /// # Errors
+    /// A missing folder, a missing sequence or a bad file, named.
+    pub fn load(&self, sequences: &[String]) -> anyhow::Result<Vec<GroundTruthSequence>> {
+        let dir = TrackingDir::open(&self.kitti)?;
+        let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
+        let dt = self.dt()?;
+        let bar = progress(ids.len() as u64, "loading");
+        let out = ids
+            .iter()
+            .map(|id| {
+                bar.set_message(id.clone());
+                let s = load_ground_truth(&dir, id, dt);
+                bar.inc(1);
+                s
+            })
+            .collect();
+        bar.finish_and_clear();
+        out
+    }
+}
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+#[must_use]
+pub fn progress(len: u64, what: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    bar.set_style(
+        ProgressStyle::with_template(&format!("{what} {{bar:30}} {{pos}}/{{len}} {{msg}} [{{elapsed}}]"))
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}

@@ -1,0 +1,39 @@
+//! The `dynotraj` command line.
+
+mod common;
+mod dataset;
+mod eval;
+
+use clap::{Parser, Subcommand};
+
+/// dynotraj: trajectory forecasting from a vehicle's cameras, trained without ground truth.
+///
+/// Reads KITTI tracking data (labels, calibration, ego poses), builds the paper's trajectory
+/// sources and scores forecasts with ADE, FDE and ACE. Set RUST_LOG=info for more detail.
+#[derive(Debug, Parser)]
+#[command(name = "dynotraj", version, about, long_about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Eligible objects and test instances per sequence (the paper's Table I).
+    Dataset(dataset::DatasetArgs),
+    /// ADE, FDE and ACE of a predictor on a source, per sequence and weighted (Table IV).
+    Eval(eval::EvalArgs),
+}
+
+/// Runs the parsed command line.
+///
+/// # Errors
+/// Whatever the command reports; the message names the file, line or field at fault.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Dataset(a) => dataset::run(&a),
+        Command::Eval(a) => eval::run(&a),
+    }
+}

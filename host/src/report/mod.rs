@@ -1,0 +1,5 @@
+//! Reports: tables in Markdown or CSV.
+
+mod table;
+
+pub use table::{fmt_opt, Format, Table};
