@@ -1,1 +1,8 @@
 //! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
+
+pub mod evaluate;
+pub mod sequence;
+pub mod report;
+pub mod cli;
+pub mod trajectory;
+pub mod kitti;
