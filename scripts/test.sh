@@ -2,6 +2,7 @@
 # Sets the machine up (idempotent) and runs every check of the project: the no_std core built
 # for the Cortex-M4F target, clippy's no-panic rules on core, and the whole test suite.
 set -euo pipefail
+
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 source scripts/env.sh
@@ -12,4 +13,9 @@ echo "== clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 echo "== tests"
-cargo test --workspace
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+cargo test --workspace 2>&1 | tee "$log"
+# One closing line for the whole suite (cargo prints one per test binary, the last often a
+# doc-test run with nothing in it).
+awk '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed\n", p, f }' "$log"

@@ -61,18 +61,18 @@ impl EdgeLoop {
                     current = match current {
                         Some((frame, got, parts)) if frame == ft.frame => Some((frame, got.saturating_add(1), parts)),
                         other => {
-                            if let Some((_, got, parts)) = other {
-                                if got < parts {
-                                    handled.frames_incomplete += 1;
-                                }
+                            if let Some((_, got, parts)) = other
+                                && got < parts
+                            {
+                                handled.frames_incomplete += 1;
                             }
                             Some((ft.frame, 1, ft.parts))
                         }
                     };
-                    if let Some((_, got, parts)) = current {
-                        if got == parts {
-                            handled.frames_complete += 1;
-                        }
+                    if let Some((_, got, parts)) = current
+                        && got == parts
+                    {
+                        handled.frames_complete += 1;
                     }
                 }
                 _ => handled.messages_ignored += 1,

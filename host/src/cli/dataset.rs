@@ -25,6 +25,15 @@ pub struct DatasetArgs {
 /// # Errors
 /// Loading errors, named.
 pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
+    print!("{}", table(args)?.render(args.format));
+    Ok(())
+}
+
+/// Eligible objects and test instances per sequence with totals.
+///
+/// # Errors
+/// Loading errors, named.
+pub fn table(args: &DatasetArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
     let seqs = args.data.load(&args.sequences)?;
     let mut headers = vec![String::new()];
@@ -49,6 +58,5 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     let mut t = Table::new(headers);
     t.push(objects);
     t.push(instances);
-    print!("{}", t.render(args.format));
-    Ok(())
+    Ok(t)
 }

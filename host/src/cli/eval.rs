@@ -61,6 +61,15 @@ struct ArmScores {
 /// # Errors
 /// Loading errors, named.
 pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
+    print!("{}", table(args)?.render(args.format));
+    Ok(())
+}
+
+/// Scores every (source, predictor) arm on every sequence: the Table IV layout.
+///
+/// # Errors
+/// Loading errors, named.
+pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
     let dt = args.data.dt()?;
     let ids: Vec<String> =
@@ -92,8 +101,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
         }
     }
     bar.finish_and_clear();
-    print!("{}", table(&ids, &arms).render(args.format));
-    Ok(())
+    Ok(arms_table(&ids, &arms))
 }
 
 fn arm_label(p: PredictorName, s: Source) -> String {
@@ -101,13 +109,13 @@ fn arm_label(p: PredictorName, s: Source) -> String {
     if s.is_causal() { name } else { format!("{name} (inputs saw later frames)") }
 }
 
-fn table(ids: &[String], arms: &[ArmScores]) -> Table {
+fn arms_table(ids: &[String], arms: &[ArmScores]) -> Table {
     let mut headers = vec!["metric".to_string(), "arm".to_string()];
     headers.extend(ids.iter().cloned());
     headers.push("avg".into());
     let mut t = Table::new(headers);
-    let metrics: [(&str, fn(&ForecastScores) -> &Mean); 3] =
-        [("ADE", |s| &s.ade), ("FDE", |s| &s.fde), ("ACE", |s| &s.ace)];
+    type Metric = fn(&ForecastScores) -> &Mean;
+    let metrics: [(&str, Metric); 3] = [("ADE", |s| &s.ade), ("FDE", |s| &s.fde), ("ACE", |s| &s.ace)];
     for (metric, get) in metrics {
         for arm in arms {
             let mut row = vec![metric.to_string(), arm.label.clone()];

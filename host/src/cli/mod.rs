@@ -1,8 +1,8 @@
 //! The `dynotraj` command line.
 
-mod common;
-mod dataset;
-mod eval;
+pub mod common;
+pub mod dataset;
+pub mod eval;
 
 use clap::{Parser, Subcommand};
 

@@ -1,0 +1,32 @@
+//! Size budgets of core's state types (bytes), against the ECU's 128 KiB of RAM for the whole
+//! edge image (DESIGN.md). Each bound is a budget, not a measurement: a change that grows a type
+//! past it must be a decision, made here.
+
+use core::mem::size_of;
+
+use dynotraj_core::metrics::{ForecastScores, RpeAccumulator};
+use dynotraj_core::predict::Forecast;
+use dynotraj_core::smooth::{FixedLagRts, UnicycleEkf};
+use dynotraj_core::wire::{FrameDecoder, Message, MAX_FRAME_LEN};
+use dynotraj_edge::EdgeLoop;
+
+fn report(name: &str, size: usize, budget: usize) {
+    println!("{name:<28} {size:>6} B (budget {budget} B)");
+    assert!(size <= budget, "{name} is {size} B, over its {budget} B budget");
+}
+
+#[test]
+fn core_state_types_fit_their_budgets() {
+    report("wire::MAX_FRAME_LEN", MAX_FRAME_LEN, 1_536);
+    report("wire::FrameDecoder", size_of::<FrameDecoder>(), 1_536);
+    report("wire::Message", size_of::<Message>(), 2_048);
+    report("smooth::UnicycleEkf", size_of::<UnicycleEkf>(), 128);
+    report("smooth::FixedLagRts<20>", size_of::<FixedLagRts<20>>(), 4_864);
+    report("predict::Forecast", size_of::<Forecast>(), 240);
+    report("metrics::ForecastScores", size_of::<ForecastScores>(), 64);
+    report("metrics::RpeAccumulator", size_of::<RpeAccumulator>(), 128);
+    report("edge::EdgeLoop", size_of::<EdgeLoop>(), 1_600);
+    // One EKF per tracked object plus the link state stays far inside 128 KiB.
+    let per_ecu = 16 * size_of::<UnicycleEkf>() + size_of::<EdgeLoop>();
+    report("16 EKFs + edge loop", per_ecu, 128 * 1024);
+}
