@@ -18,6 +18,7 @@
 pub mod geometry;
 pub mod limits;
 pub mod metrics;
+pub mod model;
 pub mod predict;
 pub mod smooth;
 pub mod wire;

@@ -1,0 +1,186 @@
+//! The predictor's architecture: one definition shared by host training, float inference and
+//! int8 inference.
+//!
+//! A Trajectron++-style CVAE, unimodal at inference, sized for an ECU:
+//!
+//! ```text
+//! history (<= 7 states)  --features-->  LSTM(FEATURES -> enc)            -> h_hist (enc)
+//! own + summed neighbour features  ---> LSTM(2*FEATURES -> edge)         -> h_edge (edge)
+//! x = [h_edge, h_hist]                                                     (cond = edge + enc)
+//! p(z|x) = Linear(cond -> PZ_HIDDEN), ReLU, Linear(PZ_HIDDEN -> k)         logits over k modes
+//! z = one-hot(argmax p(z|x))                                               (inference)
+//! h_0 = Linear(k + cond -> dec)(concat(z, x))
+//! u_prev = features::initial_control(newest feature row): the current standardised
+//!          (turn rate / TURN_RATE_SCALE, longitudinal acceleration / ACCEL_SCALE)
+//! for t in 0..HORIZON:
+//!     h_t = GRUCell(2 + k + cond -> dec)(concat(u_prev, z, x), h_(t-1))
+//!     out = Linear(dec -> OUTPUTS)(h_t) = [mu_w, mu_a, log_sigma_w, log_sigma_a, rho_raw]
+//!     u_prev = (mu_w, mu_a)                     (standardised, unclamped: fed back as is)
+//!     control = clamp(mu_w * TURN_RATE_SCALE, +-0.7), clamp(mu_a * ACCEL_SCALE, +-4)
+//!     state = unicycle_step(state, control, dt)  (agent frame, from (0, 0, 0, speed))
+//! ```
+//!
+//! Training adds q(z|x,y) = Linear(cond + 2*FUTURE_ENC -> k) over a bidirectional LSTM of the
+//! future positions; it is not needed at inference and not exported.
+//!
+//! Differences from Trajectron++, chosen for tiny data sets and the ECU:
+//! - Inputs are agent-centric *and rotated* into the current heading frame (Trajectron++ only
+//!   translates): a 76-run data set cannot teach rotation invariance.
+//! - One edge type, so the additive attention over edge types reduces to weight 1 and is
+//!   omitted.
+//! - The first decoder input is the observed current control instead of a learned projection.
+//!
+//! # Features
+//!
+//! For a history of states s_0..s_n (oldest first, s_n current; 1 <= n <= MAX_HISTORY), the
+//! agent frame has its origin at s_n's position and its x axis along s_n's heading. Per state:
+//! position p_i (agent frame), velocity v_i = (p_i - p_(i-1)) / dt (v_0 = v_1; 0 when n = 0),
+//! acceleration a_i = (v_i - v_(i-1)) / dt (a_0 = 0), relative heading wrap(h_i - h_n), heading
+//! rate r_i = wrap(h_i - h_(i-1)) / dt (r_0 = r_1). The feature vector is
+//! [p.x / POS_SCALE, p.y / POS_SCALE, v.x / VEL_SCALE, v.y / VEL_SCALE, a.x / ACC_SCALE,
+//! a.y / ACC_SCALE, dh / PI, rate / HEADING_RATE_SCALE], each clamped to +-FEATURE_CLAMP.
+//! Neighbour features use the same formulas with the neighbour's states, still in the *own*
+//! agent frame (so a neighbour's position says where it is relative to the agent); the edge
+//! LSTM's input at step i is [own features_i, sum over neighbours within NEIGHBOUR_RADIUS_M at
+//! the current frame of their features_i] (zeros when there are none).
+//!
+//! # Weight layout (float, little-endian f32, row-major, in this order)
+//!
+//! PyTorch conventions (which candle-nn follows): LSTM gates (i, f, g, o), GRU gates (r, z, n)
+//! with n = tanh(W_in x + b_in + r * (W_hn h + b_hn)).
+//! 1. enc LSTM: w_ih [4 enc, FEATURES], w_hh [4 enc, enc], b_ih [4 enc], b_hh [4 enc]
+//! 2. edge LSTM: w_ih [4 edge, 2 FEATURES], w_hh [4 edge, edge], b_ih [4 edge], b_hh [4 edge]
+//! 3. p(z|x) layer 1: w [PZ_HIDDEN, cond], b [PZ_HIDDEN]
+//! 4. p(z|x) layer 2: w [k, PZ_HIDDEN], b [k]
+//! 5. decoder initial state: w [dec, k + cond], b [dec]
+//! 6. decoder GRU cell: w_ih [3 dec, 2 + k + cond], w_hh [3 dec, dec], b_ih [3 dec], b_hh [3 dec]
+//! 7. decoder output: w [OUTPUTS, dec], b [OUTPUTS]
+//!
+//! Concatenation orders are exactly as written above: x = [h_edge, h_hist]; decoder initial
+//! input [z, x]; GRU input [u_prev, z, x].
+
+use crate::limits::{HORIZON, MAX_ACCEL, MAX_HISTORY, MAX_TURN_RATE};
+
+/// Features per history state.
+pub const FEATURES: usize = 8;
+/// Most states in a history: MAX_HISTORY past frames and the current one.
+pub const MAX_STEPS: usize = MAX_HISTORY + 1;
+/// Hidden width of p(z|x).
+pub const PZ_HIDDEN: usize = 32;
+/// Decoder outputs per step: mean (2), log sigma (2), correlation (1) of the controls.
+pub const OUTPUTS: usize = 5;
+/// Width of each direction of the training-only future encoder.
+pub const FUTURE_ENC: usize = 32;
+/// Position standardisation, metres.
+pub const POS_SCALE: f32 = 10.0;
+/// Velocity standardisation, m/s.
+pub const VEL_SCALE: f32 = 15.0;
+/// Acceleration standardisation, m/s^2.
+pub const ACC_SCALE: f32 = 4.0;
+/// Heading-rate standardisation, rad/s.
+pub const HEADING_RATE_SCALE: f32 = 1.0;
+/// Standardised features are clamped to this magnitude (guards against wild inputs).
+pub const FEATURE_CLAMP: f32 = 5.0;
+/// Standardised turn-rate output times this is rad/s.
+pub const TURN_RATE_SCALE: f32 = MAX_TURN_RATE;
+/// Standardised acceleration output times this is m/s^2.
+pub const ACCEL_SCALE: f32 = MAX_ACCEL;
+/// Neighbours closer than this at the current frame feed the edge encoder, metres
+/// (Trajectron++'s vehicle-vehicle attention radius).
+pub const NEIGHBOUR_RADIUS_M: f32 = 30.0;
+/// Most neighbours summed per agent (the closest ones).
+pub const MAX_NEIGHBOURS: usize = 15;
+
+/// Largest widths a blob may declare; inference scratch is sized by these.
+pub const MAX_ENC: usize = 64;
+/// Largest edge-encoder width.
+pub const MAX_EDGE: usize = 64;
+/// Largest number of latent modes.
+pub const MAX_K: usize = 25;
+/// Largest decoder width.
+pub const MAX_DEC: usize = 128;
+
+/// The widths of one model. The defaults are the ECU configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Dims {
+    /// History encoder LSTM width.
+    pub enc: usize,
+    /// Edge encoder LSTM width.
+    pub edge: usize,
+    /// Latent modes.
+    pub k: usize,
+    /// Decoder GRU width.
+    pub dec: usize,
+}
+
+impl Dims {
+    /// The ECU default: Trajectron++'s encoder widths, a smaller decoder and fewer modes.
+    pub const DEFAULT: Self = Self { enc: 32, edge: 32, k: 5, dec: 64 };
+
+    /// Width of the condition vector x = [h_edge, h_hist].
+    #[must_use]
+    pub const fn cond(&self) -> usize {
+        self.edge + self.enc
+    }
+
+    /// True when every width is non-zero and within the MAX_* capacities.
+    #[must_use]
+    pub const fn is_supported(&self) -> bool {
+        self.enc > 0
+            && self.enc <= MAX_ENC
+            && self.edge > 0
+            && self.edge <= MAX_EDGE
+            && self.k > 0
+            && self.k <= MAX_K
+            && self.dec > 0
+            && self.dec <= MAX_DEC
+    }
+
+    /// The (rows, cols) of every weight matrix, in layout order, each followed by its biases
+    /// (a bias is reported as (rows, 1)).
+    #[must_use]
+    pub const fn tensors(&self) -> [(usize, usize); TENSORS] {
+        let (enc, edge, k, dec, cond) = (self.enc, self.edge, self.k, self.dec, self.cond());
+        [
+            (4 * enc, FEATURES),
+            (4 * enc, enc),
+            (4 * enc, 1),
+            (4 * enc, 1),
+            (4 * edge, 2 * FEATURES),
+            (4 * edge, edge),
+            (4 * edge, 1),
+            (4 * edge, 1),
+            (PZ_HIDDEN, cond),
+            (PZ_HIDDEN, 1),
+            (k, PZ_HIDDEN),
+            (k, 1),
+            (dec, k + cond),
+            (dec, 1),
+            (3 * dec, 2 + k + cond),
+            (3 * dec, dec),
+            (3 * dec, 1),
+            (3 * dec, 1),
+            (OUTPUTS, dec),
+            (OUTPUTS, 1),
+        ]
+    }
+
+    /// Total float parameters (the sum of the sizes of [`Dims::tensors`]).
+    #[must_use]
+    pub const fn parameters(&self) -> usize {
+        let (enc, edge, k, dec, cond) = (self.enc, self.edge, self.k, self.dec, self.cond());
+        4 * enc * (FEATURES + enc + 2)
+            + 4 * edge * (2 * FEATURES + edge + 2)
+            + PZ_HIDDEN * (cond + 1)
+            + k * (PZ_HIDDEN + 1)
+            + dec * (k + cond + 1)
+            + 3 * dec * (2 + k + cond + dec + 2)
+            + OUTPUTS * (dec + 1)
+    }
+}
+
+/// Number of tensors in the layout.
+pub const TENSORS: usize = 20;
+
+/// Horizon of the decoder, frames.
+pub const DECODER_STEPS: usize = HORIZON;

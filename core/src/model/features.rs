@@ -1,0 +1,195 @@
+//! Input features of the predictor (see the feature definition in [`super::arch`]): one
+//! implementation, used by host training and by ECU inference alike.
+
+use super::arch::{
+    ACCEL_SCALE, ACC_SCALE, FEATURES, FEATURE_CLAMP, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS,
+    NEIGHBOUR_RADIUS_M, POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
+};
+use crate::geometry::{angle_diff, BevState, Point2};
+
+/// Standardised features of up to [`MAX_STEPS`] states, oldest first.
+pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
+
+/// The agent frame of a current state: origin at its position, x along its heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AgentFrame {
+    origin: Point2,
+    heading: f32,
+    cos: f32,
+    sin: f32,
+}
+
+impl AgentFrame {
+    /// The frame of `current`.
+    #[must_use]
+    pub fn of(current: &BevState) -> Self {
+        Self { origin: current.position(), heading: current.heading, cos: libm::cosf(current.heading), sin: libm::sinf(current.heading) }
+    }
+
+    /// The frame's heading in the world, radians.
+    #[must_use]
+    pub const fn heading(&self) -> f32 {
+        self.heading
+    }
+
+    /// A world point in this frame.
+    #[must_use]
+    pub fn to_agent(&self, p: &Point2) -> Point2 {
+        let (dx, dy) = (p.x - self.origin.x, p.y - self.origin.y);
+        Point2::new(self.cos * dx + self.sin * dy, -self.sin * dx + self.cos * dy)
+    }
+
+    /// A point of this frame in the world.
+    #[must_use]
+    pub fn to_world(&self, p: &Point2) -> Point2 {
+        Point2::new(self.origin.x + self.cos * p.x - self.sin * p.y, self.origin.y + self.sin * p.x + self.cos * p.y)
+    }
+}
+
+fn clamp(v: f32) -> f32 {
+    if v.is_nan() { 0.0 } else { v.clamp(-FEATURE_CLAMP, FEATURE_CLAMP) }
+}
+
+/// The newest [`MAX_STEPS`] states of a history.
+fn newest(states: &[BevState]) -> &[BevState] {
+    states.get(states.len().saturating_sub(MAX_STEPS)..).unwrap_or(states)
+}
+
+/// Features of `states` (oldest first; the newest [`MAX_STEPS`] are used) in `frame`, written to
+/// `out[..n]`; returns n. Rows past n are zeroed.
+pub fn state_features(states: &[BevState], frame: &AgentFrame, dt: f32, out: &mut StepFeatures) -> usize {
+    let states = newest(states);
+    let n = states.len();
+    let inv_dt = if dt > 0.0 && dt.is_finite() { 1.0 / dt } else { 0.0 };
+    let rate = |a: Point2, b: Point2| Point2::new((a.x - b.x) * inv_dt, (a.y - b.y) * inv_dt);
+
+    let mut pos = [Point2::default(); MAX_STEPS];
+    for (p, s) in pos.iter_mut().zip(states) {
+        *p = frame.to_agent(&s.position());
+    }
+    // v_i = (p_i - p_(i-1)) / dt, v_0 = v_1; a_i = (v_i - v_(i-1)) / dt, a_0 = 0;
+    // heading rate r_i = wrap(h_i - h_(i-1)) / dt, r_0 = r_1.
+    let mut vel = [Point2::default(); MAX_STEPS];
+    let mut turn = [0.0f32; MAX_STEPS];
+    for (i, (w, ws)) in pos.get(..n).unwrap_or(&[]).windows(2).zip(states.windows(2)).enumerate() {
+        if let ([p0, p1], [s0, s1], Some(v), Some(r)) = (w, ws, vel.get_mut(i + 1), turn.get_mut(i + 1)) {
+            *v = rate(*p1, *p0);
+            *r = angle_diff(s1.heading, s0.heading) * inv_dt;
+        }
+    }
+    if let ([v0, v1, ..], [r0, r1, ..]) = (&mut vel[..], &mut turn[..])
+        && n > 1
+    {
+        *v0 = *v1;
+        *r0 = *r1;
+    }
+    let mut prev_v: Option<Point2> = None;
+    for (((row, s), (p, v)), r) in out.iter_mut().zip(states).zip(pos.iter().zip(&vel)).zip(&turn) {
+        let a = prev_v.map_or(Point2::default(), |pv| rate(*v, pv));
+        *row = [
+            clamp(p.x / POS_SCALE),
+            clamp(p.y / POS_SCALE),
+            clamp(v.x / VEL_SCALE),
+            clamp(v.y / VEL_SCALE),
+            clamp(a.x / ACC_SCALE),
+            clamp(a.y / ACC_SCALE),
+            clamp(angle_diff(s.heading, frame.heading()) / core::f32::consts::PI),
+            clamp(r / HEADING_RATE_SCALE),
+        ];
+        prev_v = Some(*v);
+    }
+    for row in out.iter_mut().skip(n) {
+        *row = [0.0; FEATURES];
+    }
+    n
+}
+
+/// The decoder's first control input: the current (turn rate, longitudinal acceleration) of the
+/// agent, standardised as the decoder's outputs are, taken from the newest feature row.
+#[must_use]
+pub fn initial_control(current_row: &[f32; FEATURES]) -> [f32; 2] {
+    let [_, _, _, _, ax, _, _, rate] = *current_row;
+    [clamp(rate * HEADING_RATE_SCALE / TURN_RATE_SCALE), clamp(ax * ACC_SCALE / ACCEL_SCALE)]
+}
+
+/// The summed neighbour features of the edge encoder, aligned with the agent's `n` feature
+/// rows: each neighbour history (oldest first, ending at the agent's current frame) is
+/// featurised in the agent's frame and added row by row, aligned at the newest row. Only
+/// neighbours within [`NEIGHBOUR_RADIUS_M`] of the agent at the current frame count, the
+/// closest [`MAX_NEIGHBOURS`] of them. Returns how many were summed.
+pub fn neighbour_sum(neighbours: &[&[BevState]], frame: &AgentFrame, n: usize, dt: f32, out: &mut StepFeatures) -> usize {
+    *out = [[0.0; FEATURES]; MAX_STEPS];
+    // Pick the closest neighbours without allocating: repeatedly take the nearest not yet chosen.
+    let mut chosen: [Option<usize>; MAX_NEIGHBOURS] = [None; MAX_NEIGHBOURS];
+    let dist = |h: &[BevState]| h.last().map(|s| frame.to_agent(&s.position())).map(|p| libm::hypotf(p.x, p.y));
+    let mut count = 0;
+    for slot in 0..MAX_NEIGHBOURS {
+        let mut best: Option<(usize, f32)> = None;
+        for (j, h) in neighbours.iter().enumerate() {
+            let taken = chosen.contains(&Some(j));
+            match dist(h) {
+                Some(d) if d <= NEIGHBOUR_RADIUS_M && !taken && best.is_none_or(|(_, bd)| d < bd) => best = Some((j, d)),
+                _ => {}
+            }
+        }
+        let (Some((j, _)), Some(c)) = (best, chosen.get_mut(slot)) else { break };
+        *c = Some(j);
+        count += 1;
+    }
+    let mut rows: StepFeatures = [[0.0; FEATURES]; MAX_STEPS];
+    for j in chosen.iter().flatten() {
+        let Some(h) = neighbours.get(*j) else { continue };
+        let m = state_features(h, frame, dt, &mut rows);
+        // Align the newest rows: neighbour row m-1 adds to agent row n-1.
+        for (dst, src) in out.get_mut(..n).unwrap_or(&mut []).iter_mut().rev().zip(rows.get(..m).unwrap_or(&[]).iter().rev()) {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += s;
+            }
+        }
+    }
+    count
+}
+
+#[cfg(test)]
+#[allow(clippy::indexing_slicing, clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn st(x: f32, y: f32, heading: f32) -> BevState {
+        BevState { x, y, heading, speed: 0.0 }
+    }
+
+    #[test]
+    fn features_are_rotation_and_translation_invariant() {
+        let dt = 0.1;
+        let base: [BevState; 4] = core::array::from_fn(|i| st(i as f32, 0.05 * (i * i) as f32, 0.1 * i as f32));
+        let (c, s) = (libm::cosf(1.0), libm::sinf(1.0));
+        let moved: [BevState; 4] =
+            core::array::from_fn(|i| st(5.0 + c * base[i].x - s * base[i].y, -3.0 + s * base[i].x + c * base[i].y, base[i].heading + 1.0));
+        let (mut a, mut b) = ([[0.0; FEATURES]; MAX_STEPS], [[0.0; FEATURES]; MAX_STEPS]);
+        assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, &mut a), 4);
+        state_features(&moved, &AgentFrame::of(&moved[3]), dt, &mut b);
+        for (ra, rb) in a.iter().zip(&b) {
+            for (x, y) in ra.iter().zip(rb) {
+                assert!((x - y).abs() < 1e-4, "{a:?}\n{b:?}");
+            }
+        }
+        // The newest row sits at the origin with zero relative heading.
+        assert!(a[3][0].abs() < 1e-6 && a[3][1].abs() < 1e-6 && a[3][6].abs() < 1e-6);
+        // Constant 1 m per frame along the heading frame's x: vx = 10 m/s.
+        assert!(a[2][2] > 0.0 && a[4] == [0.0; FEATURES]);
+    }
+
+    #[test]
+    fn neighbours_beyond_the_radius_are_ignored_and_rows_align_at_the_newest() {
+        let own = [st(0.0, 0.0, 0.0), st(1.0, 0.0, 0.0), st(2.0, 0.0, 0.0)];
+        let near = [st(5.0, 2.0, 0.0), st(6.0, 2.0, 0.0)];
+        let far = [st(500.0, 0.0, 0.0), st(501.0, 0.0, 0.0)];
+        let frame = AgentFrame::of(&own[2]);
+        let mut out = [[0.0; FEATURES]; MAX_STEPS];
+        let hs: [&[BevState]; 2] = [&near, &far];
+        assert_eq!(neighbour_sum(&hs, &frame, 3, 0.1, &mut out), 1);
+        assert_eq!(out[0], [0.0; FEATURES], "a shorter neighbour history leaves the oldest row empty");
+        assert!((out[2][0] - 4.0 / POS_SCALE).abs() < 1e-6 && (out[2][1] - 2.0 / POS_SCALE).abs() < 1e-6);
+    }
+}

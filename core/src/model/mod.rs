@@ -1,0 +1,10 @@
+//! The trajectory predictor: a Trajectron++-style CVAE with an LSTM history encoder, a
+//! neighbour (edge) encoder, a discrete latent and a GRU decoder over unicycle controls.
+//!
+//! - [`arch`]: the one architecture definition (sizes, feature definition, weight layout).
+//! - [`features`]: the input features, shared by training (host) and inference (ECU).
+
+pub mod arch;
+pub mod features;
+
+pub use arch::Dims;
