@@ -3,8 +3,10 @@
 //!
 //! - [`arch`]: the one architecture definition (sizes, feature definition, weight layout).
 //! - [`features`]: the input features, shared by training (host) and inference (ECU).
+//! - [`blob`]: the versioned, checksummed model image in f32 or int8, read in place.
 
 pub mod arch;
+pub mod blob;
 pub mod features;
 
 pub use arch::Dims;

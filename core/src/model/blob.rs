@@ -1,0 +1,476 @@
+//! The model blob: one versioned, checksummed byte image of a trained predictor, in float or int8
+//! precision, that the core reads in place (from flash, or from a caller's buffer filled over the
+//! link) without copying or allocating.
+//!
+//! ```text
+//! offset size  field
+//!  0     4     magic "DTJM"
+//!  4     2     BLOB_VERSION (u16 LE)
+//!  6     1     precision: 0 = f32, 1 = int8
+//!  7     1     reserved, 0
+//!  8     8     enc, edge, k, dec (u16 LE each)
+//! 16     8     FEATURES, MAX_STEPS, HORIZON, OUTPUTS (u16 LE each): must match this build
+//! 24     4     frame period the model was trained at, seconds (f32 LE)
+//! 28     4     payload length, bytes (u32 LE)
+//! 32     n     payload: the tensors of `Dims::tensors`, in order
+//! 32+n   4     CRC-32/ISO-HDLC of bytes 0 .. 32+n (u32 LE)
+//! ```
+//!
+//! Payload, f32: every tensor as little-endian f32, row-major. Int8: a weight matrix is its
+//! per-row (per output channel) f32 scales, then its int8 values row-major, padded with zeros to
+//! a multiple of 4 bytes (w = q * scale, scale = max |w| of the row / 127); a bias stays f32.
+
+use super::arch::{Dims, FEATURES, MAX_STEPS, OUTPUTS, TENSORS};
+use crate::limits::HORIZON;
+use crate::wire::crc32;
+
+/// The blob's magic bytes.
+pub const BLOB_MAGIC: [u8; 4] = *b"DTJM";
+/// Version of the blob layout (and of the architecture it encodes).
+pub const BLOB_VERSION: u16 = 1;
+/// Header length, bytes.
+pub const HEADER_LEN: usize = 32;
+/// CRC trailer length, bytes.
+const CRC_LEN: usize = 4;
+
+/// Numeric precision of a blob's weights.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    /// 32-bit floats.
+    F32,
+    /// 8-bit integer weights with per-output-channel f32 scales; biases in f32.
+    Int8,
+}
+
+impl Precision {
+    const fn code(self) -> u8 {
+        match self {
+            Self::F32 => 0,
+            Self::Int8 => 1,
+        }
+    }
+}
+
+/// Why a blob was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlobError {
+    /// Fewer bytes than the header and trailer, or than the header says.
+    TooShort {
+        /// Bytes needed.
+        need: usize,
+        /// Bytes given.
+        have: usize,
+    },
+    /// The first four bytes are not "DTJM".
+    BadMagic,
+    /// A blob layout version this build does not read.
+    Version {
+        /// The version found.
+        found: u16,
+    },
+    /// An unknown precision code.
+    Precision {
+        /// The code found.
+        found: u8,
+    },
+    /// Widths that are zero or beyond the MAX_* capacities of this build.
+    UnsupportedDims,
+    /// FEATURES, MAX_STEPS, HORIZON or OUTPUTS differ from this build's.
+    ShapeMismatch,
+    /// The payload length disagrees with the widths.
+    Length {
+        /// Length the widths imply.
+        expected: usize,
+        /// Length found.
+        found: usize,
+    },
+    /// The CRC does not match: the blob is corrupt.
+    Crc,
+    /// A weight, scale, bias or the frame period is not finite (or the period not positive).
+    NonFinite,
+    /// A tensor given to the writer has the wrong number of values, or too few tensors.
+    TensorShape {
+        /// Index of the tensor in layout order.
+        index: usize,
+    },
+    /// The output buffer is too small.
+    BufferTooSmall,
+}
+
+impl core::fmt::Display for BlobError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::TooShort { need, have } => write!(f, "model blob too short: need {need} bytes, have {have}"),
+            Self::BadMagic => f.write_str("not a model blob (magic is not DTJM)"),
+            Self::Version { found } => write!(f, "model blob version {found}, this build reads {BLOB_VERSION}"),
+            Self::Precision { found } => write!(f, "unknown model precision code {found}"),
+            Self::UnsupportedDims => f.write_str("model widths are zero or exceed this build's capacities"),
+            Self::ShapeMismatch => f.write_str("model features, history, horizon or outputs differ from this build's"),
+            Self::Length { expected, found } => write!(f, "model payload is {found} bytes, its widths need {expected}"),
+            Self::Crc => f.write_str("model blob CRC mismatch: corrupt"),
+            Self::NonFinite => f.write_str("model blob holds a non-finite value"),
+            Self::TensorShape { index } => write!(f, "tensor {index} has the wrong number of values"),
+            Self::BufferTooSmall => f.write_str("output buffer too small for the model blob"),
+        }
+    }
+}
+
+impl core::error::Error for BlobError {}
+
+/// Bytes one tensor of `rows` x `cols` takes in `precision` (a bias has cols = 1).
+const fn tensor_len(rows: usize, cols: usize, precision: Precision) -> usize {
+    match precision {
+        Precision::Int8 if cols > 1 => rows * 4 + (rows * cols).div_ceil(4) * 4,
+        _ => rows * cols * 4,
+    }
+}
+
+/// Payload length of a model of `dims` in `precision`, bytes.
+#[must_use]
+pub const fn payload_len(dims: &Dims, precision: Precision) -> usize {
+    let t = dims.tensors();
+    let mut n = 0;
+    let mut i = 0;
+    while i < TENSORS {
+        if let Some((rows, cols)) = const_get(&t, i) {
+            n += tensor_len(rows, cols, precision);
+        }
+        i += 1;
+    }
+    n
+}
+
+/// `t[i]` without a panicking index, usable in const context.
+const fn const_get(t: &[(usize, usize); TENSORS], i: usize) -> Option<(usize, usize)> {
+    match t.split_at_checked(i) {
+        Some((_, [first, ..])) => Some(*first),
+        _ => None,
+    }
+}
+
+/// Total blob length of a model of `dims` in `precision`, bytes.
+#[must_use]
+pub const fn blob_len(dims: &Dims, precision: Precision) -> usize {
+    HEADER_LEN + payload_len(dims, precision) + CRC_LEN
+}
+
+/// One tensor of a parsed blob, borrowed from its bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TensorView<'a> {
+    /// f32 values, row-major.
+    F32 {
+        /// Rows.
+        rows: usize,
+        /// Columns (1 for a bias).
+        cols: usize,
+        /// `rows * cols` little-endian f32.
+        data: &'a [u8],
+    },
+    /// int8 values with per-row scales.
+    Int8 {
+        /// Rows.
+        rows: usize,
+        /// Columns.
+        cols: usize,
+        /// `rows` little-endian f32 scales.
+        scales: &'a [u8],
+        /// `rows * cols` int8 values, row-major.
+        data: &'a [u8],
+    },
+}
+
+/// A validated model blob, read in place.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModelBlob<'a> {
+    dims: Dims,
+    precision: Precision,
+    frame_period_s: f32,
+    payload: &'a [u8],
+}
+
+fn u16_at(b: &[u8], at: usize) -> Option<u16> {
+    b.get(at..at + 2).and_then(|s| s.try_into().ok()).map(u16::from_le_bytes)
+}
+
+fn u32_at(b: &[u8], at: usize) -> Option<u32> {
+    b.get(at..at + 4).and_then(|s| s.try_into().ok()).map(u32::from_le_bytes)
+}
+
+/// Reads the `i`-th little-endian f32 of `b` (0.0 past the end; callers stay in bounds).
+#[must_use]
+pub fn f32_at(b: &[u8], i: usize) -> f32 {
+    b.get(4 * i..4 * i + 4).and_then(|s| s.try_into().ok()).map_or(0.0, f32::from_le_bytes)
+}
+
+impl<'a> ModelBlob<'a> {
+    /// Validates `bytes` as a model blob: length, magic, version, precision, widths, shapes,
+    /// payload length, CRC and finiteness of every float. Trailing bytes after the CRC are
+    /// ignored (a receive buffer may be larger than the blob).
+    ///
+    /// # Errors
+    /// See [`BlobError`].
+    pub fn parse(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        let short = |need| BlobError::TooShort { need, have: bytes.len() };
+        let header = bytes.get(..HEADER_LEN).ok_or(short(HEADER_LEN + CRC_LEN))?;
+        if header.get(..4) != Some(&BLOB_MAGIC[..]) {
+            return Err(BlobError::BadMagic);
+        }
+        let h16 = |at| u16_at(header, at).map_or(0, usize::from);
+        let version = u16_at(header, 4).unwrap_or(0);
+        if version != BLOB_VERSION {
+            return Err(BlobError::Version { found: version });
+        }
+        let precision = match header.get(6).copied() {
+            Some(0) => Precision::F32,
+            Some(1) => Precision::Int8,
+            other => return Err(BlobError::Precision { found: other.unwrap_or(0) }),
+        };
+        let dims = Dims { enc: h16(8), edge: h16(10), k: h16(12), dec: h16(14) };
+        if !dims.is_supported() {
+            return Err(BlobError::UnsupportedDims);
+        }
+        if (h16(16), h16(18), h16(20), h16(22)) != (FEATURES, MAX_STEPS, HORIZON, OUTPUTS) {
+            return Err(BlobError::ShapeMismatch);
+        }
+        let frame_period_s = f32_at(header, 6); // the f32 at byte offset 24
+        let found = u32_at(header, 28).map_or(0, |v| v as usize);
+        let expected = payload_len(&dims, precision);
+        if found != expected {
+            return Err(BlobError::Length { expected, found });
+        }
+        let total = HEADER_LEN + expected + CRC_LEN;
+        let body = bytes.get(..HEADER_LEN + expected).ok_or(short(total))?;
+        let crc = u32_at(bytes, HEADER_LEN + expected).ok_or(short(total))?;
+        if crc32(body) != crc {
+            return Err(BlobError::Crc);
+        }
+        if !(frame_period_s.is_finite() && frame_period_s > 0.0) {
+            return Err(BlobError::NonFinite);
+        }
+        let blob = Self { dims, precision, frame_period_s, payload: body.get(HEADER_LEN..).unwrap_or(&[]) };
+        if !blob.floats_are_finite() {
+            return Err(BlobError::NonFinite);
+        }
+        Ok(blob)
+    }
+
+    fn floats_are_finite(&self) -> bool {
+        (0..TENSORS).all(|i| match self.tensor(i) {
+            Some(TensorView::F32 { data, .. }) => data.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite())),
+            Some(TensorView::Int8 { scales, .. }) => scales.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite())),
+            None => false,
+        })
+    }
+
+    /// The model's widths.
+    #[must_use]
+    pub const fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    /// The weights' precision.
+    #[must_use]
+    pub const fn precision(&self) -> Precision {
+        self.precision
+    }
+
+    /// The frame period the model was trained at, seconds.
+    #[must_use]
+    pub const fn frame_period_s(&self) -> f32 {
+        self.frame_period_s
+    }
+
+    /// Tensor `index` in layout order (`None` past the last).
+    #[must_use]
+    pub fn tensor(&self, index: usize) -> Option<TensorView<'a>> {
+        let shapes = self.dims.tensors();
+        let mut at = 0;
+        for (i, (rows, cols)) in shapes.into_iter().enumerate() {
+            let len = tensor_len(rows, cols, self.precision);
+            if i == index {
+                let bytes = self.payload.get(at..at + len)?;
+                return Some(match self.precision {
+                    Precision::Int8 if cols > 1 => {
+                        let (scales, data) = bytes.split_at_checked(rows * 4)?;
+                        TensorView::Int8 { rows, cols, scales, data: data.get(..rows * cols)? }
+                    }
+                    _ => TensorView::F32 { rows, cols, data: bytes },
+                });
+            }
+            at += len;
+        }
+        None
+    }
+}
+
+/// Writes a blob of `dims` in `precision` from float tensors given in layout order (each
+/// row-major, `rows * cols` values), quantising for int8. Returns the blob length.
+///
+/// # Errors
+/// [`BlobError::TensorShape`] for a missing or mis-sized tensor, [`BlobError::NonFinite`] for a
+/// non-finite value, [`BlobError::UnsupportedDims`], [`BlobError::BufferTooSmall`].
+pub fn write_blob(dims: &Dims, precision: Precision, frame_period_s: f32, tensors: &[&[f32]], out: &mut [u8]) -> Result<usize, BlobError> {
+    if !dims.is_supported() {
+        return Err(BlobError::UnsupportedDims);
+    }
+    if !(frame_period_s.is_finite() && frame_period_s > 0.0) {
+        return Err(BlobError::NonFinite);
+    }
+    let total = blob_len(dims, precision);
+    let out = out.get_mut(..total).ok_or(BlobError::BufferTooSmall)?;
+    out.fill(0);
+    let payload = payload_len(dims, precision);
+    let mut header = [0u8; HEADER_LEN];
+    let fields16 = [dims.enc, dims.edge, dims.k, dims.dec, FEATURES, MAX_STEPS, HORIZON, OUTPUTS];
+    for (chunk, v) in header.get_mut(8..24).unwrap_or(&mut []).chunks_exact_mut(2).zip(fields16) {
+        chunk.copy_from_slice(&u16::try_from(v).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
+    }
+    header.get_mut(..4).unwrap_or(&mut []).copy_from_slice(&BLOB_MAGIC);
+    header.get_mut(4..6).unwrap_or(&mut []).copy_from_slice(&BLOB_VERSION.to_le_bytes());
+    if let Some(p) = header.get_mut(6) {
+        *p = precision.code();
+    }
+    header.get_mut(24..28).unwrap_or(&mut []).copy_from_slice(&frame_period_s.to_le_bytes());
+    header.get_mut(28..32).unwrap_or(&mut []).copy_from_slice(&u32::try_from(payload).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
+    out.get_mut(..HEADER_LEN).ok_or(BlobError::BufferTooSmall)?.copy_from_slice(&header);
+
+    let mut at = HEADER_LEN;
+    for (index, (rows, cols)) in dims.tensors().into_iter().enumerate() {
+        let values = tensors.get(index).ok_or(BlobError::TensorShape { index })?;
+        if values.len() != rows * cols {
+            return Err(BlobError::TensorShape { index });
+        }
+        if !values.iter().all(|v| v.is_finite()) {
+            return Err(BlobError::NonFinite);
+        }
+        let len = tensor_len(rows, cols, precision);
+        let dst = out.get_mut(at..at + len).ok_or(BlobError::BufferTooSmall)?;
+        match precision {
+            Precision::Int8 if cols > 1 => {
+                let (scales, data) = dst.split_at_mut(rows * 4);
+                for ((row, scale), q) in values.chunks_exact(cols).zip(scales.chunks_exact_mut(4)).zip(data.chunks_mut(cols)) {
+                    let max = row.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+                    let s = if max > 0.0 { max / 127.0 } else { 1.0 };
+                    scale.copy_from_slice(&s.to_le_bytes());
+                    for (dst, v) in q.iter_mut().zip(row) {
+                        // The cast saturates, and the value is within +-127 by construction.
+                        *dst = libm::roundf(v / s).clamp(-127.0, 127.0) as i8 as u8;
+                    }
+                }
+            }
+            _ => {
+                for (dst, v) in dst.chunks_exact_mut(4).zip(values.iter()) {
+                    dst.copy_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        at += len;
+    }
+    let crc = crc32(out.get(..at).ok_or(BlobError::BufferTooSmall)?);
+    out.get_mut(at..at + CRC_LEN).ok_or(BlobError::BufferTooSmall)?.copy_from_slice(&crc.to_le_bytes());
+    Ok(total)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+
+    const SMALL: Dims = Dims { enc: 4, edge: 3, k: 2, dec: 5 };
+
+    /// Deterministic weights: tensor t, element j.
+    fn weights(dims: &Dims) -> [[f32; 4096]; TENSORS] {
+        let mut w = [[0.0; 4096]; TENSORS];
+        for (t, (rows, cols)) in dims.tensors().into_iter().enumerate() {
+            for j in 0..rows * cols {
+                w[t][j] = libm::sinf((t * 31 + j) as f32) * 0.5;
+            }
+        }
+        w
+    }
+
+    fn write(dims: &Dims, precision: Precision, buf: &mut [u8]) -> usize {
+        let w = weights(dims);
+        let slices: [&[f32]; TENSORS] = core::array::from_fn(|t| {
+            let (r, c) = dims.tensors()[t];
+            &w[t][..r * c]
+        });
+        // Leak-free: the slices borrow `w`, which lives to the end of this call.
+        write_blob(dims, precision, 0.05, &slices, buf).unwrap()
+    }
+
+    #[test]
+    fn f32_and_int8_round_trip() {
+        let mut buf = [0u8; 8192];
+        for precision in [Precision::F32, Precision::Int8] {
+            let n = write(&SMALL, precision, &mut buf);
+            assert_eq!(n, blob_len(&SMALL, precision));
+            let blob = ModelBlob::parse(&buf[..n]).unwrap();
+            assert_eq!((blob.dims(), blob.precision(), blob.frame_period_s()), (SMALL, precision, 0.05));
+            let w = weights(&SMALL);
+            for (t, (rows, cols)) in SMALL.tensors().into_iter().enumerate() {
+                match blob.tensor(t).unwrap() {
+                    TensorView::F32 { data, .. } => {
+                        for j in 0..rows * cols {
+                            assert_eq!(f32_at(data, j), w[t][j]);
+                        }
+                    }
+                    TensorView::Int8 { scales, data, .. } => {
+                        assert_eq!(precision, Precision::Int8);
+                        for j in 0..rows * cols {
+                            let s = f32_at(scales, j / cols);
+                            let v = f32::from(data[j] as i8) * s;
+                            assert!((v - w[t][j]).abs() <= 0.5 * s + 1e-7, "t {t} j {j}");
+                        }
+                    }
+                }
+            }
+            assert!(blob.tensor(TENSORS).is_none());
+        }
+        assert!(blob_len(&Dims::DEFAULT, Precision::Int8) < blob_len(&Dims::DEFAULT, Precision::F32) / 3);
+    }
+
+    #[test]
+    fn corrupt_or_mismatched_blobs_are_refused() {
+        let mut buf = [0u8; 8192];
+        let n = write(&SMALL, Precision::Int8, &mut buf);
+        let good = buf;
+        // Any flipped payload bit is caught by the CRC.
+        for at in [HEADER_LEN, HEADER_LEN + 7, n - 5] {
+            let mut b = good;
+            b[at] ^= 0x01;
+            assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::Crc), "byte {at}");
+        }
+        let mut b = good;
+        b[0] = b'X';
+        assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::BadMagic));
+        let mut b = good;
+        b[4] = 9;
+        assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::Version { found: 9 }));
+        let mut b = good;
+        b[6] = 7;
+        assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::Precision { found: 7 }));
+        let mut b = good;
+        b[8] = 200; // enc = 200 > MAX_ENC
+        assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::UnsupportedDims));
+        let mut b = good;
+        b[20] = 31; // horizon 31
+        assert_eq!(ModelBlob::parse(&b[..n]), Err(BlobError::ShapeMismatch));
+        let mut b = good;
+        b[8] = 5; // enc = 5: a supported width, but the payload no longer fits it
+        assert!(matches!(ModelBlob::parse(&b[..n]), Err(BlobError::Length { .. })));
+        assert!(matches!(ModelBlob::parse(&good[..n - 1]), Err(BlobError::TooShort { .. })));
+        assert!(matches!(ModelBlob::parse(&[]), Err(BlobError::TooShort { .. })));
+        // Trailing bytes (a larger receive buffer) are fine.
+        assert!(ModelBlob::parse(&good[..n + 10]).is_ok());
+    }
+
+    #[test]
+    fn writer_refuses_bad_tensors() {
+        let mut buf = [0u8; 8192];
+        let too_few: [&[f32]; 1] = [&[0.0; 3]];
+        assert_eq!(write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut buf), Err(BlobError::TensorShape { index: 0 }));
+        let mut small = [0u8; 16];
+        assert_eq!(write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut small), Err(BlobError::BufferTooSmall));
+    }
+}
