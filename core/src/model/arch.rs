@@ -184,3 +184,47 @@ pub const TENSORS: usize = 20;
 
 /// Horizon of the decoder, frames.
 pub const DECODER_STEPS: usize = HORIZON;
+
+/// Indices of the tensors in layout order.
+pub mod tensor {
+    /// History encoder LSTM input weights.
+    pub const ENC_W_IH: usize = 0;
+    /// History encoder LSTM recurrent weights.
+    pub const ENC_W_HH: usize = 1;
+    /// History encoder LSTM input bias.
+    pub const ENC_B_IH: usize = 2;
+    /// History encoder LSTM recurrent bias.
+    pub const ENC_B_HH: usize = 3;
+    /// Edge encoder LSTM input weights.
+    pub const EDGE_W_IH: usize = 4;
+    /// Edge encoder LSTM recurrent weights.
+    pub const EDGE_W_HH: usize = 5;
+    /// Edge encoder LSTM input bias.
+    pub const EDGE_B_IH: usize = 6;
+    /// Edge encoder LSTM recurrent bias.
+    pub const EDGE_B_HH: usize = 7;
+    /// p(z|x) first layer weights.
+    pub const PZ1_W: usize = 8;
+    /// p(z|x) first layer bias.
+    pub const PZ1_B: usize = 9;
+    /// p(z|x) second layer weights.
+    pub const PZ2_W: usize = 10;
+    /// p(z|x) second layer bias.
+    pub const PZ2_B: usize = 11;
+    /// Decoder initial-state weights.
+    pub const INIT_W: usize = 12;
+    /// Decoder initial-state bias.
+    pub const INIT_B: usize = 13;
+    /// Decoder GRU input weights.
+    pub const GRU_W_IH: usize = 14;
+    /// Decoder GRU recurrent weights.
+    pub const GRU_W_HH: usize = 15;
+    /// Decoder GRU input bias.
+    pub const GRU_B_IH: usize = 16;
+    /// Decoder GRU recurrent bias.
+    pub const GRU_B_HH: usize = 17;
+    /// Decoder output weights.
+    pub const OUT_W: usize = 18;
+    /// Decoder output bias.
+    pub const OUT_B: usize = 19;
+}

@@ -8,5 +8,9 @@
 pub mod arch;
 pub mod blob;
 pub mod features;
+pub mod infer;
+pub mod kernel;
+mod lut;
 
 pub use arch::Dims;
+pub use infer::{LearnedPredictor, Scratch};

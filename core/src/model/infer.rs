@@ -1,0 +1,284 @@
+//! Inference: the forward pass of [`super::arch`] over a [`ModelBlob`], in f32 or int8 by the
+//! blob's precision, in fixed caller-owned scratch memory.
+
+use super::arch::{tensor as t, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, ACCEL_SCALE};
+use super::blob::ModelBlob;
+use super::features::{initial_control, neighbour_sum, state_features, AgentFrame, StepFeatures};
+use super::kernel::{Kernel, ShapeError, MAX_AFFINE_IN};
+use crate::geometry::{BevState, Point2};
+use crate::limits::HORIZON;
+use crate::predict::{checked_history, unicycle_step, Forecast, PredictError, Predictor};
+
+/// Largest gate vector: four LSTM gates of the widest encoder, or three GRU gates.
+const MAX_GATES: usize = if 4 * MAX_ENC > 3 * MAX_DEC { 4 * MAX_ENC } else { 3 * MAX_DEC };
+/// Largest condition vector.
+const MAX_COND: usize = MAX_ENC + MAX_EDGE;
+/// Largest encoder width (history or edge).
+const MAX_ENCODER: usize = if MAX_ENC > MAX_EDGE { MAX_ENC } else { MAX_EDGE };
+
+/// Working memory of one forward pass. Its size is fixed by the MAX_* capacities, whatever the
+/// model: one `Scratch` serves every blob this build accepts.
+#[derive(Debug, Clone)]
+pub struct Scratch {
+    own: StepFeatures,
+    neighbours: StepFeatures,
+    h: [f32; MAX_DEC],
+    gates_x: [f32; MAX_GATES],
+    gates_h: [f32; MAX_GATES],
+    cond: [f32; MAX_COND],
+    input: [f32; MAX_AFFINE_IN],
+    pz: [f32; PZ_HIDDEN],
+    logits: [f32; MAX_K],
+    out: [f32; OUTPUTS],
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Self {
+            own: [[0.0; FEATURES]; super::arch::MAX_STEPS],
+            neighbours: [[0.0; FEATURES]; super::arch::MAX_STEPS],
+            h: [0.0; MAX_DEC],
+            gates_x: [0.0; MAX_GATES],
+            gates_h: [0.0; MAX_GATES],
+            cond: [0.0; MAX_COND],
+            input: [0.0; MAX_AFFINE_IN],
+            pz: [0.0; PZ_HIDDEN],
+            logits: [0.0; MAX_K],
+            out: [0.0; OUTPUTS],
+        }
+    }
+}
+
+/// The learned predictor over a blob, unimodal: the most likely latent mode and the mean
+/// controls.
+#[derive(Debug, Clone)]
+pub struct LearnedPredictor<'a> {
+    kernel: Kernel<'a>,
+    scratch: Scratch,
+}
+
+impl<'a> LearnedPredictor<'a> {
+    /// A predictor reading `blob` in place.
+    #[must_use]
+    pub fn new(blob: ModelBlob<'a>) -> Self {
+        Self { kernel: Kernel::new(blob), scratch: Scratch::default() }
+    }
+
+    /// The blob.
+    #[must_use]
+    pub const fn blob(&self) -> &ModelBlob<'a> {
+        self.kernel.blob()
+    }
+
+    /// Forecasts from `history` (oldest first, current last) with `neighbours` (each a history
+    /// of another object ending at the same current frame). `dt` must be the frame period the
+    /// model was trained at.
+    ///
+    /// # Errors
+    /// See [`PredictError`]; a frame period that differs from the model's is `BadFramePeriod`.
+    pub fn predict_with_neighbours(&mut self, history: &[BevState], neighbours: &[&[BevState]], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+        let history = checked_history(history, dt)?;
+        let trained = self.kernel.blob().frame_period_s();
+        if (dt - trained).abs() > 1e-4 * trained {
+            return Err(PredictError::BadFramePeriod);
+        }
+        let Some(current) = history.last() else { return Err(PredictError::HistoryTooShort) };
+        let frame = AgentFrame::of(current);
+        let s = &mut self.scratch;
+        let n = state_features(history, &frame, dt, &mut s.own);
+        neighbour_sum(neighbours, &frame, n, dt, &mut s.neighbours);
+        let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
+        forward(&self.kernel, s, n, u0, current.speed, dt, |k, p| {
+            if let Some(o) = out.get_mut(k) {
+                *o = frame.to_world(&p);
+            }
+        })
+        .map_err(|ShapeError| PredictError::NonFinite)?;
+        if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
+    }
+}
+
+impl Predictor for LearnedPredictor<'_> {
+    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+        self.predict_with_neighbours(history, &[], dt, out)
+    }
+}
+
+/// One LSTM step (PyTorch gates i, f, g, o) over `input`, updating `h[..w]` and `c[..w]`.
+fn lstm_step(k: &Kernel<'_>, tensors: [usize; 4], input: &[f32], w: usize, s: &mut LstmState<'_>) -> Result<(), ShapeError> {
+    let [w_ih, w_hh, b_ih, b_hh] = tensors;
+    let gx = s.gates_x.get_mut(..4 * w).ok_or(ShapeError)?;
+    k.affine(w_ih, Some(b_ih), input, gx)?;
+    let gh = s.gates_h.get_mut(..4 * w).ok_or(ShapeError)?;
+    k.affine(w_hh, Some(b_hh), s.h.get(..w).ok_or(ShapeError)?, gh)?;
+    let (h, c) = (s.h.get_mut(..w).ok_or(ShapeError)?, s.c.get_mut(..w).ok_or(ShapeError)?);
+    for j in 0..w {
+        let g = |q: usize| s.gates_x.get(q * w + j).copied().unwrap_or(0.0) + s.gates_h.get(q * w + j).copied().unwrap_or(0.0);
+        let (i, f, gg, o) = (k.sigmoid(g(0)), k.sigmoid(g(1)), k.tanh(g(2)), k.sigmoid(g(3)));
+        if let (Some(hj), Some(cj)) = (h.get_mut(j), c.get_mut(j)) {
+            *cj = f * *cj + i * gg;
+            *hj = o * k.tanh(*cj);
+        }
+    }
+    Ok(())
+}
+
+/// Borrowed LSTM working state.
+struct LstmState<'s> {
+    h: &'s mut [f32],
+    c: &'s mut [f32],
+    gates_x: &'s mut [f32],
+    gates_h: &'s mut [f32],
+}
+
+/// The forward pass: encoders, latent, decoder rollout. Emits each agent-frame position.
+fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, dt: f32, mut emit: impl FnMut(usize, Point2)) -> Result<(), ShapeError> {
+    let Dims { enc, edge, k: modes, dec } = k.blob().dims();
+    let cond = enc + edge;
+
+    // History encoder -> cond[edge..cond]; edge encoder -> cond[..edge].
+    for (which, width) in [(0usize, enc), (1, edge)] {
+        let mut h = [0.0f32; MAX_ENCODER];
+        let mut c = [0.0f32; MAX_ENCODER];
+        for i in 0..n {
+            let own = s.own.get(i).ok_or(ShapeError)?;
+            let input = s.input.get_mut(..if which == 0 { FEATURES } else { 2 * FEATURES }).ok_or(ShapeError)?;
+            let (a, b) = input.split_at_mut(FEATURES.min(input.len()));
+            a.copy_from_slice(own);
+            if which == 1 {
+                b.copy_from_slice(s.neighbours.get(i).ok_or(ShapeError)?);
+            }
+            let tensors = if which == 0 {
+                [t::ENC_W_IH, t::ENC_W_HH, t::ENC_B_IH, t::ENC_B_HH]
+            } else {
+                [t::EDGE_W_IH, t::EDGE_W_HH, t::EDGE_B_IH, t::EDGE_B_HH]
+            };
+            let mut st = LstmState { h: &mut h, c: &mut c, gates_x: &mut s.gates_x, gates_h: &mut s.gates_h };
+            lstm_step(k, tensors, input, width, &mut st)?;
+        }
+        let dst = if which == 0 { s.cond.get_mut(edge..cond) } else { s.cond.get_mut(..edge) };
+        dst.ok_or(ShapeError)?.copy_from_slice(h.get(..width).ok_or(ShapeError)?);
+    }
+    let x = s.cond.get(..cond).ok_or(ShapeError)?;
+
+    // p(z|x): the most likely mode.
+    k.affine(t::PZ1_W, Some(t::PZ1_B), x, &mut s.pz)?;
+    for v in &mut s.pz {
+        *v = v.max(0.0);
+    }
+    let logits = s.logits.get_mut(..modes).ok_or(ShapeError)?;
+    k.affine(t::PZ2_W, Some(t::PZ2_B), &s.pz, logits)?;
+    let z = logits.iter().enumerate().fold((0, f32::NEG_INFINITY), |best, (i, &l)| if l > best.1 { (i, l) } else { best }).0;
+
+    // Decoder initial state from [z, x].
+    let init_in = s.input.get_mut(..modes + cond).ok_or(ShapeError)?;
+    init_in.fill(0.0);
+    if let Some(zi) = init_in.get_mut(z) {
+        *zi = 1.0;
+    }
+    init_in.get_mut(modes..).ok_or(ShapeError)?.copy_from_slice(x);
+    let h = s.h.get_mut(..dec).ok_or(ShapeError)?;
+    k.affine(t::INIT_W, Some(t::INIT_B), s.input.get(..modes + cond).ok_or(ShapeError)?, h)?;
+
+    // GRU input [u_prev, z, x]: z and x stay fixed over the rollout.
+    let gru_in = s.input.get_mut(..2 + modes + cond).ok_or(ShapeError)?;
+    gru_in.fill(0.0);
+    if let Some(zi) = gru_in.get_mut(2 + z) {
+        *zi = 1.0;
+    }
+    gru_in.get_mut(2 + modes..).ok_or(ShapeError)?.copy_from_slice(s.cond.get(..cond).ok_or(ShapeError)?);
+    let mut u = u0;
+    let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed };
+    for step in 0..HORIZON {
+        if let Some(head) = s.input.get_mut(..2) {
+            head.copy_from_slice(&u);
+        }
+        gru_step(k, s, 2 + modes + cond, dec)?;
+        k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, &mut s.out)?;
+        let [mu_w, mu_a, ..] = s.out;
+        u = [mu_w, mu_a];
+        state = unicycle_step(&state, mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE, dt);
+        emit(step, state.position());
+    }
+    Ok(())
+}
+
+/// One GRU step (PyTorch gates r, z, n) on `s.input[..input_len]`, updating `s.h[..w]`.
+fn gru_step(k: &Kernel<'_>, s: &mut Scratch, input_len: usize, w: usize) -> Result<(), ShapeError> {
+    let gx = s.gates_x.get_mut(..3 * w).ok_or(ShapeError)?;
+    k.affine(t::GRU_W_IH, Some(t::GRU_B_IH), s.input.get(..input_len).ok_or(ShapeError)?, gx)?;
+    let gh = s.gates_h.get_mut(..3 * w).ok_or(ShapeError)?;
+    k.affine(t::GRU_W_HH, Some(t::GRU_B_HH), s.h.get(..w).ok_or(ShapeError)?, gh)?;
+    for j in 0..w {
+        let gx = |q: usize| s.gates_x.get(q * w + j).copied().unwrap_or(0.0);
+        let gh = |q: usize| s.gates_h.get(q * w + j).copied().unwrap_or(0.0);
+        let r = k.sigmoid(gx(0) + gh(0));
+        let z = k.sigmoid(gx(1) + gh(1));
+        let nn = k.tanh(gx(2) + r * gh(2));
+        if let Some(hj) = s.h.get_mut(j) {
+            *hj = (1.0 - z) * nn + z * *hj;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    extern crate std;
+    use std::vec;
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::model::blob::{blob_len, write_blob, Precision};
+
+    /// A blob of `dims` with small pseudo-random weights (a stand-in for a trained model).
+    pub(crate) fn random_blob(dims: &Dims, precision: Precision, seed: u32) -> Vec<u8> {
+        let mut state = seed;
+        let mut next = move || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| (0..r * c).map(|_| 0.4 * next()).collect()).collect();
+        let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+        let mut buf = vec![0u8; blob_len(dims, precision)];
+        write_blob(dims, precision, 0.05, &slices, &mut buf).unwrap();
+        buf
+    }
+
+    fn history() -> [BevState; 7] {
+        core::array::from_fn(|i| BevState { x: 3.0 + 0.6 * i as f32, y: -2.0 + 0.05 * (i * i) as f32, heading: 0.1 + 0.02 * i as f32, speed: 12.0 })
+    }
+
+    #[test]
+    fn int8_follows_float_and_outputs_are_finite() {
+        for dims in [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }, Dims { enc: 64, edge: 64, k: 25, dec: 128 }] {
+            let f = random_blob(&dims, Precision::F32, 3);
+            let q = random_blob(&dims, Precision::Int8, 3);
+            let mut pf = LearnedPredictor::new(ModelBlob::parse(&f).unwrap());
+            let mut pq = LearnedPredictor::new(ModelBlob::parse(&q).unwrap());
+            let h = history();
+            let other = [BevState { x: 10.0, y: 3.0, heading: 0.0, speed: 5.0 }; 4];
+            let nb: [&[BevState]; 1] = [&other];
+            let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
+            pf.predict_with_neighbours(&h, &nb, 0.05, &mut a).unwrap();
+            pq.predict_with_neighbours(&h, &nb, 0.05, &mut b).unwrap();
+            let mean: f32 = a.iter().zip(&b).map(|(p, q)| p.distance(q)).sum::<f32>() / HORIZON as f32;
+            assert!(mean < 0.1, "{dims:?}: int8 strays {mean} m from float");
+            // The forecast starts near the current position and moves.
+            assert!(a[0].distance(&h[6].position()) < 2.0 && a[HORIZON - 1].distance(&a[0]) > 0.1);
+        }
+    }
+
+    #[test]
+    fn wrong_frame_period_and_bad_history_are_refused() {
+        let f = random_blob(&Dims::DEFAULT, Precision::F32, 1);
+        let mut p = LearnedPredictor::new(ModelBlob::parse(&f).unwrap());
+        let mut out = [Point2::default(); HORIZON];
+        assert_eq!(p.predict(&history(), 0.1, &mut out), Err(PredictError::BadFramePeriod));
+        assert_eq!(p.predict(&history()[..1], 0.05, &mut out), Err(PredictError::HistoryTooShort));
+        let mut h = history();
+        h[3].x = f32::NAN;
+        assert_eq!(p.predict(&h, 0.05, &mut out), Err(PredictError::NonFinite));
+    }
+}

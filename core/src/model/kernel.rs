@@ -1,0 +1,109 @@
+//! The arithmetic of inference over a blob's tensors: affine maps and activations, in f32 (the
+//! reference) or int8 (int8 weights, per-call int8 activations, i32 accumulation, table-based
+//! sigmoid and tanh). The network code above it is shared by both.
+
+use super::arch::{MAX_DEC, MAX_K};
+use super::blob::{f32_at, ModelBlob, Precision, TensorView};
+use super::lut::{sigmoid_lut, tanh_lut};
+
+/// Longest input of any affine map: the decoder GRU's [u_prev (2), z (k), x (cond)].
+pub const MAX_AFFINE_IN: usize = 2 + MAX_K + 2 * MAX_DEC;
+
+/// Why an affine map could not be applied: a shape the blob does not have (a bug, not an input
+/// error: blobs are validated on load). Callers turn it into a refused forecast.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ShapeError;
+
+/// Affine maps and activations over one blob.
+#[derive(Debug, Clone, Copy)]
+pub struct Kernel<'a> {
+    blob: ModelBlob<'a>,
+}
+
+impl<'a> Kernel<'a> {
+    /// The kernel of `blob`.
+    #[must_use]
+    pub const fn new(blob: ModelBlob<'a>) -> Self {
+        Self { blob }
+    }
+
+    /// The blob.
+    #[must_use]
+    pub const fn blob(&self) -> &ModelBlob<'a> {
+        &self.blob
+    }
+
+    /// `out = W x (+ b)`, W tensor `w`, b tensor `b` (a bias is always f32).
+    ///
+    /// # Errors
+    /// [`ShapeError`] when `x` or `out` do not fit the tensor.
+    pub fn affine(&self, w: usize, b: Option<usize>, x: &[f32], out: &mut [f32]) -> Result<(), ShapeError> {
+        match self.blob.tensor(w).ok_or(ShapeError)? {
+            TensorView::F32 { rows, cols, data } => {
+                check(rows, cols, x, out)?;
+                for (o, row) in out.iter_mut().zip(data.chunks_exact(4 * cols)) {
+                    *o = row.chunks_exact(4).zip(x).map(|(c, xi)| f32_at(c, 0) * xi).sum();
+                }
+            }
+            TensorView::Int8 { rows, cols, scales, data } => {
+                check(rows, cols, x, out)?;
+                let mut xq = [0i8; MAX_AFFINE_IN];
+                let sx = quantise(x, &mut xq);
+                let xq = xq.get(..cols).ok_or(ShapeError)?;
+                for (r, (o, row)) in out.iter_mut().zip(data.chunks_exact(cols)).enumerate() {
+                    let acc: i32 = row.iter().zip(xq).map(|(&w, &q)| i32::from(w as i8) * i32::from(q)).sum();
+                    // acc is at most 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
+                    *o = acc as f32 * f32_at(scales, r) * sx;
+                }
+            }
+        }
+        if let Some(b) = b {
+            match self.blob.tensor(b).ok_or(ShapeError)? {
+                TensorView::F32 { rows, data, .. } if rows == out.len() => {
+                    for (i, o) in out.iter_mut().enumerate() {
+                        *o += f32_at(data, i);
+                    }
+                }
+                _ => return Err(ShapeError),
+            }
+        }
+        Ok(())
+    }
+
+    /// The logistic sigmoid in this blob's precision.
+    #[must_use]
+    pub fn sigmoid(&self, x: f32) -> f32 {
+        match self.blob.precision() {
+            Precision::F32 => 1.0 / (1.0 + libm::expf(-x)),
+            Precision::Int8 => sigmoid_lut(x),
+        }
+    }
+
+    /// tanh in this blob's precision.
+    #[must_use]
+    pub fn tanh(&self, x: f32) -> f32 {
+        match self.blob.precision() {
+            Precision::F32 => libm::tanhf(x),
+            Precision::Int8 => tanh_lut(x),
+        }
+    }
+}
+
+fn check(rows: usize, cols: usize, x: &[f32], out: &[f32]) -> Result<(), ShapeError> {
+    if x.len() == cols && out.len() == rows && cols <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
+}
+
+/// Symmetric per-vector int8 quantisation of `x` into `q`; returns the scale (x ~ q * scale).
+fn quantise(x: &[f32], q: &mut [i8; MAX_AFFINE_IN]) -> f32 {
+    let max = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    if !(max > 0.0 && max.is_finite()) {
+        q.fill(0);
+        return 0.0;
+    }
+    let s = max / 127.0;
+    for (d, v) in q.iter_mut().zip(x) {
+        // |v / s| <= 127 by construction; the cast saturates anyway.
+        *d = libm::roundf(v / s) as i8;
+    }
+    s
+}
