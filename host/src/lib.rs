@@ -1,6 +1,8 @@
 //! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
 
 pub mod evaluate;
+pub mod model_file;
+pub mod scene;
 pub mod sequence;
 pub mod report;
 pub mod cli;

@@ -1,28 +1,52 @@
 //! `dynotraj eval`: ADE, FDE and ACE per sequence and their weighted average (Table IV layout).
 
-use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+use clap::Args;
 use dynotraj_core::metrics::{ForecastScores, Mean};
-use dynotraj_core::predict::{Baseline, Predictor};
+use dynotraj_core::predict::Baseline;
 
 use super::common::{progress, DataArgs, PAPER_TEST_SEQUENCES};
-use crate::evaluate::score_run;
+use crate::evaluate::{score_run, Forecaster};
+use crate::model_file::ModelFile;
+use crate::scene::Scene;
 use crate::report::{fmt_opt, Format, Table};
 use crate::trajectory::{eligible_runs, Source};
 
-/// The predictors `eval` can run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum PredictorName {
+/// A predictor `eval` can run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PredictorSpec {
     /// Constant velocity from the last two positions.
     Cv,
     /// Constant turn rate and acceleration on the unicycle, within the paper's limits.
     Ctra,
+    /// A trained model blob (f32 or int8) from `dynotraj train`.
+    Model(PathBuf),
 }
 
-impl PredictorName {
-    fn build(self) -> Box<dyn Predictor> {
+impl std::str::FromStr for PredictorSpec {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "cv" => Ok(Self::Cv),
+            "ctra" => Ok(Self::Ctra),
+            _ => s
+                .strip_prefix("model:")
+                .filter(|p| !p.is_empty())
+                .map(|p| Self::Model(PathBuf::from(p)))
+                .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, ctra or model:PATH")),
+        }
+    }
+}
+
+impl PredictorSpec {
+    /// The name in tables.
+    #[must_use]
+    pub fn label(&self) -> String {
         match self {
-            Self::Cv => Box::new(Baseline::ConstantVelocity),
-            Self::Ctra => Box::new(Baseline::Ctra),
+            Self::Cv => "cv".into(),
+            Self::Ctra => "ctra".into(),
+            Self::Model(p) => format!("model {}", p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())),
         }
     }
 }
@@ -38,9 +62,10 @@ pub struct EvalArgs {
     /// is scored against its own future (the paper's protocol).
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
-    /// Predictors, comma-separated.
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "cv", value_name = "LIST")]
-    pub predictor: Vec<PredictorName>,
+    /// Predictors, comma-separated: cv, ctra, or model:PATH (a blob written by `dynotraj
+    /// train`, f32 or int8; it must have been trained at the same --rate).
+    #[arg(long, value_delimiter = ',', default_value = "cv", value_name = "LIST")]
+    pub predictor: Vec<PredictorSpec>,
     /// Test sequences, comma-separated (default: the paper's 0000,0003,0005,0018,0020).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
@@ -80,21 +105,31 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let mut arms = Vec::new();
     let bar = progress((args.source.len() * args.predictor.len()) as u64, "scoring");
     for &source in &args.source {
-        for &name in &args.predictor {
-            let mut predictor = name.build();
-            let mut arm = ArmScores { label: arm_label(name, source), per_sequence: Vec::new(), failed: 0 };
-            for seq_runs in &runs {
+        let scenes: Vec<Scene> = seqs.iter().map(|s| Scene::new(&s.tracks, source, dt)).collect();
+        for spec in &args.predictor {
+            let model = match spec {
+                PredictorSpec::Model(path) => Some(ModelFile::load(path)?),
+                _ => None,
+            };
+            let mut forecaster: Box<dyn Forecaster + '_> = match (spec, &model) {
+                (PredictorSpec::Cv, _) => Box::new(Baseline::ConstantVelocity),
+                (PredictorSpec::Ctra, _) => Box::new(Baseline::Ctra),
+                (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),
+                (PredictorSpec::Model(p), None) => anyhow::bail!("model {} not loaded", p.display()),
+            };
+            let mut arm = ArmScores { label: arm_label(spec, source), per_sequence: Vec::new(), failed: 0 };
+            for (seq_runs, scene) in runs.iter().zip(&scenes) {
                 let mut scores = ForecastScores::default();
                 for run in seq_runs {
-                    let states = source.apply(&run.states, dt);
-                    let r = score_run(&states, run.instances(), predictor.as_mut(), dt);
+                    let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
+                    let r = score_run(sourced, run.instances(), scene, forecaster.as_mut(), dt);
                     scores.merge(&r.scores);
                     arm.failed += r.failed;
                 }
                 arm.per_sequence.push(scores);
             }
             if arm.failed > 0 {
-                log::warn!("{}: {} instances could not be forecast (non-finite input)", arm.label, arm.failed);
+                log::warn!("{}: {} instances could not be forecast", arm.label, arm.failed);
             }
             arms.push(arm);
             bar.inc(1);
@@ -104,8 +139,8 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     Ok(arms_table(&ids, &arms))
 }
 
-fn arm_label(p: PredictorName, s: Source) -> String {
-    let name = format!("{} on {}", p.to_possible_value().map_or("?".into(), |v| v.get_name().to_string()), s.name());
+fn arm_label(p: &PredictorSpec, s: Source) -> String {
+    let name = format!("{} on {}", p.label(), s.name());
     if s.is_causal() { name } else { format!("{name} (inputs saw later frames)") }
 }
 
