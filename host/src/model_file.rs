@@ -59,3 +59,19 @@ impl ModelFile {
         LearnedPredictor::new(self.blob())
     }
 }
+
+/// The weights of a blob as f32 tensors in layout order (int8 weights dequantised), for
+/// re-quantising or inspecting a model.
+#[must_use]
+pub fn float_tensors(blob: &ModelBlob<'_>) -> Vec<Vec<f32>> {
+    use dynotraj_core::model::blob::{f32_at, TensorView};
+    (0..dynotraj_core::model::arch::TENSORS)
+        .filter_map(|i| blob.tensor(i))
+        .map(|t| match t {
+            TensorView::F32 { rows, cols, data } => (0..rows * cols).map(|j| f32_at(data, j)).collect(),
+            TensorView::Int8 { rows, cols, scales, data } => {
+                (0..rows * cols).map(|j| f32::from(data[j] as i8) * f32_at(scales, j / cols)).collect()
+            }
+        })
+        .collect()
+}

@@ -25,6 +25,7 @@ pub struct Scratch {
     h: [f32; MAX_DEC],
     gates_x: [f32; MAX_GATES],
     gates_h: [f32; MAX_GATES],
+    gru_fixed: [f32; 3 * MAX_DEC],
     cond: [f32; MAX_COND],
     input: [f32; MAX_AFFINE_IN],
     pz: [f32; PZ_HIDDEN],
@@ -40,6 +41,7 @@ impl Default for Scratch {
             h: [0.0; MAX_DEC],
             gates_x: [0.0; MAX_GATES],
             gates_h: [0.0; MAX_GATES],
+            gru_fixed: [0.0; 3 * MAX_DEC],
             cond: [0.0; MAX_COND],
             input: [0.0; MAX_AFFINE_IN],
             pz: [0.0; PZ_HIDDEN],
@@ -180,20 +182,15 @@ fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, 
     let h = s.h.get_mut(..dec).ok_or(ShapeError)?;
     k.affine(t::INIT_W, Some(t::INIT_B), s.input.get(..modes + cond).ok_or(ShapeError)?, h)?;
 
-    // GRU input [u_prev, z, x]: z and x stay fixed over the rollout.
-    let gru_in = s.input.get_mut(..2 + modes + cond).ok_or(ShapeError)?;
-    gru_in.fill(0.0);
-    if let Some(zi) = gru_in.get_mut(2 + z) {
-        *zi = 1.0;
-    }
-    gru_in.get_mut(2 + modes..).ok_or(ShapeError)?.copy_from_slice(s.cond.get(..cond).ok_or(ShapeError)?);
+    // GRU input [u_prev, z, x]: z and x stay fixed over the rollout, so their product with the
+    // input weights (plus the input bias) is computed once; each step adds only the u columns.
+    // This removes about half of the decoder's multiply-accumulates.
+    let fixed = s.gru_fixed.get_mut(..3 * dec).ok_or(ShapeError)?;
+    k.affine_columns(t::GRU_W_IH, 2, Some(t::GRU_B_IH), s.input.get(..modes + cond).ok_or(ShapeError)?, fixed, true)?;
     let mut u = u0;
     let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed };
     for step in 0..HORIZON {
-        if let Some(head) = s.input.get_mut(..2) {
-            head.copy_from_slice(&u);
-        }
-        gru_step(k, s, 2 + modes + cond, dec)?;
+        gru_step(k, s, &u, dec)?;
         k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, &mut s.out)?;
         let [mu_w, mu_a, ..] = s.out;
         u = [mu_w, mu_a];
@@ -203,10 +200,12 @@ fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, 
     Ok(())
 }
 
-/// One GRU step (PyTorch gates r, z, n) on `s.input[..input_len]`, updating `s.h[..w]`.
-fn gru_step(k: &Kernel<'_>, s: &mut Scratch, input_len: usize, w: usize) -> Result<(), ShapeError> {
+/// One GRU step (PyTorch gates r, z, n) on input [u, z, x], whose fixed [z, x] part is already
+/// in `s.gru_fixed`, updating `s.h[..w]`.
+fn gru_step(k: &Kernel<'_>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(), ShapeError> {
     let gx = s.gates_x.get_mut(..3 * w).ok_or(ShapeError)?;
-    k.affine(t::GRU_W_IH, Some(t::GRU_B_IH), s.input.get(..input_len).ok_or(ShapeError)?, gx)?;
+    gx.copy_from_slice(s.gru_fixed.get(..3 * w).ok_or(ShapeError)?);
+    k.affine_columns(t::GRU_W_IH, 0, None, u, gx, false)?;
     let gh = s.gates_h.get_mut(..3 * w).ok_or(ShapeError)?;
     k.affine(t::GRU_W_HH, Some(t::GRU_B_HH), s.h.get(..w).ok_or(ShapeError)?, gh)?;
     for j in 0..w {

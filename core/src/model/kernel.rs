@@ -38,22 +38,37 @@ impl<'a> Kernel<'a> {
     /// # Errors
     /// [`ShapeError`] when `x` or `out` do not fit the tensor.
     pub fn affine(&self, w: usize, b: Option<usize>, x: &[f32], out: &mut [f32]) -> Result<(), ShapeError> {
+        self.affine_columns(w, 0, b, x, out, true)
+    }
+
+    /// `out (+)= W[:, first..first + x.len()] x (+ b)`: the product with a block of columns, so
+    /// that a constant part of an input can be multiplied once instead of at every step. With
+    /// `overwrite` false the product is added to `out`.
+    ///
+    /// # Errors
+    /// [`ShapeError`] when the columns or `out` do not fit the tensor.
+    pub fn affine_columns(&self, w: usize, first: usize, b: Option<usize>, x: &[f32], out: &mut [f32], overwrite: bool) -> Result<(), ShapeError> {
+        let cols_used = first..first + x.len();
         match self.blob.tensor(w).ok_or(ShapeError)? {
             TensorView::F32 { rows, cols, data } => {
-                check(rows, cols, x, out)?;
+                check(rows, cols, &cols_used, out)?;
                 for (o, row) in out.iter_mut().zip(data.chunks_exact(4 * cols)) {
-                    *o = row.chunks_exact(4).zip(x).map(|(c, xi)| f32_at(c, 0) * xi).sum();
+                    let part = row.get(4 * cols_used.start..4 * cols_used.end).ok_or(ShapeError)?;
+                    let dot: f32 = part.chunks_exact(4).zip(x).map(|(c, xi)| f32_at(c, 0) * xi).sum();
+                    *o = if overwrite { dot } else { *o + dot };
                 }
             }
             TensorView::Int8 { rows, cols, scales, data } => {
-                check(rows, cols, x, out)?;
+                check(rows, cols, &cols_used, out)?;
                 let mut xq = [0i8; MAX_AFFINE_IN];
                 let sx = quantise(x, &mut xq);
-                let xq = xq.get(..cols).ok_or(ShapeError)?;
+                let xq = xq.get(..x.len()).ok_or(ShapeError)?;
                 for (r, (o, row)) in out.iter_mut().zip(data.chunks_exact(cols)).enumerate() {
-                    let acc: i32 = row.iter().zip(xq).map(|(&w, &q)| i32::from(w as i8) * i32::from(q)).sum();
-                    // acc is at most 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
-                    *o = acc as f32 * f32_at(scales, r) * sx;
+                    let part = row.get(cols_used.clone()).ok_or(ShapeError)?;
+                    let acc: i32 = part.iter().zip(xq).map(|(&w, &q)| i32::from(w as i8) * i32::from(q)).sum();
+                    // |acc| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
+                    let dot = acc as f32 * f32_at(scales, r) * sx;
+                    *o = if overwrite { dot } else { *o + dot };
                 }
             }
         }
@@ -89,8 +104,8 @@ impl<'a> Kernel<'a> {
     }
 }
 
-fn check(rows: usize, cols: usize, x: &[f32], out: &[f32]) -> Result<(), ShapeError> {
-    if x.len() == cols && out.len() == rows && cols <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
+fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) -> Result<(), ShapeError> {
+    if used.end <= cols && out.len() == rows && used.len() <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
 }
 
 /// Symmetric per-vector int8 quantisation of `x` into `q`; returns the scale (x ~ q * scale).

@@ -1,5 +1,6 @@
 //! The `dynotraj` command line.
 
+pub mod bench;
 pub mod common;
 pub mod dataset;
 pub mod eval;
@@ -25,6 +26,8 @@ pub enum Command {
     Dataset(dataset::DatasetArgs),
     /// ADE, FDE and ACE of a predictor on a source, per sequence and weighted (Table IV).
     Eval(eval::EvalArgs),
+    /// Inference time per object and memory of the predictor, float and int8.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the parsed command line.
@@ -35,5 +38,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Dataset(a) => dataset::run(&a),
         Command::Eval(a) => eval::run(&a),
+        Command::Bench(a) => bench::run(&a),
     }
 }

@@ -1,0 +1,146 @@
+//! `dynotraj bench`: speed and memory of predictor inference on this machine, per object, for
+//! float and int8 blobs, beside the baselines.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use dynotraj_core::limits::HORIZON;
+use dynotraj_core::model::blob::{blob_len, write_blob, Precision};
+use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
+use dynotraj_core::predict::{Baseline, Forecast};
+use dynotraj_core::{BevState, Point2};
+
+use crate::evaluate::Forecaster;
+use crate::model_file::ModelFile;
+use crate::report::{Format, Table};
+
+/// Options of `dynotraj bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// A trained f32 blob; its int8 twin is read from PATH.int8 when present, else quantised
+    /// here. Without it, blobs of --dims with seeded random weights are timed (same cost).
+    #[arg(long, value_name = "PATH")]
+    pub model: Option<PathBuf>,
+    /// Widths enc,edge,k,dec (one or more sets separated by `;`) when no --model is given.
+    #[arg(long, default_value = "32,32,5,64", value_name = "DIMS")]
+    pub dims: String,
+    /// Forecasts timed per configuration.
+    #[arg(long, default_value_t = 2000)]
+    pub iterations: u32,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Md)]
+    pub format: Format,
+}
+
+/// Parses `enc,edge,k,dec`.
+///
+/// # Errors
+/// A malformed or unsupported set of widths, named.
+pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
+    let v: Vec<usize> = s.split(',').map(|p| p.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| anyhow::anyhow!("--dims `{s}`: {e}; expected enc,edge,k,dec"))?;
+    let [enc, edge, k, dec] = v[..] else { anyhow::bail!("--dims `{s}`: expected four widths enc,edge,k,dec") };
+    let d = Dims { enc, edge, k, dec };
+    anyhow::ensure!(d.is_supported(), "--dims `{s}`: widths must be 1..=64 (enc, edge), 1..=25 (k), 1..=128 (dec)");
+    Ok(d)
+}
+
+/// A blob of `dims` with seeded pseudo-random weights: the same arithmetic as a trained one.
+#[must_use]
+pub fn random_blob(dims: &Dims, precision: Precision, dt: f32) -> Vec<u8> {
+    let mut state = 0x2545_f491_u32;
+    let tensors: Vec<Vec<f32>> = dims
+        .tensors()
+        .iter()
+        .map(|(r, c)| {
+            (0..r * c)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 17;
+                    state ^= state << 5;
+                    (state as f32 / u32::MAX as f32 - 0.5) * 0.4
+                })
+                .collect()
+        })
+        .collect();
+    let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+    let mut buf = vec![0; blob_len(dims, precision)];
+    // The tensors have the shapes of `dims` by construction.
+    write_blob(dims, precision, dt, &slices, &mut buf).unwrap_or_else(|e| unreachable!("{e}"));
+    buf
+}
+
+fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
+    let history: [BevState; 7] = std::array::from_fn(|i| BevState { x: 0.5 * i as f32, y: 0.02 * (i * i) as f32, heading: 0.05 * i as f32, speed: 10.0 });
+    let other: [BevState; 7] = std::array::from_fn(|i| BevState { x: 0.4 * i as f32, y: 4.0, heading: 0.0, speed: 8.0 });
+    let neighbours: [&[BevState]; 1] = [&other];
+    let mut out: Forecast = [Point2::default(); HORIZON];
+    let _ = f.forecast(&history, &neighbours, dt, &mut out);
+    let start = Instant::now();
+    for _ in 0..iterations {
+        let _ = f.forecast(black_box(&history), &neighbours, dt, &mut out);
+        black_box(&out);
+    }
+    start.elapsed().as_secs_f64() * 1e6 / f64::from(iterations)
+}
+
+/// Times every configuration.
+///
+/// # Errors
+/// A bad --dims or an unreadable model.
+pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
+    let dt = 0.05;
+    let mut t = Table::new(["predictor", "dims enc,edge,k,dec", "parameters", "blob bytes", "scratch bytes", "us per object"]);
+    let mut configs: Vec<(String, Dims, Vec<u8>, Vec<u8>)> = Vec::new();
+    if let Some(path) = &args.model {
+        let f = ModelFile::load(path)?;
+        let dims = f.blob().dims();
+        let int8_path = PathBuf::from(format!("{}.int8", path.display()));
+        let q = if int8_path.exists() {
+            ModelFile::load(&int8_path)?.bytes().to_vec()
+        } else {
+            let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
+            let tensors = crate::model_file::float_tensors(&f.blob());
+            let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), &slices, &mut buf).map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
+            buf
+        };
+        configs.push((path.display().to_string(), dims, f.bytes().to_vec(), q));
+    } else {
+        for d in args.dims.split(';') {
+            let dims = parse_dims(d)?;
+            configs.push(("random weights".into(), dims, random_blob(&dims, Precision::F32, dt), random_blob(&dims, Precision::Int8, dt)));
+        }
+    }
+    let fmt_dims = |d: &Dims| format!("{},{},{},{}", d.enc, d.edge, d.k, d.dec);
+    for (name, dims, f32_blob, int8_blob) in &configs {
+        for (precision, bytes) in [("f32", f32_blob), ("int8", int8_blob)] {
+            let file = ModelFile::from_bytes(bytes.clone(), name)?;
+            let mut p: LearnedPredictor<'_> = file.predictor();
+            let us = time_per_forecast(&mut p, dt, args.iterations);
+            t.push([
+                format!("{precision} ({name})"),
+                fmt_dims(dims),
+                dims.parameters().to_string(),
+                bytes.len().to_string(),
+                std::mem::size_of::<Scratch>().to_string(),
+                format!("{us:.1}"),
+            ]);
+        }
+    }
+    for (name, mut b) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
+        let us = time_per_forecast(&mut b, dt, args.iterations * 10);
+        t.push([name.to_string(), "-".into(), "0".into(), "0".into(), "0".into(), format!("{us:.2}")]);
+    }
+    Ok(t)
+}
+
+/// Prints the timings.
+///
+/// # Errors
+/// See [`table`].
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    print!("{}", table(args)?.render(args.format));
+    Ok(())
+}
