@@ -102,3 +102,27 @@ fn the_counter_sees_allocations() {
     assert_eq!(v.len(), 100);
     assert!(n >= 1, "the counting allocator must count, or the test above proves nothing");
 }
+
+#[test]
+fn learned_inference_does_not_allocate() {
+    use dynotraj_core::model::blob::{ModelBlob, Precision};
+    use dynotraj_core::model::{Dims, LearnedPredictor};
+    use dynotraj_host::cli::bench::random_blob;
+
+    let history: Vec<BevState> = (0..7).map(|i| BevState { x: 0.5 * i as f32, y: 0.1, heading: 0.02 * i as f32, speed: 10.0 }).collect();
+    let other: Vec<BevState> = (0..7).map(|i| BevState { x: 0.4 * i as f32, y: 5.0, heading: 0.0, speed: 8.0 }).collect();
+    for precision in [Precision::Int8, Precision::F32] {
+        let bytes = random_blob(&Dims::DEFAULT, precision, 0.05);
+        let blob = ModelBlob::parse(&bytes).expect("valid blob");
+        let ((), allocations) = count_allocations(|| {
+            let mut p = LearnedPredictor::new(blob);
+            let neighbours: [&[BevState]; 1] = [&other];
+            let mut out = [Point2::default(); HORIZON];
+            for _ in 0..10 {
+                p.predict_with_neighbours(&history, &neighbours, 0.05, &mut out).expect("forecast");
+            }
+            assert!(out.iter().all(|q| q.x.is_finite()));
+        });
+        assert_eq!(allocations, 0, "{precision:?} inference allocated");
+    }
+}
