@@ -15,6 +15,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod estimate;
 pub mod geometry;
 pub mod limits;
 pub mod metrics;

@@ -1,0 +1,139 @@
+//! The camera's track: ego-motion from static tracks, frame to frame and smoothed.
+
+use super::chain::{ChainScratch, Smoothness};
+use super::frame::Obs;
+use super::measure::{correspondences, inverse_information, twist_measurement, Correspondences, MotionMeasurement};
+use super::model::PointModel;
+use super::params::FitParams;
+use super::path::{Emitted, SmoothedPath};
+use super::rng::Pcg32;
+use super::fit::fit_pose;
+use crate::geometry::Pose3;
+
+/// What one camera step produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraStep {
+    /// Whether the motion was fitted (false: held).
+    pub fitted: bool,
+    /// Whether the smoother broke down (the causal pose was held).
+    pub solve_failed: bool,
+    /// The smoothed pose of the leaving step, if it was the camera's.
+    pub emitted: Option<Emitted>,
+}
+
+/// The camera's poses: frame-to-frame (never revised, used to measure objects) and smoothed.
+#[derive(Debug, Clone)]
+pub struct CameraTrack<const W: usize> {
+    /// Smoothed path of the camera motions.
+    path: SmoothedPath<W>,
+    /// Frame-to-frame pose at the newest step.
+    f2f: Pose3,
+    /// Frame-to-frame pose at the step before.
+    f2f_previous: Pose3,
+    /// The newest frame-to-frame motion `T_(k-1)^-1 T_k`.
+    increment: Pose3,
+    /// Whether a first frame was seen.
+    started: bool,
+}
+
+impl<const W: usize> Default for CameraTrack<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const W: usize> CameraTrack<W> {
+    /// A camera not yet started.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            path: SmoothedPath::new(),
+            f2f: Pose3::identity(),
+            f2f_previous: Pose3::identity(),
+            increment: Pose3::identity(),
+            started: false,
+        }
+    }
+
+    /// Whether the first frame was seen.
+    #[must_use]
+    pub const fn started(&self) -> bool {
+        self.started
+    }
+
+    /// The frame-to-frame pose of the newest frame.
+    #[must_use]
+    pub const fn frame_to_frame(&self) -> &Pose3 {
+        &self.f2f
+    }
+
+    /// The frame-to-frame pose of the frame before the newest.
+    #[must_use]
+    pub const fn frame_to_frame_previous(&self) -> &Pose3 {
+        &self.f2f_previous
+    }
+
+    /// The causal (smoothed up to now) pose of the newest frame.
+    #[must_use]
+    pub const fn causal(&self) -> &Pose3 {
+        self.path.causal()
+    }
+
+    /// Starts at the world origin on step `step` (the world frame is the first camera frame).
+    pub fn start(&mut self, step: u32) {
+        self.path.start(Pose3::identity(), step);
+        self.f2f = Pose3::identity();
+        self.f2f_previous = Pose3::identity();
+        self.increment = Pose3::identity();
+        self.started = true;
+    }
+
+    /// Fits the ego-motion from frame k-1's static tracks `previous` to frame k's `current`, or
+    /// holds the previous motion when the fit fails; then advances the smoother.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        previous: &[Obs],
+        current: &[Obs],
+        fp: &FitParams,
+        model: &PointModel,
+        rng: &mut Pcg32,
+        corrs: &mut Correspondences,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        leaving: Option<u32>,
+    ) -> CameraStep {
+        // Source: camera k-1; the fitted pose maps camera k-1 into camera k, i.e. the inverse of
+        // the increment n = T_(k-1)^-1 T_k.
+        correspondences(previous, current, &Pose3::identity(), model, corrs);
+        let guess = self.increment.inverse();
+        let measured: Option<MotionMeasurement> = fit_pose(corrs, Some(&guess), fp, model, rng).ok().and_then(|fit| {
+            let n = fit.pose.inverse();
+            let info = inverse_information(&fit.pose, &fit.information)?;
+            twist_measurement(&n, &info, fit.inliers)
+        });
+        let fitted = measured.is_some();
+        if let Some(m) = &measured {
+            self.increment = m.delta;
+        }
+        self.f2f_previous = self.f2f;
+        self.f2f *= self.increment;
+        let z = measured.as_ref().map(|m| (&m.xi, &m.information));
+        let (emitted, solve_failed) = match self.path.advance(z, s, scratch, leaving) {
+            Ok(e) => (e, false),
+            Err(_) => (None, true),
+        };
+        CameraStep { fitted, solve_failed, emitted }
+    }
+
+    /// Emits the leaving step without a new frame (flushing at the end of a stream).
+    pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32) -> Option<Emitted> {
+        self.path.drain(s, scratch, leaving).ok().flatten()
+    }
+
+    /// The anchor step's emission at the very first frame when the window holds one frame only.
+    #[must_use]
+    pub fn pending(&self) -> usize {
+        self.path.pending()
+    }
+}

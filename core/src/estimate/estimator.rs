@@ -1,0 +1,384 @@
+//! The estimator: frame assembly, ego-motion, object motions, smoothing and outputs, in fixed
+//! memory. See the module docs of [`super`] for the method and the bad-input rules.
+
+use heapless::{Deque, Vec};
+use nalgebra::Point3;
+
+use super::camera::CameraTrack;
+use super::chain::{ChainScratch, Smoothness};
+use super::frame::{DepthRange, FrameAssembler, FrameBuffer, PartOutcome};
+use super::measure::Correspondences;
+use super::model::PointModel;
+use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
+use super::output::PoseEstimate;
+use super::params::EstimatorParams;
+use super::rng::Pcg32;
+use super::stats::{add, bump, EstimatorStats};
+use crate::limits::MAX_OBJECTS;
+use crate::wire::FrameTracks;
+
+/// The default smoothing window, frames (DynoSAM's sliding window is 20 frames).
+pub const DEFAULT_WINDOW: usize = 20;
+
+/// One frame in the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FrameInfo {
+    step: u32,
+    frame: u32,
+    timestamp_us: u64,
+    dt: f32,
+}
+
+/// What [`Estimator::push`] did with a part.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pushed {
+    /// Stored; the frame is not complete yet.
+    Pending,
+    /// Rejected (see the stats).
+    Rejected,
+    /// The part completed a frame, which was estimated: [`Estimator::causal`] and
+    /// [`Estimator::frame_to_frame`] describe it. `smoothed` says whether a frame left the
+    /// window, in which case [`Estimator::smoothed`] holds its estimate.
+    Frame {
+        /// Whether a smoothed frame is available.
+        smoothed: bool,
+    },
+}
+
+/// The DynoSAM-style estimator with a fixed-lag smoother over `W` frames (`W >= 2`).
+#[derive(Debug, Clone)]
+pub struct Estimator<const W: usize = DEFAULT_WINDOW> {
+    params: EstimatorParams,
+    model: PointModel,
+    object_smoothness: Smoothness,
+    camera_smoothness: Smoothness,
+    assembler: FrameAssembler,
+    /// Two frame buffers: one being assembled (`current`), the other holding frame k-1.
+    buffers: [FrameBuffer; 2],
+    current: usize,
+    has_previous: bool,
+    window: Deque<FrameInfo, W>,
+    step: u32,
+    camera: CameraTrack<W>,
+    runs: [ObjectRun<W>; MAX_OBJECTS],
+    corrs: Correspondences,
+    scratch: ChainScratch<W>,
+    rng: Pcg32,
+    stats: EstimatorStats,
+    smoothed: PoseEstimate,
+}
+
+impl<const W: usize> Estimator<W> {
+    const WINDOW_OK: () = assert!(W >= 2, "the smoothing window needs at least two frames");
+
+    /// An estimator with `params`, its RANSAC sampling seeded with `seed` (runs repeat exactly).
+    #[must_use]
+    pub fn new(params: EstimatorParams, seed: u64) -> Self {
+        let () = Self::WINDOW_OK;
+        Self {
+            model: PointModel::new(&params),
+            object_smoothness: Smoothness::new(&params.object_smoother),
+            camera_smoothness: Smoothness::new(&params.camera_smoother),
+            params,
+            assembler: FrameAssembler::new(),
+            buffers: [FrameBuffer::new(), FrameBuffer::new()],
+            current: 0,
+            has_previous: false,
+            window: Deque::new(),
+            step: 0,
+            camera: CameraTrack::new(),
+            runs: core::array::from_fn(|_| ObjectRun::new()),
+            corrs: Vec::new(),
+            scratch: ChainScratch::new(),
+            rng: Pcg32::new(seed),
+            stats: EstimatorStats::default(),
+            smoothed: PoseEstimate::new(),
+        }
+    }
+
+    /// The parameters.
+    #[must_use]
+    pub const fn params(&self) -> &EstimatorParams {
+        &self.params
+    }
+
+    /// The counters.
+    #[must_use]
+    pub const fn stats(&self) -> &EstimatorStats {
+        &self.stats
+    }
+
+    /// Takes one part of a frame; when it completes the frame, estimates it.
+    pub fn push(&mut self, part: &FrameTracks) -> Pushed {
+        let range = DepthRange { min: self.params.min_depth, max: self.params.max_depth };
+        let outcome = match self.buffers.get_mut(self.current) {
+            Some(buf) => self.assembler.accept(part, buf, range, &mut self.stats),
+            None => PartOutcome::Rejected,
+        };
+        match outcome {
+            PartOutcome::Pending => Pushed::Pending,
+            PartOutcome::Rejected => Pushed::Rejected,
+            PartOutcome::Complete => Pushed::Frame { smoothed: self.process() },
+        }
+    }
+
+    /// The smoothed estimate of the frame that last left the window (see [`Pushed::Frame`]).
+    #[must_use]
+    pub const fn smoothed(&self) -> &PoseEstimate {
+        &self.smoothed
+    }
+
+    /// The newest frame's index, time and period, if any frame was processed.
+    fn newest(&self) -> Option<FrameInfo> {
+        self.window.back().copied()
+    }
+
+    /// Fills `out` with the causal estimate of the newest frame: camera and objects as the
+    /// smoother sees them now, from frames up to this one only.
+    pub fn causal(&self, out: &mut PoseEstimate) {
+        self.fill_newest(out, false);
+    }
+
+    /// Fills `out` with the frame-to-frame estimate of the newest frame (DynoSAM's front-end:
+    /// motions from frame pairs only, chained).
+    pub fn frame_to_frame(&self, out: &mut PoseEstimate) {
+        self.fill_newest(out, true);
+    }
+
+    fn fill_newest(&self, out: &mut PoseEstimate, f2f: bool) {
+        let Some(info) = self.newest() else {
+            out.reset(0, 0);
+            return;
+        };
+        out.reset(info.frame, info.timestamp_us);
+        out.camera = if f2f { *self.camera.frame_to_frame() } else { *self.camera.causal() };
+        for run in self.runs.iter().filter(|r| r.state == RunState::Tracking) {
+            let e = if f2f { run.frame_to_frame(info.dt) } else { run.causal(info.dt) };
+            if let Some(e) = e {
+                let _ = out.objects.push(e);
+            }
+        }
+    }
+
+    /// The newest frame's static points in the world frame (the bounded map: at most
+    /// [`crate::limits::MAX_STATIC_TRACKS`]), by track id.
+    pub fn map_points(&self) -> impl Iterator<Item = (u32, Point3<f32>)> + '_ {
+        let prev = self.buffers.get(1 - self.current.min(1)).filter(|_| self.has_previous);
+        let cam = *self.camera.frame_to_frame();
+        prev.into_iter()
+            .flat_map(|b| b.statics.iter())
+            .map(move |o| (o.track_id, cam.transform_point(&self.model.back_project(o.u(), o.v(), o.depth))))
+    }
+
+    /// Emits the smoothed estimates of every frame still in the window, oldest first, ending the
+    /// stream. The estimator then starts afresh with the next frame.
+    pub fn flush(&mut self, mut out: impl FnMut(&PoseEstimate)) {
+        while let Some(info) = self.window.front().copied() {
+            self.smoothed.reset(info.frame, info.timestamp_us);
+            if let Some(e) = self.camera.drain(&self.camera_smoothness, &mut self.scratch, info.step) {
+                self.smoothed.camera = e.pose;
+            }
+            for run in self.runs.iter_mut().filter(|r| r.state == RunState::Tracking || r.state == RunState::Draining) {
+                if let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, info.step, info.dt) {
+                    let _ = self.smoothed.objects.push(e);
+                }
+            }
+            self.window.pop_front();
+            out(&self.smoothed);
+        }
+        for run in &mut self.runs {
+            *run = ObjectRun::new();
+        }
+        self.camera = CameraTrack::new();
+        self.assembler = FrameAssembler::new();
+        self.has_previous = false;
+    }
+
+    /// Estimates the frame just assembled in the current buffer. Returns whether a frame left
+    /// the window (its smoothed estimate is then in `self.smoothed`).
+    fn process(&mut self) -> bool {
+        bump(&mut self.stats.frames_processed);
+        let step = self.step;
+        self.step = self.step.wrapping_add(1);
+        let [a, b] = &self.buffers;
+        let (cur, prev) = if self.current == 0 { (a, b) } else { (b, a) };
+        let has_previous = self.has_previous && self.camera.started();
+
+        // Frame period and the window of frames.
+        let dt = match self.window.back() {
+            Some(last) if has_previous => {
+                let d = cur.timestamp_us.checked_sub(last.timestamp_us).map(|us| us as f32 * 1e-6);
+                match d {
+                    Some(d) if d > 0.0 && d <= self.params.max_dt => d,
+                    _ => {
+                        bump(&mut self.stats.timestamps_replaced);
+                        self.params.nominal_dt
+                    }
+                }
+            }
+            _ => self.params.nominal_dt,
+        };
+        // Frames leave the window as it fills, so there is always room here.
+        let _ = self.window.push_back(FrameInfo { step, frame: cur.frame, timestamp_us: cur.timestamp_us, dt });
+        let leaving_info = if self.window.is_full() { self.window.front().copied() } else { None };
+        let leaving = leaving_info.map(|i| i.step);
+        let dt_leaving = leaving_info.map_or(dt, |i| i.dt);
+        if let Some(i) = leaving_info {
+            self.smoothed.reset(i.frame, i.timestamp_us);
+        }
+
+        // Camera.
+        if has_previous {
+            let r = self.camera.step(
+                &prev.statics,
+                &cur.statics,
+                &self.params.camera_fit,
+                &self.model,
+                &mut self.rng,
+                &mut self.corrs,
+                &self.camera_smoothness,
+                &mut self.scratch,
+                leaving,
+            );
+            if !r.fitted {
+                bump(&mut self.stats.camera_motion_held);
+            }
+            if r.solve_failed {
+                bump(&mut self.stats.numerical_failures);
+            }
+            if let Some(e) = r.emitted {
+                self.smoothed.camera = e.pose;
+            }
+        } else {
+            // A new stream (or one whose previous frame is unknown) starts a new world frame.
+            if self.camera.started()
+                && let Some(s) = leaving
+                && let Some(e) = self.camera.drain(&self.camera_smoothness, &mut self.scratch, s)
+            {
+                self.smoothed.camera = e.pose;
+            }
+            self.camera.start(step);
+        }
+        let camera_prev = *self.camera.frame_to_frame_previous();
+        let camera_now = *self.camera.frame_to_frame();
+
+        // Runs whose object is missing from this frame end.
+        for run in &mut self.runs {
+            if run.is_live() && cur.object(run.object_id).is_none() {
+                if run.state == RunState::Initialising {
+                    bump(&mut self.stats.objects_not_initialised);
+                    run.state = RunState::Free;
+                } else {
+                    run.state = RunState::Draining;
+                }
+            }
+        }
+        // Ended runs emit their leaving frame.
+        if let Some(s) = leaving {
+            for run in self.runs.iter_mut().filter(|r| r.state == RunState::Draining) {
+                if let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, s, dt_leaving) {
+                    let _ = self.smoothed.objects.push(e);
+                }
+            }
+        }
+
+        // Objects of this frame.
+        for obj in &cur.objects {
+            let live = self.runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
+            let prev_points = if has_previous { prev.object(obj.object_id).map(|p| &p.points[..]) } else { None };
+            let mut restart = live.is_none();
+            if let (Some(i), Some(previous)) = (live, prev_points) {
+                let cx = PairContext {
+                    previous,
+                    current: &obj.points,
+                    camera_previous: &camera_prev,
+                    camera: &camera_now,
+                    leaving,
+                };
+                let Some(run) = self.runs.get_mut(i) else { continue };
+                let (outcome, emitted) = run.step(
+                    &cx,
+                    &self.params,
+                    &self.model,
+                    &mut self.rng,
+                    &mut self.corrs,
+                    &self.object_smoothness,
+                    &mut self.scratch,
+                    dt_leaving,
+                    &mut self.stats.numerical_failures,
+                );
+                if let Some(e) = emitted {
+                    let _ = self.smoothed.objects.push(e);
+                }
+                match outcome {
+                    StepOutcome::Measured => {}
+                    StepOutcome::Held => bump(&mut self.stats.object_motion_held),
+                    StepOutcome::Restart => {
+                        bump(&mut self.stats.object_motion_held);
+                        if run.state == RunState::Initialising {
+                            bump(&mut self.stats.objects_not_initialised);
+                            run.state = RunState::Free;
+                        } else {
+                            run.state = RunState::Draining;
+                            if let Some(s) = leaving
+                                && let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, s, dt_leaving)
+                            {
+                                let _ = self.smoothed.objects.push(e);
+                            }
+                        }
+                        restart = true;
+                    }
+                }
+                if run.reorient_if_moved(self.params.heading_baseline_m) {
+                    bump(&mut self.stats.objects_reoriented);
+                }
+            } else if let Some(i) = live {
+                // Live but without a previous frame (a new world frame began): start again.
+                if let Some(run) = self.runs.get_mut(i) {
+                    run.state = RunState::Free;
+                }
+                restart = true;
+            }
+            if !restart {
+                continue;
+            }
+            if live.is_none() && self.runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id) {
+                bump(&mut self.stats.objects_returned);
+            }
+            let Some(slot) = free_slot(&mut self.runs, &mut self.stats) else { continue };
+            if slot.initialise(obj.object_id, obj.class, &obj.points, &camera_now, &self.model, step, self.params.object_min_points) {
+                bump(&mut self.stats.objects_initialised);
+            } else {
+                bump(&mut self.stats.objects_not_initialised);
+            }
+        }
+
+        self.current = 1 - self.current.min(1);
+        self.has_previous = true;
+        let emitted = leaving.is_some();
+        if emitted {
+            self.window.pop_front();
+        }
+        emitted
+    }
+}
+
+/// A slot for a new run: a free one, else the draining run with the fewest frames still to
+/// emit (its pending frames are lost and counted).
+fn free_slot<'a, const W: usize>(runs: &'a mut [ObjectRun<W>; MAX_OBJECTS], stats: &mut EstimatorStats) -> Option<&'a mut ObjectRun<W>> {
+    let i = match runs.iter().position(|r| r.state == RunState::Free) {
+        Some(i) => i,
+        None => {
+            let (i, lost) = runs
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| r.state == RunState::Draining)
+                .map(|(i, r)| (i, r.pending()))
+                .min_by_key(|(_, p)| *p)?;
+            bump(&mut stats.runs_evicted);
+            add(&mut stats.smoothed_frames_lost, lost);
+            i
+        }
+    };
+    runs.get_mut(i)
+}

@@ -1,0 +1,307 @@
+//! Robust pose fit from correspondences: minimal-set RANSAC (3-point Kabsch hypotheses, MSAC
+//! scoring on the stereo reprojection residual, a fixed iteration budget with the standard early
+//! stop), then Levenberg-Marquardt on a truncated Huber cost, then the fit's information matrix.
+//!
+//! The pose `m` maps source points into camera k. Both the ego-motion (source = camera k-1) and
+//! each object's motion (source = the object's frame at k-1) are this problem.
+
+use nalgebra::{Matrix6, Vector6};
+
+use super::kabsch::kabsch3;
+use super::lie::{pose_is_finite, Mat6};
+use super::model::{Correspondence, PointModel};
+use super::params::FitParams;
+use super::rng::Pcg32;
+use crate::geometry::{se3_exp, Pose3};
+
+/// A successful fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fit {
+    /// The pose mapping source points into camera k.
+    pub pose: Pose3,
+    /// Information (inverse covariance) of a right perturbation of `pose`, `[rho; omega]`.
+    pub information: Mat6,
+    /// Inliers of the final pose.
+    pub inliers: u16,
+    /// A-posteriori residual standard deviation of the inliers, pixels.
+    pub sigma_px: f32,
+}
+
+/// Why a fit failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitFailure {
+    /// Fewer correspondences than a minimal set or than the inlier minimum.
+    TooFewPoints,
+    /// No hypothesis gathered the inlier minimum.
+    TooFewInliers,
+    /// A singular or non-finite system.
+    Numerical,
+}
+
+/// Levenberg-Marquardt damping at the start, and its bounds.
+const LM_START: f32 = 1e-3;
+const LM_MIN: f32 = 1e-7;
+const LM_MAX: f32 = 1e7;
+/// A step shorter than this (twist norm) ends the refinement.
+const STEP_DONE: f32 = 1e-7;
+
+/// Fits the pose of `corrs`. `guess` (e.g. the constant-motion prediction) is scored as an extra
+/// hypothesis before the random ones.
+///
+/// # Errors
+/// [`FitFailure`] when there are too few points or inliers, or the numbers break down.
+pub fn fit_pose(
+    corrs: &[Correspondence],
+    guess: Option<&Pose3>,
+    fp: &FitParams,
+    model: &PointModel,
+    rng: &mut Pcg32,
+) -> Result<Fit, FitFailure> {
+    let min_inliers = usize::from(fp.min_inliers).max(3);
+    if corrs.len() < min_inliers {
+        return Err(FitFailure::TooFewPoints);
+    }
+    let best = ransac(corrs, guess, fp, model, rng).ok_or(FitFailure::TooFewInliers)?;
+    if usize::from(best.1) < min_inliers {
+        return Err(FitFailure::TooFewInliers);
+    }
+    let pose = refine(corrs, best.0, fp, model);
+    let fit = information(corrs, &pose, fp, model).ok_or(FitFailure::Numerical)?;
+    if usize::from(fit.inliers) < min_inliers {
+        return Err(FitFailure::TooFewInliers);
+    }
+    Ok(fit)
+}
+
+/// Score of a pose: MSAC cost (sum of squared residuals truncated at the threshold) and inliers.
+fn score(corrs: &[Correspondence], m: &Pose3, tau2: f32, model: &PointModel) -> (f32, u16) {
+    let mut cost = 0.0;
+    let mut inliers = 0u16;
+    for c in corrs {
+        let r2 = model.residual(m, c).map_or(tau2, |r| r.norm_squared());
+        if r2 < tau2 {
+            cost += r2;
+            inliers = inliers.saturating_add(1);
+        } else {
+            cost += tau2;
+        }
+    }
+    (cost, inliers)
+}
+
+/// Hypotheses needed for `confidence` at inlier share `w` with 3-point samples.
+fn needed_iterations(w: f32, confidence: f32, budget: u16) -> u16 {
+    let w3 = w * w * w;
+    if w3 >= 1.0 - 1e-6 {
+        return 0;
+    }
+    let n = libm::logf(1.0 - confidence.clamp(0.0, 0.999_999)) / libm::logf(1.0 - w3.max(1e-6));
+    if n.is_finite() && n >= 0.0 {
+        // Bounded by the budget before the conversion.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let n = libm::ceilf(n.min(f32::from(budget))) as u16;
+        n
+    } else {
+        budget
+    }
+}
+
+/// The best hypothesis: (pose, inliers).
+fn ransac(
+    corrs: &[Correspondence],
+    guess: Option<&Pose3>,
+    fp: &FitParams,
+    model: &PointModel,
+    rng: &mut Pcg32,
+) -> Option<(Pose3, u16)> {
+    let tau2 = fp.inlier_px * fp.inlier_px;
+    let n = corrs.len();
+    let mut best: Option<(Pose3, f32, u16)> = None;
+    let consider = |m: Pose3, best: &mut Option<(Pose3, f32, u16)>| {
+        let (cost, inl) = score(corrs, &m, tau2, model);
+        if best.as_ref().is_none_or(|b| cost < b.1) {
+            *best = Some((m, cost, inl));
+        }
+    };
+    if let Some(g) = guess.filter(|g| pose_is_finite(g)) {
+        consider(*g, &mut best);
+    }
+    let mut needed = fp.ransac_iterations;
+    if let Some((_, _, inl)) = best {
+        needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);
+    }
+    let mut it = 0u16;
+    while it < needed {
+        it += 1;
+        let Some([i, j, k]) = rng.three_distinct(n) else { break };
+        let (Some(a), Some(b), Some(c)) = (corrs.get(i), corrs.get(j), corrs.get(k)) else { continue };
+        let src = [a.src, b.src, c.src];
+        let dst = [model.target(a), model.target(b), model.target(c)];
+        let Some(m) = kabsch3(&src, &dst) else { continue };
+        consider(m, &mut best);
+        if let Some((_, _, inl)) = best {
+            needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);
+        }
+    }
+    best.map(|(m, _, inl)| (m, inl))
+}
+
+/// Truncated Huber cost of a residual norm `r`: quadratic to `k`, linear to `tau`, flat after.
+fn robust_cost(r: f32, k: f32, tau: f32) -> f32 {
+    let r = r.min(tau);
+    if r <= k { 0.5 * r * r } else { k * (r - 0.5 * k) }
+}
+
+/// IRLS weight of a residual norm `r`: 1 to `k`, `k / r` to `tau`, 0 after.
+fn robust_weight(r: f32, k: f32, tau: f32) -> f32 {
+    if r > tau {
+        0.0
+    } else if r <= k {
+        1.0
+    } else {
+        k / r
+    }
+}
+
+/// Total robust cost of a pose.
+fn total_cost(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> f32 {
+    corrs
+        .iter()
+        .map(|c| robust_cost(model.residual(m, c).map_or(f32::INFINITY, |r| r.norm()), fp.huber_px, fp.inlier_px))
+        .sum()
+}
+
+/// Levenberg-Marquardt on the truncated Huber cost from `m`, for a fixed number of iterations.
+fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointModel) -> Pose3 {
+    let mut lambda = LM_START;
+    let mut cost = total_cost(corrs, &m, fp, model);
+    for _ in 0..fp.refine_iterations {
+        let (h, g, _, _) = normal_equations(corrs, &m, fp, model);
+        let mut damped = h;
+        for i in 0..6 {
+            if let Some(d) = damped.get_mut((i, i)) {
+                *d += lambda * (*d).max(1e-6);
+            }
+        }
+        let Some(chol) = damped.cholesky() else {
+            lambda = (lambda * 10.0).min(LM_MAX);
+            continue;
+        };
+        let step: Vector6<f32> = -chol.solve(&g);
+        if !step.iter().all(|v| v.is_finite()) {
+            break;
+        }
+        let candidate = m * se3_exp(&step);
+        let c = total_cost(corrs, &candidate, fp, model);
+        if c < cost {
+            m = candidate;
+            cost = c;
+            lambda = (lambda * 0.1).max(LM_MIN);
+        } else {
+            lambda = (lambda * 10.0).min(LM_MAX);
+        }
+        if step.norm() < STEP_DONE {
+            break;
+        }
+    }
+    m
+}
+
+/// Gauss-Newton normal equations at `m`: (J^T W J, J^T W r, sum w r^2, inliers).
+fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> (Mat6, Vector6<f32>, f32, u16) {
+    let mut h = Matrix6::zeros();
+    let mut g = Vector6::zeros();
+    let mut sq = 0.0;
+    let mut inliers = 0u16;
+    for c in corrs {
+        let Some((r, j)) = model.residual_and_jacobian(m, c) else { continue };
+        let w = robust_weight(r.norm(), fp.huber_px, fp.inlier_px);
+        if w <= 0.0 {
+            continue;
+        }
+        h += j.transpose() * j * w;
+        g += j.transpose() * r * w;
+        sq += w * r.norm_squared();
+        inliers = inliers.saturating_add(1);
+    }
+    (h, g, sq, inliers)
+}
+
+/// The fit's information: J^T W J over the inliers divided by the a-posteriori residual variance
+/// (floored at `min_sigma_px`), so that the information reflects the noise actually seen,
+/// including the source points' own depth noise.
+fn information(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> Option<Fit> {
+    let (h, _, sq, inliers) = normal_equations(corrs, m, fp, model);
+    let dof = (3 * usize::from(inliers)).saturating_sub(6).max(1) as f32;
+    let sigma = libm::sqrtf(sq / dof).max(fp.min_sigma_px);
+    let information = h / (sigma * sigma);
+    (pose_is_finite(m) && information.iter().all(|v| v.is_finite()) && sigma.is_finite())
+        .then_some(Fit { pose: *m, information, inliers, sigma_px: sigma })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::estimate::params::{EstimatorParams, Intrinsics};
+    use crate::geometry::{rotation_angle, se3_exp};
+    use nalgebra::{Point3, Vector3};
+    use std::vec::Vec;
+
+    /// Correspondences of `n` points seen from camera k after the motion `m`, with outliers every
+    /// `outlier_every` points and deterministic pixel noise of about `noise` px.
+    fn scene(m: &Pose3, n: usize, outlier_every: usize, noise: f32) -> (Vec<Correspondence>, PointModel) {
+        let params = EstimatorParams::kitti(Intrinsics::KITTI_0926, 0.1);
+        let model = PointModel::new(&params);
+        let mut rng = Pcg32::new(9);
+        let mut out = Vec::new();
+        for i in 0..n {
+            let src = Vector3::new(
+                rng.below(2000) as f32 / 100.0 - 10.0,
+                rng.below(400) as f32 / 100.0 - 2.0,
+                5.0 + rng.below(2500) as f32 / 100.0,
+            );
+            let p = m.transform_point(&Point3::from(src));
+            let Some((mut u, mut v)) = model.project(&p) else { continue };
+            let jitter = |g: &mut Pcg32| (g.below(1000) as f32 / 1000.0 - 0.5) * 2.0 * noise;
+            u += jitter(&mut rng);
+            v += jitter(&mut rng);
+            let mut depth = p.z;
+            if outlier_every > 0 && i % outlier_every == 0 {
+                u += 25.0;
+                depth *= 1.5;
+            }
+            out.push(Correspondence { src, u, v, depth });
+        }
+        (out, model)
+    }
+
+    #[test]
+    fn recovers_motion_despite_outliers() {
+        let m = se3_exp(&nalgebra::Vector6::new(0.1, 0.02, -1.0, 0.001, 0.02, -0.003));
+        let (corrs, model) = scene(&m, 200, 5, 0.3);
+        let params = EstimatorParams::kitti(Intrinsics::KITTI_0926, 0.1);
+        let mut rng = Pcg32::new(1);
+        let fit = fit_pose(&corrs, None, &params.camera_fit, &model, &mut rng).unwrap();
+        let err = fit.pose.inverse() * m;
+        assert!(err.translation.vector.norm() < 0.02, "{err:?}");
+        assert!(rotation_angle(&err) < 1e-3);
+        assert!(fit.inliers >= 150 && fit.inliers <= 165, "{}", fit.inliers);
+        assert!(fit.information.cholesky().is_some());
+    }
+
+    #[test]
+    fn too_few_points_fail_cleanly() {
+        let m = Pose3::identity();
+        let (corrs, model) = scene(&m, 40, 0, 0.0);
+        let params = EstimatorParams::kitti(Intrinsics::KITTI_0926, 0.1);
+        let mut rng = Pcg32::new(1);
+        assert_eq!(fit_pose(&corrs[..2], None, &params.object_fit, &model, &mut rng), Err(FitFailure::TooFewPoints));
+        // All outliers: nothing agrees.
+        let bad: Vec<Correspondence> = corrs.iter().enumerate().map(|(i, c)| Correspondence { u: c.u + 40.0 * (i % 7) as f32, v: c.v - 30.0 * (i % 5) as f32, ..*c }).collect();
+        assert!(fit_pose(&bad[..8], None, &params.object_fit, &model, &mut rng).is_err());
+        let nan = [Correspondence { src: Vector3::new(f32::NAN, 0.0, 1.0), u: 1.0, v: 1.0, depth: 1.0 }; 10];
+        assert!(fit_pose(&nan, None, &params.object_fit, &model, &mut rng).is_err());
+    }
+}

@@ -1,0 +1,120 @@
+//! Turning a frame pair into a motion measurement: correspondences from matched tracks, the
+//! robust fit, and the conversion of the fit into a body-frame twist with its information.
+
+use heapless::Vec;
+use nalgebra::Point3;
+
+use super::fit::{fit_pose, Fit};
+use super::frame::Obs;
+use super::lie::{adjoint, map_information, omega, rho, skew, Mat6, Vec6};
+use super::matching::for_each_match;
+use super::model::{Correspondence, PointModel};
+use super::params::FitParams;
+use super::rng::Pcg32;
+use crate::geometry::{se3_log, Pose3};
+use crate::limits::MAX_STATIC_TRACKS;
+
+/// Most correspondences of one fit: the larger of the static and the per-object capacity.
+pub const MAX_CORRESPONDENCES: usize = MAX_STATIC_TRACKS;
+const _: () = assert!(crate::limits::MAX_POINTS_PER_OBJECT <= MAX_CORRESPONDENCES);
+
+/// The correspondence scratch shared by all fits of a frame.
+pub type Correspondences = Vec<Correspondence, MAX_CORRESPONDENCES>;
+
+/// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k),
+/// each previous point back-projected and mapped by `to_source` (camera k-1 -> source frame).
+pub fn correspondences(previous: &[Obs], current: &[Obs], to_source: &Pose3, model: &PointModel, out: &mut Correspondences) {
+    out.clear();
+    for_each_match(previous, current, |p, c| {
+        let src = to_source.transform_point(&model.back_project(p.u(), p.v(), p.depth)).coords;
+        // Cannot overflow: both lists are at most MAX_CORRESPONDENCES long.
+        let _ = out.push(Correspondence { src, u: c.u(), v: c.v(), depth: c.depth });
+    });
+}
+
+/// A motion measurement: the body-frame motion `delta` and, for the chain, its twist and the
+/// twist's information.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionMeasurement {
+    /// The measured motion.
+    pub delta: Pose3,
+    /// `log(delta)`.
+    pub xi: Vec6,
+    /// Information of `xi`.
+    pub information: Mat6,
+    /// Inliers of the fit.
+    pub inliers: u16,
+}
+
+/// Measures the motion `delta` in `camera_k^-1 * frame * delta = m`, where `m` is the fitted
+/// pose from the source frame (`frame` at k-1) into camera k and `a = camera_k^-1 * frame` is
+/// known. `guess` is the expected `delta` (constant motion). `None` when the fit fails.
+pub fn measure_motion(
+    corrs: &Correspondences,
+    a: &Pose3,
+    guess: &Pose3,
+    fp: &FitParams,
+    model: &PointModel,
+    rng: &mut Pcg32,
+) -> Option<MotionMeasurement> {
+    let m_guess = a * guess;
+    let Fit { pose, information, inliers, .. } = fit_pose(corrs, Some(&m_guess), fp, model, rng).ok()?;
+    // A right perturbation of m is a right perturbation of delta, so the information carries over.
+    let delta = a.inverse() * pose;
+    twist_measurement(&delta, &information, inliers)
+}
+
+/// The twist form of a measured motion with information `info` on a right perturbation:
+/// `log(delta * exp(d)) ~ log(delta) + (I + ad(xi) / 2) d` to first order (BCH).
+#[must_use]
+pub fn twist_measurement(delta: &Pose3, info: &Mat6, inliers: u16) -> Option<MotionMeasurement> {
+    let xi = se3_log(delta);
+    let mut ad = Mat6::zeros();
+    let (w, r) = (skew(&omega(&xi)), skew(&rho(&xi)));
+    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&w);
+    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&r);
+    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&w);
+    let jac = Mat6::identity() + ad * 0.5;
+    let information = map_information(info, &jac)?;
+    (xi.iter().all(|v| v.is_finite()) && information.iter().all(|v| v.is_finite()))
+        .then_some(MotionMeasurement { delta: *delta, xi, information, inliers })
+}
+
+/// The information of `n = m^-1` given the information of a right perturbation of `m`:
+/// `(m exp(d))^-1 = n exp(-Ad(m) d)`.
+#[must_use]
+pub fn inverse_information(m: &Pose3, info: &Mat6) -> Option<Mat6> {
+    map_information(info, &(-adjoint(m)))
+}
+
+/// The robust centroid of camera-frame points mapped to the world by `camera`: the per-axis
+/// median, then the mean of the points within `radius` of it. `None` without points.
+pub fn robust_centroid(points: &[Obs], camera: &Pose3, model: &PointModel, radius: f32) -> Option<Point3<f32>> {
+    let mut axis: Vec<f32, { crate::limits::MAX_POINTS_PER_OBJECT }> = Vec::new();
+    let world = |o: &Obs| camera.transform_point(&model.back_project(o.u(), o.v(), o.depth));
+    let mut median = [0.0f32; 3];
+    for (d, m) in median.iter_mut().enumerate() {
+        axis.clear();
+        for o in points {
+            let p = world(o);
+            let _ = axis.push(p.coords.get(d).copied().unwrap_or(0.0));
+        }
+        if axis.is_empty() {
+            return None;
+        }
+        let mid = axis.len() / 2;
+        let (_, v, _) = axis.select_nth_unstable_by(mid, f32::total_cmp);
+        *m = *v;
+    }
+    let median = Point3::from(median);
+    let (mut sum, mut n) = (nalgebra::Vector3::zeros(), 0u32);
+    for o in points {
+        let p = world(o);
+        if (p - median).norm() <= radius {
+            sum += p.coords;
+            n += 1;
+        }
+    }
+    let c = if n > 0 { Point3::from(sum / n as f32) } else { median };
+    c.coords.iter().all(|v| v.is_finite()).then_some(c)
+}

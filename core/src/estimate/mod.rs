@@ -1,0 +1,103 @@
+//! The DynoSAM-style estimator: camera ego-motion, world-centric object motion, object poses and
+//! an incremental fixed-lag smoother, all in fixed memory with fixed iteration budgets.
+//!
+//! # Data flow per frame
+//!
+//! 1. **Assembly** ([`FrameAssembler`]): the [`crate::wire::FrameTracks`] parts of one frame
+//!    are collected into fixed, id-sorted arrays (one static list, one list per object).
+//! 2. **Ego-motion** ([`CameraTrack`]): static tracks matched by id between frames k-1 and k;
+//!    3-point Kabsch RANSAC (fixed budget, deterministic [`Pcg32`] seeded by the caller), then
+//!    Levenberg-Marquardt on the stereo reprojection error `(u, v, disparity)` under a truncated
+//!    Huber kernel. The fit's information (J^T W J over the a-posteriori residual variance) is
+//!    the measurement of the camera motion.
+//! 3. **Object motion** ([`ObjectRun`]): for each object, its tracks matched between k-1 and k;
+//!    the same robust fit gives the motion between the object's frame at k-1 and camera k, hence
+//!    the body motion `delta_k = L_(k-1)^-1 L_k` and the world-centric motion
+//!    `H_k = L_(k-1) delta_k L_(k-1)^-1` (DynoSAM's `H = X_k G^-1`). `L_k = H_k L_(k-1)`.
+//!    The first pose `L_0` comes from the object's own points, never from ground truth: origin
+//!    at their robust centroid, x axis along the first motion once the object has moved at
+//!    least `heading_baseline_m` (before that the frame keeps the world's orientation and is
+//!    re-oriented once, starting a new output segment).
+//! 4. **Smoothing** ([`ChainSmoother`], [`SmoothedPath`]): over the last `W` frames, per object
+//!    (and for the camera), the body motions are estimated jointly from the per-frame
+//!    measurements and a constant-motion prior between consecutive motions (DynoSAM's
+//!    smoothing factor: 0.01 rad, 0.2 m). The normal equations are block-tridiagonal with 6x6
+//!    blocks and are solved exactly in O(W); a frame leaving the window is fixed and the
+//!    information it carried is marginalised exactly into a prior on the next.
+//!
+//! The point measurements enter the smoother through each frame pair's Gaussian (Laplace)
+//! summary rather than point by point: that is what makes the memory fixed (27 floats per object
+//! and frame instead of hundreds of points), at the price of ignoring that a point at frame k is
+//! shared by the pairs (k-1, k) and (k, k+1). Objects are measured against the frame-to-frame
+//! camera poses, which are never revised; the camera's smoothed poses are reported beside them.
+//!
+//! # Outputs ([`PoseEstimate`], labelled as the wire's [`crate::wire::EstimateKind`])
+//!
+//! - frame-to-frame ([`Estimator::frame_to_frame`]): DynoSAM's front-end estimate, causal;
+//! - causal ([`Estimator::causal`]): the smoother's estimate of the newest frame, from frames
+//!   up to it only ([`crate::wire::EstimateKind::Causal`]);
+//! - smoothed ([`Estimator::smoothed`]): a frame as it leaves the window, having seen `W - 1`
+//!   later frames ([`crate::wire::EstimateKind::Smoothed`]); never a forecast input.
+//!
+//! Each gives the camera pose, object poses and world motions and a bird's-eye state per object
+//! (x, y, heading, speed, heading rate); [`Estimator::map_points`] gives the bounded map of the
+//! newest frame's static points.
+//!
+//! # Conventions
+//!
+//! World = the first camera frame, camera convention (x right, y down, z forward). Bird's-eye
+//! plane = world (x, z), z-up after DynoSAM's `(x, y, z) -> (x, z, -y)`, as
+//! [`crate::geometry::bev_point`]; heading is counter-clockwise from world x seen from above,
+//! as [`crate::geometry::bev_heading_of_rotation_y`]. Twists are `[rho; omega]`, body motions
+//! are perturbed on the right.
+//!
+//! # Bad input: rules (each counted in [`EstimatorStats`], never a panic)
+//!
+//! | input | rule | counter |
+//! |---|---|---|
+//! | depth zero, negative, non-finite or below `min_depth` | skip the track | `tracks_bad_depth` |
+//! | depth beyond `max_depth` | skip the track | `tracks_too_far` |
+//! | pixel non-finite or outside [0, 4096) px | skip the track | `tracks_bad_pixel` |
+//! | track id repeated in a frame (static list or one object) | keep the first | `tracks_duplicate` |
+//! | more than 256 static / 128 per-object tracks | drop the excess (arrival order) | `static_tracks_dropped`, `object_points_dropped` |
+//! | more than 16 objects in a frame | drop the later objects' tracks (the sender orders by priority) | `object_tracks_dropped`, `frames_with_objects_dropped` |
+//! | fewer static matches than `min_inliers`, or RANSAC/LM fails | hold the previous ego-motion; the smoother gets no measurement | `camera_motion_held` |
+//! | fewer object matches than `object_min_points`, or the fit fails | hold the previous object motion; after [`MAX_HELD_FRAMES`] holds re-initialise | `object_motion_held` |
+//! | object with fewer than `object_min_points` points when first seen | not initialised; tried again next frame | `objects_not_initialised` |
+//! | object missing from a frame, then back | its run ends (its window frames are still emitted smoothed); on return it is re-initialised from its points | `objects_returned`, `objects_initialised` |
+//! | a new object with every run slot in use | evict the ended run with the fewest frames still to emit | `runs_evicted`, `smoothed_frames_lost` |
+//! | parts: malformed, repeated, stale, or a newer frame before completion | reject / ignore / abandon the incomplete frame | `parts_*`, `frames_incomplete` |
+//! | timestamps equal, decreasing or over `max_dt` apart | use `nominal_dt` for speeds | `timestamps_replaced` |
+//! | singular or non-finite normal equations | hold | `numerical_failures` |
+
+mod camera;
+mod chain;
+mod estimator;
+mod fit;
+mod frame;
+mod kabsch;
+mod lie;
+mod matching;
+mod measure;
+mod model;
+mod object_run;
+mod output;
+mod params;
+mod path;
+mod rng;
+mod stats;
+
+pub use camera::CameraTrack;
+pub use chain::{spd_inverse, ChainScratch, ChainSmoother, Smoothness};
+pub use estimator::{Estimator, Pushed, DEFAULT_WINDOW};
+pub use fit::{fit_pose, Fit, FitFailure};
+pub use frame::{FrameAssembler, FrameBuffer, Obs, ObjectPoints, MAX_PIXEL};
+pub use kabsch::kabsch3;
+pub use lie::{adjoint, PackedSym6};
+pub use model::{Correspondence, PointModel};
+pub use object_run::{ObjectRun, RunState, MAX_HELD_FRAMES};
+pub use output::{bev_heading, ObjectEstimate, PoseEstimate};
+pub use params::{EstimatorParams, FitParams, Intrinsics, SmootherParams};
+pub use path::SmoothedPath;
+pub use rng::Pcg32;
+pub use stats::EstimatorStats;

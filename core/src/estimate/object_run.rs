@@ -1,0 +1,301 @@
+//! One object's run: a contiguous stretch of frames in which it was seen, with its pose, its
+//! frame-to-frame and smoothed motions, and the rules for starting, holding and ending.
+//!
+//! Life of a run: `Initialising` (seen once: a provisional pose at the robust centroid of its
+//! points, world-aligned) -> `Tracking` (from its second frame: the first motion gives the heading
+//! when the object moved at least the heading baseline, and the first pose `L_0` is set) ->
+//! `Draining` (the object was not seen in a frame, or its motion was held too long: its frames
+//! still in the smoother's window are emitted as they leave) -> `Free`.
+
+use super::chain::{ChainScratch, Smoothness};
+use super::frame::Obs;
+use super::lie::{adjoint, map_information};
+use super::measure::{correspondences, measure_motion, robust_centroid, twist_measurement, Correspondences, MotionMeasurement};
+use super::model::PointModel;
+use super::output::{bev_heading, object_estimate, ObjectEstimate};
+use super::params::EstimatorParams;
+use super::path::{Emitted, SmoothedPath};
+use super::rng::Pcg32;
+use crate::geometry::{se3_log, wrap_angle, Point2, Pose3};
+use crate::wire::ObjectClass;
+use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+/// Radius around the median of an object's points within which points count for its centroid,
+/// metres: larger than any road vehicle's half-length, smaller than the gap to a neighbour.
+const CENTROID_RADIUS_M: f32 = 4.0;
+/// Consecutive frames an object's motion may be held (fit failed) before its run ends and the
+/// object is re-initialised from its points.
+pub const MAX_HELD_FRAMES: u8 = 3;
+
+/// Where a run is in its life.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunState {
+    /// Unused slot.
+    Free,
+    /// Seen once: provisional pose only.
+    Initialising,
+    /// Seen in consecutive frames, with a pose.
+    Tracking,
+    /// Ended; its frames still in the window are emitted as they leave.
+    Draining,
+}
+
+/// What a tracking step did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepOutcome {
+    /// The motion was fitted.
+    Measured,
+    /// The fit failed and the previous motion was held.
+    Held,
+    /// The fit failed too often, or the first motion failed: the run must end and the object be
+    /// re-initialised.
+    Restart,
+}
+
+/// The frame pair an object step works on.
+#[derive(Debug, Clone, Copy)]
+pub struct PairContext<'a> {
+    /// The object's points at k-1 and at k, sorted by id.
+    pub previous: &'a [Obs],
+    /// The object's points at k.
+    pub current: &'a [Obs],
+    /// Frame-to-frame camera pose at k-1.
+    pub camera_previous: &'a Pose3,
+    /// Frame-to-frame camera pose at k.
+    pub camera: &'a Pose3,
+    /// The step leaving the window now, if any.
+    pub leaving: Option<u32>,
+}
+
+/// One object's run; see the module docs.
+#[derive(Debug, Clone)]
+pub struct ObjectRun<const W: usize> {
+    /// Life stage.
+    pub state: RunState,
+    /// Object id.
+    pub object_id: u16,
+    /// Class (of its first frame).
+    pub class: ObjectClass,
+    /// Provisional pose while initialising.
+    provisional: Pose3,
+    /// Step of the first frame.
+    first_step: u32,
+    /// Smoothed path (starts at the second frame, anchored at the first).
+    path: SmoothedPath<W>,
+    /// Frame-to-frame pose and world motion of the newest step.
+    f2f: Pose3,
+    f2f_motion: Pose3,
+    /// Newest measured (or held) body motion.
+    last_delta: Pose3,
+    /// Bird's-eye origin of the first pose (for the heading baseline).
+    origin: Point2,
+    /// Whether the frame's heading comes from motion.
+    heading_known: bool,
+    /// Consecutive held frames.
+    held: u8,
+    /// Re-orientation count.
+    segment: u16,
+}
+
+impl<const W: usize> Default for ObjectRun<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The pure rotation turning the bird's-eye heading by `angle` (about the up axis, -y).
+fn yaw(angle: f32) -> Pose3 {
+    Pose3::from_parts(Translation3::identity(), UnitQuaternion::from_axis_angle(&-Vector3::y_axis(), angle))
+}
+
+impl<const W: usize> ObjectRun<W> {
+    /// A free slot.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            state: RunState::Free,
+            object_id: 0,
+            class: ObjectClass::Misc,
+            provisional: Pose3::identity(),
+            first_step: 0,
+            path: SmoothedPath::new(),
+            f2f: Pose3::identity(),
+            f2f_motion: Pose3::identity(),
+            last_delta: Pose3::identity(),
+            origin: Point2::new(0.0, 0.0),
+            heading_known: false,
+            held: 0,
+            segment: 0,
+        }
+    }
+
+    /// True when the run is seen in the current frame (initialising or tracking).
+    #[must_use]
+    pub fn is_live(&self) -> bool {
+        matches!(self.state, RunState::Initialising | RunState::Tracking)
+    }
+
+    /// Frames of this run not yet emitted smoothed.
+    #[must_use]
+    pub fn pending(&self) -> usize {
+        if self.state == RunState::Tracking || self.state == RunState::Draining { self.path.pending() } else { 0 }
+    }
+
+    /// Starts a run for `object_id` from its points at step `step`, seen by `camera`. `false`
+    /// (and the slot stays free) when there are fewer than `min_points` points.
+    #[allow(clippy::too_many_arguments)]
+    pub fn initialise(&mut self, object_id: u16, class: ObjectClass, points: &[Obs], camera: &Pose3, model: &PointModel, step: u32, min_points: u16) -> bool {
+        if points.len() < usize::from(min_points) {
+            return false;
+        }
+        let Some(c) = robust_centroid(points, camera, model, CENTROID_RADIUS_M) else { return false };
+        *self = Self::new();
+        self.state = RunState::Initialising;
+        self.object_id = object_id;
+        self.class = class;
+        self.provisional = Pose3::from_parts(Translation3::from(c.coords), UnitQuaternion::identity());
+        self.first_step = step;
+        self.origin = Point2::new(c.x, c.z);
+        true
+    }
+
+    /// The pose the previous step's motion is measured from.
+    fn frame_pose(&self) -> Pose3 {
+        if self.state == RunState::Initialising { self.provisional } else { *self.path.causal() }
+    }
+
+    /// Measures and smooths the motion from frame k-1 to frame k. Returns the outcome and the
+    /// smoothed estimate of the leaving step if it is this run's (`dt_leaving` is its frame
+    /// period).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        cx: &PairContext<'_>,
+        params: &EstimatorParams,
+        model: &PointModel,
+        rng: &mut Pcg32,
+        corrs: &mut Correspondences,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        dt_leaving: f32,
+        solve_failures: &mut u32,
+    ) -> (StepOutcome, Option<ObjectEstimate>) {
+        let frame = self.frame_pose();
+        // Source points: the object's frame at k-1.
+        let to_source = frame.inverse() * cx.camera_previous;
+        correspondences(cx.previous, cx.current, &to_source, model, corrs);
+        let a = cx.camera.inverse() * frame;
+        let measured = if corrs.len() >= usize::from(params.object_min_points) {
+            measure_motion(corrs, &a, &self.last_delta, &params.object_fit, model, rng)
+        } else {
+            None
+        };
+        let mut outcome = StepOutcome::Measured;
+        let measured = if self.state == RunState::Initialising {
+            let Some(m) = measured else { return (StepOutcome::Restart, None) };
+            Some(self.start_tracking(&m, params.heading_baseline_m))
+        } else {
+            measured
+        };
+        match &measured {
+            Some(m) => {
+                self.held = 0;
+                self.last_delta = m.delta;
+            }
+            None => {
+                self.held = self.held.saturating_add(1);
+                if self.held > MAX_HELD_FRAMES {
+                    return (StepOutcome::Restart, None);
+                }
+                outcome = StepOutcome::Held;
+            }
+        }
+        // Frame-to-frame: the world motion H = L_(k-1) delta L_(k-1)^-1, chained.
+        let frame = self.frame_pose();
+        self.f2f_motion = frame * self.last_delta * frame.inverse();
+        self.f2f = self.f2f_motion * self.f2f;
+        let z = measured.as_ref().map(|m| (&m.xi, &m.information));
+        let emitted = match self.path.advance(z, s, scratch, cx.leaving) {
+            Ok(e) => e,
+            Err(_) => {
+                *solve_failures = solve_failures.saturating_add(1);
+                None
+            }
+        };
+        let out = emitted.map(|e| self.estimate(&e, dt_leaving));
+        (outcome, out)
+    }
+
+    /// Sets the first pose from the first motion and returns that motion in the new frame.
+    fn start_tracking(&mut self, m: &MotionMeasurement, baseline: f32) -> MotionMeasurement {
+        let t = m.delta.translation.vector;
+        let moved = libm::hypotf(t.x, t.z);
+        let mut first = self.provisional;
+        let mut out = *m;
+        if moved >= f32::EPSILON && moved.is_finite() {
+            let r = yaw(libm::atan2f(t.z, t.x));
+            let delta = r.inverse() * m.delta * r;
+            let info = map_information(&m.information, &adjoint(&r.inverse()));
+            if moved >= baseline
+                && let Some(tm) = info.and_then(|i| twist_measurement(&delta, &i, m.inliers))
+            {
+                first = self.provisional * r;
+                out = tm;
+                self.heading_known = true;
+            }
+        }
+        self.path.start(first, self.first_step);
+        self.f2f = first;
+        self.state = RunState::Tracking;
+        self.last_delta = out.delta;
+        out
+    }
+
+    /// Re-orients the frame along the displacement since the first pose once it exceeds
+    /// `baseline` metres, for an object whose heading is not yet known. Returns whether it did.
+    pub fn reorient_if_moved(&mut self, baseline: f32) -> bool {
+        if self.heading_known || self.state != RunState::Tracking {
+            return false;
+        }
+        let p = self.path.causal().translation.vector;
+        let (dx, dz) = (p.x - self.origin.x, p.z - self.origin.y);
+        let moved = libm::hypotf(dx, dz);
+        if moved.is_nan() || moved < baseline {
+            return false;
+        }
+        let turn = wrap_angle(libm::atan2f(dz, dx) - bev_heading(self.path.causal()));
+        let r = yaw(turn);
+        self.path.reframe(&r);
+        self.f2f *= r;
+        self.last_delta = r.inverse() * self.last_delta * r;
+        self.heading_known = true;
+        self.segment = self.segment.wrapping_add(1);
+        true
+    }
+
+    /// Emits the leaving step for a draining run; frees the run once nothing is pending.
+    pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32, dt_leaving: f32) -> Option<ObjectEstimate> {
+        let e = self.path.drain(s, scratch, leaving).ok().flatten();
+        let out = e.map(|e| self.estimate(&e, dt_leaving));
+        if self.path.pending() == 0 {
+            self.state = RunState::Free;
+        }
+        out
+    }
+
+    fn estimate(&self, e: &Emitted, dt: f32) -> ObjectEstimate {
+        object_estimate(self.object_id, self.class, &e.pose, &e.xi, dt, self.segment, self.heading_known)
+    }
+
+    /// The causal estimate of the newest frame (tracking runs only).
+    #[must_use]
+    pub fn causal(&self, dt: f32) -> Option<ObjectEstimate> {
+        (self.state == RunState::Tracking).then(|| object_estimate(self.object_id, self.class, self.path.causal(), self.path.causal_xi(), dt, self.segment, self.heading_known))
+    }
+
+    /// The frame-to-frame estimate of the newest frame (tracking runs only).
+    #[must_use]
+    pub fn frame_to_frame(&self, dt: f32) -> Option<ObjectEstimate> {
+        (self.state == RunState::Tracking).then(|| object_estimate(self.object_id, self.class, &self.f2f, &se3_log(&self.last_delta), dt, self.segment, self.heading_known))
+    }
+}

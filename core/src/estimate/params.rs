@@ -1,0 +1,138 @@
+//! Parameters of the estimator: camera model, robust-fit budgets and thresholds, smoother noise.
+//!
+//! Every value is documented with its unit and why it has its default. The defaults suit a
+//! KITTI-like stereo rig (fx about 720 px, baseline x focal about 388 px m) at 10 Hz.
+
+/// Pinhole intrinsics of the reference (left) camera, plus the stereo constant that turns depth
+/// into disparity.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Intrinsics {
+    /// Focal length along u, pixels.
+    pub fx: f32,
+    /// Focal length along v, pixels.
+    pub fy: f32,
+    /// Principal point u, pixels.
+    pub cx: f32,
+    /// Principal point v, pixels.
+    pub cy: f32,
+    /// Stereo baseline times fx, pixel metres (disparity = `stereo_fb / depth`). Zero or less
+    /// turns the disparity residual off (a depth sensor without a stereo noise model).
+    pub stereo_fb: f32,
+}
+
+impl Intrinsics {
+    /// KITTI 2011_09_26 rectified camera 0 (the calibration of tracking sequences 0000-0013).
+    pub const KITTI_0926: Self =
+        Self { fx: 721.5377, fy: 721.5377, cx: 609.5593, cy: 172.854, stereo_fb: 387.5744 };
+}
+
+/// Budget and thresholds of one robust fit (minimal-set RANSAC, then Gauss-Newton/LM).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitParams {
+    /// Most RANSAC hypotheses (3-point samples). The loop stops earlier once the standard
+    /// bound log(1 - confidence) / log(1 - w^3) for the best inlier share w is met.
+    pub ransac_iterations: u16,
+    /// RANSAC stopping confidence, in (0, 1).
+    pub confidence: f32,
+    /// Inlier threshold on a point's stereo reprojection residual norm (u, v, u_right), pixels.
+    pub inlier_px: f32,
+    /// Fewest inliers for a fit to count; fewer means the fit fails and the motion is held.
+    pub min_inliers: u16,
+    /// Gauss-Newton/Levenberg-Marquardt iterations after RANSAC.
+    pub refine_iterations: u8,
+    /// Huber kernel width on the residual norm, pixels: quadratic below, linear above.
+    pub huber_px: f32,
+    /// Lower bound of the residual standard deviation used to weight a fit's information,
+    /// pixels: the a-posteriori scale of a lucky, tiny residual would otherwise overstate it.
+    pub min_sigma_px: f32,
+}
+
+/// Noise of the constant-motion prior between consecutive body-frame motions (one frame
+/// apart): how much the per-frame motion may change from one frame to the next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SmootherParams {
+    /// Standard deviation of the change of the per-frame translation, metres.
+    pub sigma_translation: f32,
+    /// Standard deviation of the change of the per-frame rotation, radians.
+    pub sigma_rotation: f32,
+}
+
+impl SmootherParams {
+    /// DynoSAM's smoothing factor between consecutive object motions: rotation 0.01 rad,
+    /// translation 0.2 m (see REFERENCE.md).
+    pub const DYNOSAM_OBJECT: Self = Self { sigma_translation: 0.2, sigma_rotation: 0.01 };
+}
+
+/// All parameters of the [`super::Estimator`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimatorParams {
+    /// Camera model.
+    pub intrinsics: Intrinsics,
+    /// Frame period used when two timestamps are unusable (equal, decreasing or more than
+    /// [`EstimatorParams::max_dt`] apart), seconds.
+    pub nominal_dt: f32,
+    /// Longest plausible time between frames, seconds.
+    pub max_dt: f32,
+    /// Nearest usable depth, metres; closer or non-positive depths are rejected.
+    pub min_depth: f32,
+    /// Farthest usable depth, metres: stereo depth noise grows with depth squared, and beyond
+    /// about 40 m a KITTI point's depth is worth little.
+    pub max_depth: f32,
+    /// Standard deviation of pixel positions, pixels (the residual weights).
+    pub pixel_sigma: f32,
+    /// Standard deviation of stereo disparity, pixels.
+    pub disparity_sigma: f32,
+    /// Ego-motion fit from static tracks.
+    pub camera_fit: FitParams,
+    /// Object-motion fit from an object's tracks.
+    pub object_fit: FitParams,
+    /// Fewest tracked points for an object to be initialised or measured.
+    pub object_min_points: u16,
+    /// An object's heading is taken from its motion once its reference point has moved this far
+    /// on the bird's-eye plane, metres; before that its frame keeps the world's orientation.
+    pub heading_baseline_m: f32,
+    /// Constant-motion prior of the object smoother.
+    pub object_smoother: SmootherParams,
+    /// Constant-motion prior of the camera smoother.
+    pub camera_smoother: SmootherParams,
+}
+
+impl EstimatorParams {
+    /// Defaults for a KITTI-like stereo rig with `intrinsics`, frames `nominal_dt` apart.
+    #[must_use]
+    pub const fn kitti(intrinsics: Intrinsics, nominal_dt: f32) -> Self {
+        Self {
+            intrinsics,
+            nominal_dt,
+            max_dt: 1.0,
+            min_depth: 0.5,
+            max_depth: 40.0,
+            pixel_sigma: 0.5,
+            disparity_sigma: 0.5,
+            camera_fit: FitParams {
+                ransac_iterations: 64,
+                confidence: 0.995,
+                inlier_px: 3.0,
+                min_inliers: 12,
+                refine_iterations: 6,
+                huber_px: 1.5,
+                min_sigma_px: 0.3,
+            },
+            object_fit: FitParams {
+                ransac_iterations: 32,
+                confidence: 0.995,
+                inlier_px: 3.0,
+                min_inliers: 6,
+                refine_iterations: 6,
+                huber_px: 1.5,
+                min_sigma_px: 0.3,
+            },
+            object_min_points: 6,
+            heading_baseline_m: 0.5,
+            object_smoother: SmootherParams::DYNOSAM_OBJECT,
+            // The ego vehicle's motion changes smoothly: 0.05 m and 0.005 rad per frame of change
+            // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.
+            camera_smoother: SmootherParams { sigma_translation: 0.05, sigma_rotation: 0.005 },
+        }
+    }
+}

@@ -1,0 +1,66 @@
+//! The estimator's counters: every input it could not use and every fallback it took, so that
+//! nothing is lost silently. Counters saturate instead of wrapping.
+
+/// What the estimator has seen and done. See [`super`] for the rule behind each counter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EstimatorStats {
+    /// Frames whose every part arrived and which were processed.
+    pub frames_processed: u32,
+    /// Frames abandoned with parts missing (a part of a newer frame arrived first).
+    pub frames_incomplete: u32,
+    /// Parts whose numbering is impossible (`part >= parts`, too many parts, or a part count
+    /// that disagrees with the frame's earlier parts).
+    pub parts_malformed: u32,
+    /// Parts received twice; the second copy is ignored.
+    pub parts_duplicate: u32,
+    /// Parts of a frame not newer than the last processed one; ignored.
+    pub parts_stale: u32,
+    /// Tracks with zero, negative, non-finite or too-near depth; skipped.
+    pub tracks_bad_depth: u32,
+    /// Tracks farther than the usable depth; skipped.
+    pub tracks_too_far: u32,
+    /// Tracks with a non-finite pixel or one outside the storable range; skipped.
+    pub tracks_bad_pixel: u32,
+    /// Tracks whose id already occurred in the same frame (and object); the first is kept.
+    pub tracks_duplicate: u32,
+    /// Static tracks beyond the static capacity; dropped.
+    pub static_tracks_dropped: u32,
+    /// Tracks of an object beyond the per-object point capacity; dropped.
+    pub object_points_dropped: u32,
+    /// Tracks of objects beyond the object capacity of a frame; dropped.
+    pub object_tracks_dropped: u32,
+    /// Frames in which at least one object was dropped for capacity.
+    pub frames_with_objects_dropped: u32,
+    /// Frame periods replaced by the nominal one (timestamps equal, decreasing or too far apart).
+    pub timestamps_replaced: u32,
+    /// Frames whose ego-motion could not be fitted (too few static matches or inliers); the
+    /// previous motion was held.
+    pub camera_motion_held: u32,
+    /// Object-frames whose motion could not be fitted; the previous motion was held.
+    pub object_motion_held: u32,
+    /// Objects (re)initialised: first seen, or seen again after missing a frame.
+    pub objects_initialised: u32,
+    /// Objects that came back after missing at least one frame (each also counts as initialised).
+    pub objects_returned: u32,
+    /// Objects seen too briefly or with too few points to be initialised.
+    pub objects_not_initialised: u32,
+    /// Objects whose frame was re-oriented once their heading became known from motion.
+    pub objects_reoriented: u32,
+    /// Runs of objects evicted from the object table to make room; their frames not yet
+    /// smoothed are lost.
+    pub runs_evicted: u32,
+    /// Smoothed object-frames lost to eviction.
+    pub smoothed_frames_lost: u32,
+    /// Numerical failures (singular or non-finite systems) caught and answered with a hold.
+    pub numerical_failures: u32,
+}
+
+/// Adds one to a counter, saturating.
+pub(super) fn bump(c: &mut u32) {
+    *c = c.saturating_add(1);
+}
+
+/// Adds `n` to a counter, saturating.
+pub(super) fn add(c: &mut u32, n: usize) {
+    *c = c.saturating_add(u32::try_from(n).unwrap_or(u32::MAX));
+}
