@@ -8,6 +8,7 @@ use dynotraj_core::predict::{Baseline, Forecast, PredictError, Predictor};
 use dynotraj_core::{BevState, Point2};
 
 use crate::scene::{Scene, SourcedRun};
+use crate::trajectory::EligibleRun;
 
 /// Anything that forecasts one object from its history and its neighbours' histories.
 pub trait Forecaster {
@@ -86,6 +87,20 @@ pub fn score_run(run: &SourcedRun, instances: std::ops::Range<usize>, scene: &Sc
         }
     }
     out
+}
+
+/// Scores `forecaster` on every eligible run of one sequence through `scene` (the sequence's
+/// tracks through the source being scored).
+pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32) -> RunScores {
+    let mut total = RunScores::default();
+    for run in runs {
+        let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
+        let r = score_run(sourced, run.instances(), scene, forecaster, dt);
+        total.scores.merge(&r.scores);
+        total.instances.extend(r.instances);
+        total.failed += r.failed;
+    }
+    total
 }
 
 #[cfg(test)]

@@ -3,14 +3,13 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use dynotraj_core::metrics::{ForecastScores, Mean};
 use dynotraj_core::predict::Baseline;
 
 use super::common::{progress, DataArgs, PAPER_TEST_SEQUENCES};
-use crate::evaluate::{score_run, Forecaster};
+use crate::evaluate::{score_sequence, Forecaster};
 use crate::model_file::ModelFile;
 use crate::scene::Scene;
-use crate::report::{fmt_opt, Format, Table};
+use crate::report::{forecast_table, ArmScores, Format, Table};
 use crate::trajectory::{eligible_runs, Source};
 
 /// A predictor `eval` can run.
@@ -74,13 +73,6 @@ pub struct EvalArgs {
     pub format: Format,
 }
 
-/// One arm's scores per sequence.
-struct ArmScores {
-    label: String,
-    per_sequence: Vec<ForecastScores>,
-    failed: u32,
-}
-
 /// Scores every (source, predictor) arm on every sequence and prints the table.
 ///
 /// # Errors
@@ -117,62 +109,25 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
                 (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),
                 (PredictorSpec::Model(p), None) => anyhow::bail!("model {} not loaded", p.display()),
             };
-            let mut arm = ArmScores { label: arm_label(spec, source), per_sequence: Vec::new(), failed: 0 };
+            let mut arm = ArmScores { label: arm_label(spec, source), per_sequence: Vec::new() };
+            let mut failed = 0;
             for (seq_runs, scene) in runs.iter().zip(&scenes) {
-                let mut scores = ForecastScores::default();
-                for run in seq_runs {
-                    let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
-                    let r = score_run(sourced, run.instances(), scene, forecaster.as_mut(), dt);
-                    scores.merge(&r.scores);
-                    arm.failed += r.failed;
-                }
-                arm.per_sequence.push(scores);
+                let r = score_sequence(seq_runs, scene, forecaster.as_mut(), dt);
+                arm.per_sequence.push(r.scores);
+                failed += r.failed;
             }
-            if arm.failed > 0 {
-                log::warn!("{}: {} instances could not be forecast", arm.label, arm.failed);
+            if failed > 0 {
+                log::warn!("{}: {failed} instances could not be forecast", arm.label);
             }
             arms.push(arm);
             bar.inc(1);
         }
     }
     bar.finish_and_clear();
-    Ok(arms_table(&ids, &arms))
+    Ok(forecast_table(&ids, &arms, &[]))
 }
 
 fn arm_label(p: &PredictorSpec, s: Source) -> String {
     let name = format!("{} on {}", p.label(), s.name());
     if s.is_causal() { name } else { format!("{name} (inputs saw later frames)") }
-}
-
-fn arms_table(ids: &[String], arms: &[ArmScores]) -> Table {
-    let mut headers = vec!["metric".to_string(), "arm".to_string()];
-    headers.extend(ids.iter().cloned());
-    headers.push("avg".into());
-    let mut t = Table::new(headers);
-    type Metric = fn(&ForecastScores) -> &Mean;
-    let metrics: [(&str, Metric); 3] = [("ADE", |s| &s.ade), ("FDE", |s| &s.fde), ("ACE", |s| &s.ace)];
-    for (metric, get) in metrics {
-        for arm in arms {
-            let mut row = vec![metric.to_string(), arm.label.clone()];
-            let mut total = Mean::new();
-            for s in &arm.per_sequence {
-                row.push(fmt_opt(get(s).value(), 2));
-                total.merge(get(s));
-            }
-            row.push(fmt_opt(total.value(), 2));
-            t.push(row);
-        }
-    }
-    if let Some(arm) = arms.first() {
-        let mut row = vec!["instances".to_string(), "ADE/FDE (ACE pairs)".to_string()];
-        let mut n = (0, 0);
-        for s in &arm.per_sequence {
-            row.push(format!("{} ({})", s.ade.count(), s.ace.count()));
-            n.0 += s.ade.count();
-            n.1 += s.ace.count();
-        }
-        row.push(format!("{} ({})", n.0, n.1));
-        t.push(row);
-    }
-    t
 }

@@ -1,0 +1,69 @@
+//! The paper's Table IV layout: ADE, FDE and ACE per sequence and their weighted average (per
+//! forecast), one row per arm, optionally beside published reference rows.
+
+use dynotraj_core::metrics::{ForecastScores, Mean};
+
+use super::{fmt_opt, Table};
+
+/// One arm's scores, one entry per sequence (in the table's column order).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ArmScores {
+    /// Row label.
+    pub label: String,
+    /// Scores per sequence.
+    pub per_sequence: Vec<ForecastScores>,
+}
+
+/// Published figures to print beside measured rows: per metric, per sequence (aligned with the
+/// table's columns; `None` where not published) and the average.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceRow {
+    /// Row label, e.g. "paper: GT".
+    pub label: String,
+    /// (ADE, FDE, ACE) per column.
+    pub per_sequence: Vec<Option<[f64; 3]>>,
+    /// (ADE, FDE, ACE) averages.
+    pub average: [f64; 3],
+}
+
+/// Builds the table: for each metric, the measured arms then the reference rows; a last row
+/// with the instance (and ACE pair) counts of the first arm.
+#[must_use]
+pub fn forecast_table(ids: &[String], arms: &[ArmScores], references: &[ReferenceRow]) -> Table {
+    let mut headers = vec!["metric".to_string(), "arm".to_string()];
+    headers.extend(ids.iter().cloned());
+    headers.push("avg".into());
+    let mut t = Table::new(headers);
+    type Metric = fn(&ForecastScores) -> &Mean;
+    let metrics: [(&str, Metric); 3] = [("ADE", |s| &s.ade), ("FDE", |s| &s.fde), ("ACE", |s| &s.ace)];
+    for (m, (metric, get)) in metrics.into_iter().enumerate() {
+        for arm in arms {
+            let mut row = vec![metric.to_string(), arm.label.clone()];
+            let mut total = Mean::new();
+            for s in &arm.per_sequence {
+                row.push(fmt_opt(get(s).value(), 2));
+                total.merge(get(s));
+            }
+            row.push(fmt_opt(total.value(), 2));
+            t.push(row);
+        }
+        for r in references {
+            let mut row = vec![metric.to_string(), r.label.clone()];
+            row.extend(r.per_sequence.iter().map(|v| fmt_opt(v.map(|v| v[m]), 2)));
+            row.push(format!("{:.2}", r.average[m]));
+            t.push(row);
+        }
+    }
+    if let Some(arm) = arms.first() {
+        let mut row = vec!["instances".to_string(), "ADE/FDE (ACE pairs)".to_string()];
+        let mut n = (0, 0);
+        for s in &arm.per_sequence {
+            row.push(format!("{} ({})", s.ade.count(), s.ace.count()));
+            n.0 += s.ade.count();
+            n.1 += s.ace.count();
+        }
+        row.push(format!("{} ({})", n.0, n.1));
+        t.push(row);
+    }
+    t
+}
