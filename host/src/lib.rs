@@ -1,5 +1,6 @@
 //! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
 
+pub mod estimate;
 pub mod evaluate;
 pub mod model_file;
 pub mod scene;

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod common;
 pub mod dataset;
+pub mod estimate;
 pub mod eval;
 
 use clap::{Parser, Subcommand};
@@ -26,6 +27,8 @@ pub enum Command {
     Dataset(dataset::DatasetArgs),
     /// ADE, FDE and ACE of a predictor on a source, per sequence and weighted (Table IV).
     Eval(eval::EvalArgs),
+    /// The estimator on the KITTI-driven simulator: camera and object RPE (Table III).
+    Estimate(estimate::EstimateArgs),
     /// Inference time per object and memory of the predictor, float and int8.
     Bench(bench::BenchArgs),
 }
@@ -38,6 +41,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Dataset(a) => dataset::run(&a),
         Command::Eval(a) => eval::run(&a),
+        Command::Estimate(a) => estimate::run(&a),
         Command::Bench(a) => bench::run(&a),
     }
 }

@@ -1,0 +1,276 @@
+//! `dynotraj estimate`: the DynoSAM-style estimator on the track-level simulator driven by real
+//! KITTI sequences; prints the paper's Table III (camera and object RPE) for the frame-to-frame,
+//! causal and smoothed estimates, the smoothness of object trajectories against the KITTI
+//! labels, and optionally writes pose files and logs. `--bench` times the estimator per frame.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use clap::Args;
+use dynotraj_core::estimate::SmootherParams;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::wire::ObjectClass;
+
+use super::common::progress;
+use crate::estimate::evaluate::{evaluate_sequence, EvalOptions, SequenceResult};
+use crate::estimate::files::write_run;
+use crate::estimate::Kind;
+use crate::kitti::TrackingDir;
+use crate::report::{fmt_opt, Format, Table};
+
+/// The paper's Table III: DynoSAM's averages on real KITTI.
+pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
+
+/// Options of `dynotraj estimate`.
+#[derive(Debug, Args)]
+pub struct EstimateArgs {
+    /// A KITTI tracking split folder (label_02/, calib/, ego poses), e.g.
+    /// ../shared/kitti/tracking/training. Its labels and ego poses drive the simulator.
+    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR")]
+    pub kitti: PathBuf,
+    /// Sequences, comma-separated (default: every sequence in the folder).
+    #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
+    pub sequences: Vec<String>,
+    /// Folder for pose files (TUM and KITTI, camera and objects) and the per-frame CSV log, one
+    /// sub-folder per sequence.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
+    /// depend on it).
+    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    pub rate: f32,
+    /// Object classes placed in the scene (KITTI type names, comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist,Pedestrian", value_name = "LIST")]
+    pub classes: Vec<String>,
+    /// An object is scored when its true motion averages at least this many metres per frame.
+    #[arg(long, default_value_t = 0.1, value_name = "METRES")]
+    pub min_step: f64,
+    /// Pixel noise of the simulated tracks, pixels.
+    #[arg(long, default_value_t = 0.5)]
+    pub pixel_sigma: f64,
+    /// Disparity noise of the simulated tracks, pixels (depth noise grows with depth squared).
+    #[arg(long, default_value_t = 0.5)]
+    pub disparity_sigma: f64,
+    /// Share of outlier tracks per frame.
+    #[arg(long, default_value_t = 0.05)]
+    pub outliers: f64,
+    /// Mean track lifetime in frames (0: unlimited).
+    #[arg(long, default_value_t = 40)]
+    pub track_lifetime: usize,
+    /// No noise, outliers or track turnover at all.
+    #[arg(long)]
+    pub noise_free: bool,
+    /// Object smoother: standard deviation of the change of per-frame translation, metres
+    /// (DynoSAM: 0.2).
+    #[arg(long, default_value_t = SmootherParams::DYNOSAM_OBJECT.sigma_translation)]
+    pub object_sigma_t: f32,
+    /// Object smoother: standard deviation of the change of per-frame rotation, radians
+    /// (DynoSAM: 0.01).
+    #[arg(long, default_value_t = SmootherParams::DYNOSAM_OBJECT.sigma_rotation)]
+    pub object_sigma_r: f32,
+    /// Seed of the simulator and of RANSAC.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Use at most this many frames of each sequence.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// Also print the estimator's counters per sequence.
+    #[arg(long)]
+    pub counters: bool,
+    /// Output format of the tables.
+    #[arg(long, value_enum, default_value_t = Format::Md)]
+    pub format: Format,
+}
+
+impl EstimateArgs {
+    /// The evaluation options.
+    ///
+    /// # Errors
+    /// A bad class name or rate.
+    pub fn options(&self) -> anyhow::Result<EvalOptions> {
+        anyhow::ensure!(self.rate.is_finite() && self.rate > 0.0, "--rate: expected a positive frame rate in Hz, found {}", self.rate);
+        let classes = self
+            .classes
+            .iter()
+            .map(|c| ObjectClass::from_kitti_name(c.trim()).with_context(|| format!("--classes: `{c}` is not a KITTI type")))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let noise = |v: f64| if self.noise_free { 0.0 } else { v };
+        let defaults = dynotraj_core::estimate::EstimatorParams::kitti(dynotraj_core::estimate::Intrinsics::KITTI_0926, 0.1);
+        Ok(EvalOptions {
+            dt: 1.0 / self.rate,
+            classes,
+            min_step_m: self.min_step,
+            seed: self.seed,
+            pixel_sigma: noise(self.pixel_sigma),
+            disparity_sigma: noise(self.disparity_sigma),
+            outlier_fraction: noise(self.outliers),
+            track_lifetime: if self.noise_free { 0 } else { self.track_lifetime },
+            object_smoother: SmootherParams { sigma_translation: self.object_sigma_t, sigma_rotation: self.object_sigma_r },
+            camera_smoother: defaults.camera_smoother,
+            max_frames: self.frames,
+        })
+    }
+}
+
+/// Runs every sequence, prints the tables and writes the files.
+///
+/// # Errors
+/// Loading or writing errors, named.
+pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
+    let results = evaluate(args)?;
+    for t in tables(&results) {
+        println!("{}", t.render(args.format));
+    }
+    if args.counters {
+        println!("{}", counters_table(&results).render(args.format));
+    }
+    if let Some(out) = &args.out {
+        for r in &results {
+            let dir = out.join(&r.id);
+            write_run(&dir, &r.sim, &r.run)?;
+            eprintln!("wrote {}", dir.display());
+        }
+    }
+    Ok(())
+}
+
+/// Loads, simulates, estimates and scores the requested sequences.
+///
+/// # Errors
+/// Loading errors, named.
+pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
+    let opt = args.options()?;
+    let dir = TrackingDir::open(&args.kitti)?;
+    let ids: Vec<String> = if args.sequences.is_empty() { dir.sequences()? } else { args.sequences.clone() };
+    let bar = progress(ids.len() as u64, "estimating");
+    let mut out = Vec::new();
+    for id in &ids {
+        bar.set_message(id.clone());
+        let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
+        out.push(evaluate_sequence(id, &data, &opt));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(out)
+}
+
+/// The tables of `results`: Table III per kind, then smoothness.
+#[must_use]
+pub fn tables(results: &[SequenceResult]) -> Vec<Table> {
+    let mut out: Vec<Table> = Kind::ALL.iter().enumerate().map(|(k, kind)| table_iii(results, k, *kind)).collect();
+    out.push(smoothness_table(results));
+    out
+}
+
+/// The paper's Table III layout for one kind of estimate.
+#[must_use]
+pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
+    let label = match kind {
+        Kind::FrameToFrame => "frame-to-frame",
+        Kind::Causal => "causal (smoother, newest frame)",
+        Kind::Smoothed => "smoothed (fixed lag 19)",
+    };
+    let mut t = Table::new([
+        format!("sequence ({label})"),
+        "frames".into(),
+        "camera RPE_t (m)".into(),
+        "camera RPE_r (deg)".into(),
+        "objects".into(),
+        "object RPE_t (m)".into(),
+        "object RPE_r (deg)".into(),
+    ]);
+    let mut sums = [0.0f64; 4];
+    let mut counts = [0usize; 4];
+    for r in results {
+        let s = r.scores.kinds[k];
+        let vals = [
+            s.camera.map(|c| c.translation),
+            s.camera.map(|c| c.rotation.to_degrees()),
+            s.object.map(|o| o.translation),
+            s.object.map(|o| o.rotation.to_degrees()),
+        ];
+        for (i, v) in vals.iter().enumerate() {
+            if let Some(v) = v {
+                sums[i] += v;
+                counts[i] += 1;
+            }
+        }
+        t.push([
+            r.id.clone(),
+            r.frames.to_string(),
+            fmt_opt(vals[0], 3),
+            fmt_opt(vals[1], 3),
+            format!("{}/{}", s.objects, r.scores.moving_objects),
+            fmt_opt(vals[2], 3),
+            fmt_opt(vals[3], 3),
+        ]);
+    }
+    let mean = |i: usize| (counts[i] > 0).then(|| sums[i] / counts[i] as f64);
+    t.push(["average".to_string(), String::new(), fmt_opt(mean(0), 3), fmt_opt(mean(1), 3), String::new(), fmt_opt(mean(2), 3), fmt_opt(mean(3), 3)]);
+    let d = DYNOSAM_TABLE_III;
+    t.push([
+        "DynoSAM on real KITTI (paper)".to_string(),
+        String::new(),
+        format!("{:.2}", d[0]),
+        format!("{:.2}", d[1]),
+        String::new(),
+        format!("{:.2}", d[2]),
+        format!("{:.2}", d[3]),
+    ]);
+    t
+}
+
+/// Mean |delta heading| (deg) and |delta speed| (m/s) between consecutive frames of moving
+/// objects: KITTI labels and simulator truth on the smoothed estimate's frame pairs, and each
+/// estimate on its own pairs.
+#[must_use]
+pub fn smoothness_table(results: &[SequenceResult]) -> Table {
+    let names = ["KITTI labels", "simulator truth", "frame-to-frame", "causal", "smoothed"];
+    let mut headers = vec!["sequence".to_string()];
+    for n in names {
+        headers.push(format!("{n} |dh| (deg)"));
+        headers.push(format!("{n} |dv| (m/s)"));
+    }
+    let mut t = Table::new(headers);
+    let mut sums = [(0.0f64, 0.0f64, 0usize); 5];
+    for r in results {
+        let mut row = vec![r.id.clone()];
+        for (i, s) in r.smoothness.iter().enumerate() {
+            let ok = s.pairs > 0;
+            row.push(fmt_opt(ok.then(|| s.heading.to_degrees()), 3));
+            row.push(fmt_opt(ok.then_some(s.speed), 3));
+            if ok {
+                sums[i].0 += s.heading.to_degrees() * s.pairs as f64;
+                sums[i].1 += s.speed * s.pairs as f64;
+                sums[i].2 += s.pairs;
+            }
+        }
+        t.push(row);
+    }
+    let mut row = vec!["all (pair-weighted)".to_string()];
+    for (h, v, n) in sums {
+        row.push(fmt_opt((n > 0).then(|| h / n as f64), 3));
+        row.push(fmt_opt((n > 0).then(|| v / n as f64), 3));
+    }
+    t.push(row);
+    t
+}
+
+/// The estimator's counters per sequence (only the non-zero ones).
+#[must_use]
+pub fn counters_table(results: &[SequenceResult]) -> Table {
+    let mut t = Table::new(["sequence", "counters (non-zero)", "estimate time (s)"]);
+    for r in results {
+        let text = format!("{:?}", r.stats);
+        let nonzero: Vec<String> = text
+            .trim_start_matches("EstimatorStats {")
+            .trim_end_matches('}')
+            .split(',')
+            .map(str::trim)
+            .filter(|kv| !kv.ends_with(": 0") && !kv.is_empty())
+            .map(str::to_string)
+            .collect();
+        t.push([r.id.clone(), nonzero.join(" "), format!("{:.2}", r.estimate_seconds)]);
+    }
+    t
+}

@@ -1,0 +1,136 @@
+//! Pose files and the per-frame log of an estimator run, laid out for `evo`:
+//!
+//! ```text
+//! <dir>/camera_truth.{tum,kitti}            true camera poses, every frame
+//! <dir>/camera_<kind>.{tum,kitti}           estimated camera poses (kind: f2f, causal, smoothed)
+//! <dir>/objects/<id>_truth.tum              true object poses, frames labelled
+//! <dir>/objects/<id>_<kind>.tum             estimated object poses, frames estimated
+//! <dir>/objects/<id>_smoothed.kitti         smoothed poses on the frames with a truth pose,
+//! <dir>/objects/<id>_truth.kitti            and the truth on the same frames (KITTI files have
+//!                                           no timestamps, so evo pairs them by line)
+//! <dir>/log.csv                             one row per frame, kind and entity
+//! ```
+//!
+//! `<id>` is the wire object id (KITTI track id + 1). Poses are `T_world_x` in the camera
+//! convention of the first frame.
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context as _;
+use dynotraj_core::estimate::PoseEstimate;
+use dynotraj_core::geometry::Pose3;
+use dynotraj_fixtures::track_sim::SimFrame;
+use nalgebra::Isometry3;
+
+use super::runner::{EstimatorRun, Kind};
+use crate::kitti::{write_poses, write_tum};
+
+fn f64_pose(p: &Pose3) -> Isometry3<f64> {
+    p.cast::<f64>()
+}
+
+fn seconds(us: u64) -> f64 {
+    us as f64 * 1e-6
+}
+
+/// Writes the pose files and the log of `run` on `frames` into `dir` (created if needed).
+///
+/// # Errors
+/// A file or folder that cannot be written, named.
+pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow::Result<()> {
+    let objects_dir = dir.join("objects");
+    std::fs::create_dir_all(&objects_dir).with_context(|| format!("creating {}", objects_dir.display()))?;
+    let truth: Vec<(f64, Isometry3<f64>)> = frames.iter().map(|f| (seconds(f.timestamp_us), f.camera)).collect();
+    write_tum(dir.join("camera_truth.tum"), &truth)?;
+    write_poses(dir.join("camera_truth.kitti"), &truth.iter().map(|p| p.1).collect::<Vec<_>>())?;
+    for kind in Kind::ALL {
+        let est: Vec<(f64, Isometry3<f64>)> =
+            run.of(kind).iter().flatten().map(|e| (seconds(e.timestamp_us), f64_pose(&e.camera))).collect();
+        write_tum(dir.join(format!("camera_{}.tum", kind.name())), &est)?;
+        write_poses(dir.join(format!("camera_{}.kitti", kind.name())), &est.iter().map(|p| p.1).collect::<Vec<_>>())?;
+    }
+    let ids: BTreeSet<u16> = frames.iter().flat_map(|f| f.objects.iter().map(|o| o.object_id)).collect();
+    for id in ids {
+        let truth: Vec<(f64, Isometry3<f64>)> = frames
+            .iter()
+            .filter_map(|f| f.objects.iter().find(|o| o.object_id == id).map(|o| (seconds(f.timestamp_us), o.pose)))
+            .collect();
+        write_tum(objects_dir.join(format!("{id}_truth.tum")), &truth)?;
+        for kind in Kind::ALL {
+            let est: Vec<(f64, Isometry3<f64>)> = object_poses(run.of(kind), id).map(|(_, t, p)| (t, p)).collect();
+            if !est.is_empty() {
+                write_tum(objects_dir.join(format!("{id}_{}.tum", kind.name())), &est)?;
+            }
+        }
+        let (mut est, mut tru) = (Vec::new(), Vec::new());
+        for (f, e) in frames.iter().zip(run.of(Kind::Smoothed)) {
+            let t = f.objects.iter().find(|o| o.object_id == id);
+            let p = e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id));
+            if let (Some(t), Some(p)) = (t, p) {
+                tru.push(t.pose);
+                est.push(f64_pose(&p.pose));
+            }
+        }
+        if !est.is_empty() {
+            write_poses(objects_dir.join(format!("{id}_smoothed.kitti")), &est)?;
+            write_poses(objects_dir.join(format!("{id}_truth.kitti")), &tru)?;
+        }
+    }
+    write_log(&dir.join("log.csv"), frames, run)
+}
+
+/// (frame, seconds, pose) of object `id` in a kind's estimates.
+fn object_poses(est: &[Option<PoseEstimate>], id: u16) -> impl Iterator<Item = (u32, f64, Isometry3<f64>)> + '_ {
+    est.iter()
+        .flatten()
+        .filter_map(move |e| e.objects.iter().find(|o| o.object_id == id).map(|o| (e.frame, seconds(e.timestamp_us), f64_pose(&o.pose))))
+}
+
+/// Formats a pose as `tx,ty,tz,qx,qy,qz,qw`.
+fn pose_cols(p: &Isometry3<f64>) -> String {
+    let t = p.translation.vector;
+    let q = p.rotation.coords;
+    format!("{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9}", t.x, t.y, t.z, q.x, q.y, q.z, q.w)
+}
+
+/// The per-frame CSV log: for every frame, the truth and each estimate kind, one row for the
+/// camera and one per object, with pose, world motion and bird's-eye state.
+fn write_log(path: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow::Result<()> {
+    let mut s = String::from(
+        "frame,time_s,kind,entity,segment,tx,ty,tz,qx,qy,qz,qw,motion_tx,motion_ty,motion_tz,motion_qx,motion_qy,motion_qz,motion_qw,bev_x,bev_y,heading,speed,heading_rate\n",
+    );
+    let empty_motion = ",,,,,,";
+    let empty_bev = ",,,,";
+    for (i, f) in frames.iter().enumerate() {
+        let t = seconds(f.timestamp_us);
+        let _ = writeln!(s, "{},{t:.6},truth,camera,,{},{empty_motion},{empty_bev}", f.frame, pose_cols(&f.camera));
+        for o in &f.objects {
+            let _ = writeln!(s, "{},{t:.6},truth,{},,{},{empty_motion},{empty_bev}", f.frame, o.object_id, pose_cols(&o.pose));
+        }
+        for kind in Kind::ALL {
+            let Some(e) = &run.of(kind)[i] else { continue };
+            let _ = writeln!(s, "{},{t:.6},{},camera,,{},{empty_motion},{empty_bev}", f.frame, kind.name(), pose_cols(&f64_pose(&e.camera)));
+            for o in &e.objects {
+                let b = o.bev;
+                let _ = writeln!(
+                    s,
+                    "{},{t:.6},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6}",
+                    f.frame,
+                    kind.name(),
+                    o.object_id,
+                    o.segment,
+                    pose_cols(&f64_pose(&o.pose)),
+                    pose_cols(&f64_pose(&o.motion)),
+                    b.x,
+                    b.y,
+                    b.heading,
+                    b.speed,
+                    o.heading_rate
+                );
+            }
+        }
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}

@@ -1,0 +1,20 @@
+//! Running the core estimator on the track-level simulator driven by real KITTI sequences, and
+//! scoring it: the paper's Table III (camera and object RPE), trajectory smoothness, pose files.
+//!
+//! - [`input`]: a loaded KITTI sequence as simulator input (label boxes, ego poses, calibration).
+//! - [`runner`]: simulate, stream every frame through the wire (frame parts, encode, decode) into
+//!   the estimator, and collect its three outputs per frame with the truth.
+//! - [`score`]: RPE (Sturm et al., delta = 1 frame) of the camera and of every moving object, and
+//!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
+//! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
+//! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
+
+pub mod evaluate;
+pub mod files;
+pub mod input;
+pub mod runner;
+pub mod score;
+
+pub use input::{sim_input, SimInput};
+pub use runner::{run_estimator, EstimatorRun, Kind};
+pub use score::{score_run, smoothness, RunScores, Smoothness};

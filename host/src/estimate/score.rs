@@ -1,0 +1,171 @@
+//! Scores of an estimator run against the simulator's truth: RPE (translation in metres,
+//! rotation in radians; delta = 1 frame, as evo computes it) of the camera and of the moving
+//! objects, per output kind; and the smoothness of object trajectories.
+//!
+//! Object RPE pools the frame pairs of every moving object (each pair weighs the same): a pair
+//! is two consecutive frames in which the object has both an estimate (of the same segment: an
+//! object whose frame was re-oriented starts a new one) and a truth pose. The estimate's object
+//! frame (origin at the centroid of its first points, x along its first motion) differs from
+//! the truth's box frame by a fixed offset, which RPE does not see except through rotation.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use dynotraj_core::estimate::PoseEstimate;
+use dynotraj_core::geometry::angle_diff;
+use dynotraj_core::metrics::{RpeAccumulator, RpeResult};
+use dynotraj_core::BevState;
+use dynotraj_fixtures::track_sim::SimFrame;
+
+use super::runner::{EstimatorRun, Kind};
+
+/// RPE of one output kind.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KindScores {
+    /// Camera RPE.
+    pub camera: Option<RpeResult>,
+    /// Moving objects' RPE, pairs pooled.
+    pub object: Option<RpeResult>,
+    /// Moving objects with at least one scored pair.
+    pub objects: usize,
+}
+
+/// Scores of a run, per kind in [`Kind::ALL`] order.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RunScores {
+    /// Per kind: frame-to-frame, causal, smoothed.
+    pub kinds: [KindScores; 3],
+    /// Moving objects in the truth.
+    pub moving_objects: usize,
+}
+
+/// Ids of the objects whose truth moves at least `min_step_m` per frame on average.
+#[must_use]
+pub fn moving_objects(frames: &[SimFrame], min_step_m: f64) -> BTreeSet<u16> {
+    /// Path length, steps, and the last (frame index, position) per object.
+    type PathSum = (f64, usize, Option<(usize, nalgebra::Vector3<f64>)>);
+    let mut path: BTreeMap<u16, PathSum> = BTreeMap::new();
+    for (i, f) in frames.iter().enumerate() {
+        for o in &f.objects {
+            let e = path.entry(o.object_id).or_insert((0.0, 0, None));
+            let p = o.pose.translation.vector;
+            if let Some((j, q)) = e.2
+                && j + 1 == i
+            {
+                e.0 += (p - q).norm();
+                e.1 += 1;
+            }
+            e.2 = Some((i, p));
+        }
+    }
+    path.into_iter().filter(|(_, (len, steps, _))| *steps > 0 && len / *steps as f64 >= min_step_m).map(|(id, _)| id).collect()
+}
+
+/// RPE of every kind of `run` against the truth in `frames`, objects restricted to `moving`.
+#[must_use]
+pub fn score_run(frames: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>) -> RunScores {
+    let mut out = RunScores { moving_objects: moving.len(), ..RunScores::default() };
+    for (slot, kind) in out.kinds.iter_mut().zip(Kind::ALL) {
+        let est = run.of(kind);
+        let mut cam = RpeAccumulator::new();
+        for (f, e) in frames.iter().zip(est) {
+            match e {
+                Some(e) => cam.push(&f.camera.cast::<f32>(), &e.camera),
+                None => cam.break_segment(),
+            }
+        }
+        let mut all = RpeAccumulator::new();
+        let mut objects = 0;
+        for &id in moving {
+            let mut acc = RpeAccumulator::new();
+            let mut segment = None;
+            for (f, e) in frames.iter().zip(est) {
+                let truth = f.objects.iter().find(|o| o.object_id == id);
+                let estimate = e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id));
+                match (truth, estimate) {
+                    (Some(t), Some(o)) => {
+                        if segment.is_some_and(|s| s != o.segment) {
+                            acc.break_segment();
+                        }
+                        segment = Some(o.segment);
+                        acc.push(&t.pose.cast::<f32>(), &o.pose);
+                    }
+                    _ => {
+                        acc.break_segment();
+                        segment = None;
+                    }
+                }
+            }
+            if acc.result().is_some() {
+                objects += 1;
+                all.merge(&acc);
+            }
+        }
+        *slot = KindScores { camera: cam.result(), object: all.result(), objects };
+    }
+    out
+}
+
+/// Smoothness of bird's-eye trajectories: mean absolute change between consecutive frames.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Smoothness {
+    /// Mean |delta heading|, radians.
+    pub heading: f64,
+    /// Mean |delta speed|, m/s.
+    pub speed: f64,
+    /// Consecutive pairs counted.
+    pub pairs: usize,
+}
+
+/// Accumulates smoothness over pairs of consecutive states.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SmoothnessSum {
+    heading: f64,
+    speed: f64,
+    pairs: usize,
+}
+
+impl SmoothnessSum {
+    /// Adds the pair (`a` at frame k, `b` at frame k+1).
+    pub fn push(&mut self, a: &BevState, b: &BevState) {
+        let dh = f64::from(angle_diff(b.heading, a.heading).abs());
+        let dv = f64::from((b.speed - a.speed).abs());
+        if dh.is_finite() && dv.is_finite() {
+            self.heading += dh;
+            self.speed += dv;
+            self.pairs += 1;
+        }
+    }
+
+    /// Merges another sum.
+    pub fn merge(&mut self, o: &Self) {
+        self.heading += o.heading;
+        self.speed += o.speed;
+        self.pairs += o.pairs;
+    }
+
+    /// The means.
+    #[must_use]
+    pub fn result(&self) -> Smoothness {
+        let n = self.pairs.max(1) as f64;
+        Smoothness { heading: self.heading / n, speed: self.speed / n, pairs: self.pairs }
+    }
+}
+
+/// Smoothness of the `moving` objects' estimates in `est`, over pairs of consecutive frames of
+/// one segment with a known heading. Also returns the pairs used, as (object id, frame index of
+/// the first frame), so that a reference can be measured on the same pairs.
+#[must_use]
+pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (SmoothnessSum, Vec<(u16, usize)>) {
+    let mut sum = SmoothnessSum::default();
+    let mut pairs = Vec::new();
+    for (i, w) in est.windows(2).enumerate() {
+        let (Some(a), Some(b)) = (&w[0], &w[1]) else { continue };
+        for oa in a.objects.iter().filter(|o| moving.contains(&o.object_id) && o.heading_known) {
+            if let Some(ob) = b.objects.iter().find(|o| o.object_id == oa.object_id && o.segment == oa.segment && o.heading_known) {
+                sum.push(&oa.bev, &ob.bev);
+                pairs.push((oa.object_id, i));
+            }
+        }
+    }
+    (sum, pairs)
+}
