@@ -2,10 +2,12 @@
 
 pub mod estimate;
 pub mod evaluate;
+pub mod experiment;
 pub mod model_file;
 pub mod scene;
 pub mod sequence;
 pub mod report;
 pub mod cli;
 pub mod trajectory;
+pub mod train;
 pub mod kitti;

@@ -5,6 +5,8 @@ pub mod common;
 pub mod dataset;
 pub mod estimate;
 pub mod eval;
+pub mod experiment;
+pub mod train;
 
 use clap::{Parser, Subcommand};
 
@@ -29,8 +31,12 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// The estimator on the KITTI-driven simulator: camera and object RPE (Table III).
     Estimate(estimate::EstimateArgs),
+    /// Trains the predictor on every sequence but the excluded ones; writes the model blob.
+    Train(train::TrainArgs),
     /// Inference time per object and memory of the predictor, float and int8.
     Bench(bench::BenchArgs),
+    /// Leave-one-sequence-out training and testing per arm: the paper's Table IV.
+    Experiment(experiment::ExperimentArgs),
 }
 
 /// Runs the parsed command line.
@@ -42,6 +48,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Dataset(a) => dataset::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Estimate(a) => estimate::run(&a),
+        Command::Train(a) => train::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::Experiment(a) => experiment::run(&a),
     }
 }

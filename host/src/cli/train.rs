@@ -1,0 +1,143 @@
+//! `dynotraj train`: trains the predictor on every sequence but the excluded ones (one fold of
+//! the leave-one-sequence-out protocol) and writes the model blob and checkpoint.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use dynotraj_core::model::arch::Dims;
+use dynotraj_core::model::blob::Precision;
+
+use super::common::{progress, DataArgs};
+use crate::train::loss::LossConfig;
+use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
+use crate::trajectory::Source;
+
+/// Blob precisions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PrecisionArg {
+    /// 32-bit floats.
+    F32,
+    /// int8 weights with per-channel scales.
+    Int8,
+}
+
+impl From<PrecisionArg> for Precision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::F32 => Self::F32,
+            PrecisionArg::Int8 => Self::Int8,
+        }
+    }
+}
+
+/// Options of `dynotraj train`.
+#[derive(Debug, Args)]
+pub struct TrainArgs {
+    /// Data options.
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// Trajectory source for inputs and targets: gt (labels), gt-ekf (forward EKF: causal) or
+    /// gt-rts (fixed-lag RTS smoother: inputs have seen later frames).
+    #[arg(long, default_value = "gt", value_name = "SOURCE")]
+    pub source: Source,
+    /// Sequences held out of training (the fold's test sequences), comma-separated.
+    #[arg(long, value_delimiter = ',', required = true, value_name = "SEQ[,SEQ..]")]
+    pub exclude: Vec<String>,
+    /// Sequences to load, comma-separated (default: every sequence in the folder); the
+    /// excluded ones are then dropped.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub sequences: Vec<String>,
+    /// Output model blob. Also written: PATH.int8 (the int8 blob) and PATH.safetensors (the
+    /// checkpoint: every parameter, training-only ones too, and the f32 blob).
+    #[arg(long, value_name = "PATH")]
+    pub out: PathBuf,
+    /// Network widths: history encoder, edge encoder, latent modes, decoder.
+    #[arg(long, default_value = "32,32,5,64", value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
+    pub dims: Dims,
+    /// Most epochs (training stops earlier when the validation ADE has not improved for
+    /// --patience epochs; the best epoch's weights are kept).
+    #[arg(long, default_value_t = Hyper::default().epochs, value_name = "N")]
+    pub epochs: usize,
+    /// Epochs without a better validation ADE before stopping.
+    #[arg(long, default_value_t = Hyper::default().patience, value_name = "N")]
+    pub patience: usize,
+    /// Samples per optimiser step.
+    #[arg(long, default_value_t = Hyper::default().batch, value_name = "N")]
+    pub batch: usize,
+    /// Seed of the initial weights, the validation split and the shuffling.
+    #[arg(long, default_value_t = Hyper::default().seed, value_name = "N")]
+    pub seed: u64,
+    /// Adam's initial learning rate (decays by 0.9999 per step).
+    #[arg(long, default_value_t = Hyper::default().learning_rate, value_name = "RATE")]
+    pub lr: f64,
+    /// Standard deviation of the position noise floor of the likelihood, metres: error the
+    /// controls need not explain (label or estimator noise).
+    #[arg(long, default_value_t = LossConfig::default().position_floor_m, value_name = "METRES")]
+    pub position_floor: f32,
+    /// Precision of the blob written to PATH (PATH.int8 is always int8).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+}
+
+/// Parses "enc,edge,k,dec".
+fn parse_dims(s: &str) -> Result<Dims, String> {
+    let v: Vec<usize> = s.split(',').map(|p| p.trim().parse::<usize>().map_err(|e| format!("`{p}`: {e}"))).collect::<Result<_, _>>()?;
+    let [enc, edge, k, dec] = v[..] else { return Err(format!("expected 4 comma-separated widths enc,edge,k,dec, found {}", v.len())) };
+    let dims = Dims { enc, edge, k, dec };
+    if dims.is_supported() { Ok(dims) } else { Err(format!("{s}: widths must be 1..=64 (enc, edge), 1..=25 (k), 1..=128 (dec)")) }
+}
+
+/// Trains, writes the files and prints a one-line summary.
+///
+/// # Errors
+/// Loading errors, no training instances, I/O errors.
+pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
+    let dt = args.data.dt()?;
+    let rule = args.data.rule()?;
+    let sequences = args.data.load(&args.sequences)?;
+    for ex in &args.exclude {
+        if !sequences.iter().any(|s| &s.id == ex) {
+            log::warn!("--exclude {ex}: no such sequence was loaded");
+        }
+    }
+    anyhow::ensure!(args.position_floor > 0.0, "--position-floor: expected metres > 0, found {}", args.position_floor);
+    let loss = LossConfig { position_floor_m: args.position_floor, ..LossConfig::default() };
+    let hyper = Hyper { epochs: args.epochs, batch: args.batch, seed: args.seed, patience: args.patience, learning_rate: args.lr, loss, ..Hyper::default() };
+    let config = TrainConfig { dt, rule, dims: args.dims, hyper, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
+    let bar = progress(0, "training");
+    let mut val = f32::NAN;
+    let model = train_fold_with(&config, &mut |e| match e {
+        Event::Step { step, total, loss } => {
+            bar.set_length(total as u64);
+            bar.set_position(step as u64);
+            bar.set_message(format!("loss {loss:.2} val ADE {val:.3}"));
+        }
+        Event::Epoch(r) => {
+            val = r.val_ade;
+            log::info!("epoch {}: loss {:.3} log-lik {:.3} KL {:.3} beta {:.1} val ADE {:.3} ({:.1} s)", r.epoch, r.loss, r.log_likelihood, r.kl, r.beta, r.val_ade, r.seconds);
+        }
+    })?;
+    bar.finish_and_clear();
+    let files = model.save(&args.out)?;
+    if args.precision == PrecisionArg::Int8 {
+        std::fs::write(&files.f32_blob, model.blob(Precision::Int8)?)?;
+    }
+    let r = &model.report;
+    println!(
+        "trained {} on {} ({} params): {} train / {} val instances, {} epochs (best {}), best val ADE {:.3} m (constant velocity {:.3} m), {:.1} s; wrote {}, {}, {}",
+        args.source,
+        r.sequences.join(","),
+        args.dims.parameters(),
+        r.train_instances,
+        r.val_instances,
+        r.epochs,
+        r.best_epoch,
+        r.best_val_ade,
+        r.val_cv_ade,
+        r.seconds,
+        files.f32_blob.display(),
+        files.int8_blob.display(),
+        files.checkpoint.display()
+    );
+    Ok(())
+}

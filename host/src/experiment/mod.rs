@@ -1,0 +1,134 @@
+//! Leave-one-sequence-out experiments: for each arm (trajectory source) and each test sequence,
+//! train on every other sequence, then score the float and the int8 model on the held-out one
+//! beside the baselines and the paper's rows.
+
+pub mod paper;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use dynotraj_core::model::blob::Precision;
+use dynotraj_core::model::Dims;
+use dynotraj_core::predict::Baseline;
+
+use crate::evaluate::{score_sequence, Forecaster};
+use crate::model_file::ModelFile;
+use crate::report::{forecast_table, ArmScores, Table};
+use crate::scene::Scene;
+use crate::sequence::GroundTruthSequence;
+use crate::train::{train_fold_with, Event, TrainConfig};
+use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct ExperimentConfig {
+    /// Arms (sources) to train and test.
+    pub arms: Vec<Source>,
+    /// Test sequences; each is held out in turn.
+    pub test_sequences: Vec<String>,
+    /// Model widths.
+    pub dims: Dims,
+    /// Most epochs per fold (early stopping may end sooner); `None` keeps the trainer's default.
+    pub epochs: Option<usize>,
+    /// Frame period, seconds.
+    pub dt: f32,
+    /// Eligibility.
+    pub rule: EligibilityRule,
+    /// Where to keep each fold's blobs (`<arm>-<seq>.blob` and `.blob.int8`), if anywhere.
+    pub out: Option<PathBuf>,
+    /// Seed of weights, shuffling and splits.
+    pub seed: u64,
+}
+
+/// What one fold took.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FoldReport {
+    /// Arm.
+    pub arm: Source,
+    /// Held-out sequence.
+    pub sequence: String,
+    /// Training instances.
+    pub train_instances: usize,
+    /// Best validation ADE, metres.
+    pub val_ade: f32,
+    /// Seconds of training.
+    pub seconds: f32,
+}
+
+/// The experiment's results.
+#[derive(Debug, Clone)]
+pub struct ExperimentResult {
+    /// Table IV layout: learned f32 and int8 per arm, the baselines, the paper's rows.
+    pub table: Table,
+    /// Per-fold training reports.
+    pub folds: Vec<FoldReport>,
+    /// Wall-clock seconds of the whole run.
+    pub seconds: f64,
+}
+
+/// Runs the experiment on `sequences` (every loaded sequence is a training candidate).
+///
+/// # Errors
+/// A test sequence that is not loaded; a fold with no training data; I/O errors for --out.
+pub fn run_experiment(sequences: &[GroundTruthSequence], config: &ExperimentConfig, progress: &mut dyn FnMut(&str, Event)) -> anyhow::Result<ExperimentResult> {
+    let start = Instant::now();
+    let tests: Vec<&GroundTruthSequence> = config
+        .test_sequences
+        .iter()
+        .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| format!("test sequence {id} is not in the data folder")))
+        .collect::<anyhow::Result<_>>()?;
+    if let Some(dir) = &config.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let runs: Vec<_> = tests.iter().map(|s| eligible_runs(&s.tracks, &config.rule)).collect();
+    let mut arms = Vec::new();
+    let mut folds = Vec::new();
+    for &source in &config.arms {
+        let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(&s.tracks, source, config.dt)).collect();
+        let mut learned = [
+            ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },
+            ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },
+        ];
+        for ((test, seq_runs), scene) in tests.iter().zip(&runs).zip(&scenes) {
+            let mut train = TrainConfig::new(sequences, vec![test.id.clone()], source);
+            train.dt = config.dt;
+            train.rule = config.rule.clone();
+            train.dims = config.dims;
+            train.hyper.seed = config.seed;
+            if let Some(e) = config.epochs {
+                train.hyper.epochs = e;
+            }
+            let label = format!("{source} / {}", test.id);
+            let model = train_fold_with(&train, &mut |e| progress(&label, e)).with_context(|| format!("training fold {label}"))?;
+            folds.push(FoldReport {
+                arm: source,
+                sequence: test.id.clone(),
+                train_instances: model.report.train_instances,
+                val_ade: model.report.best_val_ade,
+                seconds: model.report.seconds,
+            });
+            for (arm, precision) in learned.iter_mut().zip([Precision::F32, Precision::Int8]) {
+                let bytes = model.blob(precision)?;
+                if let Some(dir) = &config.out {
+                    let ext = if precision == Precision::F32 { "blob" } else { "blob.int8" };
+                    let path = dir.join(format!("{source}-{}.{ext}", test.id));
+                    std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
+                }
+                let file = ModelFile::from_bytes(bytes, &label)?;
+                let mut predictor = file.predictor();
+                arm.per_sequence.push(score_sequence(seq_runs, scene, &mut predictor, config.dt).scores);
+            }
+        }
+        arms.extend(learned);
+        for (name, baseline) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
+            let mut b = baseline;
+            let per_sequence = runs.iter().zip(&scenes).map(|(r, sc)| score_sequence(r, sc, &mut b as &mut dyn Forecaster, config.dt).scores).collect();
+            arms.push(ArmScores { label: format!("{name} on {source}"), per_sequence });
+        }
+    }
+    let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
+    let ids: Vec<String> = tests.iter().map(|s| s.id.clone()).collect();
+    let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
+    Ok(ExperimentResult { table, folds, seconds: start.elapsed().as_secs_f64() })
+}

@@ -1,0 +1,176 @@
+//! Training samples: one per test instance of every eligible run, through one source.
+//!
+//! A sample holds what inference computes from the history (the core's own feature code, so
+//! training and the ECU cannot drift apart) and the target: the source's next
+//! [`HORIZON`] positions in the agent frame. Each source is trained on its own future, as the
+//! paper scores it.
+//!
+//! Histories: at instance s the agent's history is states[s - MAX_HISTORY ..= s], clipped at
+//! the run start (2 to 7 states, oldest first). Neighbours are every other track of the
+//! sequence through the same source, split at gaps ([`crate::scene::Scene`], which evaluation
+//! uses too), each contributing its states over the same frames if it is present at frame s;
+//! `neighbour_sum` keeps the closest within the radius.
+
+use dynotraj_core::limits::{HORIZON, MAX_HISTORY, MIN_HISTORY};
+use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
+use dynotraj_core::model::features::{initial_control, neighbour_sum, state_features, AgentFrame, StepFeatures};
+use dynotraj_core::{BevState, Point2};
+use rand::rngs::SmallRng;
+use rand::seq::SliceRandom as _;
+use rand::SeedableRng as _;
+
+use crate::scene::Scene;
+use crate::sequence::GroundTruthSequence;
+use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+
+/// One training instance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    /// The run it comes from (a global index): samples of one run stay on one side of the
+    /// validation split, since consecutive instances of a run are nearly the same.
+    pub group: usize,
+    /// Real history rows (2..=MAX_STEPS): rows `steps..` of `own` and `neighbours` are zero.
+    pub steps: usize,
+    /// Own features, oldest first (`state_features`).
+    pub own: StepFeatures,
+    /// Summed neighbour features aligned with `own` (`neighbour_sum`).
+    pub neighbours: StepFeatures,
+    /// The decoder's first control input (`initial_control` of the newest row).
+    pub initial_control: [f32; 2],
+    /// Current speed, m/s (the unicycle's initial speed).
+    pub speed: f32,
+    /// Future positions, frames s+1 ..= s+HORIZON, agent frame, metres.
+    pub future: [Point2; HORIZON],
+}
+
+impl Sample {
+    /// The newest own feature row.
+    #[must_use]
+    pub fn current_row(&self) -> [f32; FEATURES] {
+        self.own.get(self.steps.saturating_sub(1)).copied().unwrap_or([0.0; FEATURES])
+    }
+
+    /// ADE (metres) of the constant-velocity forecast from the last two positions (core's
+    /// `constant_velocity`), the reference a learned forecast should beat.
+    #[must_use]
+    pub fn constant_velocity_ade(&self) -> f32 {
+        let prev = self.own.get(self.steps.saturating_sub(2)).copied().unwrap_or([0.0; FEATURES]);
+        // The current position is the agent frame's origin; the step is minus the previous one.
+        let (dx, dy) = (-prev[0] * POS_SCALE, -prev[1] * POS_SCALE);
+        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * dx - p.x).hypot((k + 1) as f32 * dy - p.y)).sum();
+        sum / HORIZON as f32
+    }
+}
+
+/// The sample of instance `s` of `states` (one source's consecutive states), with neighbour
+/// histories `neighbours` ending at the same frame. `None` when s has no earlier frame or fewer
+/// than [`HORIZON`] later ones, or a state is not finite.
+#[must_use]
+pub fn sample_at(states: &[BevState], s: usize, neighbours: &[&[BevState]], dt: f32, group: usize) -> Option<Sample> {
+    if s < MIN_HISTORY {
+        return None;
+    }
+    let history = states.get(s.saturating_sub(MAX_HISTORY)..=s)?;
+    let future_states = states.get(s + 1..=s + HORIZON)?;
+    if !history.iter().chain(future_states).all(BevState::is_finite) {
+        return None;
+    }
+    let current = history.last()?;
+    let frame = AgentFrame::of(current);
+    let mut own = [[0.0; FEATURES]; MAX_STEPS];
+    let steps = state_features(history, &frame, dt, &mut own);
+    let mut summed = [[0.0; FEATURES]; MAX_STEPS];
+    let finite: Vec<&[BevState]> = neighbours.iter().copied().filter(|h| h.iter().all(BevState::is_finite)).collect();
+    neighbour_sum(&finite, &frame, steps, dt, &mut summed);
+    let mut future = [Point2::default(); HORIZON];
+    for (f, st) in future.iter_mut().zip(future_states) {
+        *f = frame.to_agent(&st.position());
+    }
+    let initial_control = initial_control(own.get(steps - 1)?);
+    Some(Sample { group, steps, own, neighbours: summed, initial_control, speed: current.speed, future })
+}
+
+/// The samples of every eligible run of `seq` under `rule`, through `source` at frame period
+/// `dt`; run k of the sequence gets group `first_group + k`. Returns the samples and the number
+/// of runs.
+#[must_use]
+pub fn sequence_samples(seq: &GroundTruthSequence, source: Source, dt: f32, rule: &EligibilityRule, first_group: usize) -> (Vec<Sample>, usize) {
+    let scene = Scene::new(&seq.tracks, source, dt);
+    let runs = eligible_runs(&seq.tracks, rule);
+    let mut out = Vec::new();
+    for (k, run) in runs.iter().enumerate() {
+        let states = source.apply(&run.states, dt);
+        for s in run.instances() {
+            let frame = run.first_frame + s as u32;
+            let neighbours = scene.neighbours_at(run.track_id, frame);
+            out.extend(sample_at(&states, s, &neighbours, dt, first_group + k));
+        }
+    }
+    (out, runs.len())
+}
+
+/// Training and validation samples.
+#[derive(Debug, Clone, Default)]
+pub struct Split {
+    /// Samples to fit.
+    pub train: Vec<Sample>,
+    /// Held-out samples for early stopping.
+    pub validation: Vec<Sample>,
+}
+
+/// Splits `samples` by run: a seeded shuffle of the `groups` run indices puts
+/// round(`fraction` * groups) of them (at least one when there are two or more runs, never
+/// all) in validation.
+#[must_use]
+pub fn split_by_run(samples: Vec<Sample>, groups: usize, fraction: f32, seed: u64) -> Split {
+    let mut ids: Vec<usize> = (0..groups).collect();
+    ids.shuffle(&mut SmallRng::seed_from_u64(seed));
+    let wanted = (fraction.clamp(0.0, 1.0) * groups as f32).round() as usize;
+    let n_val = if groups >= 2 { wanted.clamp(1, groups - 1) } else { 0 };
+    let mut is_val = vec![false; groups];
+    for &g in ids.iter().take(n_val) {
+        is_val[g] = true;
+    }
+    let (validation, train) = samples.into_iter().partition(|s| is_val.get(s.group).copied().unwrap_or(false));
+    Split { train, validation }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(n: usize, speed: f32, dt: f32) -> Vec<BevState> {
+        (0..n).map(|k| BevState { x: 5.0 + speed * dt * k as f32, y: 2.0, heading: 0.0, speed }).collect()
+    }
+
+    #[test]
+    fn samples_follow_the_instance_rules() {
+        let dt = 0.05;
+        let states = line(40, 10.0, dt);
+        assert!(sample_at(&states, 0, &[], dt, 0).is_none(), "no history frame");
+        assert!(sample_at(&states, 10, &[], dt, 0).is_none(), "no full horizon");
+        let s = sample_at(&states, 3, &[], dt, 7).unwrap();
+        assert_eq!((s.steps, s.group), (4, 7));
+        assert_eq!(s.own[4], [0.0; FEATURES]);
+        // One frame ahead along the heading: 0.5 m.
+        assert!((s.future[0].x - 0.5).abs() < 1e-4 && s.future[0].y.abs() < 1e-5);
+        assert!((s.future[HORIZON - 1].x - 15.0).abs() < 1e-3);
+        assert_eq!(s.speed, 10.0);
+        assert_eq!(sample_at(&states, 9, &[], dt, 0).unwrap().steps, MAX_STEPS);
+        assert!(s.constant_velocity_ade() < 1e-3);
+    }
+
+    #[test]
+    fn neighbours_are_summed_and_the_split_keeps_runs_whole() {
+        let dt = 0.05;
+        let states = line(40, 10.0, dt);
+        let other: Vec<BevState> = line(40, 10.0, dt).iter().map(|s| BevState { y: s.y + 3.0, ..*s }).collect();
+        let s = sample_at(&states, 8, &[&other[2..=8]], dt, 0).unwrap();
+        assert!((s.neighbours[6][1] - 0.3).abs() < 1e-5, "{:?}", s.neighbours[6]);
+        let samples: Vec<Sample> = (0..10).flat_map(|g| (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g))).flatten().collect();
+        let split = split_by_run(samples, 10, 0.2, 1);
+        assert_eq!(split.validation.len(), 8);
+        assert_eq!(split.train.len(), 32);
+        assert!(split.validation.iter().all(|v| split.train.iter().all(|t| t.group != v.group)));
+    }
+}

@@ -1,0 +1,214 @@
+//! The optimisation loop: seeded shuffling, Adam with per-step learning-rate decay, gradient
+//! clipping by value, the KL schedule, and early stopping on the validation ADE of the
+//! unimodal forecast (the best epoch's weights are restored at the end).
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use candle_core::{Device, Result, Tensor, Var};
+use candle_nn::{AdamW, Optimizer as _, ParamsAdamW, VarMap};
+use rand::rngs::SmallRng;
+use rand::seq::SliceRandom as _;
+use rand::SeedableRng as _;
+
+use super::batch::Batch;
+use super::dataset::Sample;
+use super::loss::{beta, loss, LossConfig};
+use super::model::{ade, Network};
+
+/// Optimisation settings (defaults: Trajectron++'s, with a shorter KL schedule).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hyper {
+    /// Most passes over the training samples.
+    pub epochs: usize,
+    /// Samples per optimiser step.
+    pub batch: usize,
+    /// Adam's initial learning rate.
+    pub learning_rate: f64,
+    /// Learning rate factor per step (Trajectron++: 0.9999).
+    pub lr_decay: f64,
+    /// Gradients are clamped to +-this, element by element (Trajectron++: 1.0).
+    pub clip: f32,
+    /// Plateau of the KL weight (Trajectron++: 100).
+    pub beta_max: f32,
+    /// Stop after this many epochs without a better validation ADE.
+    pub patience: usize,
+    /// Loss settings.
+    pub loss: LossConfig,
+    /// Seed of the shuffling (and, in [`super::TrainConfig`], of the initial weights).
+    pub seed: u64,
+}
+
+impl Default for Hyper {
+    fn default() -> Self {
+        Self {
+            epochs: 40,
+            batch: 256,
+            learning_rate: 3e-3,
+            lr_decay: 0.9999,
+            clip: 1.0,
+            beta_max: 100.0,
+            patience: 8,
+            loss: LossConfig::default(),
+            seed: 1,
+        }
+    }
+}
+
+/// What one epoch did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpochReport {
+    /// Epoch number, from 1.
+    pub epoch: usize,
+    /// Optimiser steps so far.
+    pub steps: usize,
+    /// Mean loss over the epoch's batches.
+    pub loss: f32,
+    /// Mean E_q[log p(y|x,z)] over the epoch's batches.
+    pub log_likelihood: f32,
+    /// Mean KL(q || p) over the epoch's batches.
+    pub kl: f32,
+    /// KL weight at the epoch's last step.
+    pub beta: f32,
+    /// Validation ADE after the epoch, metres.
+    pub val_ade: f32,
+    /// Seconds since training started.
+    pub seconds: f32,
+}
+
+/// Progress events.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// An optimiser step finished: (step, total steps planned, batch loss).
+    Step {
+        /// Steps so far.
+        step: usize,
+        /// Steps if no early stop.
+        total: usize,
+        /// This batch's loss.
+        loss: f32,
+    },
+    /// An epoch finished.
+    Epoch(EpochReport),
+}
+
+/// The outcome of [`fit`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct FitOutcome {
+    /// Every epoch run.
+    pub history: Vec<EpochReport>,
+    /// The epoch whose weights were kept (from 1; 0 when no epoch ran).
+    pub best_epoch: usize,
+    /// Its validation ADE, metres.
+    pub best_val_ade: f32,
+    /// Optimiser steps run.
+    pub steps: usize,
+}
+
+/// Mean ADE (metres) of the unimodal forecast over `samples`, in chunks.
+///
+/// # Errors
+/// Shape errors; an empty set.
+pub fn mean_ade(net: &Network, samples: &[Sample], dt: f32) -> Result<f32> {
+    let mut sum = 0.0f64;
+    for chunk in samples.chunks(1024) {
+        let refs: Vec<&Sample> = chunk.iter().collect();
+        let b = Batch::new(&refs, &Device::Cpu)?;
+        sum += ade(&net.forecast(&b, dt)?, &b.future)?.iter().map(|&v| f64::from(v)).sum::<f64>();
+    }
+    if samples.is_empty() {
+        candle_core::bail!("no samples to score");
+    }
+    Ok((sum / samples.len() as f64) as f32)
+}
+
+fn snapshot(vars: &VarMap) -> Result<HashMap<String, Tensor>> {
+    let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
+    data.iter().map(|(k, v)| Ok((k.clone(), v.as_tensor().copy()?))).collect()
+}
+
+fn restore(vars: &VarMap, saved: &HashMap<String, Tensor>) -> Result<()> {
+    let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
+    for (k, v) in data.iter() {
+        if let Some(t) = saved.get(k) {
+            v.set(t)?;
+        }
+    }
+    Ok(())
+}
+
+/// Trains `net` (whose variables are `vars`) on `train`, early-stopping on the ADE over
+/// `validation` (over `train` when `validation` is empty), reporting to `observer`.
+///
+/// # Errors
+/// An empty training set; numerical failure (a non-finite loss).
+pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample], dt: f32, hyper: &Hyper, observer: &mut dyn FnMut(Event)) -> Result<FitOutcome> {
+    if train.is_empty() {
+        candle_core::bail!("no training samples");
+    }
+    let held_out = if validation.is_empty() { train } else { validation };
+    let start = Instant::now();
+    // Sorted names give the optimiser (and so the run) a fixed variable order.
+    let mut named: Vec<(String, Var)> = vars.data().lock().map_err(|_| candle_core::Error::Msg("poisoned".into()))?.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    named.sort_by(|a, b| a.0.cmp(&b.0));
+    let params: Vec<Var> = named.into_iter().map(|(_, v)| v).collect();
+    let mut opt = AdamW::new(params.clone(), ParamsAdamW { lr: hyper.learning_rate, weight_decay: 0.0, ..ParamsAdamW::default() })?;
+    let mut rng = SmallRng::seed_from_u64(hyper.seed);
+    let batch = hyper.batch.max(1);
+    let per_epoch = train.len().div_ceil(batch);
+    let total = per_epoch * hyper.epochs;
+    let mut order: Vec<usize> = (0..train.len()).collect();
+    let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: f32::INFINITY, steps: 0 };
+    let mut best = snapshot(vars)?;
+    for epoch in 1..=hyper.epochs {
+        order.shuffle(&mut rng);
+        let (mut sum_loss, mut sum_ll, mut sum_kl, mut b_now) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        for idx in order.chunks(batch) {
+            let refs: Vec<&Sample> = idx.iter().filter_map(|&i| train.get(i)).collect();
+            let b = Batch::new(&refs, &Device::Cpu)?;
+            b_now = beta(out.steps, total, hyper.beta_max);
+            let l = loss(net, &b, dt, b_now, &hyper.loss)?;
+            let value = l.total.to_scalar::<f32>()?;
+            if !value.is_finite() {
+                candle_core::bail!("non-finite loss at step {} (epoch {epoch})", out.steps + 1);
+            }
+            let mut grads = l.total.backward()?;
+            for p in &params {
+                if let Some(g) = grads.get(p) {
+                    let clipped = g.clamp(-hyper.clip, hyper.clip)?;
+                    grads.insert(p, clipped);
+                }
+            }
+            opt.step(&grads)?;
+            opt.set_learning_rate(opt.learning_rate() * hyper.lr_decay);
+            out.steps += 1;
+            sum_loss += value;
+            sum_ll += l.log_likelihood;
+            sum_kl += l.kl;
+            observer(Event::Step { step: out.steps, total, loss: value });
+        }
+        let val_ade = mean_ade(net, held_out, dt)?;
+        let n = per_epoch as f32;
+        let report = EpochReport {
+            epoch,
+            steps: out.steps,
+            loss: sum_loss / n,
+            log_likelihood: sum_ll / n,
+            kl: sum_kl / n,
+            beta: b_now,
+            val_ade,
+            seconds: start.elapsed().as_secs_f32(),
+        };
+        out.history.push(report);
+        observer(Event::Epoch(report));
+        if val_ade < out.best_val_ade {
+            out.best_val_ade = val_ade;
+            out.best_epoch = epoch;
+            best = snapshot(vars)?;
+        } else if epoch - out.best_epoch >= hyper.patience {
+            break;
+        }
+    }
+    restore(vars, &best)?;
+    Ok(out)
+}

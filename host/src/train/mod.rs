@@ -1,0 +1,220 @@
+//! Host-side training of the trajectory predictor of `dynotraj_core::model::arch`, with candle.
+//!
+//! - [`dataset`]: samples (features by core's own code) from eligible runs through a source.
+//! - [`batch`]: mini-batches as tensors.
+//! - [`params`], [`cells`]: seeded parameters; LSTM/GRU cells and linear layers in PyTorch's
+//!   naming and gate order.
+//! - [`dynamics`]: the unicycle rollout (as inference computes it) and covariance propagation.
+//! - [`model`]: the network, its training-only future encoder and q(z|x,y), the unimodal
+//!   forecast.
+//! - [`loss`]: the CVAE objective and its documented departures from Trajectron++.
+//! - [`fit`]: the optimisation loop with early stopping on the validation ADE.
+//! - [`export`]: the model blob (f32 or int8) and the safetensors checkpoint.
+//!
+//! [`train_fold`] runs one leave-sequences-out fold: samples from every sequence but the
+//! excluded ones, a seeded 15% split of the runs for validation, training, and the best
+//! epoch's weights in a [`TrainedModel`].
+//!
+//! Speed: the network is small and candle's per-operation overhead dominates, so one thread
+//! is faster than a pool on this kind of machine; set `RAYON_NUM_THREADS=1` (the `train`
+//! command does so when it is unset).
+
+pub mod batch;
+pub mod cells;
+pub mod dataset;
+pub mod dynamics;
+pub mod export;
+pub mod fit;
+pub mod fused;
+pub mod loss;
+pub mod model;
+pub mod params;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use candle_nn::VarMap;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::model::arch::Dims;
+use dynotraj_core::model::blob::Precision;
+
+use crate::sequence::GroundTruthSequence;
+use crate::trajectory::{EligibilityRule, Source};
+pub use dataset::{sample_at, sequence_samples, split_by_run, Sample, Split};
+pub use fit::{EpochReport, Event, Hyper};
+pub use model::Network;
+
+/// One fold's training set-up.
+#[derive(Debug, Clone)]
+pub struct TrainConfig<'a> {
+    /// Loaded sequences; every one not in `exclude` is trained on.
+    pub sequences: &'a [GroundTruthSequence],
+    /// Sequence ids held out (the fold's test sequences).
+    pub exclude: Vec<String>,
+    /// The trajectory source trained on (inputs and targets).
+    pub source: Source,
+    /// Frame period, seconds (the paper's 1/20).
+    pub dt: f32,
+    /// Which runs are eligible.
+    pub rule: EligibilityRule,
+    /// Network widths.
+    pub dims: Dims,
+    /// Optimisation settings; `hyper.seed` also seeds the initial weights and the split.
+    pub hyper: Hyper,
+    /// Share of the runs held out for early stopping.
+    pub validation_fraction: f32,
+}
+
+impl<'a> TrainConfig<'a> {
+    /// The defaults: the paper's 20 Hz, the default eligibility, the ECU widths, Trajectron++'s
+    /// optimisation, 15% of the runs for validation.
+    #[must_use]
+    pub fn new(sequences: &'a [GroundTruthSequence], exclude: Vec<String>, source: Source) -> Self {
+        Self {
+            sequences,
+            exclude,
+            source,
+            dt: 1.0 / PAPER_FRAME_RATE_HZ,
+            rule: EligibilityRule::default(),
+            dims: Dims::DEFAULT,
+            hyper: Hyper::default(),
+            validation_fraction: 0.15,
+        }
+    }
+
+    /// The fold's samples, split by run, and the ids of the sequences they come from.
+    #[must_use]
+    pub fn samples(&self) -> (Split, Vec<String>) {
+        let mut all = Vec::new();
+        let mut groups = 0;
+        let mut used = Vec::new();
+        for seq in self.sequences.iter().filter(|s| !self.exclude.contains(&s.id)) {
+            let (samples, runs) = sequence_samples(seq, self.source, self.dt, &self.rule, groups);
+            groups += runs;
+            all.extend(samples);
+            used.push(seq.id.clone());
+        }
+        (split_by_run(all, groups, self.validation_fraction, self.hyper.seed), used)
+    }
+}
+
+/// What a fold's training did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainReport {
+    /// Sequences trained on.
+    pub sequences: Vec<String>,
+    /// Training instances.
+    pub train_instances: usize,
+    /// Validation instances.
+    pub val_instances: usize,
+    /// Epochs run (early stopping may end before the maximum).
+    pub epochs: usize,
+    /// The epoch whose weights were kept.
+    pub best_epoch: usize,
+    /// Its validation ADE of the unimodal forecast, metres.
+    pub best_val_ade: f32,
+    /// Validation ADE of the constant-velocity forecast, metres (the reference to beat).
+    pub val_cv_ade: f32,
+    /// Optimiser steps run.
+    pub steps: usize,
+    /// Wall-clock seconds of sample building and training.
+    pub seconds: f32,
+    /// Every epoch.
+    pub history: Vec<EpochReport>,
+}
+
+/// A trained network with its variables.
+pub struct TrainedModel {
+    /// The network (its tensors are the variables in `vars`).
+    pub network: Network,
+    /// Every variable, by name.
+    pub vars: VarMap,
+    /// Frame period it was trained at, seconds.
+    pub dt: f32,
+    /// What training did.
+    pub report: TrainReport,
+}
+
+impl std::fmt::Debug for TrainedModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TrainedModel").field("dims", &self.network.dims).field("dt", &self.dt).field("report", &self.report).finish_non_exhaustive()
+    }
+}
+
+/// The files [`TrainedModel::save`] wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SavedFiles {
+    /// The f32 blob.
+    pub f32_blob: PathBuf,
+    /// The int8 blob.
+    pub int8_blob: PathBuf,
+    /// The checkpoint.
+    pub checkpoint: PathBuf,
+}
+
+impl TrainedModel {
+    /// The model blob in `precision`.
+    ///
+    /// # Errors
+    /// See [`export::to_blob`].
+    pub fn blob(&self, precision: Precision) -> anyhow::Result<Vec<u8>> {
+        Ok(export::to_blob(&self.network, &self.network.dims, precision, self.dt)?)
+    }
+
+    /// Writes `path` (f32 blob), `path.int8` (int8 blob) and `path.safetensors` (checkpoint).
+    ///
+    /// # Errors
+    /// I/O errors, named.
+    pub fn save(&self, path: &Path) -> anyhow::Result<SavedFiles> {
+        let with = |ext: &str| {
+            let mut p = path.as_os_str().to_owned();
+            p.push(ext);
+            PathBuf::from(p)
+        };
+        let files = SavedFiles { f32_blob: path.to_path_buf(), int8_blob: with(".int8"), checkpoint: with(".safetensors") };
+        std::fs::write(&files.f32_blob, self.blob(Precision::F32)?).with_context(|| format!("writing {}", files.f32_blob.display()))?;
+        std::fs::write(&files.int8_blob, self.blob(Precision::Int8)?).with_context(|| format!("writing {}", files.int8_blob.display()))?;
+        export::save_checkpoint(&self.network, &self.vars, self.dt, &files.checkpoint).with_context(|| format!("writing {}", files.checkpoint.display()))?;
+        Ok(files)
+    }
+}
+
+/// Mean constant-velocity ADE of `samples` (NaN when empty).
+fn mean_cv_ade(samples: &[Sample]) -> f32 {
+    samples.iter().map(Sample::constant_velocity_ade).sum::<f32>() / samples.len() as f32
+}
+
+/// Trains one fold (see [`TrainConfig`]).
+///
+/// # Errors
+/// No training samples; unsupported widths; a non-finite loss.
+pub fn train_fold(config: &TrainConfig<'_>) -> anyhow::Result<TrainedModel> {
+    train_fold_with(config, &mut |_| {})
+}
+
+/// [`train_fold`], reporting progress to `observer`.
+///
+/// # Errors
+/// See [`train_fold`].
+pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)) -> anyhow::Result<TrainedModel> {
+    let start = Instant::now();
+    anyhow::ensure!(config.dt.is_finite() && config.dt > 0.0, "frame period must be positive, found {}", config.dt);
+    let (split, sequences) = config.samples();
+    anyhow::ensure!(!split.train.is_empty(), "no training instances in sequences {sequences:?} (source {})", config.source);
+    let (network, vars) = Network::new(config.dims, config.hyper.seed)?;
+    let outcome = fit::fit(&network, &vars, &split.train, &split.validation, config.dt, &config.hyper, observer)?;
+    let report = TrainReport {
+        sequences,
+        train_instances: split.train.len(),
+        val_instances: split.validation.len(),
+        epochs: outcome.history.len(),
+        best_epoch: outcome.best_epoch,
+        best_val_ade: outcome.best_val_ade,
+        val_cv_ade: mean_cv_ade(if split.validation.is_empty() { &split.train } else { &split.validation }),
+        steps: outcome.steps,
+        seconds: start.elapsed().as_secs_f32(),
+        history: outcome.history,
+    };
+    Ok(TrainedModel { network, vars, dt: config.dt, report })
+}
