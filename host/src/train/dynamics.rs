@@ -161,3 +161,114 @@ pub fn position_covariance(mid: &MidSteps, q: &Tensor, dt: f64) -> Result<Tensor
     let cqc = mat2_mul(&mat2_mul(&c, &sum_q)?, &mat2_t(&c)?)?;
     (((cqc - &x)? - mat2_t(&x)?)? + sum_dqd)? * (dt * dt)
 }
+
+#[cfg(test)]
+mod tests {
+    use candle_core::Device;
+    use dynotraj_core::predict::unicycle_step;
+    use dynotraj_core::BevState;
+
+    use super::*;
+
+    /// Raw (unclamped) controls per row and step: turning, straight, beyond the limits.
+    fn raw_controls(rows: usize, t: usize) -> (Vec<f32>, Vec<f32>) {
+        let w = (0..rows * t).map(|i| match (i / t) % 3 {
+            0 => 0.9 * ((i as f32) * 0.3).sin(),
+            1 => 0.004 * ((i as f32) * 0.7).cos(),
+            _ => 1.5,
+        });
+        let a = (0..rows * t).map(|i| 6.0 * ((i as f32) * 0.11).sin());
+        (w.collect(), a.collect())
+    }
+
+    #[test]
+    fn the_rollout_is_cores_unicycle_in_both_branches_and_clamped() {
+        let (rows, t, dt) = (6, 30, 0.05f32);
+        let (w, a) = raw_controls(rows, t);
+        let speeds: Vec<f32> = (0..rows).map(|r| 3.0 + 2.0 * r as f32).collect();
+        let dev = Device::Cpu;
+        let mu = Tensor::stack(
+            &[
+                (Tensor::from_vec(w.clone(), (rows, t), &dev).unwrap() / f64::from(TURN_RATE_SCALE)).unwrap(),
+                (Tensor::from_vec(a.clone(), (rows, t), &dev).unwrap() / f64::from(ACCEL_SCALE)).unwrap(),
+            ],
+            2,
+        )
+        .unwrap();
+        let (wc, ac) = controls(&mu).unwrap();
+        let speed = Tensor::from_vec(speeds.clone(), (rows, 1), &dev).unwrap();
+        let (pos, _) = integrate(&wc, &ac, &speed, f64::from(dt)).unwrap();
+        let pos = pos.to_vec3::<f32>().unwrap();
+        for r in 0..rows {
+            let mut s = BevState { x: 0.0, y: 0.0, heading: 0.0, speed: speeds[r] };
+            for k in 0..t {
+                s = unicycle_step(&s, w[r * t + k], a[r * t + k], dt);
+                let p = &pos[r][k];
+                assert!((p[0] - s.x).abs() < 2e-4 && (p[1] - s.y).abs() < 2e-4, "row {r} step {k}: {p:?} vs {s:?}");
+            }
+        }
+    }
+
+    type M4 = [[f64; 4]; 4];
+
+    fn mul(a: &M4, b: &M4) -> M4 {
+        let mut o = [[0.0; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                o[i][j] = (0..4).map(|k| a[i][k] * b[k][j]).sum();
+            }
+        }
+        o
+    }
+
+    fn tr(a: &M4) -> M4 {
+        let mut o = [[0.0; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                o[i][j] = a[j][i];
+            }
+        }
+        o
+    }
+
+    #[test]
+    fn the_prefix_sum_covariance_is_the_step_by_step_recursion() {
+        let (rows, t, dt) = (3, 30, 0.05f64);
+        let dev = Device::Cpu;
+        let travel: Vec<f32> = (0..rows * t).map(|i| 0.2 + 0.3 * ((i as f32) * 0.2).sin().abs()).collect();
+        let heading: Vec<f32> = (0..rows * t).map(|i| 0.6 * ((i as f32) * 0.05).sin()).collect();
+        let mid = MidSteps {
+            travel: Tensor::from_vec(travel.clone(), (rows, t), &dev).unwrap(),
+            cos_mid: Tensor::from_vec(heading.iter().map(|h| h.cos()).collect::<Vec<_>>(), (rows, t), &dev).unwrap(),
+            sin_mid: Tensor::from_vec(heading.iter().map(|h| h.sin()).collect::<Vec<_>>(), (rows, t), &dev).unwrap(),
+        };
+        let log_sigma: Vec<f32> = (0..rows * t * 2).map(|i| -1.0 + 0.5 * ((i as f32) * 0.13).cos()).collect();
+        let rho: Vec<f32> = (0..rows * t).map(|i| ((i as f32) * 0.31).sin()).collect();
+        let q = control_covariance(&Tensor::from_vec(log_sigma, (rows, t, 2), &dev).unwrap(), &Tensor::from_vec(rho, (rows, t, 1), &dev).unwrap()).unwrap();
+        let got = position_covariance(&mid, &q, dt).unwrap().reshape((rows, t, 4)).unwrap().to_vec3::<f32>().unwrap();
+        let qv = q.reshape((rows, t, 4)).unwrap().to_vec3::<f32>().unwrap();
+        for r in 0..rows {
+            let mut p: M4 = [[0.0; 4]; 4];
+            for k in 0..t {
+                let (d, m) = (f64::from(travel[r * t + k]), f64::from(heading[r * t + k]));
+                let (c, s) = (m.cos(), m.sin());
+                let f: M4 = [[1.0, 0.0, -d * s, dt * c], [0.0, 1.0, d * c, dt * s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+                // G as a 4x4 with zero columns 2 and 3, Q padded likewise.
+                let g: M4 = [[-d * s * dt / 2.0, dt * dt / 2.0 * c, 0.0, 0.0], [d * c * dt / 2.0, dt * dt / 2.0 * s, 0.0, 0.0], [dt, 0.0, 0.0, 0.0], [0.0, dt, 0.0, 0.0]];
+                let qk = &qv[r][k];
+                let qm: M4 = [[f64::from(qk[0]), f64::from(qk[1]), 0.0, 0.0], [f64::from(qk[2]), f64::from(qk[3]), 0.0, 0.0], [0.0; 4], [0.0; 4]];
+                let fpf = mul(&mul(&f, &p), &tr(&f));
+                let gqg = mul(&mul(&g, &qm), &tr(&g));
+                for i in 0..4 {
+                    for j in 0..4 {
+                        p[i][j] = fpf[i][j] + gqg[i][j];
+                    }
+                }
+                let want = [p[0][0], p[0][1], p[1][0], p[1][1]];
+                for (gv, wv) in got[r][k].iter().zip(want) {
+                    assert!((f64::from(*gv) - wv).abs() <= 1e-4 * (1.0 + wv.abs()), "row {r} step {k}: {:?} vs {want:?}", got[r][k]);
+                }
+            }
+        }
+    }
+}

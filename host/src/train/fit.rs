@@ -212,3 +212,37 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
     restore(vars, &best)?;
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use dynotraj_core::model::arch::Dims;
+
+    use super::*;
+    use crate::train::dataset::split_by_run;
+    use crate::train::synthetic::{constant_control_runs, samples};
+
+    #[test]
+    fn a_few_dozen_steps_on_constant_controls_lower_the_validation_ade() {
+        let dt = 0.05;
+        let runs = constant_control_runs(24, 45, dt, 9);
+        let split = split_by_run(samples(&runs, dt), runs.len(), 0.25, 3);
+        assert!(split.train.len() > 200 && split.validation.len() > 50);
+        let (net, vars) = Network::new(Dims { enc: 16, edge: 8, k: 3, dec: 32 }, 5).unwrap();
+        let before = mean_ade(&net, &split.validation, dt).unwrap();
+        let hyper = Hyper { epochs: 6, batch: 32, patience: 6, ..Hyper::default() };
+        let mut steps = 0;
+        let out = fit(&net, &vars, &split.train, &split.validation, dt, &hyper, &mut |e| {
+            if let Event::Step { step, .. } = e {
+                steps = step;
+            }
+        })
+        .unwrap();
+        assert!(steps >= 36, "{steps} steps");
+        let after = mean_ade(&net, &split.validation, dt).unwrap();
+        assert_eq!(after, out.best_val_ade, "the best epoch's weights are restored");
+        assert!(after < 0.7 * before, "validation ADE {before} -> {after}");
+        let refs: Vec<&Sample> = split.validation.iter().collect();
+        let forecast = net.forecast(&Batch::new(&refs, &Device::Cpu).unwrap(), dt).unwrap();
+        assert!(forecast.flatten_all().unwrap().to_vec1::<f32>().unwrap().iter().all(|v| v.is_finite()));
+    }
+}

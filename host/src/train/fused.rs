@@ -149,7 +149,41 @@ pub fn gru_gates(gx: &Tensor, gh: &Tensor, h: &Tensor) -> Result<Tensor> {
 
 #[cfg(test)]
 mod tests {
+    use candle_core::{Device, Var};
+    use candle_nn::ops::sigmoid as nn_sigmoid;
+
     use super::*;
+
+    /// The gates composed from candle's own operations.
+    fn composed(gx: &Tensor, gh: &Tensor, h: &Tensor) -> Tensor {
+        let hd = h.dim(1).unwrap();
+        let part = |t: &Tensor, i: usize| t.narrow(1, i * hd, hd).unwrap();
+        let r = nn_sigmoid(&(part(gx, 0) + part(gh, 0)).unwrap()).unwrap();
+        let z = nn_sigmoid(&(part(gx, 1) + part(gh, 1)).unwrap()).unwrap();
+        let n = (part(gx, 2) + (r * part(gh, 2)).unwrap()).unwrap().tanh().unwrap();
+        (&n + (z * (h - &n).unwrap()).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn the_fused_gates_match_the_composed_ones_in_value_and_gradient() {
+        let dev = Device::Cpu;
+        let filled = |r: usize, c: usize, s: f32| Tensor::from_vec((0..r * c).map(|i| 2.0 * (i as f32 * 0.61 + s).sin()).collect::<Vec<f32>>(), (r, c), &dev).unwrap();
+        let (gx, gh, h) = (Var::from_tensor(&filled(5, 12, 0.1)).unwrap(), Var::from_tensor(&filled(5, 12, 0.9)).unwrap(), Var::from_tensor(&filled(5, 4, 1.7)).unwrap());
+        let weights = filled(5, 4, 2.3);
+        let fused = gru_gates(&gx, &gh, &h).unwrap();
+        let reference = composed(&gx, &gh, &h);
+        let flat = |t: &Tensor| t.flatten_all().unwrap().to_vec1::<f32>().unwrap();
+        for (a, b) in flat(&fused).iter().zip(flat(&reference)) {
+            assert!((a - b).abs() < 1e-6);
+        }
+        let g1 = (fused * &weights).unwrap().sum_all().unwrap().backward().unwrap();
+        let g2 = (reference * &weights).unwrap().sum_all().unwrap().backward().unwrap();
+        for v in [&gx, &gh, &h] {
+            for (a, b) in flat(g1.get(v).unwrap()).iter().zip(flat(g2.get(v).unwrap())) {
+                assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+            }
+        }
+    }
 
     #[test]
     fn the_fast_exp_matches_libm() {

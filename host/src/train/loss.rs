@@ -117,3 +117,34 @@ pub fn loss(net: &Network, b: &Batch, dt: f32, beta: f32, cfg: &LossConfig) -> R
     let elbo = ((&expected_ll - (kl_free * f64::from(beta))?)? + info)?;
     Ok(Loss { total: elbo.neg()?, log_likelihood: expected_ll.to_scalar::<f32>()?, kl: kl.to_scalar::<f32>()? })
 }
+
+#[cfg(test)]
+mod tests {
+    use candle_core::Device;
+
+    use super::*;
+
+    #[test]
+    fn log_density_is_the_bivariate_normal_clamped_at_six() {
+        let dev = Device::Cpu;
+        let mean = Tensor::from_vec(vec![1.0f32, 2.0, 0.0, 0.0], (1, 2, 2), &dev).unwrap();
+        let target = Tensor::from_vec(vec![1.3f32, 1.6, 0.0, 0.0], (1, 2, 2), &dev).unwrap();
+        // Step 0: covariance diag(0.2, 0.5) plus a floor of 0.05 m^2; step 1: tiny, exact hit.
+        let cov = Tensor::from_vec(vec![0.2f32, 0.0, 0.0, 0.5, 1e-6, 0.0, 0.0, 1e-6], (1, 2, 2, 2), &dev).unwrap();
+        let ll = log_density(&mean, &cov, &target, 0.05).unwrap().to_vec2::<f32>().unwrap();
+        let (sx, sy) = (0.25f32, 0.55f32);
+        let want = -(2.0 * std::f32::consts::PI).ln() - 0.5 * (sx * sy).ln() - 0.5 * (0.09 / sx + 0.16 / sy);
+        assert!((ll[0][0] - want).abs() < 1e-5, "{} vs {want}", ll[0][0]);
+        assert!((ll[0][1] - (-(2.0 * std::f32::consts::PI).ln() - 0.05f32.ln())).abs() < 1e-4, "the floor bounds the density");
+        let tight = log_density(&mean, &cov, &target, 1e-6).unwrap().to_vec2::<f32>().unwrap();
+        assert_eq!(tight[0][1], 6.0, "an exact hit under a tiny covariance is clamped");
+    }
+
+    #[test]
+    fn beta_rises_from_zero_to_its_plateau() {
+        assert!(beta(0, 400, 100.0) < 2.0);
+        assert!((beta(100, 400, 100.0) - 50.0).abs() < 1e-3);
+        assert!(beta(399, 400, 100.0) > 99.0);
+        assert!((beta(400, 100_000, 100.0) - 50.0).abs() < 1e-3, "Trajectron++'s crossover for long runs");
+    }
+}

@@ -29,6 +29,8 @@ pub mod fused;
 pub mod loss;
 pub mod model;
 pub mod params;
+#[cfg(test)]
+mod synthetic;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
