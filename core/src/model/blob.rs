@@ -372,7 +372,7 @@ pub fn write_blob(dims: &Dims, precision: Precision, frame_period_s: f32, tensor
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::needless_range_loop)]
 mod tests {
     use super::*;
 
