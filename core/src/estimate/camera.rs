@@ -2,7 +2,8 @@
 
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
-use super::measure::{correspondences, inverse_information, twist_measurement, Correspondences, MotionMeasurement};
+use super::measure::{correspondences, inverse_information, plausible, twist_measurement, Correspondences, MotionMeasurement};
+use super::lie::normalised;
 use super::model::PointModel;
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
@@ -109,6 +110,9 @@ impl<const W: usize> CameraTrack<W> {
         let guess = self.increment.inverse();
         let measured: Option<MotionMeasurement> = fit_pose(corrs, Some(&guess), fp, model, rng).ok().and_then(|fit| {
             let n = fit.pose.inverse();
+            if !plausible(&n, fp) {
+                return None;
+            }
             let info = inverse_information(&fit.pose, &fit.information)?;
             twist_measurement(&n, &info, fit.inliers)
         });
@@ -117,7 +121,7 @@ impl<const W: usize> CameraTrack<W> {
             self.increment = m.delta;
         }
         self.f2f_previous = self.f2f;
-        self.f2f *= self.increment;
+        self.f2f = normalised(self.f2f * self.increment);
         let z = measured.as_ref().map(|m| (&m.xi, &m.information));
         let (emitted, solve_failed) = match self.path.advance(z, s, scratch, leaving) {
             Ok(e) => (e, false),

@@ -1,7 +1,7 @@
 //! The estimator: frame assembly, ego-motion, object motions, smoothing and outputs, in fixed
 //! memory. See the module docs of [`super`] for the method and the bad-input rules.
 
-use heapless::{Deque, Vec};
+use heapless::Deque;
 use nalgebra::Point3;
 
 use super::camera::CameraTrack;
@@ -88,7 +88,7 @@ impl<const W: usize> Estimator<W> {
             step: 0,
             camera: CameraTrack::new(),
             runs: core::array::from_fn(|_| ObjectRun::new()),
-            corrs: Vec::new(),
+            corrs: Correspondences::new(),
             scratch: ChainScratch::new(),
             rng: Pcg32::new(seed),
             stats: EstimatorStats::default(),

@@ -36,7 +36,7 @@ pub fn kabsch3(src: &[Vector3<f32>; 3], dst: &[Vector3<f32>; 3]) -> Option<Pose3
     let r = v * u.transpose();
     let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
     let t = cd - rot * cs;
-    let pose = Pose3::from_parts(Translation3::from(t), rot);
+    let pose = super::lie::normalised(Pose3::from_parts(Translation3::from(t), rot));
     super::lie::pose_is_finite(&pose).then_some(pose)
 }
 

@@ -102,6 +102,14 @@ pub fn rho(xi: &Vec6) -> Vector3<f32> {
     xi.fixed_rows::<3>(0).into_owned()
 }
 
+/// `p` with its rotation quaternion renormalised: products of many poses in f32 (and rotations
+/// from a rounded SVD) drift off unit length, and the drift compounds along a chain.
+#[must_use]
+pub fn normalised(mut p: Pose3) -> Pose3 {
+    p.rotation.renormalize();
+    p
+}
+
 /// True when every entry of a pose is finite.
 #[must_use]
 pub fn pose_is_finite(p: &Pose3) -> bool {

@@ -8,7 +8,7 @@ use super::fit::{fit_pose, Fit};
 use super::frame::Obs;
 use super::lie::{adjoint, map_information, omega, rho, skew, Mat6, Vec6};
 use super::matching::for_each_match;
-use super::model::{Correspondence, PointModel};
+use super::model::{self, Correspondence, PointModel};
 use super::params::FitParams;
 use super::rng::Pcg32;
 use crate::geometry::{se3_log, Pose3};
@@ -19,16 +19,19 @@ pub const MAX_CORRESPONDENCES: usize = MAX_STATIC_TRACKS;
 const _: () = assert!(crate::limits::MAX_POINTS_PER_OBJECT <= MAX_CORRESPONDENCES);
 
 /// The correspondence scratch shared by all fits of a frame.
-pub type Correspondences = Vec<Correspondence, MAX_CORRESPONDENCES>;
+pub type Correspondences = model::Correspondences<MAX_CORRESPONDENCES>;
 
-/// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k),
-/// each previous point back-projected and mapped by `to_source` (camera k-1 -> source frame).
+/// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k):
+/// each previous observation as a viewing ray and depth in the source frame (`to_source` maps
+/// camera k-1 into it).
 pub fn correspondences(previous: &[Obs], current: &[Obs], to_source: &Pose3, model: &PointModel, out: &mut Correspondences) {
-    out.clear();
+    out.list.clear();
+    out.origin = to_source.translation.vector;
     for_each_match(previous, current, |p, c| {
-        let src = to_source.transform_point(&model.back_project(p.u(), p.v(), p.depth)).coords;
+        let ray = to_source.rotation * model.back_project(p.u(), p.v(), 1.0).coords;
+        let corr = Correspondence { ray, src_depth: p.depth, delta: 0.0, delta_trial: 0.0, u: c.u(), v: c.v(), depth: c.depth };
         // Cannot overflow: both lists are at most MAX_CORRESPONDENCES long.
-        let _ = out.push(Correspondence { src, u: c.u(), v: c.v(), depth: c.depth });
+        let _ = out.list.push(corr);
     });
 }
 
@@ -50,7 +53,7 @@ pub struct MotionMeasurement {
 /// pose from the source frame (`frame` at k-1) into camera k and `a = camera_k^-1 * frame` is
 /// known. `guess` is the expected `delta` (constant motion). `None` when the fit fails.
 pub fn measure_motion(
-    corrs: &Correspondences,
+    corrs: &mut Correspondences,
     a: &Pose3,
     guess: &Pose3,
     fp: &FitParams,
@@ -61,7 +64,13 @@ pub fn measure_motion(
     let Fit { pose, information, inliers, .. } = fit_pose(corrs, Some(&m_guess), fp, model, rng).ok()?;
     // A right perturbation of m is a right perturbation of delta, so the information carries over.
     let delta = a.inverse() * pose;
-    twist_measurement(&delta, &information, inliers)
+    plausible(&delta, fp).then(|| twist_measurement(&delta, &information, inliers)).flatten()
+}
+
+/// True when a frame-to-frame motion is within the fit's plausibility bounds.
+#[must_use]
+pub fn plausible(delta: &Pose3, fp: &FitParams) -> bool {
+    delta.rotation.angle() <= fp.max_rotation && delta.translation.vector.norm() <= fp.max_translation
 }
 
 /// The twist form of a measured motion with information `info` on a right perturbation:

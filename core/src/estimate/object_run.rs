@@ -2,21 +2,22 @@
 //! frame-to-frame and smoothed motions, and the rules for starting, holding and ending.
 //!
 //! Life of a run: `Initialising` (seen once: a provisional pose at the robust centroid of its
-//! points, world-aligned) -> `Tracking` (from its second frame: the first motion gives the heading
-//! when the object moved at least the heading baseline, and the first pose `L_0` is set) ->
+//! points, world-aligned) -> `Tracking` (from its second frame, with `L_0` the provisional pose;
+//! once the object has moved `heading_baseline_m` from it, the frame is turned once so that its
+//! x axis points along that displacement, its heading, and a new output segment begins) ->
 //! `Draining` (the object was not seen in a frame, or its motion was held too long: its frames
 //! still in the smoother's window are emitted as they leave) -> `Free`.
 
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
-use super::lie::{adjoint, map_information};
-use super::measure::{correspondences, measure_motion, robust_centroid, twist_measurement, Correspondences, MotionMeasurement};
+use super::lie::normalised;
+use super::measure::{correspondences, measure_motion, robust_centroid, Correspondences, MotionMeasurement};
 use super::model::PointModel;
-use super::output::{bev_heading, object_estimate, ObjectEstimate};
+use super::output::{object_estimate, ObjectEstimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};
 use super::rng::Pcg32;
-use crate::geometry::{se3_log, wrap_angle, Point2, Pose3};
+use crate::geometry::{se3_log, Point2, Pose3};
 use crate::wire::ObjectClass;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 
@@ -185,7 +186,7 @@ impl<const W: usize> ObjectRun<W> {
         let to_source = frame.inverse() * cx.camera_previous;
         correspondences(cx.previous, cx.current, &to_source, model, corrs);
         let a = cx.camera.inverse() * frame;
-        let measured = if corrs.len() >= usize::from(params.object_min_points) {
+        let measured = if corrs.list.len() >= usize::from(params.object_min_points) {
             measure_motion(corrs, &a, &self.last_delta, &params.object_fit, model, rng)
         } else {
             None
@@ -193,7 +194,7 @@ impl<const W: usize> ObjectRun<W> {
         let mut outcome = StepOutcome::Measured;
         let measured = if self.state == RunState::Initialising {
             let Some(m) = measured else { return (StepOutcome::Restart, None) };
-            Some(self.start_tracking(&m, params.heading_baseline_m))
+            Some(self.start_tracking(&m))
         } else {
             measured
         };
@@ -212,8 +213,8 @@ impl<const W: usize> ObjectRun<W> {
         }
         // Frame-to-frame: the world motion H = L_(k-1) delta L_(k-1)^-1, chained.
         let frame = self.frame_pose();
-        self.f2f_motion = frame * self.last_delta * frame.inverse();
-        self.f2f = self.f2f_motion * self.f2f;
+        self.f2f_motion = normalised(frame * self.last_delta * frame.inverse());
+        self.f2f = normalised(self.f2f_motion * self.f2f);
         let z = measured.as_ref().map(|m| (&m.xi, &m.information));
         let emitted = match self.path.advance(z, s, scratch, cx.leaving) {
             Ok(e) => e,
@@ -226,29 +227,14 @@ impl<const W: usize> ObjectRun<W> {
         (outcome, out)
     }
 
-    /// Sets the first pose from the first motion and returns that motion in the new frame.
-    fn start_tracking(&mut self, m: &MotionMeasurement, baseline: f32) -> MotionMeasurement {
-        let t = m.delta.translation.vector;
-        let moved = libm::hypotf(t.x, t.z);
-        let mut first = self.provisional;
-        let mut out = *m;
-        if moved >= f32::EPSILON && moved.is_finite() {
-            let r = yaw(libm::atan2f(t.z, t.x));
-            let delta = r.inverse() * m.delta * r;
-            let info = map_information(&m.information, &adjoint(&r.inverse()));
-            if moved >= baseline
-                && let Some(tm) = info.and_then(|i| twist_measurement(&delta, &i, m.inliers))
-            {
-                first = self.provisional * r;
-                out = tm;
-                self.heading_known = true;
-            }
-        }
-        self.path.start(first, self.first_step);
-        self.f2f = first;
+    /// Sets the first pose `L_0` (the provisional one: the robust centroid, world-aligned) and
+    /// takes the first motion; the heading follows once the object has moved far enough
+    /// ([`ObjectRun::reorient_if_moved`]).
+    fn start_tracking(&mut self, m: &MotionMeasurement) -> MotionMeasurement {
+        self.path.start(self.provisional, self.first_step);
+        self.f2f = self.provisional;
         self.state = RunState::Tracking;
-        self.last_delta = out.delta;
-        out
+        *m
     }
 
     /// Re-orients the frame along the displacement since the first pose once it exceeds
@@ -263,8 +249,10 @@ impl<const W: usize> ObjectRun<W> {
         if moved.is_nan() || moved < baseline {
             return false;
         }
-        let turn = wrap_angle(libm::atan2f(dz, dx) - bev_heading(self.path.causal()));
-        let r = yaw(turn);
+        // The new frame is upright with its x axis along the displacement: this also removes
+        // any roll and pitch the frame picked up from noisy motions.
+        let target = yaw(libm::atan2f(dz, dx));
+        let r = Pose3::from_parts(Translation3::identity(), self.path.causal().rotation.inverse() * target.rotation);
         self.path.reframe(&r);
         self.f2f *= r;
         self.last_delta = r.inverse() * self.last_delta * r;

@@ -38,13 +38,19 @@ pub struct FitParams {
     pub inlier_px: f32,
     /// Fewest inliers for a fit to count; fewer means the fit fails and the motion is held.
     pub min_inliers: u16,
-    /// Gauss-Newton/Levenberg-Marquardt iterations after RANSAC.
+    /// Levenberg-Marquardt iterations after RANSAC (each solves one 6x6 system; the source-depth
+    /// corrections converge in about 8 when the object is far and its depths noisy).
     pub refine_iterations: u8,
     /// Huber kernel width on the residual norm, pixels: quadratic below, linear above.
     pub huber_px: f32,
     /// Lower bound of the residual standard deviation used to weight a fit's information,
     /// pixels: the a-posteriori scale of a lucky, tiny residual would otherwise overstate it.
     pub min_sigma_px: f32,
+    /// Largest plausible rotation between consecutive frames, radians: a fit turning more is
+    /// rejected (a wrong minimal set can fit a few nearly collinear points with a flipped pose).
+    pub max_rotation: f32,
+    /// Largest plausible translation between consecutive frames, metres.
+    pub max_translation: f32,
 }
 
 /// Noise of the constant-motion prior between consecutive body-frame motions (one frame
@@ -62,6 +68,12 @@ impl SmootherParams {
     /// translation 0.2 m (see REFERENCE.md).
     pub const DYNOSAM_OBJECT: Self = Self { sigma_translation: 0.2, sigma_rotation: 0.01 };
 }
+
+/// Largest plausible rotation of a road user or the ego vehicle between frames: 0.3 rad is
+/// 3 rad/s at 10 Hz, beyond any vehicle's yaw rate.
+pub const PLAUSIBLE_ROTATION: f32 = 0.3;
+/// Largest plausible translation between frames: 5 m is 50 m/s (180 km/h) at 10 Hz.
+pub const PLAUSIBLE_TRANSLATION: f32 = 5.0;
 
 /// All parameters of the [`super::Estimator`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,6 +102,9 @@ pub struct EstimatorParams {
     pub object_min_points: u16,
     /// An object's heading is taken from its motion once its reference point has moved this far
     /// on the bird's-eye plane, metres; before that its frame keeps the world's orientation.
+    /// The heading error is about the position noise over this distance, and every later
+    /// relative pose of the object is seen through it, so 2 m (two frames of a car at 10 Hz):
+    /// about 1 degree for 3 cm of position noise.
     pub heading_baseline_m: f32,
     /// Constant-motion prior of the object smoother.
     pub object_smoother: SmootherParams,
@@ -117,18 +132,22 @@ impl EstimatorParams {
                 refine_iterations: 6,
                 huber_px: 1.5,
                 min_sigma_px: 0.3,
+                max_rotation: PLAUSIBLE_ROTATION,
+                max_translation: PLAUSIBLE_TRANSLATION,
             },
             object_fit: FitParams {
                 ransac_iterations: 32,
                 confidence: 0.995,
                 inlier_px: 3.0,
                 min_inliers: 6,
-                refine_iterations: 6,
+                refine_iterations: 10,
                 huber_px: 1.5,
                 min_sigma_px: 0.3,
+                max_rotation: PLAUSIBLE_ROTATION,
+                max_translation: PLAUSIBLE_TRANSLATION,
             },
             object_min_points: 6,
-            heading_baseline_m: 0.5,
+            heading_baseline_m: 2.0,
             object_smoother: SmootherParams::DYNOSAM_OBJECT,
             // The ego vehicle's motion changes smoothly: 0.05 m and 0.005 rad per frame of change
             // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.

@@ -6,7 +6,7 @@
 //! leaves the window, is the smoothed estimate and becomes the new anchor (fixed from then on).
 
 use super::chain::{ChainScratch, ChainSmoother, Smoothness};
-use super::lie::{adjoint, Mat6, Vec6};
+use super::lie::{adjoint, normalised, Mat6, Vec6};
 use crate::geometry::{se3_exp, Pose3};
 
 /// A pose leaving the window.
@@ -124,7 +124,7 @@ impl<const W: usize> SmoothedPath<W> {
         for x in xs {
             pose *= se3_exp(x);
         }
-        self.causal = pose;
+        self.causal = normalised(pose);
         if let Some(x) = xs.last() {
             self.causal_xi = *x;
         }
@@ -135,7 +135,7 @@ impl<const W: usize> SmoothedPath<W> {
                 Some(Emitted { pose: self.anchor, xi: first.unwrap_or_else(Vec6::zeros) })
             }
             Some(j) if self.anchor_step.checked_add(1) == Some(j) => first.map(|x| {
-                self.anchor *= se3_exp(&x);
+                self.anchor = normalised(self.anchor * se3_exp(&x));
                 self.anchor_step = j;
                 self.anchor_emitted = true;
                 self.chain.pop_marginalise(s);

@@ -14,6 +14,7 @@ use dynotraj_core::wire::ObjectClass;
 use super::common::progress;
 use crate::estimate::evaluate::{evaluate_sequence, EvalOptions, SequenceResult};
 use crate::estimate::files::write_run;
+use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::Kind;
 use crate::kitti::TrackingDir;
 use crate::report::{fmt_opt, Format, Table};
@@ -77,6 +78,9 @@ pub struct EstimateArgs {
     /// Also print the estimator's counters per sequence.
     #[arg(long)]
     pub counters: bool,
+    /// Also print the RPE of every moving object (smoothed estimate).
+    #[arg(long)]
+    pub per_object: bool,
     /// Output format of the tables.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -123,6 +127,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     }
     if args.counters {
         println!("{}", counters_table(&results).render(args.format));
+    }
+    if args.per_object {
+        println!("{}", per_object_table(&results).render(args.format));
     }
     if let Some(out) = &args.out {
         for r in &results {
@@ -271,6 +278,30 @@ pub fn counters_table(results: &[SequenceResult]) -> Table {
             .map(str::to_string)
             .collect();
         t.push([r.id.clone(), nonzero.join(" "), format!("{:.2}", r.estimate_seconds)]);
+    }
+    t
+}
+
+/// RPE per moving object, smoothed and frame-to-frame, with its class and pairs scored.
+#[must_use]
+pub fn per_object_table(results: &[SequenceResult]) -> Table {
+    let mut t = Table::new(["sequence", "object", "class", "pairs", "f2f RPE_t (m)", "f2f RPE_r (deg)", "smoothed RPE_t (m)", "smoothed RPE_r (deg)"]);
+    for r in results {
+        for id in moving_objects(&r.sim, r.min_step_m) {
+            let class = r.sim.iter().flat_map(|f| f.objects.iter()).find(|o| o.object_id == id).map_or("?", |o| o.class.kitti_name());
+            let f = object_rpe(&r.sim, r.run.of(Kind::FrameToFrame), id).result();
+            let s = object_rpe(&r.sim, r.run.of(Kind::Smoothed), id).result();
+            t.push([
+                r.id.clone(),
+                id.to_string(),
+                class.to_string(),
+                s.map_or(0, |s| s.pairs).to_string(),
+                fmt_opt(f.map(|x| x.translation), 3),
+                fmt_opt(f.map(|x| x.rotation.to_degrees()), 3),
+                fmt_opt(s.map(|x| x.translation), 3),
+                fmt_opt(s.map(|x| x.rotation.to_degrees()), 3),
+            ]);
+        }
     }
     t
 }

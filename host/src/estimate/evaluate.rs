@@ -62,6 +62,8 @@ pub struct SequenceResult {
     pub id: String,
     /// Frames estimated.
     pub frames: usize,
+    /// The moving-object threshold used, metres per frame.
+    pub min_step_m: f64,
     /// RPE per kind.
     pub scores: RunScores,
     /// Smoothness of the moving objects: KITTI labels, simulator truth, then each kind in
@@ -111,7 +113,7 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
     let smoothness = smoothness_table(id, data, opt, &sim, &run, &moving);
-    SequenceResult { id: id.to_string(), frames: n, scores, smoothness, stats: run.stats, estimate_seconds, sim, run }
+    SequenceResult { id: id.to_string(), frames: n, min_step_m: opt.min_step_m, scores, smoothness, stats: run.stats, estimate_seconds, sim, run }
 }
 
 /// Smoothness of labels, truth and each kind, on the frame pairs of the smoothed estimate.

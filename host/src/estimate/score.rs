@@ -76,25 +76,7 @@ pub fn score_run(frames: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>
         let mut all = RpeAccumulator::new();
         let mut objects = 0;
         for &id in moving {
-            let mut acc = RpeAccumulator::new();
-            let mut segment = None;
-            for (f, e) in frames.iter().zip(est) {
-                let truth = f.objects.iter().find(|o| o.object_id == id);
-                let estimate = e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id));
-                match (truth, estimate) {
-                    (Some(t), Some(o)) => {
-                        if segment.is_some_and(|s| s != o.segment) {
-                            acc.break_segment();
-                        }
-                        segment = Some(o.segment);
-                        acc.push(&t.pose.cast::<f32>(), &o.pose);
-                    }
-                    _ => {
-                        acc.break_segment();
-                        segment = None;
-                    }
-                }
-            }
+            let acc = object_rpe(frames, est, id);
             if acc.result().is_some() {
                 objects += 1;
                 all.merge(&acc);
@@ -103,6 +85,33 @@ pub fn score_run(frames: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>
         *slot = KindScores { camera: cam.result(), object: all.result(), objects };
     }
     out
+}
+
+/// RPE of object `id` in `est`: pairs of consecutive frames with a truth pose and an estimate
+/// of one segment with a known heading (before its heading is known an object's frame keeps the
+/// world's orientation, a placeholder that RPE would read as a rotation error).
+#[must_use]
+pub fn object_rpe(frames: &[SimFrame], est: &[Option<PoseEstimate>], id: u16) -> RpeAccumulator {
+    let mut acc = RpeAccumulator::new();
+    let mut segment = None;
+    for (f, e) in frames.iter().zip(est) {
+        let truth = f.objects.iter().find(|o| o.object_id == id);
+        let estimate = e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id && o.heading_known));
+        match (truth, estimate) {
+            (Some(t), Some(o)) => {
+                if segment.is_some_and(|s| s != o.segment) {
+                    acc.break_segment();
+                }
+                segment = Some(o.segment);
+                acc.push(&t.pose.cast::<f32>(), &o.pose);
+            }
+            _ => {
+                acc.break_segment();
+                segment = None;
+            }
+        }
+    }
+    acc
 }
 
 /// Smoothness of bird's-eye trajectories: mean absolute change between consecutive frames.
