@@ -6,7 +6,10 @@ use nalgebra::Point3;
 
 use super::camera::CameraTrack;
 use super::chain::{ChainScratch, Smoothness};
-use super::frame::{DepthRange, FrameAssembler, FrameBuffer, PartOutcome};
+use heapless::Vec;
+
+use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
+use super::landmarks::Landmarks;
 use super::measure::Correspondences;
 use super::model::PointModel;
 use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
@@ -14,7 +17,7 @@ use super::output::PoseEstimate;
 use super::params::EstimatorParams;
 use super::rng::Pcg32;
 use super::stats::{add, bump, EstimatorStats};
-use crate::limits::MAX_OBJECTS;
+use crate::limits::{MAX_OBJECTS, MAX_STATIC_TRACKS};
 use crate::wire::FrameTracks;
 
 /// The default smoothing window, frames (DynoSAM's sliding window is 20 frames).
@@ -53,10 +56,13 @@ pub struct Estimator<const W: usize = DEFAULT_WINDOW> {
     object_smoothness: Smoothness,
     camera_smoothness: Smoothness,
     assembler: FrameAssembler,
-    /// Two frame buffers: one being assembled (`current`), the other holding frame k-1.
-    buffers: [FrameBuffer; 2],
-    current: usize,
+    /// The frame being assembled, then estimated.
+    frame: FrameBuffer,
+    /// Frame k-1's static tracks (objects keep landmarks instead).
+    previous_statics: Vec<Obs, MAX_STATIC_TRACKS>,
     has_previous: bool,
+    /// Scratch for rebuilding one object's landmarks.
+    landmark_scratch: Landmarks,
     window: Deque<FrameInfo, W>,
     step: u32,
     camera: CameraTrack<W>,
@@ -81,14 +87,15 @@ impl<const W: usize> Estimator<W> {
             camera_smoothness: Smoothness::new(&params.camera_smoother),
             params,
             assembler: FrameAssembler::new(),
-            buffers: [FrameBuffer::new(), FrameBuffer::new()],
-            current: 0,
+            frame: FrameBuffer::new(),
+            previous_statics: Vec::new(),
             has_previous: false,
+            landmark_scratch: Landmarks::new(),
             window: Deque::new(),
             step: 0,
             camera: CameraTrack::new(),
             runs: core::array::from_fn(|_| ObjectRun::new()),
-            corrs: Correspondences::new(),
+            corrs: heapless::Vec::new(),
             scratch: ChainScratch::new(),
             rng: Pcg32::new(seed),
             stats: EstimatorStats::default(),
@@ -111,10 +118,7 @@ impl<const W: usize> Estimator<W> {
     /// Takes one part of a frame; when it completes the frame, estimates it.
     pub fn push(&mut self, part: &FrameTracks) -> Pushed {
         let range = DepthRange { min: self.params.min_depth, max: self.params.max_depth };
-        let outcome = match self.buffers.get_mut(self.current) {
-            Some(buf) => self.assembler.accept(part, buf, range, &mut self.stats),
-            None => PartOutcome::Rejected,
-        };
+        let outcome = self.assembler.accept(part, &mut self.frame, range, &mut self.stats);
         match outcome {
             PartOutcome::Pending => Pushed::Pending,
             PartOutcome::Rejected => Pushed::Rejected,
@@ -163,11 +167,9 @@ impl<const W: usize> Estimator<W> {
     /// The newest frame's static points in the world frame (the bounded map: at most
     /// [`crate::limits::MAX_STATIC_TRACKS`]), by track id.
     pub fn map_points(&self) -> impl Iterator<Item = (u32, Point3<f32>)> + '_ {
-        let prev = self.buffers.get(1 - self.current.min(1)).filter(|_| self.has_previous);
+        let statics = if self.has_previous { &self.previous_statics[..] } else { &[] };
         let cam = *self.camera.frame_to_frame();
-        prev.into_iter()
-            .flat_map(|b| b.statics.iter())
-            .map(move |o| (o.track_id, cam.transform_point(&self.model.back_project(o.u(), o.v(), o.depth))))
+        statics.iter().map(move |o| (o.track_id, cam.transform_point(&self.model.back_project(o.u(), o.v(), o.depth))))
     }
 
     /// Emits the smoothed estimates of every frame still in the window, oldest first, ending the
@@ -200,8 +202,7 @@ impl<const W: usize> Estimator<W> {
         bump(&mut self.stats.frames_processed);
         let step = self.step;
         self.step = self.step.wrapping_add(1);
-        let [a, b] = &self.buffers;
-        let (cur, prev) = if self.current == 0 { (a, b) } else { (b, a) };
+        let cur = &self.frame;
         let has_previous = self.has_previous && self.camera.started();
 
         // Frame period and the window of frames.
@@ -230,7 +231,7 @@ impl<const W: usize> Estimator<W> {
         // Camera.
         if has_previous {
             let r = self.camera.step(
-                &prev.statics,
+                &self.previous_statics,
                 &cur.statics,
                 &self.params.camera_fit,
                 &self.model,
@@ -259,7 +260,6 @@ impl<const W: usize> Estimator<W> {
             }
             self.camera.start(step);
         }
-        let camera_prev = *self.camera.frame_to_frame_previous();
         let camera_now = *self.camera.frame_to_frame();
 
         // Runs whose object is missing from this frame end.
@@ -285,16 +285,9 @@ impl<const W: usize> Estimator<W> {
         // Objects of this frame.
         for obj in &cur.objects {
             let live = self.runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
-            let prev_points = if has_previous { prev.object(obj.object_id).map(|p| &p.points[..]) } else { None };
             let mut restart = live.is_none();
-            if let (Some(i), Some(previous)) = (live, prev_points) {
-                let cx = PairContext {
-                    previous,
-                    current: &obj.points,
-                    camera_previous: &camera_prev,
-                    camera: &camera_now,
-                    leaving,
-                };
+            if let (Some(i), true) = (live, has_previous) {
+                let cx = PairContext { current: &obj.points, camera: &camera_now, leaving };
                 let Some(run) = self.runs.get_mut(i) else { continue };
                 let (outcome, emitted) = run.step(
                     &cx,
@@ -304,6 +297,7 @@ impl<const W: usize> Estimator<W> {
                     &mut self.corrs,
                     &self.object_smoothness,
                     &mut self.scratch,
+                    &mut self.landmark_scratch,
                     dt_leaving,
                     &mut self.stats.numerical_failures,
                 );
@@ -353,7 +347,7 @@ impl<const W: usize> Estimator<W> {
             }
         }
 
-        self.current = 1 - self.current.min(1);
+        self.previous_statics.clone_from(&self.frame.statics);
         self.has_previous = true;
         let emitted = leaving.is_some();
         if emitted {

@@ -1,13 +1,32 @@
-//! Matching frame k-1 to frame k by track id: a linear merge of two id-sorted lists.
+//! Matching by track id: a linear merge of two id-sorted lists.
 
 use super::frame::Obs;
+use super::landmarks::Landmark;
+
+/// Anything with a track id.
+pub trait Tracked {
+    /// The track id.
+    fn track_id(&self) -> u32;
+}
+
+impl Tracked for Obs {
+    fn track_id(&self) -> u32 {
+        self.track_id
+    }
+}
+
+impl Tracked for Landmark {
+    fn track_id(&self) -> u32 {
+        self.track_id
+    }
+}
 
 /// Calls `f(previous, current)` for every track id present in both sorted lists, in id order.
-pub fn for_each_match(previous: &[Obs], current: &[Obs], mut f: impl FnMut(&Obs, &Obs)) {
+pub fn for_each_match<A: Tracked, B: Tracked>(previous: &[A], current: &[B], mut f: impl FnMut(&A, &B)) {
     let mut p = previous.iter().peekable();
     let mut c = current.iter().peekable();
     while let (Some(a), Some(b)) = (p.peek(), c.peek()) {
-        match a.track_id.cmp(&b.track_id) {
+        match a.track_id().cmp(&b.track_id()) {
             core::cmp::Ordering::Less => {
                 p.next();
             }

@@ -8,7 +8,7 @@ use super::fit::{fit_pose, Fit};
 use super::frame::Obs;
 use super::lie::{adjoint, map_information, omega, rho, skew, Mat6, Vec6};
 use super::matching::for_each_match;
-use super::model::{self, Correspondence, PointModel};
+use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
 use super::rng::Pcg32;
 use crate::geometry::{se3_log, Pose3};
@@ -19,19 +19,16 @@ pub const MAX_CORRESPONDENCES: usize = MAX_STATIC_TRACKS;
 const _: () = assert!(crate::limits::MAX_POINTS_PER_OBJECT <= MAX_CORRESPONDENCES);
 
 /// The correspondence scratch shared by all fits of a frame.
-pub type Correspondences = model::Correspondences<MAX_CORRESPONDENCES>;
+pub type Correspondences = Vec<Correspondence, MAX_CORRESPONDENCES>;
 
-/// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k):
-/// each previous observation as a viewing ray and depth in the source frame (`to_source` maps
-/// camera k-1 into it).
+/// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k),
+/// each previous point back-projected and mapped by `to_source` (camera k-1 -> source frame).
 pub fn correspondences(previous: &[Obs], current: &[Obs], to_source: &Pose3, model: &PointModel, out: &mut Correspondences) {
-    out.list.clear();
-    out.origin = to_source.translation.vector;
+    out.clear();
     for_each_match(previous, current, |p, c| {
-        let ray = to_source.rotation * model.back_project(p.u(), p.v(), 1.0).coords;
-        let corr = Correspondence { ray, src_depth: p.depth, delta: 0.0, delta_trial: 0.0, u: c.u(), v: c.v(), depth: c.depth };
+        let src = to_source.transform_point(&model.back_project(p.u(), p.v(), p.depth)).coords;
         // Cannot overflow: both lists are at most MAX_CORRESPONDENCES long.
-        let _ = out.list.push(corr);
+        let _ = out.push(Correspondence { src, u: c.u(), v: c.v(), depth: c.depth });
     });
 }
 
@@ -53,7 +50,7 @@ pub struct MotionMeasurement {
 /// pose from the source frame (`frame` at k-1) into camera k and `a = camera_k^-1 * frame` is
 /// known. `guess` is the expected `delta` (constant motion). `None` when the fit fails.
 pub fn measure_motion(
-    corrs: &mut Correspondences,
+    corrs: &Correspondences,
     a: &Pose3,
     guess: &Pose3,
     fp: &FitParams,

@@ -10,32 +10,39 @@
 //!    Levenberg-Marquardt on the stereo reprojection error `(u, v, disparity)` under a truncated
 //!    Huber kernel. The fit's information (J^T W J over the a-posteriori residual variance) is
 //!    the measurement of the camera motion.
-//! 3. **Object motion** ([`ObjectRun`]): for each object, its tracks matched between k-1 and k;
-//!    the same robust fit gives the motion between the object's frame at k-1 and camera k, hence
-//!    the body motion `delta_k = L_(k-1)^-1 L_k` and the world-centric motion
-//!    `H_k = L_(k-1) delta_k L_(k-1)^-1` (DynoSAM's `H = X_k G^-1`). `L_k = H_k L_(k-1)`.
-//!    The first pose `L_0` comes from the object's own points, never from ground truth: origin
-//!    at their robust centroid, x axis along the first motion once the object has moved at
-//!    least `heading_baseline_m` (before that the frame keeps the world's orientation and is
-//!    re-oriented once, starting a new output segment).
+//! 3. **Object motion** ([`ObjectRun`]): each object keeps its tracked points as landmarks in its
+//!    own frame, running means over the frames they were seen in ([`Landmark`]); the same
+//!    robust fit between the landmarks and the object's tracks at frame k gives its pose at k,
+//!    hence the body motion `delta_k = L_(k-1)^-1 L_k` and the world-centric motion
+//!    `H_k = L_(k-1) delta_k L_(k-1)^-1` (DynoSAM's `H = X_k G^-1`), `L_k = H_k L_(k-1)`.
+//!    Fitting against landmarks rather than frame k-1's raw points matters: a single stereo point
+//!    30 m away is a metre off in depth, and noise in the source points both adds to every motion
+//!    and shrinks fitted rotations (see [`fit`]). The first pose `L_0` comes from the object's
+//!    own points, never from ground truth: origin at their robust centroid, world-aligned; once
+//!    the object has moved `heading_baseline_m` (2 m) the frame is turned once, upright with x
+//!    along the displacement (its heading), which starts a new output segment. Before that its
+//!    heading is unknown (`heading_known == false`).
 //! 4. **Smoothing** ([`ChainSmoother`], [`SmoothedPath`]): over the last `W` frames, per object
 //!    (and for the camera), the body motions are estimated jointly from the per-frame
-//!    measurements and a constant-motion prior between consecutive motions (DynoSAM's
-//!    smoothing factor: 0.01 rad, 0.2 m). The normal equations are block-tridiagonal with 6x6
-//!    blocks and are solved exactly in O(W); a frame leaving the window is fixed and the
-//!    information it carried is marginalised exactly into a prior on the next.
+//!    measurements and a constant-motion prior between consecutive motions. DynoSAM's smoothing
+//!    factor (0.01 rad, 0.2 m, on world-frame motions) was the starting point; on body-frame
+//!    motions the vehicle's own dynamics give 0.002 rad and 0.02 m per frame
+//!    ([`SmootherParams::VEHICLE_OBJECT`], the default; the figures are there). The normal
+//!    equations are block-tridiagonal with 6x6 blocks and are solved exactly in O(W); a frame
+//!    leaving the window is fixed and the information it carried is marginalised exactly into a
+//!    prior on the next.
 //!
-//! The point measurements enter the smoother through each frame pair's Gaussian (Laplace)
-//! summary rather than point by point: that is what makes the memory fixed (27 floats per object
-//! and frame instead of hundreds of points), at the price of ignoring that a point at frame k is
-//! shared by the pairs (k-1, k) and (k, k+1). Objects are measured against the frame-to-frame
-//! camera poses, which are never revised; the camera's smoothed poses are reported beside them.
+//! The point measurements enter the smoother through each frame's Gaussian (Laplace) summary
+//! rather than point by point: that is what makes the memory fixed (27 floats per object and
+//! frame instead of hundreds of points). Objects are measured against the frame-to-frame camera
+//! poses, which are never revised; the camera's smoothed poses are reported beside them.
 //!
 //! # Outputs ([`PoseEstimate`], labelled as the wire's [`crate::wire::EstimateKind`])
 //!
 //! - frame-to-frame ([`Estimator::frame_to_frame`]): DynoSAM's front-end estimate, causal;
-//! - causal ([`Estimator::causal`]): the smoother's estimate of the newest frame, from frames
-//!   up to it only ([`crate::wire::EstimateKind::Causal`]);
+//! - causal ([`Estimator::causal`]): the filtered trajectory, each frame extended by the newest
+//!   motion as the smoother sees it then, from frames up to it only and never revised
+//!   ([`crate::wire::EstimateKind::Causal`]);
 //! - smoothed ([`Estimator::smoothed`]): a frame as it leaves the window, having seen `W - 1`
 //!   later frames ([`crate::wire::EstimateKind::Smoothed`]); never a forecast input.
 //!
@@ -73,9 +80,10 @@
 mod camera;
 mod chain;
 mod estimator;
-mod fit;
-mod frame;
+pub mod fit;
+pub mod frame;
 mod kabsch;
+pub mod landmarks;
 mod lie;
 mod matching;
 mod measure;
@@ -93,11 +101,12 @@ pub use estimator::{Estimator, Pushed, DEFAULT_WINDOW};
 pub use fit::{fit_pose, Fit, FitFailure};
 pub use frame::{FrameAssembler, FrameBuffer, Obs, ObjectPoints, MAX_PIXEL};
 pub use kabsch::kabsch3;
+pub use landmarks::{Landmark, Landmarks, MAX_LANDMARK_WEIGHT};
 pub use lie::{adjoint, PackedSym6};
 pub use model::{Correspondence, PointModel};
 pub use object_run::{ObjectRun, RunState, MAX_HELD_FRAMES};
 pub use output::{bev_heading, ObjectEstimate, PoseEstimate};
 pub use params::{EstimatorParams, FitParams, Intrinsics, SmootherParams};
-pub use path::SmoothedPath;
+pub use path::{SmoothedPath, SolveFailed};
 pub use rng::Pcg32;
 pub use stats::EstimatorStats;

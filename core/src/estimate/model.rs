@@ -2,13 +2,6 @@
 //! `(u, v)` with stereo disparity `d = fb / p.z`. Residuals are kept in pixels: the disparity
 //! residual is scaled by `pixel_sigma / disparity_sigma` so that one threshold and one robust
 //! kernel serve all three components (as ORB-SLAM's stereo reprojection error does with u_right).
-//!
-//! A source point (from frame k-1) is not taken as exact: its depth came from a disparity with
-//! the same noise as frame k's, which at 30 m is over a metre. Taking it as exact biases the
-//! fitted rotation towards zero (errors in the variables: a cloud smeared along the viewing rays
-//! looks less turned). So each source point lies on its k-1 viewing ray at a depth set by a
-//! disparity correction `delta`, estimated jointly with the pose under a prior from its measured
-//! disparity ([`super::fit`] eliminates the corrections by a Schur complement).
 
 use nalgebra::{Matrix3, Matrix3x6, Point3, Vector3};
 
@@ -19,46 +12,17 @@ use crate::geometry::Pose3;
 /// Nearest depth at which a predicted point still counts as in front of the camera, metres.
 const MIN_PREDICTED_DEPTH: f32 = 0.05;
 
-/// Smallest disparity a corrected source point may take, pixels (about 7.7 km at KITTI's
-/// f b): keeps the depth finite whatever the correction.
-const MIN_DISPARITY: f32 = 0.05;
-
-/// One correspondence: a track seen at frame k-1 (the source, as a viewing ray and a depth) and
-/// at frame k.
+/// One correspondence: a point in the source frame (from frame k-1) and its observation at k.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Correspondence {
-    /// The source viewing ray in the source frame, scaled to unit depth: the source point at
-    /// depth `z` is `origin + ray * z` (see [`Correspondences::origin`]).
-    pub ray: Vector3<f32>,
-    /// Depth measured at k-1, metres.
-    pub src_depth: f32,
-    /// Current disparity correction of the source point, pixels.
-    pub delta: f32,
-    /// Disparity correction being tried by the refinement, pixels.
-    pub delta_trial: f32,
+    /// The point in the source frame, metres.
+    pub src: Vector3<f32>,
     /// Observed pixel column at frame k.
     pub u: f32,
     /// Observed pixel row at frame k.
     pub v: f32,
     /// Observed depth at frame k, metres (positive and finite: checked on assembly).
     pub depth: f32,
-}
-
-/// The correspondences of one fit and the origin of their source rays.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Correspondences<const N: usize> {
-    /// The camera centre at k-1 in the source frame.
-    pub origin: Vector3<f32>,
-    /// The correspondences.
-    pub list: heapless::Vec<Correspondence, N>,
-}
-
-impl<const N: usize> Correspondences<N> {
-    /// No correspondences, origin at zero.
-    #[must_use]
-    pub const fn new() -> Self {
-        Self { origin: Vector3::new(0.0, 0.0, 0.0), list: heapless::Vec::new() }
-    }
 }
 
 /// The camera and noise model turning poses into residuals.
@@ -96,53 +60,28 @@ impl PointModel {
         self.back_project(c.u, c.v, c.depth).coords
     }
 
-    /// Weight of a disparity residual relative to a pixel residual.
-    #[must_use]
-    pub const fn disparity_weight(&self) -> f32 {
-        self.disparity_weight
-    }
-
-    /// Whether source depths can be corrected (a stereo model is set).
-    #[must_use]
-    pub fn refines_depth(&self) -> bool {
-        self.fb > 0.0
-    }
-
-    /// Depth of a source point measured at `z0` after the disparity correction `delta`.
-    #[must_use]
-    pub fn corrected_depth(&self, z0: f32, delta: f32) -> f32 {
-        if self.fb > 0.0 { self.fb / (self.fb / z0 + delta).max(MIN_DISPARITY) } else { z0 }
-    }
-
-    /// The source point of `c` with disparity correction `delta`.
-    #[must_use]
-    pub fn source(&self, origin: &Vector3<f32>, c: &Correspondence, delta: f32) -> Vector3<f32> {
-        origin + c.ray * self.corrected_depth(c.src_depth, delta)
-    }
-
     /// The pixel (u, v) of a camera-frame point, `None` behind the camera.
     #[must_use]
     pub fn project(&self, p: &Point3<f32>) -> Option<(f32, f32)> {
         (p.z > MIN_PREDICTED_DEPTH).then(|| (self.fx * p.x / p.z + self.cx, self.fy * p.y / p.z + self.cy))
     }
 
-    /// Residual (pixels) of `c` with source point `src` under the pose `m` (source -> camera
-    /// k): predicted minus observed `(u, v, w * disparity)`. `None` when the point lands behind
-    /// the camera.
+    /// Residual (pixels) of `c` under the pose `m` (source -> camera k): predicted minus
+    /// observed `(u, v, w * disparity)`. `None` when the point lands behind the camera.
     #[must_use]
-    pub fn residual(&self, m: &Pose3, src: &Vector3<f32>, c: &Correspondence) -> Option<Vector3<f32>> {
-        let p = m.transform_point(&Point3::from(*src));
+    pub fn residual(&self, m: &Pose3, c: &Correspondence) -> Option<Vector3<f32>> {
+        let p = m.transform_point(&Point3::from(c.src));
         let (u, v) = self.project(&p)?;
         let d = self.disparity_weight * self.fb * (1.0 / p.z - 1.0 / c.depth);
         Some(Vector3::new(u - c.u, v - c.v, d))
     }
 
-    /// Residual at the source point `src` and its Jacobians with respect to a right
-    /// perturbation of `m` (`m * exp(d)`, `d = [rho; omega]`) and to the source point.
+    /// Residual and its Jacobian with respect to a right perturbation of `m`:
+    /// `m * exp(delta)`, `delta = [rho; omega]`.
     #[must_use]
-    pub fn residual_and_jacobians(&self, m: &Pose3, src: &Vector3<f32>, c: &Correspondence) -> Option<(Vector3<f32>, Matrix3x6<f32>, Matrix3<f32>)> {
-        let p = m.transform_point(&Point3::from(*src));
-        let r = self.residual(m, src, c)?;
+    pub fn residual_and_jacobian(&self, m: &Pose3, c: &Correspondence) -> Option<(Vector3<f32>, Matrix3x6<f32>)> {
+        let p = m.transform_point(&Point3::from(c.src));
+        let r = self.residual(m, c)?;
         let iz = 1.0 / p.z;
         let iz2 = iz * iz;
         let dr_dp = Matrix3::new(
@@ -159,20 +98,8 @@ impl PointModel {
         let rot = m.rotation.to_rotation_matrix().into_inner();
         let mut dp_dd = Matrix3x6::zeros();
         dp_dd.fixed_view_mut::<3, 3>(0, 0).copy_from(&rot);
-        dp_dd.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-rot * skew(src)));
-        Some((r, dr_dp * dp_dd, dr_dp * rot))
-    }
-
-    /// Derivative of the source point of `c` with respect to its disparity correction, at
-    /// `delta`.
-    #[must_use]
-    pub fn source_derivative(&self, c: &Correspondence, delta: f32) -> Vector3<f32> {
-        if self.fb > 0.0 {
-            let z = self.corrected_depth(c.src_depth, delta);
-            -c.ray * (z * z / self.fb)
-        } else {
-            Vector3::zeros()
-        }
+        dp_dd.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-rot * skew(&c.src)));
+        Some((r, dr_dp * dp_dd))
     }
 }
 
@@ -188,23 +115,16 @@ mod tests {
     fn jacobian_matches_finite_differences() {
         let model = PointModel::new(&EstimatorParams::kitti(Intrinsics::KITTI_0926, 0.1));
         let m = se3_exp(&Vector6::new(0.3, -0.1, 1.2, 0.02, -0.05, 0.01));
-        let c = Correspondence { ray: Vector3::new(2.0 / 12.0, 1.0 / 12.0, 1.0), src_depth: 12.0, u: 700.0, v: 230.0, depth: 13.0, ..Default::default() };
-        let origin = Vector3::new(0.1, -0.2, 0.3);
-        let src = model.source(&origin, &c, 0.0);
-        let (r0, j, jp) = model.residual_and_jacobians(&m, &src, &c).unwrap();
+        let c = Correspondence { src: Vector3::new(2.0, 1.0, 12.0), u: 700.0, v: 230.0, depth: 13.0 };
+        let (r0, j) = model.residual_and_jacobian(&m, &c).unwrap();
         for k in 0..6 {
             let mut d = Vector6::zeros();
             d[k] = 1e-3;
-            let r1 = model.residual(&(m * se3_exp(&d)), &src, &c).unwrap();
+            let r1 = model.residual(&(m * se3_exp(&d)), &c).unwrap();
             let num = (r1 - r0) / 1e-3;
             let col = j.column(k);
             assert!((num - col).norm() < 0.02 * (1.0 + col.norm()), "column {k}: {num:?} vs {col:?}");
         }
-        // The disparity correction moves the point along its ray.
-        let jd = jp * model.source_derivative(&c, 0.0);
-        let r1 = model.residual(&m, &model.source(&origin, &c, 1e-2), &c).unwrap();
-        let num = (r1 - r0) / 1e-2;
-        assert!((num - jd).norm() < 0.02 * (1.0 + jd.norm()), "{num:?} vs {jd:?}");
         let id = Pose3::identity();
         let p = model.back_project(700.0, 230.0, 13.0);
         let (u, v) = model.project(&id.transform_point(&p)).unwrap();

@@ -11,7 +11,8 @@
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
 use super::lie::normalised;
-use super::measure::{correspondences, measure_motion, robust_centroid, Correspondences, MotionMeasurement};
+use super::landmarks::{self, fuse, initial_landmarks, landmark_correspondences, Landmarks};
+use super::measure::{measure_motion, robust_centroid, Correspondences, MotionMeasurement};
 use super::model::PointModel;
 use super::output::{object_estimate, ObjectEstimate};
 use super::params::EstimatorParams;
@@ -53,15 +54,11 @@ pub enum StepOutcome {
     Restart,
 }
 
-/// The frame pair an object step works on.
+/// What an object step works on.
 #[derive(Debug, Clone, Copy)]
 pub struct PairContext<'a> {
-    /// The object's points at k-1 and at k, sorted by id.
-    pub previous: &'a [Obs],
-    /// The object's points at k.
+    /// The object's points at k, sorted by id.
     pub current: &'a [Obs],
-    /// Frame-to-frame camera pose at k-1.
-    pub camera_previous: &'a Pose3,
     /// Frame-to-frame camera pose at k.
     pub camera: &'a Pose3,
     /// The step leaving the window now, if any.
@@ -96,6 +93,8 @@ pub struct ObjectRun<const W: usize> {
     held: u8,
     /// Re-orientation count.
     segment: u16,
+    /// The object's points in its frame.
+    landmarks: Landmarks,
 }
 
 impl<const W: usize> Default for ObjectRun<W> {
@@ -127,6 +126,7 @@ impl<const W: usize> ObjectRun<W> {
             heading_known: false,
             held: 0,
             segment: 0,
+            landmarks: Landmarks::new(),
         }
     }
 
@@ -157,12 +157,13 @@ impl<const W: usize> ObjectRun<W> {
         self.provisional = Pose3::from_parts(Translation3::from(c.coords), UnitQuaternion::identity());
         self.first_step = step;
         self.origin = Point2::new(c.x, c.z);
+        initial_landmarks(points, &(self.provisional.inverse() * camera), model, &mut self.landmarks);
         true
     }
 
     /// The pose the previous step's motion is measured from.
     fn frame_pose(&self) -> Pose3 {
-        if self.state == RunState::Initialising { self.provisional } else { *self.path.causal() }
+        if self.state == RunState::Initialising { self.provisional } else { *self.path.current() }
     }
 
     /// Measures and smooths the motion from frame k-1 to frame k. Returns the outcome and the
@@ -178,15 +179,15 @@ impl<const W: usize> ObjectRun<W> {
         corrs: &mut Correspondences,
         s: &Smoothness,
         scratch: &mut ChainScratch<W>,
+        landmark_scratch: &mut Landmarks,
         dt_leaving: f32,
         solve_failures: &mut u32,
     ) -> (StepOutcome, Option<ObjectEstimate>) {
         let frame = self.frame_pose();
-        // Source points: the object's frame at k-1.
-        let to_source = frame.inverse() * cx.camera_previous;
-        correspondences(cx.previous, cx.current, &to_source, model, corrs);
+        // Source points: the landmarks, in the object's frame (at k-1, i.e. `frame`).
         let a = cx.camera.inverse() * frame;
-        let measured = if corrs.list.len() >= usize::from(params.object_min_points) {
+        landmark_correspondences(&self.landmarks, cx.current, corrs);
+        let measured = if corrs.len() >= usize::from(params.object_min_points) {
             measure_motion(corrs, &a, &self.last_delta, &params.object_fit, model, rng)
         } else {
             None
@@ -223,6 +224,10 @@ impl<const W: usize> ObjectRun<W> {
                 None
             }
         };
+        if outcome == StepOutcome::Measured {
+            let object_from_camera = self.path.current().inverse() * cx.camera;
+            fuse(&mut self.landmarks, landmark_scratch, cx.current, &object_from_camera, model, params.object_fit.inlier_px);
+        }
         let out = emitted.map(|e| self.estimate(&e, dt_leaving));
         (outcome, out)
     }
@@ -243,7 +248,7 @@ impl<const W: usize> ObjectRun<W> {
         if self.heading_known || self.state != RunState::Tracking {
             return false;
         }
-        let p = self.path.causal().translation.vector;
+        let p = self.path.current().translation.vector;
         let (dx, dz) = (p.x - self.origin.x, p.z - self.origin.y);
         let moved = libm::hypotf(dx, dz);
         if moved.is_nan() || moved < baseline {
@@ -252,8 +257,9 @@ impl<const W: usize> ObjectRun<W> {
         // The new frame is upright with its x axis along the displacement: this also removes
         // any roll and pitch the frame picked up from noisy motions.
         let target = yaw(libm::atan2f(dz, dx));
-        let r = Pose3::from_parts(Translation3::identity(), self.path.causal().rotation.inverse() * target.rotation);
+        let r = Pose3::from_parts(Translation3::identity(), self.path.current().rotation.inverse() * target.rotation);
         self.path.reframe(&r);
+        landmarks::reframe(&mut self.landmarks, &r);
         self.f2f *= r;
         self.last_delta = r.inverse() * self.last_delta * r;
         self.heading_known = true;

@@ -1,9 +1,15 @@
 //! A smoothed path: a fixed pose (the anchor, the newest frame that left the window) followed by
 //! the chain of per-frame body motions still in the window. Camera and objects each have one.
 //!
-//! Poses are `anchor * exp(x_1) * ... * exp(x_i)` with `x` the chain's solution. The pose of the
-//! newest frame is the causal estimate; the pose of the frame right after the anchor, once it
-//! leaves the window, is the smoothed estimate and becomes the new anchor (fixed from then on).
+//! Poses are `anchor * exp(x_1) * ... * exp(x_i)` with `x` the chain's solution: the newest of
+//! them is the best current estimate of the newest pose (the frame the next motion is measured
+//! from). The pose of the frame right after the anchor, once it leaves the window, is the
+//! smoothed estimate and becomes the new anchor (fixed from then on).
+//!
+//! The causal output is the filtered trajectory: each new step appends the newest motion as the
+//! smoother sees it at that step, `causal_k = causal_(k-1) * exp(x_k)`. It is never revised, so
+//! consecutive causal poses form a trajectory an online system could have logged (the current
+//! estimate is revised with every frame, and pairs of it would carry those revisions).
 
 use super::chain::{ChainScratch, ChainSmoother, Smoothness};
 use super::lie::{adjoint, normalised, Mat6, Vec6};
@@ -30,6 +36,7 @@ pub struct SmoothedPath<const W: usize> {
     anchor_step: u32,
     anchor_emitted: bool,
     chain: ChainSmoother<W>,
+    current: Pose3,
     causal: Pose3,
     causal_xi: Vec6,
 }
@@ -49,6 +56,7 @@ impl<const W: usize> SmoothedPath<W> {
             anchor_step: 0,
             anchor_emitted: false,
             chain: ChainSmoother::new(),
+            current: Pose3::identity(),
             causal: Pose3::identity(),
             causal_xi: Vec6::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
         }
@@ -60,14 +68,21 @@ impl<const W: usize> SmoothedPath<W> {
         self.anchor_step = step;
         self.anchor_emitted = false;
         self.chain.clear();
+        self.current = pose;
         self.causal = pose;
         self.causal_xi = Vec6::zeros();
     }
 
-    /// The causal pose of the newest step.
+    /// The causal (filtered) pose of the newest step.
     #[must_use]
     pub const fn causal(&self) -> &Pose3 {
         &self.causal
+    }
+
+    /// The best current estimate of the newest step's pose (revised by every later frame).
+    #[must_use]
+    pub const fn current(&self) -> &Pose3 {
+        &self.current
     }
 
     /// The causal body twist of the newest step's motion.
@@ -103,7 +118,7 @@ impl<const W: usize> SmoothedPath<W> {
         if !self.chain.push(measurement) {
             self.chain.push(None);
         }
-        self.solve_and_emit(s, scratch, leaving)
+        self.solve_and_emit(s, scratch, leaving, true)
     }
 
     /// Emits `leaving` without adding a step (for a path whose object is gone, and for flushing).
@@ -111,12 +126,16 @@ impl<const W: usize> SmoothedPath<W> {
     /// # Errors
     /// [`SolveFailed`] when the solve broke down.
     pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32) -> Result<Option<Emitted>, SolveFailed> {
-        self.solve_and_emit(s, scratch, Some(leaving))
+        self.solve_and_emit(s, scratch, Some(leaving), false)
     }
 
-    fn solve_and_emit(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: Option<u32>) -> Result<Option<Emitted>, SolveFailed> {
+    fn solve_and_emit(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: Option<u32>, new_step: bool) -> Result<Option<Emitted>, SolveFailed> {
         let Some(n) = self.chain.solve(s, scratch) else {
-            self.causal *= se3_exp(&self.causal_xi);
+            if new_step {
+                let step = se3_exp(&self.causal_xi);
+                self.current = normalised(self.current * step);
+                self.causal = normalised(self.causal * step);
+            }
             return Err(SolveFailed);
         };
         let xs = scratch.solution(n);
@@ -124,9 +143,10 @@ impl<const W: usize> SmoothedPath<W> {
         for x in xs {
             pose *= se3_exp(x);
         }
-        self.causal = normalised(pose);
-        if let Some(x) = xs.last() {
+        self.current = normalised(pose);
+        if new_step && let Some(x) = xs.last() {
             self.causal_xi = *x;
+            self.causal = normalised(self.causal * se3_exp(x));
         }
         let first = xs.first().copied();
         Ok(match leaving {
@@ -162,6 +182,7 @@ impl<const W: usize> SmoothedPath<W> {
     pub fn reframe(&mut self, r: &Pose3) {
         let ad = adjoint(&r.inverse());
         self.anchor *= r;
+        self.current *= r;
         self.causal *= r;
         self.causal_xi = ad * self.causal_xi;
         self.chain.reframe(&ad);
@@ -190,6 +211,7 @@ mod tests {
                 emitted[leaving.unwrap() as usize] = Some(e.pose.translation.vector.x);
             }
             assert!((p.causal().translation.vector.x - k as f32).abs() < 1e-3);
+            assert!((p.current().translation.vector.x - k as f32).abs() < 1e-3);
         }
         for j in 10 - W as u32 + 1..=9 {
             if let Some(e) = p.drain(&s, &mut scratch, j).unwrap() {

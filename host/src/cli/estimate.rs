@@ -62,12 +62,12 @@ pub struct EstimateArgs {
     #[arg(long)]
     pub noise_free: bool,
     /// Object smoother: standard deviation of the change of per-frame translation, metres
-    /// (DynoSAM: 0.2).
-    #[arg(long, default_value_t = SmootherParams::DYNOSAM_OBJECT.sigma_translation)]
+    /// (DynoSAM's world-frame value: 0.2).
+    #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation)]
     pub object_sigma_t: f32,
     /// Object smoother: standard deviation of the change of per-frame rotation, radians
-    /// (DynoSAM: 0.01).
-    #[arg(long, default_value_t = SmootherParams::DYNOSAM_OBJECT.sigma_rotation)]
+    /// (DynoSAM's world-frame value: 0.01).
+    #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
     pub object_sigma_r: f32,
     /// Seed of the simulator and of RANSAC.
     #[arg(long, default_value_t = 1)]
