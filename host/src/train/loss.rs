@@ -3,8 +3,10 @@
 //! - Likelihood: per future step, the log density of the true position under a bivariate
 //!   Gaussian whose mean is the position the mean controls integrate to and whose covariance
 //!   is the control covariance propagated through the unicycle (see [`super::dynamics`]) plus a
-//!   small diagonal floor (`position_floor_m`^2: label and estimator noise that no control
-//!   explains, and a guard against a singular covariance at the first steps). Each step's log
+//!   diagonal floor (`position_floor_m`^2, default 0.3 m: label and estimator noise that no
+//!   control explains, and a guard against a singular covariance at the first steps). Without
+//!   it the first steps, whose propagated covariance is millimetres, dominate the loss with
+//!   label jitter; on KITTI fold 0000 a 0.3 m floor gave a better validation ADE than 0.05 m. Each step's log
 //!   density is clamped at <= 6 (Trajectron++'s `log_p_yt_xz_max`), then the steps are summed.
 //! - Latent: E_q[log p(y|x,z)] is computed exactly, running the decoder for all k modes in one
 //!   batched pass and weighting by q(z|x,y), instead of Trajectron++'s sampling from q. With
@@ -37,7 +39,7 @@ pub struct LossConfig {
 
 impl Default for LossConfig {
     fn default() -> Self {
-        Self { kl_min: 0.07, position_floor_m: 0.05 }
+        Self { kl_min: 0.07, position_floor_m: 0.3 }
     }
 }
 

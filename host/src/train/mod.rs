@@ -2,22 +2,23 @@
 //!
 //! - [`dataset`]: samples (features by core's own code) from eligible runs through a source.
 //! - [`batch`]: mini-batches as tensors.
-//! - [`params`], [`cells`]: seeded parameters; LSTM/GRU cells and linear layers in PyTorch's
-//!   naming and gate order.
+//! - [`params`], [`cells`], [`fused`]: seeded parameters; LSTM/GRU cells and linear layers in
+//!   PyTorch's naming and gate order; the GRU gates as one fused operation.
 //! - [`dynamics`]: the unicycle rollout (as inference computes it) and covariance propagation.
 //! - [`model`]: the network, its training-only future encoder and q(z|x,y), the unimodal
 //!   forecast.
 //! - [`loss`]: the CVAE objective and its documented departures from Trajectron++.
 //! - [`fit`]: the optimisation loop with early stopping on the validation ADE.
-//! - [`export`]: the model blob (f32 or int8) and the safetensors checkpoint.
+//! - [`export`]: the model blob (f32 or int8) and the safetensors checkpoint (format there).
 //!
 //! [`train_fold`] runs one leave-sequences-out fold: samples from every sequence but the
 //! excluded ones, a seeded 15% split of the runs for validation, training, and the best
 //! epoch's weights in a [`TrainedModel`].
 //!
-//! Speed: the network is small and candle's per-operation overhead dominates, so one thread
-//! is faster than a pool on this kind of machine; set `RAYON_NUM_THREADS=1` (the `train`
-//! command does so when it is unset).
+//! Speed: set `RAYON_NUM_THREADS=1` (or `CANDLE_NUM_THREADS=1`) in the environment of the
+//! process. The tensors are small, and candle's worker pools (sized from those variables when
+//! first used, with spinning workers) make training three times slower on 2 cores; only the
+//! environment configures them.
 
 pub mod batch;
 pub mod cells;

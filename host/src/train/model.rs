@@ -152,7 +152,7 @@ impl Network {
         let x_gru = self.gru.project_columns(x, 2 + k, cond)?;
         let z_init = init_w.narrow(1, 0, k)?.contiguous()?.t()?; // [k, dec]: row j is one-hot j's part
         let z_gru = self.gru.w_ih.narrow(1, 2, k)?.contiguous()?.t()?; // [k, 3 dec]
-        let (mut h, fixed_gx, u, speed) = match modes {
+        let (mut h, fixed_gx, mut u, speed) = match modes {
             Modes::All => {
                 let per_mode = |xp: &Tensor, zp: &Tensor, w: usize| xp.unsqueeze(1)?.broadcast_add(&zp.unsqueeze(0)?)?.reshape((b * k, w));
                 let repeat = |t: &Tensor, w: usize| t.unsqueeze(1)?.broadcast_as((b, k, w))?.reshape((b * k, w));
@@ -172,7 +172,6 @@ impl Network {
         // Biases broadcast once: their gradients are then reduced once per batch, not per step.
         let b_hh = self.gru.b_hh.broadcast_as((rows, 3 * dec))?;
         let w_hh = self.gru.w_hh.t()?;
-        let mut u = u;
         let mut hs = Vec::with_capacity(HORIZON);
         for _ in 0..HORIZON {
             let gx = (u.matmul(&w_u)? + &constant)?;
