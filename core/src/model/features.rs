@@ -20,10 +20,16 @@ pub struct AgentFrame {
 }
 
 impl AgentFrame {
-    /// The frame of `current`.
+    /// The frame of `current`: at its position, along its heading.
     #[must_use]
     pub fn of(current: &BevState) -> Self {
-        Self { origin: current.position(), heading: current.heading, cos: libm::cosf(current.heading), sin: libm::sinf(current.heading) }
+        Self::new(current.position(), current.heading)
+    }
+
+    /// The frame at `origin` with its x axis along `heading`.
+    #[must_use]
+    pub fn new(origin: Point2, heading: f32) -> Self {
+        Self { origin, heading, cos: libm::cosf(heading), sin: libm::sinf(heading) }
     }
 
     /// The frame's heading in the world, radians.
@@ -44,6 +50,29 @@ impl AgentFrame {
     pub fn to_world(&self, p: &Point2) -> Point2 {
         Point2::new(self.origin.x + self.cos * p.x - self.sin * p.y, self.origin.y + self.sin * p.x + self.cos * p.y)
     }
+}
+
+/// Below this displacement speed (m/s) the direction of the last displacement is mostly noise,
+/// so the rollout keeps the source's heading.
+pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
+
+/// Where the decoder's rollout starts for a history (oldest first, at least two states): the
+/// agent frame, at the current position with its x axis along the last displacement (the
+/// source's heading when the object barely moves), and the initial speed, |last displacement| /
+/// dt. At zero controls the forecast is then exactly the constant-velocity forecast, and the
+/// network learns corrections to it; Trajectron++ likewise starts its unicycle from
+/// atan2(vy, vx) and |v|. Starting from the source's own heading and speed instead lets a
+/// smoother's lag (the EKF trails turns and braking) leak straight into every forecast.
+#[must_use]
+pub fn rollout_start(history: &[BevState], dt: f32) -> Option<(AgentFrame, f32)> {
+    let [.., prev, cur] = history else { return None };
+    let (dx, dy) = (cur.x - prev.x, cur.y - prev.y);
+    let speed = libm::hypotf(dx, dy) / dt;
+    if !(speed.is_finite() && dt > 0.0) {
+        return None;
+    }
+    let heading = if speed >= MOTION_HEADING_MIN_SPEED { libm::atan2f(dy, dx) } else { cur.heading };
+    Some((AgentFrame::new(cur.position(), heading), speed))
 }
 
 fn clamp(v: f32) -> f32 {

@@ -3,7 +3,7 @@
 
 use super::arch::{tensor as t, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, ACCEL_SCALE};
 use super::blob::ModelBlob;
-use super::features::{initial_control, neighbour_sum, state_features, AgentFrame, StepFeatures};
+use super::features::{initial_control, neighbour_sum, rollout_start, state_features, StepFeatures};
 use super::kernel::{Kernel, ShapeError, MAX_AFFINE_IN};
 use crate::geometry::{BevState, Point2};
 use crate::limits::HORIZON;
@@ -84,13 +84,12 @@ impl<'a> LearnedPredictor<'a> {
         if (dt - trained).abs() > 1e-4 * trained {
             return Err(PredictError::BadFramePeriod);
         }
-        let Some(current) = history.last() else { return Err(PredictError::HistoryTooShort) };
-        let frame = AgentFrame::of(current);
+        let Some((frame, speed)) = rollout_start(history, dt) else { return Err(PredictError::HistoryTooShort) };
         let s = &mut self.scratch;
         let n = state_features(history, &frame, dt, &mut s.own);
         neighbour_sum(neighbours, &frame, n, dt, &mut s.neighbours);
         let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
-        forward(&self.kernel, s, n, u0, current.speed, dt, |k, p| {
+        forward(&self.kernel, s, n, u0, speed, dt, |k, p| {
             if let Some(o) = out.get_mut(k) {
                 *o = frame.to_world(&p);
             }
@@ -266,6 +265,23 @@ mod tests {
             assert!(mean < 0.1, "{dims:?}: int8 strays {mean} m from float");
             // The forecast starts near the current position and moves.
             assert!(a[0].distance(&h[6].position()) < 2.0 && a[HORIZON - 1].distance(&a[0]) > 0.1);
+        }
+    }
+
+    #[test]
+    fn zero_controls_reproduce_constant_velocity() {
+        use crate::predict::constant_velocity;
+        let dims = Dims::DEFAULT;
+        let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| vec![0.0; r * c]).collect();
+        let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+        let mut buf = vec![0u8; blob_len(&dims, Precision::F32)];
+        write_blob(&dims, Precision::F32, 0.05, &slices, &mut buf).unwrap();
+        let mut p = LearnedPredictor::new(ModelBlob::parse(&buf).unwrap());
+        let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
+        p.predict(&history(), 0.05, &mut a).unwrap();
+        constant_velocity(&history(), 0.05, &mut b).unwrap();
+        for (x, y) in a.iter().zip(&b) {
+            assert!(x.distance(y) < 1e-3, "{x:?} vs {y:?}");
         }
     }
 

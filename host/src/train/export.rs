@@ -116,7 +116,7 @@ mod tests {
     use dynotraj_core::limits::HORIZON;
     use dynotraj_core::model::arch::FEATURES;
     use dynotraj_core::model::blob::ModelBlob;
-    use dynotraj_core::model::features::AgentFrame;
+    use dynotraj_core::model::features::rollout_start;
     use dynotraj_core::model::LearnedPredictor;
 
     use super::*;
@@ -229,7 +229,7 @@ mod tests {
                 let ours = net.forecast(&b, dt).unwrap().to_vec3::<f32>().unwrap().remove(0);
                 let mut core = [Point2::default(); HORIZON];
                 predictor.predict_with_neighbours(&states[..=s], &[neighbour], dt, &mut core).unwrap();
-                let frame = AgentFrame::of(&states[s]);
+                let (frame, _) = rollout_start(&states[..=s], dt).unwrap();
                 for (a, w) in ours.iter().zip(&core) {
                     let q = frame.to_agent(w);
                     assert!((a[0] - q.x).abs() < 1e-3 && (a[1] - q.y).abs() < 1e-3, "{a:?} vs {q:?}");
