@@ -54,26 +54,26 @@ impl Smoothness {
     }
 }
 
-/// Scratch of one solve: per slot the inverse of the eliminated diagonal block, the eliminated
-/// right-hand side, and the solution.
+/// Scratch of one solve: per slot the inverse of the eliminated diagonal block (symmetric, so
+/// packed) and the eliminated right-hand side, which back substitution overwrites with the
+/// solution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChainScratch<const W: usize> {
-    d_inv: [Mat6; W],
+    d_inv: [PackedSym6; W],
     y: [Vec6; W],
-    x: [Vec6; W],
 }
 
 impl<const W: usize> ChainScratch<W> {
     /// Zeroed scratch.
     #[must_use]
     pub fn new() -> Self {
-        Self { d_inv: [Mat6::zeros(); W], y: [Vec6::zeros(); W], x: [Vec6::zeros(); W] }
+        Self { d_inv: [PackedSym6::ZERO; W], y: [Vec6::zeros(); W] }
     }
 
     /// The solution of the last solve, oldest slot first.
     #[must_use]
     pub fn solution(&self, n: usize) -> &[Vec6] {
-        self.x.get(..n).unwrap_or(&[])
+        self.y.get(..n).unwrap_or(&[])
     }
 }
 
@@ -199,20 +199,20 @@ impl<const W: usize> ChainSmoother<W> {
                 b += t * y_prev;
             }
             let d_inv = spd_inverse(&a)?;
-            *scratch.d_inv.get_mut(i)? = d_inv;
+            *scratch.d_inv.get_mut(i)? = PackedSym6::pack(&d_inv);
             *scratch.y.get_mut(i)? = b;
             prev = Some((d_inv, b));
         }
-        // Back substitution.
+        // Back substitution, in place of y.
         let mut next: Option<Vec6> = None;
         for i in (0..n).rev() {
-            let d_inv = scratch.d_inv.get(i)?;
-            let y = scratch.y.get(i)?;
+            let d_inv = scratch.d_inv.get(i)?.unpack();
+            let y = scratch.y.get_mut(i)?;
             let x = match next {
-                Some(xn) => d_inv * (y + sm * xn),
-                None => d_inv * y,
+                Some(xn) => d_inv * (*y + sm * xn),
+                None => d_inv * *y,
             };
-            *scratch.x.get_mut(i)? = x;
+            *y = x;
             next = Some(x);
         }
         Some(n)

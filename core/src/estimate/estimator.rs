@@ -9,7 +9,6 @@ use super::chain::{ChainScratch, Smoothness};
 use heapless::Vec;
 
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
-use super::landmarks::Landmarks;
 use super::measure::Correspondences;
 use super::model::PointModel;
 use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
@@ -61,8 +60,6 @@ pub struct Estimator<const W: usize = DEFAULT_WINDOW> {
     /// Frame k-1's static tracks (objects keep landmarks instead).
     previous_statics: Vec<Obs, MAX_STATIC_TRACKS>,
     has_previous: bool,
-    /// Scratch for rebuilding one object's landmarks.
-    landmark_scratch: Landmarks,
     window: Deque<FrameInfo, W>,
     step: u32,
     camera: CameraTrack<W>,
@@ -90,7 +87,6 @@ impl<const W: usize> Estimator<W> {
             frame: FrameBuffer::new(),
             previous_statics: Vec::new(),
             has_previous: false,
-            landmark_scratch: Landmarks::new(),
             window: Deque::new(),
             step: 0,
             camera: CameraTrack::new(),
@@ -297,7 +293,6 @@ impl<const W: usize> Estimator<W> {
                     &mut self.corrs,
                     &self.object_smoothness,
                     &mut self.scratch,
-                    &mut self.landmark_scratch,
                     dt_leaving,
                     &mut self.stats.numerical_failures,
                 );

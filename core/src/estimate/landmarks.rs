@@ -88,30 +88,40 @@ pub fn landmark_correspondences(landmarks: &Landmarks, current: &[Obs], out: &mu
 /// Fuses the observations `current` of frame k into `landmarks`, the object's pose now known:
 /// `object_from_camera` maps camera k into the object's frame. A landmark whose reprojection
 /// disagrees with its observation by more than `gate_px` restarts from the observation (a bad
-/// landmark or a bad track); tracks not seen at k are dropped (ids do not come back).
-pub fn fuse(landmarks: &mut Landmarks, scratch: &mut Landmarks, current: &[Obs], object_from_camera: &Pose3, model: &PointModel, gate_px: f32) {
-    scratch.clear();
+/// landmark or a bad track); tracks not seen at k are dropped (ids do not come back); new
+/// tracks become landmarks of weight 1. In place: the list never outgrows `current`.
+pub fn fuse(landmarks: &mut Landmarks, current: &[Obs], object_from_camera: &Pose3, model: &PointModel, gate_px: f32) {
     let camera_from_object = object_from_camera.inverse();
-    for o in current {
-        let measured = object_from_camera.transform_point(&model.back_project(o.u(), o.v(), o.depth)).coords;
-        let fused = match landmarks.binary_search_by_key(&o.track_id, |l| l.track_id).ok().and_then(|i| landmarks.get(i)) {
-            Some(l) => {
-                let c = Correspondence { src: l.point(), u: o.u(), v: o.v(), depth: o.depth };
-                let agrees = model.residual(&camera_from_object, &c).is_some_and(|r| r.norm() <= gate_px);
-                if agrees {
-                    let w = f32::from(l.weight);
-                    Landmark::new(o.track_id, &((l.point() * w + measured) / (w + 1.0)), l.weight.saturating_add(1))
-                } else {
-                    Landmark::new(o.track_id, &measured, 1)
-                }
-            }
-            None => Landmark::new(o.track_id, &measured, 1),
+    let measured = |o: &Obs| object_from_camera.transform_point(&model.back_project(o.u(), o.v(), o.depth)).coords;
+    landmarks.retain_mut(|l| {
+        let Some(o) = current.binary_search_by_key(&l.track_id, |o| o.track_id).ok().and_then(|i| current.get(i)) else {
+            return false;
         };
-        if let Some(l) = fused {
-            let _ = scratch.push(l);
+        let c = Correspondence { src: l.point(), u: o.u(), v: o.v(), depth: o.depth };
+        let agrees = model.residual(&camera_from_object, &c).is_some_and(|r| r.norm() <= gate_px);
+        let m = measured(o);
+        let next = if agrees {
+            let w = f32::from(l.weight);
+            Landmark::new(l.track_id, &((l.point() * w + m) / (w + 1.0)), l.weight.saturating_add(1))
+        } else {
+            Landmark::new(l.track_id, &m, 1)
+        };
+        match next {
+            Some(n) => {
+                *l = n;
+                true
+            }
+            None => false,
+        }
+    });
+    for o in current {
+        if let Err(at) = landmarks.binary_search_by_key(&o.track_id, |l| l.track_id)
+            && let Some(l) = Landmark::new(o.track_id, &measured(o), 1)
+        {
+            // Cannot overflow: the list holds only ids of `current`, at most the capacity.
+            let _ = landmarks.insert(at, l);
         }
     }
-    landmarks.clone_from(scratch);
 }
 
 /// Turns every landmark by the inverse of the pure rotation `r` (the object's frame became

@@ -179,7 +179,6 @@ impl<const W: usize> ObjectRun<W> {
         corrs: &mut Correspondences,
         s: &Smoothness,
         scratch: &mut ChainScratch<W>,
-        landmark_scratch: &mut Landmarks,
         dt_leaving: f32,
         solve_failures: &mut u32,
     ) -> (StepOutcome, Option<ObjectEstimate>) {
@@ -226,7 +225,7 @@ impl<const W: usize> ObjectRun<W> {
         };
         if outcome == StepOutcome::Measured {
             let object_from_camera = self.path.current().inverse() * cx.camera;
-            fuse(&mut self.landmarks, landmark_scratch, cx.current, &object_from_camera, model, params.object_fit.inlier_px);
+            fuse(&mut self.landmarks, cx.current, &object_from_camera, model, params.object_fit.inlier_px);
         }
         let out = emitted.map(|e| self.estimate(&e, dt_leaving));
         (outcome, out)
