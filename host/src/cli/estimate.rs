@@ -27,8 +27,8 @@ pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
 pub struct EstimateArgs {
     /// A KITTI tracking split folder (label_02/, calib/, ego poses), e.g.
     /// ../shared/kitti/tracking/training. Its labels and ego poses drive the simulator.
-    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR")]
-    pub kitti: PathBuf,
+    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present = "bench")]
+    pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
     #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
@@ -84,6 +84,11 @@ pub struct EstimateArgs {
     /// Output format of the tables.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
+    /// Instead of the KITTI sequences, time the estimator per frame on a synthetic scene at the
+    /// ECU's full budget (16 objects x 128 points + 256 static tracks); `--frames` sets how many
+    /// frames are timed (default 300). Build with `--release` for meaningful figures.
+    #[arg(long)]
+    pub bench: bool,
 }
 
 impl EstimateArgs {
@@ -121,6 +126,10 @@ impl EstimateArgs {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
+    if args.bench {
+        println!("{}", bench_table(args).render(args.format));
+        return Ok(());
+    }
     let results = evaluate(args)?;
     for t in tables(&results) {
         println!("{}", t.render(args.format));
@@ -147,7 +156,8 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
 /// Loading errors, named.
 pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let opt = args.options()?;
-    let dir = TrackingDir::open(&args.kitti)?;
+    let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
+    let dir = TrackingDir::open(kitti)?;
     let ids: Vec<String> = if args.sequences.is_empty() { dir.sequences()? } else { args.sequences.clone() };
     let bar = progress(ids.len() as u64, "estimating");
     let mut out = Vec::new();
@@ -303,5 +313,23 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
             ]);
         }
     }
+    t
+}
+
+/// The compute benchmark as a table.
+#[must_use]
+pub fn bench_table(args: &EstimateArgs) -> Table {
+    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed);
+    let mut t = Table::new(["quantity", "value"]);
+    let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
+    t.push(["build".to_string(), profile.to_string()]);
+    t.push(["frames timed".to_string(), r.frames.to_string()]);
+    t.push(["tracks per frame (mean)".to_string(), format!("{:.0}", r.tracks_per_frame)]);
+    t.push(["objects estimated per frame (mean)".to_string(), format!("{:.1}", r.objects_per_frame)]);
+    t.push(["time per frame, mean (us)".to_string(), format!("{:.0}", r.mean())]);
+    t.push(["time per frame, median (us)".to_string(), format!("{:.0}", r.quantile(0.5))]);
+    t.push(["time per frame, 95th percentile (us)".to_string(), format!("{:.0}", r.quantile(0.95))]);
+    t.push(["time per frame, max (us)".to_string(), format!("{:.0}", r.quantile(1.0))]);
+    t.push(["estimator state (bytes)".to_string(), r.state_bytes.to_string()]);
     t
 }
