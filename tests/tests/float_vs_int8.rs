@@ -24,7 +24,11 @@ fn int8_forecasts_stay_within_two_centimetres_of_float() {
     let seqs: Vec<_> = dir.sequences().unwrap().iter().map(|id| load_ground_truth(&dir, id, dt).unwrap()).collect();
     let mut config = TrainConfig::new(&seqs, vec!["0000".into(), "0003".into()], Source::Gt);
     config.hyper.epochs = 1;
+    // Keep the trained epoch even where the untrained model (zero controls) scores better:
+    // that one would make the comparison trivial.
+    config.hyper.keep_untrained_if_better = false;
     let model = train_fold(&config).unwrap();
+    assert_eq!(model.report.best_epoch, 1, "the trained epoch must be kept");
     let f32_file = ModelFile::from_bytes(model.blob(Precision::F32).unwrap(), "f32").unwrap();
     let int8_file = ModelFile::from_bytes(model.blob(Precision::Int8).unwrap(), "int8").unwrap();
     let (mut pf, mut pq) = (f32_file.predictor(), int8_file.predictor());

@@ -20,7 +20,14 @@ use super::params::{default_bound, ParamStore};
 /// # Errors
 /// A name clash in the store.
 pub fn linear(store: &mut ParamStore, prefix: &str, input: usize, output: usize) -> Result<Linear> {
-    let bound = default_bound(input);
+    linear_within(store, prefix, input, output, default_bound(input))
+}
+
+/// A [`linear`] layer whose initial weights and bias are uniform in +-`bound` (0: all zero).
+///
+/// # Errors
+/// A name clash in the store.
+pub fn linear_within(store: &mut ParamStore, prefix: &str, input: usize, output: usize, bound: f32) -> Result<Linear> {
     let w = store.uniform(&format!("{prefix}.weight"), &[output, input], bound)?;
     let b = store.uniform(&format!("{prefix}.bias"), &[output], bound)?;
     Ok(Linear::new(w, Some(b)))

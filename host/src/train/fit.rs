@@ -43,6 +43,9 @@ pub struct Hyper {
     pub loss: LossConfig,
     /// Seed of the shuffling (and, in [`super::TrainConfig`], of the initial weights).
     pub seed: u64,
+    /// Keep the untrained model (zero controls: the constant-velocity forecast) when no
+    /// epoch beats it on the held-out runs. Off only to study trained weights as they are.
+    pub keep_untrained_if_better: bool,
 }
 
 impl Default for Hyper {
@@ -57,6 +60,7 @@ impl Default for Hyper {
             patience: 4,
             loss: LossConfig::default(),
             seed: 1,
+            keep_untrained_if_better: true,
         }
     }
 }
@@ -164,7 +168,10 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
     let per_epoch = train.len().div_ceil(batch);
     let total = per_epoch * hyper.epochs;
     let mut order: Vec<usize> = (0..train.len()).collect();
-    let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: f32::INFINITY, steps: 0 };
+    // Epoch 0 is the untrained model (the constant-velocity forecast when the output layer starts
+    // at zero): a trained epoch is kept only if it beats it on the held-out runs.
+    let untrained = if hyper.keep_untrained_if_better { mean_ade(net, held_out, dt)? } else { f32::INFINITY };
+    let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0 };
     let mut best = snapshot(vars)?;
     for epoch in 1..=hyper.epochs {
         order.shuffle(&mut rng);

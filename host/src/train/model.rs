@@ -15,7 +15,7 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::{Dims, FEATURES, FUTURE_ENC, OUTPUTS, PZ_HIDDEN};
 
 use super::batch::Batch;
-use super::cells::{bias, linear, GruCell, LstmCell};
+use super::cells::{bias, linear, linear_within, GruCell, LstmCell};
 use super::fused::gru_gates;
 use super::dynamics::{control_covariance, controls, integrate, position_covariance};
 use super::params::ParamStore;
@@ -88,7 +88,9 @@ impl Network {
             pz2: linear(&mut p, "pz2", PZ_HIDDEN, k)?,
             dec_init: linear(&mut p, "dec_init", k + cond, dec)?,
             gru: GruCell::new(&mut p, "gru", 2 + k + cond, dec)?,
-            out: linear(&mut p, "out", dec, OUTPUTS)?,
+            // Zero output layer: the untrained model forecasts zero controls, i.e. exactly the
+            // constant-velocity forecast, and training starts from that solution.
+            out: linear_within(&mut p, "out", dec, OUTPUTS, 0.0)?,
             future_fwd: LstmCell::new(&mut p, "future", "", 2, FUTURE_ENC)?,
             future_bwd: LstmCell::new(&mut p, "future", "_reverse", 2, FUTURE_ENC)?,
             future_h0: linear(&mut p, "future_h0", FEATURES, FUTURE_ENC)?,
