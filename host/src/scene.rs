@@ -42,16 +42,12 @@ impl Scene {
     /// Applies `source` at frame period `dt` to every run of every track.
     #[must_use]
     pub fn new(tracks: &[Track], source: Source, dt: f32) -> Self {
-        let mut runs = Vec::new();
-        for t in tracks {
-            let mut start = 0;
-            for end in 1..=t.frames.len() {
-                if end == t.frames.len() || t.frames[end] != t.frames[end - 1] + 1 {
-                    runs.push(SourcedRun { track_id: t.track_id, first_frame: t.frames[start], states: source.apply(&t.states[start..end], dt) });
-                    start = end;
-                }
-            }
-        }
+        let runs = tracks
+            .iter()
+            .flat_map(|t| {
+                t.runs().map(move |r| SourcedRun { track_id: t.track_id, first_frame: t.frames[r.start], states: source.apply(&t.states[r], dt) })
+            })
+            .collect();
         Self { runs }
     }
 

@@ -87,17 +87,11 @@ pub fn instance_frames(len: usize) -> std::ops::Range<usize> {
 pub fn eligible_runs(tracks: &[Track], rule: &EligibilityRule) -> Vec<EligibleRun> {
     let mut out = Vec::new();
     for t in tracks.iter().filter(|t| rule.classes.contains(&t.class)) {
-        let mut start = 0;
-        for end in 1..=t.frames.len() {
-            let run_ends = end == t.frames.len() || t.frames[end] != t.frames[end - 1] + 1;
-            if !run_ends {
-                continue;
-            }
-            let states = &t.states[start..end];
+        for run in t.runs() {
+            let (first_frame, states) = (t.frames[run.start], &t.states[run]);
             if states.len() >= rule.min_run && is_moving(states, &rule.moving) {
-                out.push(EligibleRun { track_id: t.track_id, class: t.class, first_frame: t.frames[start], states: states.to_vec() });
+                out.push(EligibleRun { track_id: t.track_id, class: t.class, first_frame, states: states.to_vec() });
             }
-            start = end;
         }
     }
     out

@@ -37,6 +37,16 @@ pub struct Track {
     pub states: Vec<BevState>,
 }
 
+impl Track {
+    /// Index ranges (into `frames` and `states`) of the track's runs of consecutive frames, in
+    /// order: a gap in the labels ends a run.
+    pub fn runs(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        let n = self.frames.len();
+        let ends = (1..=n).filter(move |&end| end == n || self.frames[end] != self.frames[end - 1] + 1);
+        ends.scan(0, |start, end| Some(std::mem::replace(start, end)..end))
+    }
+}
+
 /// Puts every labelled observation in the world frame with the camera poses `camera_poses`
 /// (T_world_cam per frame) and groups them into tracks, ordered by track id.
 ///
