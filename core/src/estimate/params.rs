@@ -20,6 +20,12 @@ pub struct Intrinsics {
     pub stereo_fb: f32,
 }
 
+impl From<&crate::wire::CameraInfo> for Intrinsics {
+    fn from(info: &crate::wire::CameraInfo) -> Self {
+        Self { fx: info.fx, fy: info.fy, cx: info.cx, cy: info.cy, stereo_fb: info.stereo_fb }
+    }
+}
+
 impl Intrinsics {
     /// KITTI 2011_09_26 rectified camera 0 (the calibration of tracking sequences 0000-0013).
     pub const KITTI_0926: Self =

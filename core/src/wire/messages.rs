@@ -41,6 +41,31 @@ pub enum Message {
     ModelChunk(ModelChunk),
     /// Either way: the sender's link health.
     LinkStats(LinkStats),
+    /// Host -> edge: the camera model of the stream; sent first and whenever it changes.
+    CameraInfo(CameraInfo),
+}
+
+/// The camera model the tracks of a stream are measured with (rectified pinhole, left camera as
+/// reference). A stream or a tracks file starts with it: the edge cannot estimate without it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, MaxSize)]
+pub struct CameraInfo {
+    /// Focal length along u, pixels.
+    pub fx: f32,
+    /// Focal length along v, pixels.
+    pub fy: f32,
+    /// Principal point u, pixels.
+    pub cx: f32,
+    /// Principal point v, pixels.
+    pub cy: f32,
+    /// Stereo baseline times fx, pixel metres (disparity = `stereo_fb / depth`); zero or less
+    /// for a depth sensor without a stereo noise model.
+    pub stereo_fb: f32,
+    /// Image width, pixels.
+    pub width: u16,
+    /// Image height, pixels.
+    pub height: u16,
+    /// Nominal frame rate, Hz (the paper treats KITTI as 20).
+    pub frame_rate_hz: f32,
 }
 
 /// One feature track's observation in the current frame.

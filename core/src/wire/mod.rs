@@ -6,7 +6,8 @@
 //! A frame carries one [`Message`]: [`FrameTracks`] (host -> edge, a camera frame's feature
 //! tracks in parts of [`TRACKS_PER_MESSAGE`], made by [`frame_parts`]), [`ObjectStates`] and
 //! [`Prediction`] (edge -> host), [`ModelChunk`] (host -> edge, a model blob in pieces made
-//! by [`model_chunks`]) and [`LinkStats`] (either way).
+//! by [`model_chunks`]), [`CameraInfo`] (host -> edge, the camera model, first in every stream)
+//! and [`LinkStats`] (either way).
 //!
 //! # Framing
 //!
@@ -50,7 +51,7 @@ pub use frame::{
     DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode,
 };
 pub use messages::{
-    CameraPose, EstimateKind, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message, ModelChunk,
+    CameraInfo, CameraPose, EstimateKind, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message, ModelChunk,
     ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,
 };
 pub use parts::{

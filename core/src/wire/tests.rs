@@ -97,14 +97,28 @@ fn full_link_stats() -> Message {
     })
 }
 
+fn camera_info() -> Message {
+    Message::CameraInfo(CameraInfo {
+        fx: F,
+        fy: F,
+        cx: F,
+        cy: F,
+        stereo_fb: F,
+        width: u16::MAX,
+        height: u16::MAX,
+        frame_rate_hz: F,
+    })
+}
+
 /// Every variant at full capacity with the longest varints, and each variant's max size.
-fn full_messages() -> [(Message, usize); 5] {
+fn full_messages() -> [(Message, usize); 6] {
     [
         (full_frame_tracks(), FrameTracks::POSTCARD_MAX_SIZE),
         (full_object_states(), ObjectStates::POSTCARD_MAX_SIZE),
         (prediction(HORIZON), Prediction::POSTCARD_MAX_SIZE),
         (full_model_chunk(), ModelChunk::POSTCARD_MAX_SIZE),
         (full_link_stats(), LinkStats::POSTCARD_MAX_SIZE),
+        (camera_info(), CameraInfo::POSTCARD_MAX_SIZE),
     ]
 }
 
