@@ -8,6 +8,7 @@ pub mod scene;
 pub mod sequence;
 pub mod report;
 pub mod cli;
+pub mod tracks_file;
 pub mod trajectory;
 pub mod train;
 pub mod kitti;
