@@ -78,7 +78,13 @@ impl PoseEstimate {
             objects: self
                 .objects
                 .iter()
-                .map(|o| ObjectState { object_id: o.object_id, class: o.class, state: o.bev, heading_rate: o.heading_rate })
+                .map(|o| ObjectState {
+                    object_id: o.object_id,
+                    class: o.class,
+                    state: o.bev,
+                    heading_rate: o.heading_rate,
+                    heading_known: o.heading_known,
+                })
                 .collect(),
         }
     }

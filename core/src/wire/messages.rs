@@ -162,6 +162,10 @@ pub struct ObjectState {
     pub state: BevState,
     /// Heading rate, rad/s, counter-clockwise seen from above.
     pub heading_rate: f32,
+    /// Whether `state.heading` comes from the object's motion. False while the object has not
+    /// moved far enough to tell (the heading is then the world x axis, a placeholder): a
+    /// receiver must not start a forecast history from such a state.
+    pub heading_known: bool,
 }
 
 /// The estimated camera pose and object states at one frame.

@@ -59,5 +59,6 @@ pub use parts::{
 };
 pub use stats::DecoderStats;
 
-/// Version of the wire protocol, the first byte of every payload.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// Version of the wire protocol, the first byte of every payload. History: 1 first release;
+/// 2 added [`ObjectState::heading_known`].
+pub const PROTOCOL_VERSION: u8 = 2;

@@ -53,6 +53,7 @@ fn full_object_states() -> Message {
         class: ObjectClass::Misc,
         state: BevState { x: F, y: F, heading: F, speed: F },
         heading_rate: F,
+        heading_known: true,
     };
     Message::ObjectStates(ObjectStates {
         frame: u32::MAX,
@@ -182,6 +183,35 @@ fn every_variant_round_trips_at_full_capacity() {
         assert_eq!(decoder.stats(), DecoderStats { frames_ok: 1, ..DecoderStats::default() });
     }
     assert_eq!(largest, MAX_MESSAGE_LEN);
+}
+
+#[test]
+fn object_heading_known_travels_and_version_1_is_refused() {
+    let states = |known: bool| {
+        let object = ObjectState {
+            object_id: 7,
+            class: ObjectClass::Car,
+            state: BevState { x: 1.0, y: 2.0, heading: 0.0, speed: 3.0 },
+            heading_rate: 0.0,
+            heading_known: known,
+        };
+        Message::ObjectStates(ObjectStates {
+            frame: 3,
+            timestamp_us: 4,
+            kind: EstimateKind::Causal,
+            camera: CameraPose::IDENTITY,
+            objects: core::iter::once(object).collect(),
+        })
+    };
+    let (unknown, known) = (encoded(&states(false)), encoded(&states(true)));
+    assert_ne!(unknown, known, "the flag is on the wire");
+    assert_eq!(decode(&mut unknown.clone()).unwrap(), states(false));
+    assert_eq!(decode(&mut known.clone()).unwrap(), states(true));
+    // A sender of protocol 1 (ObjectState without the flag) is refused, not misread.
+    let mut body = [0u8; MAX_MESSAGE_LEN];
+    let n = postcard::to_slice(&states(true), &mut body).unwrap().len();
+    assert_eq!(PROTOCOL_VERSION, 2);
+    assert_eq!(decode(&mut frame_of(1, &body[..n - 1])), Err(WireError::Version { found: 1 }));
 }
 
 #[test]
