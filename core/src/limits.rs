@@ -24,3 +24,10 @@ pub const MAX_TURN_RATE: f32 = 0.7;
 pub const MAX_ACCEL: f32 = 4.0;
 /// The frame rate the paper assumes for KITTI, Hz (the cameras really run at 10 Hz).
 pub const PAPER_FRAME_RATE_HZ: f32 = 20.0;
+
+/// Largest plausible |coordinate| of a bird's-eye position, metres. Beyond it a value is garbage,
+/// not a vehicle: squared in covariance arithmetic or extrapolated over a horizon it overflows
+/// f32 (found by the property tests), so filters treat it as missing and predictors refuse it.
+pub const MAX_ABS_POSITION: f32 = 1.0e6;
+/// Largest plausible |speed|, m/s; beyond it a value is treated like [`MAX_ABS_POSITION`].
+pub const MAX_ABS_SPEED: f32 = 1.0e3;

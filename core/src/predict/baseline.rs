@@ -1,6 +1,6 @@
 //! Baseline predictors: constant velocity (CV) and constant turn rate and acceleration (CTRA).
 
-use super::{checked_history, unicycle_step, Forecast, PredictError, Predictor};
+use super::{checked_forecast, checked_history, unicycle_step, Forecast, PredictError, Predictor};
 use crate::geometry::{angle_diff, BevState, Point2};
 
 /// Constant velocity: the velocity of the last two positions, held for the whole horizon.
@@ -18,7 +18,7 @@ pub fn constant_velocity(history: &[BevState], dt: f32, out: &mut Forecast) -> R
         let t = (k + 1) as f32 * dt;
         *p = Point2::new(cur.x + vx * t, cur.y + vy * t);
     }
-    Ok(())
+    checked_forecast(out)
 }
 
 /// Constant turn rate and acceleration on the unicycle, from the source's current heading and
@@ -39,7 +39,7 @@ pub fn ctra(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), Pre
         s = unicycle_step(&s, turn_rate, a, dt);
         *p = s.position();
     }
-    Ok(())
+    checked_forecast(out)
 }
 
 /// The baseline predictors as one [`Predictor`].

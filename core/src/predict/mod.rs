@@ -10,7 +10,7 @@ pub use baseline::{constant_velocity, ctra, Baseline};
 pub use unicycle::{clamp_controls, unicycle_step};
 
 use crate::geometry::{BevState, Point2};
-use crate::limits::{HORIZON, MAX_HISTORY, MIN_HISTORY};
+use crate::limits::{HORIZON, MAX_ABS_POSITION, MAX_ABS_SPEED, MAX_HISTORY, MIN_HISTORY};
 
 /// Positions for the next [`HORIZON`] frames.
 pub type Forecast = [Point2; HORIZON];
@@ -20,7 +20,9 @@ pub type Forecast = [Point2; HORIZON];
 pub enum PredictError {
     /// The history holds fewer than `MIN_HISTORY + 1` states (history plus the current frame).
     HistoryTooShort,
-    /// A history state has a non-finite field.
+    /// A history state has a non-finite or implausible field (beyond
+    /// [`crate::limits::MAX_ABS_POSITION`] or [`crate::limits::MAX_ABS_SPEED`]), or the
+    /// forecast left the finite range.
     NonFinite,
     /// The frame period is not a positive finite number.
     BadFramePeriod,
@@ -36,6 +38,15 @@ pub trait Predictor {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError>;
 }
 
+/// `Ok` when every point of `out` is finite: the last guard of a forecast (a tiny `dt` can
+/// still blow a finite history up).
+///
+/// # Errors
+/// [`PredictError::NonFinite`] otherwise.
+pub fn checked_forecast(out: &Forecast) -> Result<(), PredictError> {
+    if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
+}
+
 /// Checks a history and frame period, and returns the usable tail (at most `MAX_HISTORY + 1`
 /// states, at least `MIN_HISTORY + 1`).
 ///
@@ -49,5 +60,11 @@ pub fn checked_history(history: &[BevState], dt: f32) -> Result<&[BevState], Pre
         return Err(PredictError::HistoryTooShort);
     }
     let tail = history.get(history.len().saturating_sub(MAX_HISTORY + 1)..).unwrap_or(history);
-    if tail.iter().all(BevState::is_finite) { Ok(tail) } else { Err(PredictError::NonFinite) }
+    let plausible = |s: &BevState| {
+        s.is_finite()
+            && s.x.abs() <= MAX_ABS_POSITION
+            && s.y.abs() <= MAX_ABS_POSITION
+            && s.speed.abs() <= MAX_ABS_SPEED
+    };
+    if tail.iter().all(plausible) { Ok(tail) } else { Err(PredictError::NonFinite) }
 }

@@ -8,6 +8,7 @@
 use nalgebra::{Matrix4, Vector4};
 
 use crate::geometry::{angle_diff, wrap_angle, BevState, Point2};
+use crate::limits::{MAX_ABS_POSITION, MAX_ABS_SPEED};
 
 /// Noise parameters of the EKF, as standard deviations in SI units.
 ///
@@ -80,14 +81,18 @@ pub struct Measurement {
 }
 
 impl Measurement {
-    /// A measurement with only its finite components kept: a non-finite value is treated as
-    /// missing rather than poisoning the filter.
+    /// A measurement with only its plausible components kept: a non-finite value, a position
+    /// beyond [`MAX_ABS_POSITION`] or a speed beyond [`MAX_ABS_SPEED`] is treated as missing
+    /// rather than poisoning the filter.
     #[must_use]
     pub fn sanitised(self) -> Self {
+        let plausible = |v: f32, max: f32| v.is_finite() && v.abs() <= max;
         Self {
-            position: self.position.filter(|p| p.x.is_finite() && p.y.is_finite()),
+            position: self
+                .position
+                .filter(|p| plausible(p.x, MAX_ABS_POSITION) && plausible(p.y, MAX_ABS_POSITION)),
             heading: self.heading.filter(|h| h.is_finite()),
-            speed: self.speed.filter(|v| v.is_finite()),
+            speed: self.speed.filter(|&v| plausible(v, MAX_ABS_SPEED)),
         }
     }
 }
@@ -234,13 +239,18 @@ impl UnicycleEkf {
         let col = self.p.column(i).into_owned();
         let Some(&pii) = col.get(i) else { return };
         let s = pii + r;
-        if !(s.is_finite() && s > 0.0) {
+        if !(s.is_finite() && s > 0.0 && innovation.is_finite()) {
             return;
         }
         let k = col / s;
-        self.x += k * innovation;
-        self.p -= k * col.transpose();
-        self.p = (self.p + self.p.transpose()) * 0.5;
+        let x = self.x + k * innovation;
+        let p = self.p - k * col.transpose();
+        // An update that would leave the finite range is dropped: the filter keeps its prior
+        // rather than carrying inf/NaN into every later frame.
+        if x.iter().chain(p.iter()).all(|v| v.is_finite()) {
+            self.x = x;
+            self.p = (p + p.transpose()) * 0.5;
+        }
     }
 }
 
