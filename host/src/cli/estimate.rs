@@ -2,18 +2,21 @@
 //! KITTI sequences; prints the paper's Table III (camera and object RPE) for the frame-to-frame,
 //! causal and smoothed estimates, the smoothness of object trajectories against the KITTI
 //! labels, and optionally writes pose files and logs. `--bench` times the estimator per frame.
+//! `--write-tracks` records the simulated tracks as a tracks file; `--tracks` estimates on one
+//! (no truth: pose files and log only).
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::estimate::SmootherParams;
+use dynotraj_core::estimate::{Intrinsics, SmootherParams};
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::progress;
-use crate::estimate::evaluate::{evaluate_sequence, EvalOptions, SequenceResult};
-use crate::estimate::files::write_run;
+use crate::estimate::evaluate::{camera_info, evaluate_sequence, params_for, sim_max_depth, write_tracks, EvalOptions, SequenceResult, WINDOW};
+use crate::estimate::files::{write_estimates, write_run};
+use crate::estimate::runner::{run_parts, EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::Kind;
 use crate::kitti::TrackingDir;
@@ -27,13 +30,24 @@ pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
 pub struct EstimateArgs {
     /// A KITTI tracking split folder (label_02/, calib/, ego poses), e.g.
     /// ../shared/kitti/tracking/training. Its labels and ego poses drive the simulator.
-    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present = "bench")]
+    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["bench", "tracks"])]
     pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
     #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
+    /// Instead of simulating, estimate on a recorded tracks file (`.dtt`, the link's byte
+    /// stream: camera model, then each frame's tracks). Intrinsics and frame rate come from the
+    /// file's camera model; `--pixel-sigma`, `--disparity-sigma` and `--noise-free` set the
+    /// noise model the estimator assumes (give the values the recording was simulated with to
+    /// reproduce a simulated run bit for bit). A tracks file has no truth: no RPE is printed.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["bench", "write_tracks"])]
+    pub tracks: Option<PathBuf>,
+    /// Also write the simulated tracks of the (single) sequence as a tracks file (`.dtt`), for
+    /// `--tracks` replay.
+    #[arg(long, value_name = "FILE")]
+    pub write_tracks: Option<PathBuf>,
     /// Folder for pose files (TUM and KITTI, camera and objects) and the per-frame CSV log, one
-    /// sub-folder per sequence.
+    /// sub-folder per sequence (with `--tracks`: the folder itself).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
@@ -130,7 +144,22 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         println!("{}", bench_table(args).render(args.format));
         return Ok(());
     }
+    if let Some(path) = &args.tracks {
+        let (t, counters) = replay(args, path)?;
+        println!("{}", t.render(args.format));
+        if args.counters {
+            println!("{}", counters.render(args.format));
+        }
+        return Ok(());
+    }
+    if args.write_tracks.is_some() {
+        anyhow::ensure!(args.sequences.len() == 1, "--write-tracks: give exactly one --sequence (found {})", args.sequences.len());
+    }
     let results = evaluate(args)?;
+    if let (Some(path), Some(r)) = (&args.write_tracks, results.first()) {
+        write_tracks(path, &camera_info(&r.intrinsics, args.rate), &r.sim).with_context(|| format!("--write-tracks {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
     for t in tables(&results) {
         println!("{}", t.render(args.format));
     }
@@ -148,6 +177,81 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A run of the estimator on a recorded tracks file.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// The frames as read (index, timestamp).
+    pub frames: Vec<(u32, u64)>,
+    /// The estimator's outputs, indexed like `frames`.
+    pub run: EstimatorRun,
+    /// Wall time of estimation, seconds.
+    pub estimate_seconds: f64,
+}
+
+/// Estimates on the tracks file `path` with `args`' noise model and priors (no truth, no scores).
+///
+/// # Errors
+/// A tracks file that cannot be read or is not one (named), or a camera model without a usable
+/// frame rate.
+pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<Replay> {
+    let tracks = crate::tracks_file::read(path)?;
+    let cam = tracks.camera;
+    anyhow::ensure!(
+        cam.frame_rate_hz.is_finite() && cam.frame_rate_hz > 0.0,
+        "{}: camera model: frame_rate_hz is {}, expected a positive rate in Hz",
+        path.display(),
+        cam.frame_rate_hz
+    );
+    let mut opt = args.options()?;
+    // The same expression as `options()` with `--rate`: a file written at rate r replays with
+    // the period of a direct run at r, to the bit.
+    opt.dt = 1.0 / cam.frame_rate_hz;
+    let params = params_for(Intrinsics::from(&cam), sim_max_depth(), opt.pixel_sigma, opt.disparity_sigma, &opt);
+    let n = args.frames.unwrap_or(usize::MAX);
+    let frames: Vec<PartsFrame> =
+        tracks.frames.into_iter().take(n).map(|f| PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: f.parts }).collect();
+    let t0 = std::time::Instant::now();
+    let run = run_parts::<WINDOW>(&frames, params, opt.seed);
+    let estimate_seconds = t0.elapsed().as_secs_f64();
+    Ok(Replay { frames: frames.iter().map(|f| (f.frame, f.timestamp_us)).collect(), run, estimate_seconds })
+}
+
+/// Estimates on a tracks file, writes the files of `--out`, and returns the summary table and
+/// the counters table.
+fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table, Table)> {
+    let r = estimate_tracks(args, path)?;
+    if let Some(out) = &args.out {
+        write_estimates(out, &r.frames, &r.run)?;
+        eprintln!("wrote {}", out.display());
+    }
+    let objects = |k: Kind| r.run.of(k).iter().flatten().flat_map(|e| e.objects.iter().map(|o| o.object_id)).collect::<std::collections::BTreeSet<_>>().len();
+    let mut t = Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
+    t.push([
+        path.display().to_string(),
+        r.frames.len().to_string(),
+        objects(Kind::Causal).to_string(),
+        objects(Kind::Smoothed).to_string(),
+        format!("{:.2}", r.estimate_seconds),
+        "not available: a tracks file carries no truth".to_string(),
+    ]);
+    let mut c = Table::new(["tracks file", "counters (non-zero)"]);
+    c.push([path.display().to_string(), nonzero_counters(&r.run.stats)]);
+    Ok((t, c))
+}
+
+/// The non-zero counters of `stats` as `name: value` pairs.
+fn nonzero_counters(stats: &dynotraj_core::estimate::EstimatorStats) -> String {
+    let text = format!("{stats:?}");
+    let nonzero: Vec<&str> = text
+        .trim_start_matches("EstimatorStats {")
+        .trim_end_matches('}')
+        .split(',')
+        .map(str::trim)
+        .filter(|kv| !kv.ends_with(": 0") && !kv.is_empty())
+        .collect();
+    nonzero.join(" ")
 }
 
 /// Loads, simulates, estimates and scores the requested sequences.
@@ -278,16 +382,7 @@ pub fn smoothness_table(results: &[SequenceResult]) -> Table {
 pub fn counters_table(results: &[SequenceResult]) -> Table {
     let mut t = Table::new(["sequence", "counters (non-zero)", "estimate time (s)"]);
     for r in results {
-        let text = format!("{:?}", r.stats);
-        let nonzero: Vec<String> = text
-            .trim_start_matches("EstimatorStats {")
-            .trim_end_matches('}')
-            .split(',')
-            .map(str::trim)
-            .filter(|kv| !kv.ends_with(": 0") && !kv.is_empty())
-            .map(str::to_string)
-            .collect();
-        t.push([r.id.clone(), nonzero.join(" "), format!("{:.2}", r.estimate_seconds)]);
+        t.push([r.id.clone(), nonzero_counters(&r.stats), format!("{:.2}", r.estimate_seconds)]);
     }
     t
 }

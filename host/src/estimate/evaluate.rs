@@ -3,8 +3,8 @@
 use std::collections::BTreeSet;
 use std::time::Instant;
 
-use dynotraj_core::estimate::{EstimatorParams, EstimatorStats, SmootherParams};
-use dynotraj_core::wire::ObjectClass;
+use dynotraj_core::estimate::{EstimatorParams, EstimatorStats, Intrinsics, SmootherParams};
+use dynotraj_core::wire::{CameraInfo, ObjectClass};
 use dynotraj_fixtures::track_sim::{simulate, SimFrame, SimSpec};
 
 use super::input::{sim_input, KITTI_IMAGE_SIZE};
@@ -12,6 +12,7 @@ use super::runner::{run_estimator, EstimatorRun, Kind};
 use super::score::{moving_objects, score_run, smoothness, RunScores, Smoothness, SmoothnessSum};
 use crate::kitti::SequenceData;
 use crate::sequence::ground_truth_of;
+use crate::tracks_file::TracksWriter;
 
 /// The smoothing window of the command (DynoSAM's 20 frames).
 pub const WINDOW: usize = dynotraj_core::estimate::DEFAULT_WINDOW;
@@ -77,18 +78,66 @@ pub struct SequenceResult {
     pub sim: Vec<SimFrame>,
     /// The estimator's outputs.
     pub run: EstimatorRun,
+    /// The sequence's camera (what a tracks file of it carries).
+    pub intrinsics: Intrinsics,
 }
 
 /// The estimator parameters for a sequence with `spec`'s camera and `opt`'s priors.
 #[must_use]
 pub fn estimator_params(spec: &SimSpec, opt: &EvalOptions) -> EstimatorParams {
-    let mut p = EstimatorParams::kitti(spec.intrinsics, opt.dt);
-    p.pixel_sigma = spec.pixel_sigma.max(0.1) as f32;
-    p.disparity_sigma = spec.disparity_sigma.max(0.1) as f32;
-    p.max_depth = spec.max_depth as f32;
+    params_for(spec.intrinsics, spec.max_depth, spec.pixel_sigma, spec.disparity_sigma, opt)
+}
+
+/// The estimator parameters for a camera, the depth limit and noise of its tracks, and `opt`'s
+/// frame period and priors (what a replayed tracks file needs: the same values give the same
+/// parameters as the simulated run that wrote it).
+#[must_use]
+pub fn params_for(intrinsics: Intrinsics, max_depth: f64, pixel_sigma: f64, disparity_sigma: f64, opt: &EvalOptions) -> EstimatorParams {
+    let mut p = EstimatorParams::kitti(intrinsics, opt.dt);
+    // The noise model never goes below 0.1 px: a noise-free simulation would otherwise give
+    // infinite information.
+    p.pixel_sigma = pixel_sigma.max(0.1) as f32;
+    p.disparity_sigma = disparity_sigma.max(0.1) as f32;
+    p.max_depth = max_depth as f32;
     p.object_smoother = opt.object_smoother;
     p.camera_smoother = opt.camera_smoother;
     p
+}
+
+/// The simulator's depth limit, metres (tracks beyond it are not simulated; a replayed tracks
+/// file is estimated with the same limit).
+#[must_use]
+pub fn sim_max_depth() -> f64 {
+    SimSpec::kitti(Intrinsics::KITTI_0926, KITTI_IMAGE_SIZE, 0.1, 0).max_depth
+}
+
+/// The camera model of a simulated sequence as it travels on the link (first message of a
+/// tracks file).
+#[must_use]
+pub fn camera_info(intrinsics: &Intrinsics, rate_hz: f32) -> CameraInfo {
+    CameraInfo {
+        fx: intrinsics.fx,
+        fy: intrinsics.fy,
+        cx: intrinsics.cx,
+        cy: intrinsics.cy,
+        stereo_fb: intrinsics.stereo_fb,
+        width: KITTI_IMAGE_SIZE.0 as u16,
+        height: KITTI_IMAGE_SIZE.1 as u16,
+        frame_rate_hz: rate_hz,
+    }
+}
+
+/// Writes the simulated tracks of `sim` as a tracks file (`.dtt`): the link's byte stream.
+///
+/// # Errors
+/// The file cannot be written, or a frame exceeds the wire's track budget.
+pub fn write_tracks(path: &std::path::Path, camera: &CameraInfo, sim: &[SimFrame]) -> anyhow::Result<()> {
+    let mut w = TracksWriter::create(path, camera)?;
+    for f in sim {
+        w.write_frame(f.frame, f.timestamp_us, &f.tracks)?;
+    }
+    w.finish()?;
+    Ok(())
 }
 
 /// Simulates, estimates and scores sequence `data`.
@@ -113,7 +162,7 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
     let smoothness = smoothness_table(id, data, opt, &sim, &run, &moving);
-    SequenceResult { id: id.to_string(), frames: n, min_step_m: opt.min_step_m, scores, smoothness, stats: run.stats, estimate_seconds, sim, run }
+    SequenceResult { id: id.to_string(), frames: n, min_step_m: opt.min_step_m, scores, smoothness, stats: run.stats, estimate_seconds, sim, run, intrinsics: input.intrinsics }
 }
 
 /// Smoothness of labels, truth and each kind, on the frame pairs of the smoothed estimate.

@@ -45,12 +45,7 @@ pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow:
     let truth: Vec<(f64, Isometry3<f64>)> = frames.iter().map(|f| (seconds(f.timestamp_us), f.camera)).collect();
     write_tum(dir.join("camera_truth.tum"), &truth)?;
     write_poses(dir.join("camera_truth.kitti"), &truth.iter().map(|p| p.1).collect::<Vec<_>>())?;
-    for kind in Kind::ALL {
-        let est: Vec<(f64, Isometry3<f64>)> =
-            run.of(kind).iter().flatten().map(|e| (seconds(e.timestamp_us), f64_pose(&e.camera))).collect();
-        write_tum(dir.join(format!("camera_{}.tum", kind.name())), &est)?;
-        write_poses(dir.join(format!("camera_{}.kitti", kind.name())), &est.iter().map(|p| p.1).collect::<Vec<_>>())?;
-    }
+    write_estimate_poses(dir, run)?;
     let ids: BTreeSet<u16> = frames.iter().flat_map(|f| f.objects.iter().map(|o| o.object_id)).collect();
     for id in ids {
         let truth: Vec<(f64, Isometry3<f64>)> = frames
@@ -58,12 +53,6 @@ pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow:
             .filter_map(|f| f.objects.iter().find(|o| o.object_id == id).map(|o| (seconds(f.timestamp_us), o.pose)))
             .collect();
         write_tum(objects_dir.join(format!("{id}_truth.tum")), &truth)?;
-        for kind in Kind::ALL {
-            let est: Vec<(f64, Isometry3<f64>)> = object_poses(run.of(kind), id).map(|(_, t, p)| (t, p)).collect();
-            if !est.is_empty() {
-                write_tum(objects_dir.join(format!("{id}_{}.tum", kind.name())), &est)?;
-            }
-        }
         let (mut est, mut tru) = (Vec::new(), Vec::new());
         for (f, e) in frames.iter().zip(run.of(Kind::Smoothed)) {
             let t = f.objects.iter().find(|o| o.object_id == id);
@@ -78,7 +67,41 @@ pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow:
             write_poses(objects_dir.join(format!("{id}_truth.kitti")), &tru)?;
         }
     }
-    write_log(&dir.join("log.csv"), frames, run)
+    let meta: Vec<(u32, u64)> = frames.iter().map(|f| (f.frame, f.timestamp_us)).collect();
+    write_log(&dir.join("log.csv"), &meta, Some(frames), run)
+}
+
+/// Writes the estimated pose files and the log of a run without truth (a recorded tracks file):
+/// the files of [`write_run`] less every `*_truth*` file and the log's truth rows. `frames` are
+/// (frame index, timestamp in microseconds) in the run's order.
+///
+/// # Errors
+/// A file or folder that cannot be written, named.
+pub fn write_estimates(dir: &Path, frames: &[(u32, u64)], run: &EstimatorRun) -> anyhow::Result<()> {
+    write_estimate_poses(dir, run)?;
+    write_log(&dir.join("log.csv"), frames, None, run)
+}
+
+/// Camera and object pose files of every estimate kind.
+fn write_estimate_poses(dir: &Path, run: &EstimatorRun) -> anyhow::Result<()> {
+    let objects_dir = dir.join("objects");
+    std::fs::create_dir_all(&objects_dir).with_context(|| format!("creating {}", objects_dir.display()))?;
+    for kind in Kind::ALL {
+        let est: Vec<(f64, Isometry3<f64>)> =
+            run.of(kind).iter().flatten().map(|e| (seconds(e.timestamp_us), f64_pose(&e.camera))).collect();
+        write_tum(dir.join(format!("camera_{}.tum", kind.name())), &est)?;
+        write_poses(dir.join(format!("camera_{}.kitti", kind.name())), &est.iter().map(|p| p.1).collect::<Vec<_>>())?;
+    }
+    let ids: BTreeSet<u16> = Kind::ALL.iter().flat_map(|k| run.of(*k).iter().flatten().flat_map(|e| e.objects.iter().map(|o| o.object_id))).collect();
+    for id in ids {
+        for kind in Kind::ALL {
+            let est: Vec<(f64, Isometry3<f64>)> = object_poses(run.of(kind), id).map(|(_, t, p)| (t, p)).collect();
+            if !est.is_empty() {
+                write_tum(objects_dir.join(format!("{id}_{}.tum", kind.name())), &est)?;
+            }
+        }
+    }
+    Ok(())
 }
 
 /// (frame, seconds, pose) of object `id` in a kind's estimates.
@@ -95,29 +118,30 @@ fn pose_cols(p: &Isometry3<f64>) -> String {
     format!("{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9}", t.x, t.y, t.z, q.x, q.y, q.z, q.w)
 }
 
-/// The per-frame CSV log: for every frame, the truth and each estimate kind, one row for the
-/// camera and one per object, with pose, world motion and bird's-eye state.
-fn write_log(path: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow::Result<()> {
+/// The per-frame CSV log: for every frame, the truth (when known) and each estimate kind, one row
+/// for the camera and one per object, with pose, world motion and bird's-eye state.
+fn write_log(path: &Path, frames: &[(u32, u64)], truth: Option<&[SimFrame]>, run: &EstimatorRun) -> anyhow::Result<()> {
     let mut s = String::from(
         "frame,time_s,kind,entity,segment,tx,ty,tz,qx,qy,qz,qw,motion_tx,motion_ty,motion_tz,motion_qx,motion_qy,motion_qz,motion_qw,bev_x,bev_y,heading,speed,heading_rate\n",
     );
     let empty_motion = ",,,,,,";
     let empty_bev = ",,,,";
-    for (i, f) in frames.iter().enumerate() {
-        let t = seconds(f.timestamp_us);
-        let _ = writeln!(s, "{},{t:.6},truth,camera,,{},{empty_motion},{empty_bev}", f.frame, pose_cols(&f.camera));
-        for o in &f.objects {
-            let _ = writeln!(s, "{},{t:.6},truth,{},,{},{empty_motion},{empty_bev}", f.frame, o.object_id, pose_cols(&o.pose));
+    for (i, &(frame, timestamp_us)) in frames.iter().enumerate() {
+        let t = seconds(timestamp_us);
+        if let Some(f) = truth.and_then(|tr| tr.get(i)) {
+            let _ = writeln!(s, "{frame},{t:.6},truth,camera,,{},{empty_motion},{empty_bev}", pose_cols(&f.camera));
+            for o in &f.objects {
+                let _ = writeln!(s, "{frame},{t:.6},truth,{},,{},{empty_motion},{empty_bev}", o.object_id, pose_cols(&o.pose));
+            }
         }
         for kind in Kind::ALL {
-            let Some(e) = &run.of(kind)[i] else { continue };
-            let _ = writeln!(s, "{},{t:.6},{},camera,,{},{empty_motion},{empty_bev}", f.frame, kind.name(), pose_cols(&f64_pose(&e.camera)));
+            let Some(Some(e)) = run.of(kind).get(i) else { continue };
+            let _ = writeln!(s, "{frame},{t:.6},{},camera,,{},{empty_motion},{empty_bev}", kind.name(), pose_cols(&f64_pose(&e.camera)));
             for o in &e.objects {
                 let b = o.bev;
                 let _ = writeln!(
                     s,
-                    "{},{t:.6},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6}",
-                    f.frame,
+                    "{frame},{t:.6},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.6}",
                     kind.name(),
                     o.object_id,
                     o.segment,

@@ -1,7 +1,7 @@
 //! Streams simulated frames through the wire into the core estimator and collects its outputs.
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, PoseEstimate, Pushed};
-use dynotraj_core::wire::{encode, frame_parts, FrameBuf, FrameDecoder, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{encode, frame_parts, FrameBuf, FrameDecoder, FrameTracks, Message, MAX_FRAME_LEN};
 use dynotraj_fixtures::track_sim::SimFrame;
 
 /// Which of the estimator's outputs.
@@ -57,6 +57,17 @@ impl EstimatorRun {
     }
 }
 
+/// One camera frame as the estimator receives it: its wire parts, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartsFrame {
+    /// Camera frame index.
+    pub frame: u32,
+    /// Capture time, microseconds.
+    pub timestamp_us: u64,
+    /// The frame's `FrameTracks` parts.
+    pub parts: Vec<FrameTracks>,
+}
+
 /// Runs an estimator with window `W` over `frames`, each frame split into wire parts, encoded,
 /// and decoded again by a streaming decoder before the estimator sees it.
 ///
@@ -65,23 +76,37 @@ impl EstimatorRun {
 /// (the simulator's budgets are the wire's).
 #[must_use]
 pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
-    let mut est: Box<Estimator<W>> = Box::new(Estimator::new(params, seed));
-    let n = frames.len();
-    let mut run = EstimatorRun { frame_to_frame: vec![None; n], causal: vec![None; n], smoothed: vec![None; n], stats: EstimatorStats::default(), wire_bytes: 0 };
-    let index_of = |frame: u32| frames.iter().position(|f| f.frame == frame);
     let mut decoder = FrameDecoder::new();
     let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
     let mut bytes = Vec::new();
-    for (i, f) in frames.iter().enumerate() {
+    let mut wire_bytes = 0;
+    let mut received = Vec::with_capacity(frames.len());
+    for f in frames {
         bytes.clear();
         for part in frame_parts(f.frame, f.timestamp_us, &f.tracks).expect("the simulator stays within the wire's track budget") {
             let len = encode(&Message::FrameTracks(part), &mut buf).expect("a frame buffer holds any message");
             bytes.extend_from_slice(&buf[..len]);
         }
-        run.wire_bytes += bytes.len();
-        for msg in decoder.feed(&bytes) {
-            let Message::FrameTracks(part) = msg else { continue };
-            if let Pushed::Frame { smoothed } = est.push(&part) {
+        wire_bytes += bytes.len();
+        let parts = decoder.feed(&bytes).filter_map(|m| if let Message::FrameTracks(p) = m { Some(p) } else { None }).collect();
+        received.push(PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts });
+    }
+    let mut run = run_parts::<W>(&received, params, seed);
+    run.wire_bytes = wire_bytes;
+    run
+}
+
+/// Runs an estimator with window `W` over frames already in wire parts (a simulated stream after
+/// the link, or a tracks file). Outputs are indexed by position in `frames`.
+#[must_use]
+pub fn run_parts<const W: usize>(frames: &[PartsFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
+    let mut est: Box<Estimator<W>> = Box::new(Estimator::new(params, seed));
+    let n = frames.len();
+    let mut run = EstimatorRun { frame_to_frame: vec![None; n], causal: vec![None; n], smoothed: vec![None; n], stats: EstimatorStats::default(), wire_bytes: 0 };
+    let index_of = |frame: u32| frames.iter().position(|f| f.frame == frame);
+    for (i, f) in frames.iter().enumerate() {
+        for part in &f.parts {
+            if let Pushed::Frame { smoothed } = est.push(part) {
                 let mut e = PoseEstimate::new();
                 est.frame_to_frame(&mut e);
                 run.frame_to_frame[i] = Some(e.clone());

@@ -1,0 +1,68 @@
+//! `dynotraj estimate --write-tracks` then `--tracks`: replaying a recorded tracks file gives the
+//! estimates of the direct run bit for bit (same noise model, seed and rate), and the replay
+//! writes the estimate files without any truth.
+
+use clap::Parser as _;
+use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_host::cli::estimate::{estimate_tracks, evaluate, run, EstimateArgs};
+use dynotraj_host::cli::{Cli, Command};
+use dynotraj_host::estimate::Kind;
+use dynotraj_tests::synthetic_kitti::write_sequence;
+
+fn args(list: &[&str]) -> EstimateArgs {
+    let cli = Cli::try_parse_from(["dynotraj", "estimate"].iter().chain(list.iter()).copied()).unwrap();
+    let Command::Estimate(a) = cli.command else { panic!("not the estimate command") };
+    a
+}
+
+#[test]
+fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().join("kitti");
+    write_sequence(&root, "0000", &generate(&DriveSpec::default()));
+    let tracks = dir.path().join("0000.dtt");
+    let (root_s, tracks_s) = (root.to_str().unwrap(), tracks.to_str().unwrap());
+    let direct_out = dir.path().join("direct");
+    let replay_out = dir.path().join("replay");
+
+    // The command itself: writes the tracks file and the direct run's files.
+    let direct_args = args(&["--kitti", root_s, "--sequence", "0000", "--seed", "3", "--write-tracks", tracks_s, "--out", direct_out.to_str().unwrap()]);
+    run(&direct_args).unwrap();
+    assert!(tracks.is_file());
+    let replay_args = args(&["--tracks", tracks_s, "--seed", "3", "--out", replay_out.to_str().unwrap()]);
+    run(&replay_args).unwrap();
+
+    // Bit for bit: every estimate of every kind, compared as f32.
+    let direct = evaluate(&direct_args).unwrap().remove(0);
+    let replay = estimate_tracks(&replay_args, &tracks).unwrap();
+    assert_eq!(replay.frames.len(), direct.frames);
+    let mut objects = 0;
+    for kind in Kind::ALL {
+        assert_eq!(replay.run.of(kind), direct.run.of(kind), "{kind:?} estimates differ");
+        objects += replay.run.of(kind).iter().flatten().map(|e| e.objects.len()).sum::<usize>();
+    }
+    assert!(objects > 0, "the drive's moving objects are estimated");
+    assert_eq!(replay.run.stats, direct.run.stats);
+
+    // A different seed changes RANSAC, so the comparison above can fail.
+    let other = estimate_tracks(&args(&["--tracks", tracks_s, "--seed", "4"]), &tracks).unwrap();
+    assert_ne!(other.run.of(Kind::FrameToFrame), direct.run.of(Kind::FrameToFrame));
+
+    // The replay's files: the same estimate files, no truth anywhere.
+    let seq = direct_out.join("0000");
+    for f in ["camera_smoothed.tum", "camera_causal.kitti", "camera_f2f.tum"] {
+        let a = std::fs::read(seq.join(f)).unwrap();
+        assert_eq!(std::fs::read(replay_out.join(f)).unwrap(), a, "{f}");
+    }
+    assert!(!replay_out.join("camera_truth.tum").exists());
+    let log = std::fs::read_to_string(replay_out.join("log.csv")).unwrap();
+    assert!(!log.contains(",truth,"));
+    let direct_log = std::fs::read_to_string(seq.join("log.csv")).unwrap();
+    let estimated: Vec<&str> = direct_log.lines().filter(|l| !l.contains(",truth,")).collect();
+    assert_eq!(log.lines().collect::<Vec<_>>(), estimated);
+
+    // Bad input names the file.
+    std::fs::write(&tracks, b"\x00garbage\x00").unwrap();
+    let err = estimate_tracks(&replay_args, &tracks).unwrap_err().to_string();
+    assert!(err.contains("0000.dtt"), "{err}");
+}
