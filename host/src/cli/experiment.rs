@@ -6,6 +6,7 @@ use clap::Args;
 
 use super::bench::parse_dims;
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::train::HyperArgs;
 use crate::experiment::{run_experiment, ExperimentConfig};
 use crate::report::{Format, Table};
 use crate::train::Event;
@@ -27,12 +28,9 @@ pub struct ExperimentArgs {
     /// Model widths enc,edge,k,dec.
     #[arg(long, default_value = "32,32,5,64", value_name = "DIMS")]
     pub dims: String,
-    /// Most epochs per fold (early stopping may stop sooner); default: the trainer's.
-    #[arg(long)]
-    pub epochs: Option<usize>,
-    /// Seed of weights, shuffling and validation split.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Training settings of every fold.
+    #[command(flatten)]
+    pub hyper: HyperArgs,
     /// Folder for each fold's model blobs (`<arm>-<seq>.blob`, `.blob.int8`).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -53,11 +51,13 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
         arms: args.arms.clone(),
         test_sequences,
         dims: parse_dims(&args.dims)?,
-        epochs: args.epochs,
+        hyper: args.hyper.hyper()?,
+        validation_fraction: args.hyper.val_fraction,
+        mirror: args.hyper.mirror,
+        validate_on_sequences: args.hyper.val_sequences,
         dt: args.data.dt()?,
         rule: args.data.rule()?,
         out: args.out.clone(),
-        seed: args.seed,
     };
     let bar = super::common::progress(0, "training");
     let mut current = String::new();
@@ -76,9 +76,12 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
         }
     })?;
     bar.finish_and_clear();
-    let mut summary = String::from("folds (arm / held-out sequence: training instances, best validation ADE, seconds):\n");
+    let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
     for f in &result.folds {
-        summary.push_str(&format!("  {} / {}: {} instances, val ADE {:.3} m, {:.1} s\n", f.arm, f.sequence, f.train_instances, f.val_ade, f.seconds));
+        summary.push_str(&format!(
+            "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s\n",
+            f.arm, f.sequence, f.train_instances, f.best_epoch, f.shrink, f.val_ade, f.val_cv_ade, f.seconds
+        ));
     }
     summary.push_str(&format!("total: {:.1} s\n", result.seconds));
     Ok((result.table, summary))

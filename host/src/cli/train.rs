@@ -10,7 +10,7 @@ use dynotraj_core::model::blob::Precision;
 
 use super::common::{progress, DataArgs};
 use crate::train::loss::LossConfig;
-use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
+use crate::train::{train_fold_with, Event, Hyper, TrainConfig, DEFAULT_MIRROR, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION};
 use crate::trajectory::Source;
 
 /// Blob precisions.
@@ -56,6 +56,18 @@ pub struct TrainArgs {
     /// Network widths: history encoder, edge encoder, latent modes, decoder.
     #[arg(long, default_value = "32,32,5,64", value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
     pub dims: Dims,
+    /// Optimisation and loss settings.
+    #[command(flatten)]
+    pub hyper: HyperArgs,
+    /// Precision of the blob written to PATH (PATH.int8 is always int8).
+    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
+    pub precision: PrecisionArg,
+}
+
+/// Training settings shared by `dynotraj train` and `dynotraj experiment`; the defaults are
+/// [`Hyper::default`] and [`TrainConfig::new`]'s (how they were chosen: docs/decisions.md).
+#[derive(Debug, Clone, Args)]
+pub struct HyperArgs {
     /// Most epochs (training stops earlier when the validation ADE has not improved for
     /// --patience epochs; the best epoch's weights are kept).
     #[arg(long, default_value_t = Hyper::default().epochs, value_name = "N")]
@@ -72,13 +84,72 @@ pub struct TrainArgs {
     /// Adam's initial learning rate (decays by 0.9999 per step).
     #[arg(long, default_value_t = Hyper::default().learning_rate, value_name = "RATE")]
     pub lr: f64,
+    /// AdamW's decoupled weight decay.
+    #[arg(long, default_value_t = Hyper::default().weight_decay, value_name = "DECAY")]
+    pub weight_decay: f64,
     /// Standard deviation of the position noise floor of the likelihood, metres: error the
     /// controls need not explain (label or estimator noise).
     #[arg(long, default_value_t = LossConfig::default().position_floor_m, value_name = "METRES")]
     pub position_floor: f32,
-    /// Precision of the blob written to PATH (PATH.int8 is always int8).
-    #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
-    pub precision: PrecisionArg,
+    /// Weight of the CVAE objective (0: train on the position error alone).
+    #[arg(long, default_value_t = LossConfig::default().likelihood_weight, value_name = "W")]
+    pub likelihood_weight: f32,
+    /// Weight of the p(z|x)-weighted ADE of the mean forecasts, per metre.
+    #[arg(long, default_value_t = LossConfig::default().ade_weight, value_name = "W")]
+    pub ade_weight: f32,
+    /// After training, scale the mean-control outputs by the factor (0.25, 0.5, 0.75 or 1)
+    /// with the best validation ADE: true or false.
+    #[arg(long, default_value_t = Hyper::default().shrink, value_name = "BOOL", action = clap::ArgAction::Set)]
+    pub shrink: bool,
+    /// Share of the training runs held out for early stopping and model selection.
+    #[arg(long, default_value_t = DEFAULT_VALIDATION_FRACTION, value_name = "SHARE")]
+    pub val_fraction: f32,
+    /// Hold out whole training sequences (at least --val-fraction of the instances) for
+    /// validation instead of runs of every sequence: true or false.
+    #[arg(long, default_value_t = DEFAULT_VALIDATE_ON_SEQUENCES, value_name = "BOOL", action = clap::ArgAction::Set)]
+    pub val_sequences: bool,
+    /// Also train on every training instance reflected left-right: true or false.
+    #[arg(long, default_value_t = DEFAULT_MIRROR, value_name = "BOOL", action = clap::ArgAction::Set)]
+    pub mirror: bool,
+}
+
+impl HyperArgs {
+    /// The settings, checked.
+    ///
+    /// # Errors
+    /// A value out of range, naming its flag.
+    pub fn hyper(&self) -> anyhow::Result<Hyper> {
+        anyhow::ensure!(self.position_floor > 0.0, "--position-floor: expected metres > 0, found {}", self.position_floor);
+        anyhow::ensure!(self.likelihood_weight >= 0.0 && self.ade_weight >= 0.0, "--likelihood-weight, --ade-weight: expected >= 0");
+        anyhow::ensure!(self.likelihood_weight > 0.0 || self.ade_weight > 0.0, "--likelihood-weight and --ade-weight are both 0: nothing to train on");
+        anyhow::ensure!(self.weight_decay >= 0.0, "--weight-decay: expected >= 0, found {}", self.weight_decay);
+        anyhow::ensure!((0.0..1.0).contains(&self.val_fraction), "--val-fraction: expected a share in [0, 1), found {}", self.val_fraction);
+        anyhow::ensure!(self.batch > 0 && self.epochs > 0, "--batch and --epochs must be at least 1");
+        let loss = LossConfig { position_floor_m: self.position_floor, likelihood_weight: self.likelihood_weight, ade_weight: self.ade_weight, ..LossConfig::default() };
+        Ok(Hyper {
+            epochs: self.epochs,
+            batch: self.batch,
+            seed: self.seed,
+            patience: self.patience,
+            learning_rate: self.lr,
+            weight_decay: self.weight_decay,
+            shrink: self.shrink,
+            loss,
+            ..Hyper::default()
+        })
+    }
+
+    /// Applies these settings to a fold's configuration.
+    ///
+    /// # Errors
+    /// See [`HyperArgs::hyper`].
+    pub fn apply(&self, config: &mut TrainConfig<'_>) -> anyhow::Result<()> {
+        config.hyper = self.hyper()?;
+        config.validation_fraction = self.val_fraction;
+        config.mirror = self.mirror;
+        config.validate_on_sequences = self.val_sequences;
+        Ok(())
+    }
 }
 
 /// Parses "enc,edge,k,dec".
@@ -105,10 +176,8 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
             log::warn!("--exclude {ex}: no such sequence was loaded");
         }
     }
-    anyhow::ensure!(args.position_floor > 0.0, "--position-floor: expected metres > 0, found {}", args.position_floor);
-    let loss = LossConfig { position_floor_m: args.position_floor, ..LossConfig::default() };
-    let hyper = Hyper { epochs: args.epochs, batch: args.batch, seed: args.seed, patience: args.patience, learning_rate: args.lr, loss, ..Hyper::default() };
-    let config = TrainConfig { dt, rule, dims: args.dims, hyper, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
+    let mut config = TrainConfig { dt, rule, dims: args.dims, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
+    args.hyper.apply(&mut config)?;
     let bar = progress(0, "training");
     let mut val = f32::NAN;
     let model = train_fold_with(&config, &mut |e| match e {

@@ -17,7 +17,7 @@ use crate::model_file::ModelFile;
 use crate::report::{forecast_table, ArmScores, Table};
 use crate::scene::Scene;
 use crate::sequence::GroundTruthSequence;
-use crate::train::{train_fold_with, Event, TrainConfig};
+use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
 use crate::trajectory::{eligible_runs, EligibilityRule, Source};
 
 /// What to run.
@@ -29,16 +29,21 @@ pub struct ExperimentConfig {
     pub test_sequences: Vec<String>,
     /// Model widths.
     pub dims: Dims,
-    /// Most epochs per fold (early stopping may end sooner); `None` keeps the trainer's default.
-    pub epochs: Option<usize>,
+    /// Optimisation and loss settings of every fold (`hyper.seed` seeds weights, shuffling
+    /// and splits).
+    pub hyper: Hyper,
+    /// Share of each fold's training runs held out for early stopping.
+    pub validation_fraction: f32,
+    /// Validate on whole held-out training sequences.
+    pub validate_on_sequences: bool,
+    /// Train on reflected copies too ([`crate::train::Sample::mirrored`]).
+    pub mirror: bool,
     /// Frame period, seconds.
     pub dt: f32,
     /// Eligibility.
     pub rule: EligibilityRule,
     /// Where to keep each fold's blobs (`<arm>-<seq>.blob` and `.blob.int8`), if anywhere.
     pub out: Option<PathBuf>,
-    /// Seed of weights, shuffling and splits.
-    pub seed: u64,
 }
 
 /// What one fold took.
@@ -52,6 +57,12 @@ pub struct FoldReport {
     pub train_instances: usize,
     /// Best validation ADE, metres.
     pub val_ade: f32,
+    /// Constant-velocity ADE on the same validation runs, metres.
+    pub val_cv_ade: f32,
+    /// The epoch kept (0: the untrained model, i.e. constant velocity).
+    pub best_epoch: usize,
+    /// The output shrink factor kept.
+    pub shrink: f32,
     /// Seconds of training.
     pub seconds: f32,
 }
@@ -95,10 +106,10 @@ pub fn run_experiment(sequences: &[GroundTruthSequence], config: &ExperimentConf
             train.dt = config.dt;
             train.rule = config.rule.clone();
             train.dims = config.dims;
-            train.hyper.seed = config.seed;
-            if let Some(e) = config.epochs {
-                train.hyper.epochs = e;
-            }
+            train.hyper = config.hyper;
+            train.validation_fraction = config.validation_fraction;
+            train.mirror = config.mirror;
+            train.validate_on_sequences = config.validate_on_sequences;
             let label = format!("{source} / {}", test.id);
             let model = train_fold_with(&train, &mut |e| progress(&label, e)).with_context(|| format!("training fold {label}"))?;
             folds.push(FoldReport {
@@ -106,6 +117,9 @@ pub fn run_experiment(sequences: &[GroundTruthSequence], config: &ExperimentConf
                 sequence: test.id.clone(),
                 train_instances: model.report.train_instances,
                 val_ade: model.report.best_val_ade,
+                val_cv_ade: model.report.val_cv_ade,
+                best_epoch: model.report.best_epoch,
+                shrink: model.report.shrink,
                 seconds: model.report.seconds,
             });
             for (arm, precision) in learned.iter_mut().zip([Precision::F32, Precision::Int8]) {

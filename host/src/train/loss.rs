@@ -17,7 +17,16 @@
 //! - Trajectron++'s mutual-information term I(x; z) under p (weight 1) keeps the modes in use:
 //!   H(mean over the batch of p(z|x)) - mean H(p(z|x)).
 //!
-//! Loss = -(E_q[log p(y|x,z)] - beta * KL + I(x; z)), averaged over the batch.
+//! - Position error of the scored forecast (not in Trajectron++): the mean over modes, weighted
+//!   by p(z|x), of each mode's ADE (metres) of its mean-control rollout. The unimodal forecast
+//!   (most likely mode, mean controls) is what ADE/FDE score, and the likelihood alone does not
+//!   aim at it: a covariance that grows over the horizon lets the late steps' means drift
+//!   cheaply. The weight also pushes p(z|x) towards the mode that forecasts best, which is the
+//!   one inference picks. Its weight `ade_weight` was chosen on the tuning folds
+//!   (docs/decisions.md).
+//!
+//! Loss = likelihood_weight * -(E_q[log p(y|x,z)] - beta * KL + I(x; z))
+//!        + ade_weight * sum_z p(z|x) ADE_z, averaged over the batch.
 
 use candle_core::{Result, Tensor, D};
 use candle_nn::ops::log_softmax;
@@ -35,13 +44,20 @@ pub struct LossConfig {
     pub kl_min: f32,
     /// Standard deviation of the position floor added to the covariance, metres.
     pub position_floor_m: f32,
+    /// Weight of the CVAE objective (0 trains on the position error alone).
+    pub likelihood_weight: f32,
+    /// Weight of the p(z|x)-weighted ADE of the mean-control rollouts, per metre.
+    pub ade_weight: f32,
 }
 
 impl Default for LossConfig {
     fn default() -> Self {
-        Self { kl_min: 0.07, position_floor_m: 0.3 }
+        Self { kl_min: 0.07, position_floor_m: 0.3, likelihood_weight: 1.0, ade_weight: 0.0 }
     }
 }
+
+/// Keeps the gradient of a distance finite where it is zero: sqrt(d^2 + this), metres^2.
+const DISTANCE_EPS: f64 = 1e-6;
 
 /// The KL weight at optimiser step `step` of `total`: Trajectron++'s sigmoid schedule from 0 to
 /// `beta_max` with its crossover at step 400, moved to total/4 when training is shorter than
@@ -62,6 +78,8 @@ pub struct Loss {
     pub log_likelihood: f32,
     /// KL(q || p), batch mean, before free bits.
     pub kl: f32,
+    /// p(z|x)-weighted ADE of the mean rollouts, batch mean, metres.
+    pub ade: f32,
 }
 
 /// Log densities [R, HORIZON] of `target` [R, HORIZON, 2] under Gaussians with means `mean`
@@ -117,7 +135,10 @@ pub fn loss(net: &Network, b: &Batch, dt: f32, beta: f32, cfg: &LossConfig) -> R
     let info = (entropy(&mean_p, &mean_p.clamp(1e-12, 1.0)?.log()?)? - entropy(&p, &log_p)?.mean(0)?)?;
 
     let elbo = ((&expected_ll - (kl_free * f64::from(beta))?)? + info)?;
-    Ok(Loss { total: elbo.neg()?, log_likelihood: expected_ll.to_scalar::<f32>()?, kl: kl.to_scalar::<f32>()? })
+    let dist = ((&roll.positions - &target)?.sqr()?.sum(D::Minus1)? + DISTANCE_EPS)?.sqrt()?; // [n k, t]
+    let ade = (&p * dist.mean(1)?.reshape((n, k))?)?.sum(1)?.mean(0)?;
+    let total = ((elbo * -f64::from(cfg.likelihood_weight))? + (&ade * f64::from(cfg.ade_weight))?)?;
+    Ok(Loss { total, log_likelihood: expected_ll.to_scalar::<f32>()?, kl: kl.to_scalar::<f32>()?, ade: ade.to_scalar::<f32>()? })
 }
 
 #[cfg(test)]

@@ -44,9 +44,20 @@ use dynotraj_core::model::blob::Precision;
 
 use crate::sequence::GroundTruthSequence;
 use crate::trajectory::{EligibilityRule, Source};
-pub use dataset::{sample_at, sequence_samples, split_by_run, Sample, Split};
+pub use dataset::{sample_at, sequence_samples, split_by_run, split_by_sequence, Sample, Split};
 pub use fit::{EpochReport, Event, Hyper};
 pub use model::Network;
+
+/// Default share of a fold's training runs held out for early stopping and model selection
+/// (chosen on the tuning folds: docs/decisions.md).
+pub const DEFAULT_VALIDATION_FRACTION: f32 = 0.15;
+
+/// Whether validation holds out whole training sequences (see
+/// [`TrainConfig::validate_on_sequences`]).
+pub const DEFAULT_VALIDATE_ON_SEQUENCES: bool = false;
+
+/// Whether reflected copies of the training instances are trained on by default.
+pub const DEFAULT_MIRROR: bool = false;
 
 /// One fold's training set-up.
 #[derive(Debug, Clone)]
@@ -67,11 +78,16 @@ pub struct TrainConfig<'a> {
     pub hyper: Hyper,
     /// Share of the runs held out for early stopping.
     pub validation_fraction: f32,
+    /// Hold out whole sequences for validation instead of runs drawn from every sequence.
+    pub validate_on_sequences: bool,
+    /// Add every training sample's reflection ([`Sample::mirrored`]) to the training set (never
+    /// to validation).
+    pub mirror: bool,
 }
 
 impl<'a> TrainConfig<'a> {
-    /// The defaults: the paper's 20 Hz, the default eligibility, the ECU widths, Trajectron++'s
-    /// optimisation, 15% of the runs for validation.
+    /// The defaults: the paper's 20 Hz, the default eligibility, the ECU widths,
+    /// [`Hyper::default`], [`DEFAULT_VALIDATION_FRACTION`] and [`DEFAULT_MIRROR`].
     #[must_use]
     pub fn new(sequences: &'a [GroundTruthSequence], exclude: Vec<String>, source: Source) -> Self {
         Self {
@@ -82,23 +98,29 @@ impl<'a> TrainConfig<'a> {
             rule: EligibilityRule::default(),
             dims: Dims::DEFAULT,
             hyper: Hyper::default(),
-            validation_fraction: 0.15,
+            validation_fraction: DEFAULT_VALIDATION_FRACTION,
+            mirror: DEFAULT_MIRROR,
+            validate_on_sequences: DEFAULT_VALIDATE_ON_SEQUENCES,
         }
     }
 
-    /// The fold's samples, split by run, and the ids of the sequences they come from.
+    /// The fold's samples, split by run (or by sequence, with `validate_on_sequences`), and
+    /// the ids of the sequences they come from.
     #[must_use]
     pub fn samples(&self) -> (Split, Vec<String>) {
-        let mut all = Vec::new();
+        let mut per_sequence = Vec::new();
         let mut groups = 0;
         let mut used = Vec::new();
         for seq in self.sequences.iter().filter(|s| !self.exclude.contains(&s.id)) {
             let (samples, runs) = sequence_samples(seq, self.source, self.dt, &self.rule, groups);
             groups += runs;
-            all.extend(samples);
+            per_sequence.push(samples);
             used.push(seq.id.clone());
         }
-        (split_by_run(all, groups, self.validation_fraction, self.hyper.seed), used)
+        if self.validate_on_sequences {
+            return (split_by_sequence(per_sequence, self.validation_fraction, self.hyper.seed), used);
+        }
+        (split_by_run(per_sequence.into_iter().flatten().collect(), groups, self.validation_fraction, self.hyper.seed), used)
     }
 }
 
@@ -115,8 +137,10 @@ pub struct TrainReport {
     pub epochs: usize,
     /// The epoch whose weights were kept.
     pub best_epoch: usize,
-    /// Its validation ADE of the unimodal forecast, metres.
+    /// Its validation ADE of the unimodal forecast, metres (after shrinking).
     pub best_val_ade: f32,
+    /// The output shrink factor kept (1: none).
+    pub shrink: f32,
     /// Validation ADE of the constant-velocity forecast, metres (the reference to beat).
     pub val_cv_ade: f32,
     /// Optimiser steps run.
@@ -203,7 +227,11 @@ pub fn train_fold(config: &TrainConfig<'_>) -> anyhow::Result<TrainedModel> {
 pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)) -> anyhow::Result<TrainedModel> {
     let start = Instant::now();
     anyhow::ensure!(config.dt.is_finite() && config.dt > 0.0, "frame period must be positive, found {}", config.dt);
-    let (split, sequences) = config.samples();
+    let (mut split, sequences) = config.samples();
+    if config.mirror {
+        let reflected: Vec<Sample> = split.train.iter().map(Sample::mirrored).collect();
+        split.train.extend(reflected);
+    }
     anyhow::ensure!(!split.train.is_empty(), "no training instances in sequences {sequences:?} (source {})", config.source);
     let (network, vars) = Network::new(config.dims, config.hyper.seed)?;
     let outcome = fit::fit(&network, &vars, &split.train, &split.validation, config.dt, &config.hyper, observer)?;
@@ -214,6 +242,7 @@ pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)
         epochs: outcome.history.len(),
         best_epoch: outcome.best_epoch,
         best_val_ade: outcome.best_val_ade,
+        shrink: outcome.shrink,
         val_cv_ade: mean_cv_ade(if split.validation.is_empty() { &split.train } else { &split.validation }),
         steps: outcome.steps,
         seconds: start.elapsed().as_secs_f32(),
