@@ -2,6 +2,7 @@
 
 pub mod estimate;
 pub mod evaluate;
+pub mod frontend;
 pub mod experiment;
 pub mod model_file;
 pub mod scene;

@@ -21,3 +21,23 @@ pub fn kitti_training_dir() -> Option<PathBuf> {
         None
     }
 }
+
+/// The shared KITTI folder (odometry/, stereo2015/, tracking/): `$DYNOTRAJ_KITTI_ROOT`, else two
+/// levels above `$DYNOTRAJ_KITTI` (which names tracking/training), else `../shared/kitti` beside
+/// the workspace. `None` (with a note on stderr naming `what`) when
+/// `sub` is absent inside it.
+#[must_use]
+pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
+    let root = std::env::var_os("DYNOTRAJ_KITTI_ROOT").map(PathBuf::from).unwrap_or_else(|| {
+        std::env::var_os("DYNOTRAJ_KITTI").map_or_else(
+            || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/kitti")),
+            |t| PathBuf::from(t).join("../.."),
+        )
+    });
+    if root.join(sub).is_dir() {
+        Some(root)
+    } else {
+        eprintln!("SKIPPED {what}: {} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)", root.join(sub).display());
+        None
+    }
+}

@@ -1,0 +1,33 @@
+//! The host front-end (OpenCV): camera frames in, the wire's feature tracks out.
+//!
+//! Stages, each in its own module:
+//! - [`stereo`]: dense disparity by semi-global matching (parameters documented there), and
+//!   KITTI's D1 error against ground-truth disparity; [`depth`]: depth per pixel from it or from
+//!   a given depth map;
+//! - [`masks`]: instance masks from mask PNGs or from 2D boxes refined by depth, and consistent
+//!   ids by IoU when boxes come without them;
+//! - [`features`] + [`klt`] + [`tracker`]: static corners spread on a grid, dense object points,
+//!   pyramidal KLT with a forward-backward check, re-detection to hold the target counts, and the
+//!   emission of [`dynotraj_core::wire::Track`]s within the core's capacities;
+//! - [`image_io`]: reading PNGs with errors that name the file.
+//!
+//! Everything the front-end cannot use (no depth, an empty mask, a textureless region, more
+//! than the capacities) is counted in [`FrontEndStats`], never a crash.
+
+pub mod check;
+pub mod depth;
+pub mod error;
+pub mod features;
+pub mod image_io;
+pub mod klt;
+pub mod masks;
+pub mod stats;
+pub mod stereo;
+pub mod tracker;
+
+pub use depth::DepthMap;
+pub use error::FrontEndError;
+pub use masks::{Detection, IdAssigner, Instance, Instances};
+pub use stats::FrontEndStats;
+pub use stereo::{d1_error, DisparityMap, Stereo, StereoParams, D1};
+pub use tracker::{Tracker, TrackerParams};
