@@ -6,6 +6,8 @@ pub mod dataset;
 pub mod estimate;
 pub mod eval;
 pub mod experiment;
+pub mod simulate;
+pub mod track;
 pub mod train;
 
 use clap::{Parser, Subcommand};
@@ -37,6 +39,10 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Leave-one-sequence-out training and testing per arm: the paper's Table IV.
     Experiment(experiment::ExperimentArgs),
+    /// Renders an image sequence (stereo, depth, masks, truth) from KITTI labels and ego poses.
+    Simulate(simulate::SimulateArgs),
+    /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
+    Track(track::TrackArgs),
 }
 
 /// Runs the parsed command line.
@@ -51,5 +57,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(a) => train::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Experiment(a) => experiment::run(&a),
+        Command::Simulate(a) => simulate::run(&a),
+        Command::Track(a) => track::run(&a),
     }
 }

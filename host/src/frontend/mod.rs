@@ -14,12 +14,16 @@
 //! Everything the front-end cannot use (no depth, an empty mask, a textureless region, more
 //! than the capacities) is counted in [`FrontEndStats`], never a crash.
 
+pub mod bench;
 pub mod check;
 pub mod depth;
+pub mod e2e;
 pub mod error;
 pub mod features;
 pub mod image_io;
 pub mod klt;
+pub mod pipeline;
+pub mod sequence;
 pub mod masks;
 pub mod stats;
 pub mod stereo;
@@ -27,6 +31,7 @@ pub mod tracker;
 
 pub use depth::DepthMap;
 pub use error::FrontEndError;
+pub use pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 pub use masks::{Detection, IdAssigner, Instance, Instances};
 pub use stats::FrontEndStats;
 pub use stereo::{d1_error, DisparityMap, Stereo, StereoParams, D1};

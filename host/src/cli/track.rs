@@ -1,0 +1,141 @@
+//! `dynotraj track`: the front-end over an image sequence in the KITTI tracking layout (a real
+//! KITTI download, or `dynotraj simulate`'s output), writing the tracks file that
+//! `dynotraj estimate --tracks` and `dynotraj stream --tracks` read. Also:
+//! `--bench` times the stages at KITTI resolution on rendered frames, and `--check` measures the
+//! front-end on the real KITTI images in ../shared/kitti (stereo D1, KLT survival, ego-motion).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use clap::Args;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::wire::CameraInfo;
+
+use crate::frontend::check::{odometry06, stereo2015_d1};
+use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use crate::frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
+use crate::tracks_file::TracksWriter;
+
+/// Options of `dynotraj track`.
+#[derive(Debug, Args)]
+pub struct TrackArgs {
+    /// A folder in the KITTI tracking layout (image_02/, image_03/, calib/, label_02/; see
+    /// `dynotraj simulate` for the optional depth_02/ and instance_02/).
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["bench", "check"])]
+    pub kitti: Option<PathBuf>,
+    /// The sequence.
+    #[arg(long, default_value = "0000")]
+    pub sequence: String,
+    /// The tracks file to write (.dtt).
+    #[arg(long, value_name = "FILE", required_unless_present_any = ["bench", "check"])]
+    pub out: Option<PathBuf>,
+    /// Depth from stereo matching or from the given depth maps (depth_02/).
+    #[arg(long, value_enum, default_value_t = DepthMode::Stereo)]
+    pub depth: DepthMode,
+    /// Instance masks: instance_02/ PNGs, label_02/ boxes refined by depth (with their ids, or
+    /// re-identified by IoU as raw detections), or none.
+    #[arg(long, value_enum, default_value_t = MaskMode::Auto)]
+    pub masks: MaskMode,
+    /// Use at most this many frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// Frame rate for timestamps, Hz.
+    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ)]
+    pub rate: f32,
+    /// Stereo matching on images shrunk by this factor (1 or 2).
+    #[arg(long, default_value_t = 1)]
+    pub stereo_downscale: i32,
+    /// Print the front-end's counters.
+    #[arg(long)]
+    pub counters: bool,
+    /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead.
+    #[arg(long)]
+    pub bench: bool,
+    /// Measure the front-end on the real KITTI images of this folder (odometry/06,
+    /// stereo2015/) instead, e.g. ../shared/kitti.
+    #[arg(long, value_name = "DIR")]
+    pub check: Option<PathBuf>,
+}
+
+/// Runs the command.
+///
+/// # Errors
+/// Reading, tracking or writing errors, named.
+pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.rate.is_finite() && args.rate > 0.0, "--rate: expected a positive frame rate, found {}", args.rate);
+    let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti() };
+    if let Some(root) = &args.check {
+        return check(root, stereo);
+    }
+    if args.bench {
+        let (times, stats) = crate::frontend::bench::run(args.frames.unwrap_or(30), stereo)?;
+        print_times(&times, &stereo);
+        if args.counters {
+            println!("{stats:#?}");
+        }
+        return Ok(());
+    }
+    let (Some(dir), Some(out)) = (&args.kitti, &args.out) else { anyhow::bail!("--kitti and --out are needed") };
+    let (times, stats, frames) = track_sequence(dir, &args.sequence, out, args, stereo)?;
+    eprintln!("wrote {frames} frames to {}", out.display());
+    print_times(&times, &stereo);
+    if args.counters {
+        println!("{stats:#?}");
+    }
+    Ok(())
+}
+
+/// Tracks sequence `seq` of `dir` into the tracks file `out`.
+///
+/// # Errors
+/// Reading, tracking or writing errors, named.
+pub fn track_sequence(dir: &Path, seq: &str, out: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow::Result<(StageTimes, FrontEndStats, usize)> {
+    let s = ImageSequence::open(dir, seq, args.depth, args.masks)?;
+    let [fx, fy, cx, cy] = s.intrinsics;
+    let camera = CameraInfo {
+        fx: fx as f32,
+        fy: fy as f32,
+        cx: cx as f32,
+        cy: cy as f32,
+        stereo_fb: s.fb as f32,
+        width: u16::try_from(s.size.0).context("image width")?,
+        height: u16::try_from(s.size.1).context("image height")?,
+        frame_rate_hz: args.rate,
+    };
+    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
+    let mut w = TracksWriter::create(out, &camera)?;
+    let n = args.frames.map_or(s.frames.len(), |m| m.min(s.frames.len()));
+    for &frame in &s.frames[..n] {
+        let tracks = fe.process(s.load(frame)?).with_context(|| format!("frame {frame}"))?;
+        let t_us = (f64::from(frame) * 1e6 / f64::from(args.rate)).round() as u64;
+        w.write_frame(frame, t_us, &tracks)?;
+    }
+    w.finish()?;
+    Ok((fe.times, fe.tracker.stats, n))
+}
+
+fn print_times(t: &StageTimes, stereo: &StereoParams) {
+    let ms = |s: f64| 1e3 * s / t.frames.max(1) as f64;
+    println!("| stage | ms/frame |\n|---|---|");
+    println!("| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} |", stereo.num_disparities, stereo.downscale, ms(t.stereo));
+    println!("| masks | {:.1} |", ms(t.masks));
+    println!("| KLT + detection + sampling | {:.1} |", ms(t.tracking));
+    println!("| total ({} frames) | {:.1} ms = {:.1} frames/s |", t.frames, ms(t.stereo + t.masks + t.tracking), t.fps());
+}
+
+fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
+    let d1 = stereo2015_d1(root, "000046_10.png", stereo)?;
+    println!("stereo2015 000046_10: D1-all {:.2}% over {} ground-truth pixels ({:.1}% without a match, counted as bad)", 100.0 * d1.share(), d1.pixels, 100.0 * (1.0 - d1.density()));
+    let c = odometry06(root, stereo, TrackerParams::default())?;
+    println!("odometry 06: {} static tracks with depth at frame 12; KLT survival 12->13 {:.1}%, 13->14 {:.1}%", c.corners, 100.0 * c.survival[0], 100.0 * c.survival[1]);
+    for (pair, m) in ["12->13", "12->14"].iter().zip(c.motion) {
+        match m {
+            Some(m) => println!(
+                "odometry 06 ego-motion {pair}: translation error {:.3} m (of {:.3} m travelled), rotation error {:.3} deg; {} of {} correspondences inliers",
+                m.translation_m, m.true_translation_m, m.rotation_deg, m.inliers, m.points
+            ),
+            None => println!("odometry 06 ego-motion {pair}: the fit failed"),
+        }
+    }
+    Ok(())
+}

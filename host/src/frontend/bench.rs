@@ -1,0 +1,58 @@
+//! Front-end throughput at KITTI resolution (1242 x 375): frames rendered in memory by the image
+//! simulator (the synthetic drive: ground, buildings, poles, three objects), then stereo, masks
+//! from the rendered instance ids, and tracking, each timed. Rendering is not timed.
+
+use std::collections::BTreeMap;
+
+use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_fixtures::image_sim::{Camera, ImageSim, RenderedFrame};
+use dynotraj_fixtures::track_sim::LabelBox;
+use opencv::core::Mat;
+use opencv::imgproc::{cvt_color, COLOR_BGR2GRAY};
+
+use super::error::{cv, FrontEndError};
+use super::image_io::{bgr_from_rgb, u16_from_buffer};
+use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
+use super::stats::FrontEndStats;
+use super::stereo::StereoParams;
+use super::tracker::TrackerParams;
+
+/// Grey `Mat` of a rendered RGB buffer.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn grey_of(rgb: &[u8], cam: &Camera) -> Result<Mat, FrontEndError> {
+    let bgr = bgr_from_rgb(rgb, cam.width, cam.height)?;
+    let mut grey = Mat::default();
+    cvt_color(&bgr, &mut grey, COLOR_BGR2GRAY, 0).map_err(cv("grey conversion"))?;
+    Ok(grey)
+}
+
+/// The front-end input of a rendered frame: stereo pair and the rendered instance ids (classes
+/// from the truth).
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn input_of(f: &RenderedFrame, cam: &Camera) -> Result<FrameInput, FrontEndError> {
+    let classes: BTreeMap<_, _> = f.objects.iter().map(|o| (o.object_id, o.class)).collect();
+    Ok(FrameInput {
+        left: grey_of(&f.left, cam)?,
+        depth: DepthInput::Right(grey_of(&f.right, cam)?),
+        masks: MaskInput::Labels(u16_from_buffer(&f.ids, cam.width, cam.height)?, classes),
+    })
+}
+
+/// Times `frames` frames of the synthetic drive at KITTI resolution.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn run(frames: usize, stereo: StereoParams) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
+    let drive = generate(&DriveSpec { frames: frames.max(2), ..DriveSpec::default() });
+    let sim = ImageSim::new(Camera::kitti(1.0), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
+    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), sim.camera.fb() as f32)?;
+    for k in 0..sim.len() {
+        let Some(f) = sim.frame(k) else { break };
+        fe.process(input_of(&f, &sim.camera)?)?;
+    }
+    Ok((fe.times, fe.tracker.stats))
+}

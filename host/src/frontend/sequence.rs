@@ -1,0 +1,186 @@
+//! A camera sequence in the KITTI tracking layout, as front-end input:
+//!
+//! ```text
+//! <dir>/image_02/<seq>/NNNNNN.png     left images (colour or grey)            required
+//! <dir>/image_03/<seq>/NNNNNN.png     right images                            for stereo depth
+//! <dir>/depth_02/<seq>/NNNNNN.png     16-bit depth, value / 256 = metres      for given depth
+//! <dir>/instance_02/<seq>/NNNNNN.png  16-bit instance ids (0 = background,    masks, first choice
+//!                                     else KITTI track id + 1)
+//! <dir>/label_02/<seq>.txt            KITTI labels: classes, and 2D boxes     masks, second choice
+//! <dir>/calib/<seq>.txt               P2, P3 (left and right colour cameras)  required
+//! ```
+//!
+//! The frames are those of image_02 from the first to the last number; a gap is a missing frame
+//! and an error naming the missing file, as is a missing right image or depth map. The
+//! simulator's output (`dynotraj simulate`) has every folder.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use dynotraj_core::wire::ObjectClass;
+use opencv::core::{Mat, CV_32F};
+use opencv::prelude::*;
+
+use super::error::{cv, FrontEndError};
+use super::image_io::{read_grey, read_u16, same_size};
+use super::masks::Detection;
+use super::pipeline::{DepthInput, FrameInput, MaskInput};
+use crate::kitti::{read_calib, read_labels, LabelRow};
+
+/// How to get depth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DepthMode {
+    /// Stereo matching of image_02 and image_03.
+    Stereo,
+    /// The depth maps of depth_02.
+    Given,
+}
+
+/// How to get masks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MaskMode {
+    /// instance_02 when present, else the boxes of label_02, else none.
+    Auto,
+    /// instance_02 PNGs.
+    Png,
+    /// label_02 2D boxes refined by depth (ids from the labels).
+    Boxes,
+    /// label_02 2D boxes refined by depth, ids dropped and re-made by IoU association.
+    Detections,
+    /// No objects.
+    None,
+}
+
+/// A sequence on disk.
+#[derive(Debug, Clone)]
+pub struct ImageSequence {
+    dir: PathBuf,
+    seq: String,
+    /// Frame numbers, consecutive.
+    pub frames: Vec<u32>,
+    /// Left camera: fx, fy, cx, cy.
+    pub intrinsics: [f64; 4],
+    /// Baseline x fx, pixel metres.
+    pub fb: f64,
+    /// Image size of the first frame (width, height).
+    pub size: (i32, i32),
+    labels: BTreeMap<u32, Vec<LabelRow>>,
+    depth: DepthMode,
+    masks: MaskMode,
+}
+
+fn list_frames(folder: &Path) -> Result<Vec<u32>, FrontEndError> {
+    let io = |source| FrontEndError::Io { path: folder.to_path_buf(), source };
+    let mut frames = Vec::new();
+    for e in std::fs::read_dir(folder).map_err(io)? {
+        let name = e.map_err(io)?.file_name();
+        let name = name.to_string_lossy();
+        if let Some(n) = name.strip_suffix(".png").and_then(|s| s.parse::<u32>().ok()) {
+            frames.push(n);
+        }
+    }
+    frames.sort_unstable();
+    Ok(frames)
+}
+
+impl ImageSequence {
+    /// Opens sequence `seq` of `dir`.
+    ///
+    /// # Errors
+    /// No images, a gap in the frame numbers, a missing or bad calibration or label file, named.
+    pub fn open(dir: &Path, seq: &str, depth: DepthMode, masks: MaskMode) -> Result<Self, FrontEndError> {
+        let left_dir = dir.join("image_02").join(seq);
+        let frames = list_frames(&left_dir)?;
+        let (Some(&first), Some(&last)) = (frames.first(), frames.last()) else {
+            return Err(FrontEndError::Missing { path: left_dir, what: "left images NNNNNN.png".into() });
+        };
+        if let Some(gap) = (first..=last).find(|k| frames.binary_search(k).is_err()) {
+            return Err(FrontEndError::Missing { path: left_dir.join(format!("{gap:06}.png")), what: format!("frame {gap} of {first}..={last}") });
+        }
+        let calib_path = dir.join("calib").join(format!("{seq}.txt"));
+        let calib = read_calib(&calib_path).map_err(|e| FrontEndError::Unreadable { path: calib_path.clone(), expected: format!("KITTI calibration ({e})") })?;
+        let (p2, p3) = (calib.p[2], calib.p[3]);
+        let intrinsics = [p2[(0, 0)], p2[(1, 1)], p2[(0, 2)], p2[(1, 2)]];
+        let fb = p2[(0, 3)] - p3[(0, 3)];
+        let labels_path = dir.join("label_02").join(format!("{seq}.txt"));
+        let mut labels: BTreeMap<u32, Vec<LabelRow>> = BTreeMap::new();
+        let need_labels = matches!(masks, MaskMode::Boxes | MaskMode::Detections);
+        if labels_path.is_file() || need_labels {
+            let rows = read_labels(&labels_path).map_err(|e| FrontEndError::Unreadable { path: labels_path.clone(), expected: format!("KITTI labels ({e})") })?;
+            for r in rows.into_iter().filter(|r| !r.is_dont_care()) {
+                labels.entry(r.frame as u32).or_default().push(r);
+            }
+        }
+        let masks = match masks {
+            MaskMode::Auto if dir.join("instance_02").join(seq).is_dir() => MaskMode::Png,
+            MaskMode::Auto if labels_path.is_file() => MaskMode::Boxes,
+            MaskMode::Auto => MaskMode::None,
+            m => m,
+        };
+        let first_path = left_dir.join(format!("{first:06}.png"));
+        let m = read_grey(&first_path, "left image")?;
+        let mut s = Self { dir: dir.to_path_buf(), seq: seq.to_string(), frames, intrinsics, fb, size: (m.cols(), m.rows()), labels, depth, masks };
+        if s.fb <= 0.0 && depth == DepthMode::Stereo {
+            return Err(FrontEndError::Unreadable { path: calib_path, expected: "P2 and P3 of a stereo pair (P2[0][3] - P3[0][3] > 0)".into() });
+        }
+        s.fb = s.fb.max(0.0);
+        Ok(s)
+    }
+
+    fn path(&self, folder: &str, frame: u32) -> PathBuf {
+        self.dir.join(folder).join(&self.seq).join(format!("{frame:06}.png"))
+    }
+
+    /// The mask mode in use.
+    #[must_use]
+    pub const fn masks(&self) -> MaskMode {
+        self.masks
+    }
+
+    /// Loads frame `frame`.
+    ///
+    /// # Errors
+    /// A missing or unreadable image, or images of different sizes, named.
+    pub fn load(&self, frame: u32) -> Result<FrameInput, FrontEndError> {
+        let lp = self.path("image_02", frame);
+        let left = read_grey(&lp, "left image")?;
+        let depth = match self.depth {
+            DepthMode::Stereo => {
+                let rp = self.path("image_03", frame);
+                let right = read_grey(&rp, "right image")?;
+                same_size(&right, &rp, &left, &lp)?;
+                DepthInput::Right(right)
+            }
+            DepthMode::Given => {
+                let dp = self.path("depth_02", frame);
+                let raw = read_u16(&dp, "depth map")?;
+                same_size(&raw, &dp, &left, &lp)?;
+                let mut metres = Mat::default();
+                raw.convert_to(&mut metres, CV_32F, 1.0 / 256.0, 0.0).map_err(cv("converting a depth map"))?;
+                DepthInput::Depth(metres)
+            }
+        };
+        let rows = self.labels.get(&frame).map_or(&[][..], Vec::as_slice);
+        let class_of = |r: &LabelRow| ObjectClass::from_kitti_name(&r.object_type).unwrap_or(ObjectClass::Misc);
+        let masks = match self.masks {
+            MaskMode::Png => {
+                let mp = self.path("instance_02", frame);
+                let ids = read_u16(&mp, "instance mask")?;
+                same_size(&ids, &mp, &left, &lp)?;
+                let classes = rows.iter().filter_map(|r| Some((u16::try_from(r.track_id + 1).ok()?, class_of(r)))).collect();
+                MaskInput::Labels(ids, classes)
+            }
+            MaskMode::Boxes | MaskMode::Detections => MaskInput::Boxes(
+                rows.iter()
+                    .map(|r| Detection {
+                        bbox: [r.bbox_left as f32, r.bbox_top as f32, r.bbox_right as f32, r.bbox_bottom as f32],
+                        class: class_of(r),
+                        object_id: if self.masks == MaskMode::Boxes { u16::try_from(r.track_id + 1).ok() } else { None },
+                    })
+                    .collect(),
+            ),
+            MaskMode::None | MaskMode::Auto => MaskInput::None,
+        };
+        Ok(FrameInput { left, depth, masks })
+    }
+}
