@@ -48,3 +48,35 @@ fn fixture_loads_and_the_front_end_tracks_it() {
     }
     assert!(fe.tracker.stats.static_survival() > 0.6, "{:?}", fe.tracker.stats);
 }
+
+#[test]
+fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
+    use clap::Parser as _;
+    let out = tempfile::tempdir().unwrap();
+    let file = out.path().join("fixture.dtt");
+    let cli = dynotraj_host::cli::Cli::try_parse_from([
+        "dynotraj",
+        "track",
+        "--kitti",
+        fixture().to_str().unwrap(),
+        "--sequence",
+        "0000",
+        "--out",
+        file.to_str().unwrap(),
+        "--frames",
+        "6",
+        "--depth",
+        "given",
+    ])
+    .unwrap();
+    dynotraj_host::cli::run(cli).unwrap();
+    let t = dynotraj_host::tracks_file::read(&file).unwrap();
+    assert_eq!(t.frames.len(), 6);
+    assert_eq!((t.camera.width, t.camera.height), (497, 150));
+    assert!((t.camera.stereo_fb - (0.4 * 721.5377 * 0.537) as f32).abs() < 1e-2, "{:?}", t.camera);
+    assert!(t.frames.iter().all(|f| f.tracks().count() > 100));
+    // Object 1's track ids persist from frame to frame (KLT keeps most of them).
+    let ids = |k: usize| -> std::collections::BTreeSet<u32> { t.frames[k].tracks().filter(|x| x.object_id == 1).map(|x| x.track_id).collect() };
+    let (a, b) = (ids(4), ids(5));
+    assert!(a.intersection(&b).count() * 2 > b.len(), "object 1 lost most ids: {} of {}", a.intersection(&b).count(), b.len());
+}
