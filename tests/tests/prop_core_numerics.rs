@@ -207,3 +207,26 @@ fn identical_and_huge_points_are_refused() {
     let nan = Vector3::new(f32::NAN, 0.0, 0.0);
     assert!(kabsch3(&[nan, Vector3::y(), Vector3::z()], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
 }
+
+/// The input the property test shrank the EKF failure to: a 3.4e38 position, then 0. The filter
+/// used to reach inf; now the implausible position is treated as missing.
+#[test]
+fn regression_ekf_huge_position_then_zero() {
+    let at = |x: f32| Measurement { position: Some(Point2::new(x, 0.0)), heading: None, speed: None };
+    let none = Measurement::default();
+    let mut ekf = UnicycleEkf::new(EkfParams::vehicle(0.05));
+    for z in [at(f32::MAX), none, at(0.0), none] {
+        let _ = ekf.step(&z);
+        assert!(ekf.state().is_none_or(|s| state_is_finite(&s)), "{:?}", ekf.state());
+    }
+    assert!(ekf.state().is_some(), "the plausible position initialises the filter");
+}
+
+/// The input the property test shrank the CV failure to: a jump to y = 3.4e38 in 1 ms.
+#[test]
+fn regression_cv_huge_jump_is_refused() {
+    let s = |y: f32| BevState { x: 0.0, y, heading: 0.0, speed: 0.0 };
+    let mut out: Forecast = [Point2::new(0.0, 0.0); HORIZON];
+    assert!(constant_velocity(&[s(0.0), s(f32::MAX)], 0.001, &mut out).is_err());
+    assert!(constant_velocity(&[s(0.0), s(1.0)], 0.001, &mut out).is_ok());
+}
