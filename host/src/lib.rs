@@ -14,3 +14,5 @@ pub mod tracks_file;
 pub mod trajectory;
 pub mod train;
 pub mod kitti;
+pub mod link;
+pub mod stream;

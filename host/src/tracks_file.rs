@@ -245,6 +245,7 @@ fn kind(msg: &Message) -> &'static str {
         Message::ModelChunk(_) => "ModelChunk",
         Message::LinkStats(_) => "LinkStats",
         Message::CameraInfo(_) => "CameraInfo",
+        Message::FrameStats(_) => "FrameStats",
     }
 }
 

@@ -1,6 +1,7 @@
 //! Shared helpers of the workspace-level integration tests.
 
 pub mod alloc_counter;
+pub mod edge_fixture;
 pub mod synthetic_kitti;
 
 use std::path::PathBuf;

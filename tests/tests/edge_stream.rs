@@ -38,7 +38,7 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
         rest = tail;
     }
     let s = edge.stats();
-    let link = edge.link_stats().received;
+    let link = edge.decoder_stats();
     assert_eq!(s.frames_complete as usize, frames.len() - 1, "every frame but the corrupted one");
     assert_eq!(s.frames_incomplete, 1);
     assert!(link.frames_rejected() >= 1);

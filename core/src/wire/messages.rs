@@ -43,6 +43,8 @@ pub enum Message {
     LinkStats(LinkStats),
     /// Host -> edge: the camera model of the stream; sent first and whenever it changes.
     CameraInfo(CameraInfo),
+    /// Edge -> host: what the edge did with one camera frame (sent after its forecasts).
+    FrameStats(FrameStats),
 }
 
 /// The camera model the tracks of a stream are measured with (rectified pinhole, left camera as
@@ -230,4 +232,40 @@ pub struct LinkStats {
     pub frames_sent: u32,
     /// The sender's receive-side counters.
     pub received: DecoderStats,
+}
+
+/// The unit of [`FrameStats::compute`]: each edge build measures with the clock it has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+pub enum ComputeUnit {
+    /// Wall-clock nanoseconds (host builds).
+    Nanoseconds,
+    /// Instructions retired (the MCU build under QEMU `-icount`, or a cycle counter).
+    Instructions,
+}
+
+/// What the edge did with one camera frame: sent after the frame's [`ObjectStates`] and
+/// [`Prediction`]s, so the host learns losses and compute per frame. Counters marked
+/// cumulative count since the edge started and saturate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]
+pub struct FrameStats {
+    /// Camera frame index.
+    pub frame: u32,
+    /// Cumulative: camera frames the edge never estimated (parts lost on the link, or frame
+    /// numbers skipped).
+    pub frames_lost: u32,
+    /// Objects estimated at this frame.
+    pub objects: u16,
+    /// Forecasts sent for this frame.
+    pub predictions: u16,
+    /// Cumulative: objects lost for capacity (runs evicted from the estimator's object table)
+    /// or whose forecast failed.
+    pub objects_dropped: u32,
+    /// Cumulative: feature tracks dropped for capacity (static, per-object and object limits).
+    pub tracks_dropped: u32,
+    /// Cumulative: bytes the edge's receiver dropped (bad frames, and receive-buffer overruns).
+    pub bytes_dropped: u32,
+    /// Compute spent on this frame (estimation, forecasts, encoding), in `unit`.
+    pub compute: u32,
+    /// The unit of `compute`.
+    pub unit: ComputeUnit,
 }

@@ -7,7 +7,7 @@
 //! tracks in parts of [`TRACKS_PER_MESSAGE`], made by [`frame_parts`]), [`ObjectStates`] and
 //! [`Prediction`] (edge -> host), [`ModelChunk`] (host -> edge, a model blob in pieces made
 //! by [`model_chunks`]), [`CameraInfo`] (host -> edge, the camera model, first in every stream)
-//! and [`LinkStats`] (either way).
+//! [`LinkStats`] (either way) and [`FrameStats`] (edge -> host, per camera frame).
 //!
 //! # Framing
 //!
@@ -51,7 +51,7 @@ pub use frame::{
     DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode,
 };
 pub use messages::{
-    CameraInfo, CameraPose, EstimateKind, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message, ModelChunk,
+    CameraInfo, CameraPose, ComputeUnit, EstimateKind, FrameStats, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message, ModelChunk,
     ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,
 };
 pub use parts::{

@@ -111,8 +111,23 @@ fn camera_info() -> Message {
     })
 }
 
+fn full_frame_stats() -> Message {
+    let n = u32::MAX;
+    Message::FrameStats(FrameStats {
+        frame: n,
+        frames_lost: n,
+        objects: u16::MAX,
+        predictions: u16::MAX,
+        objects_dropped: n,
+        tracks_dropped: n,
+        bytes_dropped: n,
+        compute: n,
+        unit: ComputeUnit::Instructions,
+    })
+}
+
 /// Every variant at full capacity with the longest varints, and each variant's max size.
-fn full_messages() -> [(Message, usize); 6] {
+fn full_messages() -> [(Message, usize); 7] {
     [
         (full_frame_tracks(), FrameTracks::POSTCARD_MAX_SIZE),
         (full_object_states(), ObjectStates::POSTCARD_MAX_SIZE),
@@ -120,6 +135,7 @@ fn full_messages() -> [(Message, usize); 6] {
         (full_model_chunk(), ModelChunk::POSTCARD_MAX_SIZE),
         (full_link_stats(), LinkStats::POSTCARD_MAX_SIZE),
         (camera_info(), CameraInfo::POSTCARD_MAX_SIZE),
+        (full_frame_stats(), FrameStats::POSTCARD_MAX_SIZE),
     ]
 }
 

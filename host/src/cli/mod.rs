@@ -8,6 +8,7 @@ pub mod eval;
 pub mod experiment;
 pub mod simulate;
 pub mod track;
+pub mod stream;
 pub mod train;
 
 use clap::{Parser, Subcommand};
@@ -43,6 +44,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
     Track(track::TrackArgs),
+    /// Streams feature tracks to an edge (TCP or serial) and collects its forecasts.
+    Stream(stream::StreamArgs),
 }
 
 /// Runs the parsed command line.
@@ -59,5 +62,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Experiment(a) => experiment::run(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Track(a) => track::run(&a),
+        Command::Stream(a) => stream::run(&a),
     }
 }

@@ -1,0 +1,251 @@
+//! The edge's work per message: tracks -> estimator -> histories -> predictor -> messages out.
+
+use dynotraj_core::estimate::{DEFAULT_WINDOW, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::geometry::{BevState, Point2};
+use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
+use dynotraj_core::model::LearnedPredictor;
+use dynotraj_core::model::blob::ModelBlob;
+use dynotraj_core::predict::{Forecast, constant_velocity};
+use dynotraj_core::wire::{
+    CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction,
+};
+use heapless::Vec;
+
+use crate::history::Histories;
+use crate::transport::Clock;
+
+/// Seed of the estimator's RANSAC sampling: fixed, so every build of the edge computes the
+/// same bits from the same stream.
+pub const ESTIMATOR_SEED: u64 = 0x6479_6e6f;
+
+/// The edge's own counters, beyond the estimator's and the decoder's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EdgeStats {
+    /// Camera frames estimated.
+    pub frames_estimated: u32,
+    /// Camera frames never estimated: gaps in the frame numbers of estimated frames (a frame
+    /// whose parts were lost on the link is one).
+    pub frames_lost: u32,
+    /// Frames that arrived before any camera model; not estimated.
+    pub frames_without_camera: u32,
+    /// Forecasts sent.
+    pub forecasts: u32,
+    /// Forecasts the learned model could not make (for instance a frame rate it was not
+    /// trained at), made by constant velocity instead.
+    pub forecasts_fallback: u32,
+    /// Objects with a history that got no forecast at all (non-finite states).
+    pub forecasts_failed: u32,
+    /// Messages the edge does not consume (sent the wrong way, or a model after the frames).
+    pub messages_ignored: u32,
+}
+
+/// The estimator and the predictor over one stream, and what they keep between frames.
+/// `W` is the estimator's smoothing window.
+#[derive(Debug)]
+pub struct Edge<'m, const W: usize = DEFAULT_WINDOW> {
+    estimator: Estimator<W>,
+    camera: Option<CameraInfo>,
+    /// Frame period of forecasts, seconds (from the camera model's rate).
+    dt: f32,
+    estimate: PoseEstimate,
+    histories: Histories,
+    predictor: Option<LearnedPredictor<'m>>,
+    stats: EdgeStats,
+    last_frame: Option<u32>,
+    /// Compute spent on parts of the frame being assembled.
+    pending_compute: u64,
+}
+
+impl<const W: usize> Default for Edge<'_, W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<'m, const W: usize> Edge<'m, W> {
+    /// An edge with no camera model yet and no learned model (constant-velocity forecasts).
+    #[must_use]
+    pub fn new() -> Self {
+        let dt = 1.0 / PAPER_FRAME_RATE_HZ;
+        Self {
+            estimator: Estimator::new(EstimatorParams::kitti(Intrinsics::KITTI_0926, dt), ESTIMATOR_SEED),
+            camera: None,
+            dt,
+            estimate: PoseEstimate::new(),
+            histories: Histories::new(),
+            predictor: None,
+            stats: EdgeStats::default(),
+            last_frame: None,
+            pending_compute: 0,
+        }
+    }
+
+    /// Forecasts with the learned model in `blob` from now on.
+    pub fn set_model(&mut self, blob: ModelBlob<'m>) {
+        self.predictor = Some(LearnedPredictor::new(blob));
+    }
+
+    /// Whether a learned model is in use.
+    #[must_use]
+    pub const fn has_model(&self) -> bool {
+        self.predictor.is_some()
+    }
+
+    /// The edge's counters.
+    #[must_use]
+    pub const fn stats(&self) -> &EdgeStats {
+        &self.stats
+    }
+
+    /// The estimator (for its counters).
+    #[must_use]
+    pub const fn estimator(&self) -> &Estimator<W> {
+        &self.estimator
+    }
+
+    /// Takes one message from the link; messages for the host go to `out` in order: per
+    /// estimated frame its causal [`Message::ObjectStates`], the smoothed one of the frame
+    /// leaving the window (if any), one [`Message::Prediction`] per object with a history, and
+    /// a [`Message::FrameStats`]. `bytes_dropped` is the link's count so far, for the stats.
+    ///
+    /// # Errors
+    /// Whatever `out` returns; the edge's state stays consistent.
+    pub fn handle<C: Clock, E>(
+        &mut self,
+        msg: &Message,
+        clock: &mut C,
+        bytes_dropped: u32,
+        out: &mut impl FnMut(&Message) -> Result<(), E>,
+    ) -> Result<(), E> {
+        match msg {
+            Message::CameraInfo(info) => {
+                self.start_stream(info);
+                Ok(())
+            }
+            Message::FrameTracks(part) => self.on_part(part, clock, bytes_dropped, out),
+            Message::ObjectStates(_)
+            | Message::Prediction(_)
+            | Message::ModelChunk(_)
+            | Message::LinkStats(_)
+            | Message::FrameStats(_) => {
+                self.stats.messages_ignored = self.stats.messages_ignored.saturating_add(1);
+                Ok(())
+            }
+        }
+    }
+
+    /// A (new) camera model starts a new stream: the estimator starts afresh with it.
+    fn start_stream(&mut self, info: &CameraInfo) {
+        let rate = info.frame_rate_hz;
+        self.dt = if rate.is_finite() && rate > 0.0 { 1.0 / rate } else { 1.0 / PAPER_FRAME_RATE_HZ };
+        let params = EstimatorParams::kitti(Intrinsics::from(info), self.dt);
+        self.estimator = Estimator::new(params, ESTIMATOR_SEED);
+        self.camera = Some(*info);
+        self.histories = Histories::new();
+        self.last_frame = None;
+        self.pending_compute = 0;
+    }
+
+    fn on_part<C: Clock, E>(
+        &mut self,
+        part: &FrameTracks,
+        clock: &mut C,
+        bytes_dropped: u32,
+        out: &mut impl FnMut(&Message) -> Result<(), E>,
+    ) -> Result<(), E> {
+        if self.camera.is_none() {
+            if part.part == 0 {
+                self.stats.frames_without_camera = self.stats.frames_without_camera.saturating_add(1);
+            }
+            return Ok(());
+        }
+        let t0 = clock.now();
+        let pushed = self.estimator.push(part);
+        self.pending_compute = self.pending_compute.saturating_add(clock.now().saturating_sub(t0));
+        let Pushed::Frame { smoothed } = pushed else { return Ok(()) };
+
+        let t0 = clock.now();
+        self.estimator.causal(&mut self.estimate);
+        self.histories.update(&self.estimate);
+        let mut compute = core::mem::take(&mut self.pending_compute).saturating_add(clock.now().saturating_sub(t0));
+        self.count_frame(self.estimate.frame);
+        out(&Message::ObjectStates(self.estimate.to_wire(EstimateKind::Causal)))?;
+        if smoothed {
+            out(&Message::ObjectStates(self.estimator.smoothed().to_wire(EstimateKind::Smoothed)))?;
+        }
+        let mut sent: u16 = 0;
+        for i in 0..self.histories.current().len() {
+            let t0 = clock.now();
+            let forecast = self.forecast(i);
+            compute = compute.saturating_add(clock.now().saturating_sub(t0));
+            if let Some(p) = forecast {
+                out(&Message::Prediction(p))?;
+                sent = sent.saturating_add(1);
+            }
+        }
+        self.stats.forecasts = self.stats.forecasts.saturating_add(u32::from(sent));
+        let e = self.estimator.stats();
+        let stats = FrameStats {
+            frame: self.estimate.frame,
+            frames_lost: self.stats.frames_lost,
+            objects: u16::try_from(self.estimate.objects.len()).unwrap_or(u16::MAX),
+            predictions: sent,
+            objects_dropped: e.runs_evicted.saturating_add(self.stats.forecasts_failed),
+            tracks_dropped: e
+                .static_tracks_dropped
+                .saturating_add(e.object_points_dropped)
+                .saturating_add(e.object_tracks_dropped),
+            bytes_dropped,
+            compute: u32::try_from(compute).unwrap_or(u32::MAX),
+            unit: C::UNIT,
+        };
+        out(&Message::FrameStats(stats))
+    }
+
+    fn count_frame(&mut self, frame: u32) {
+        if let Some(last) = self.last_frame
+            && frame > last
+        {
+            self.stats.frames_lost = self.stats.frames_lost.saturating_add(frame - last - 1);
+        }
+        self.last_frame = Some(frame);
+        self.stats.frames_estimated = self.stats.frames_estimated.saturating_add(1);
+    }
+
+    /// The forecast of the `i`-th current object, with the other objects as neighbours; `None`
+    /// while its history is too short (a new object) or when no forecast can be made.
+    fn forecast(&mut self, i: usize) -> Option<Prediction> {
+        let current = self.histories.current();
+        let own = current.get(i)?;
+        let history = own.states();
+        if history.len() < 2 {
+            return None;
+        }
+        let mut neighbours: Vec<&[BevState], MAX_OBJECTS> = Vec::new();
+        for (j, h) in current.iter().enumerate() {
+            if j != i {
+                let _ = neighbours.push(h.states());
+            }
+        }
+        let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
+        let learned = self.predictor.as_mut().map(|p| p.predict_with_neighbours(history, &neighbours, self.dt, &mut points));
+        let ok = match learned {
+            Some(Ok(())) => true,
+            Some(Err(_)) => {
+                self.stats.forecasts_fallback = self.stats.forecasts_fallback.saturating_add(1);
+                constant_velocity(history, self.dt, &mut points).is_ok()
+            }
+            None => constant_velocity(history, self.dt, &mut points).is_ok(),
+        };
+        if !ok {
+            self.stats.forecasts_failed = self.stats.forecasts_failed.saturating_add(1);
+            return None;
+        }
+        Some(Prediction {
+            frame: self.estimate.frame,
+            object_id: own.object_id,
+            dt: self.dt,
+            points: Vec::from_slice(&points).ok()?,
+        })
+    }
+}

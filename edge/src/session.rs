@@ -1,0 +1,217 @@
+//! One session of the edge over a transport: the model load, then the stream of frames.
+
+use dynotraj_core::estimate::DEFAULT_WINDOW;
+use dynotraj_core::model::blob::{BlobError, ModelBlob};
+use dynotraj_core::wire::{FrameBuf, LinkStats, MAX_FRAME_LEN, Message, WireError, encode};
+
+use crate::link::EdgeLoop;
+use crate::model_load::{ChunkOutcome, ModelLoader};
+use crate::pipeline::Edge;
+use crate::transport::{Clock, Transport};
+
+/// Bytes read from the transport at a time.
+pub const READ_CHUNK: usize = 256;
+
+/// Where the session's model stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelStatus {
+    /// No learned model: constant-velocity forecasts.
+    None,
+    /// A model is in use (linked in, or loaded over the link and checked).
+    Loaded {
+        /// Blob length, bytes.
+        len: u32,
+    },
+    /// A model arrived complete with a good CRC but is not a valid blob for this build.
+    Rejected(BlobError),
+}
+
+/// Counters of the model load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LoadStats {
+    /// Chunks stored.
+    pub chunks_stored: u32,
+    /// Chunks rejected (out of order, too big for the buffer, outside the blob) or arriving
+    /// after the frames began.
+    pub chunks_rejected: u32,
+    /// Blobs whose bytes all arrived but whose CRC did not match.
+    pub crc_mismatches: u32,
+}
+
+/// Why [`Session::run`] stopped.
+#[derive(Debug)]
+pub enum RunError<E> {
+    /// The transport failed.
+    Transport(E),
+    /// A message could not be encoded.
+    Wire(WireError),
+}
+
+/// The edge over one link: the link layer, the pipeline and the model loader. A model may be
+/// sent in [`Message::ModelChunk`]s before the first frame; a host [`Message::LinkStats`] ends
+/// the session (the host's goodbye), as does the end of the byte stream. The edge then answers
+/// with its own [`LinkStats`].
+#[derive(Debug)]
+pub struct Session<'m, const W: usize = DEFAULT_WINDOW> {
+    link: EdgeLoop,
+    edge: Edge<'m, W>,
+    loader: Option<ModelLoader<'m>>,
+    model: ModelStatus,
+    load: LoadStats,
+    frames_sent: u32,
+    ended: bool,
+}
+
+impl<const W: usize> Default for Session<'_, W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<'m, const W: usize> Session<'m, W> {
+    /// A session without a model and without room to load one.
+    #[must_use]
+    pub fn new() -> Self {
+        Self {
+            link: EdgeLoop::new(),
+            edge: Edge::new(),
+            loader: None,
+            model: ModelStatus::None,
+            load: LoadStats::default(),
+            frames_sent: 0,
+            ended: false,
+        }
+    }
+
+    /// A session that loads a model sent over the link into `buf`.
+    #[must_use]
+    pub fn with_model_buffer(buf: &'m mut [u8]) -> Self {
+        let mut s = Self::new();
+        s.loader = Some(ModelLoader::new(buf));
+        s
+    }
+
+    /// A session forecasting with the model `blob` (linked into the image).
+    ///
+    /// # Errors
+    /// When `blob` is not a valid model blob.
+    pub fn with_model(blob: &'m [u8]) -> Result<Self, BlobError> {
+        let mut s = Self::new();
+        s.edge.set_model(ModelBlob::parse(blob)?);
+        s.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };
+        Ok(s)
+    }
+
+    /// The pipeline (for its counters).
+    #[must_use]
+    pub const fn edge(&self) -> &Edge<'m, W> {
+        &self.edge
+    }
+
+    /// The link layer (for its counters).
+    #[must_use]
+    pub const fn link(&self) -> &EdgeLoop {
+        &self.link
+    }
+
+    /// Where the model stands.
+    #[must_use]
+    pub const fn model(&self) -> ModelStatus {
+        self.model
+    }
+
+    /// The model load's counters.
+    #[must_use]
+    pub const fn load_stats(&self) -> LoadStats {
+        self.load
+    }
+
+    /// Whether the host said goodbye.
+    #[must_use]
+    pub const fn ended(&self) -> bool {
+        self.ended
+    }
+
+    /// The link statistics message for the peer.
+    #[must_use]
+    pub const fn link_stats(&self) -> LinkStats {
+        LinkStats { frames_sent: self.frames_sent, received: self.link.decoder_stats() }
+    }
+
+    /// Feeds received bytes; replies go to `io`. `lost` is what the transport itself dropped
+    /// so far (receive overruns), reported with the decoder's drops.
+    ///
+    /// # Errors
+    /// A transport failure, or a message that cannot be encoded.
+    pub fn on_bytes<T: Transport, C: Clock>(&mut self, chunk: &[u8], io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
+        let Self { link, edge, loader, model, load, frames_sent, ended } = self;
+        let lost = io.bytes_lost();
+        let mut result = Ok(());
+        let dropped = link.decoder_stats().bytes_discarded;
+        link.on_bytes_with(chunk, |msg| {
+            match &msg {
+                Message::ModelChunk(c) => match loader.as_mut() {
+                    Some(l) if edge.stats().frames_estimated == 0 => match l.accept(c) {
+                        ChunkOutcome::Stored => load.chunks_stored += 1,
+                        ChunkOutcome::Rejected => load.chunks_rejected += 1,
+                        ChunkOutcome::CrcMismatch => load.crc_mismatches += 1,
+                        ChunkOutcome::Complete => {
+                            load.chunks_stored += 1;
+                            if let Some(blob) = loader.take().and_then(ModelLoader::finish) {
+                                *model = match ModelBlob::parse(blob) {
+                                    Ok(b) => {
+                                        edge.set_model(b);
+                                        ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) }
+                                    }
+                                    Err(e) => ModelStatus::Rejected(e),
+                                };
+                            }
+                        }
+                    },
+                    _ => load.chunks_rejected += 1,
+                },
+                Message::LinkStats(_) => {
+                    *ended = true;
+                    return false;
+                }
+                _ => {
+                    let mut send = |m: &Message| send(io, frames_sent, m);
+                    if let Err(e) = edge.handle(&msg, clock, dropped.saturating_add(lost), &mut send) {
+                        result = Err(e);
+                        return false;
+                    }
+                }
+            }
+            true
+        });
+        result
+    }
+
+    /// Runs until the host says goodbye or the stream ends, then reports link statistics to
+    /// the peer.
+    ///
+    /// # Errors
+    /// A transport failure, or a message that cannot be encoded.
+    pub fn run<T: Transport, C: Clock>(&mut self, io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
+        let mut buf = [0u8; READ_CHUNK];
+        while !self.ended {
+            let n = io.read(&mut buf).map_err(RunError::Transport)?;
+            let chunk = buf.get(..n).unwrap_or_default();
+            if chunk.is_empty() {
+                break;
+            }
+            self.on_bytes(chunk, io, clock)?;
+        }
+        let stats = self.link_stats();
+        send(io, &mut self.frames_sent, &Message::LinkStats(stats))
+    }
+}
+
+/// Encodes `msg` and writes it to `io`.
+fn send<T: Transport>(io: &mut T, frames_sent: &mut u32, msg: &Message) -> Result<(), RunError<T::Error>> {
+    let mut frame: FrameBuf = [0; MAX_FRAME_LEN];
+    let n = encode(msg, &mut frame).map_err(RunError::Wire)?;
+    io.write_all(frame.get(..n).unwrap_or_default()).map_err(RunError::Transport)?;
+    *frames_sent = frames_sent.saturating_add(1);
+    Ok(())
+}

@@ -1,0 +1,224 @@
+//! `dynotraj stream`: sends a recorded (or simulated) tracks stream to an edge over TCP or a
+//! serial port, paced at the camera rate, and collects its object states, forecasts and
+//! per-frame statistics.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use clap::Args;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::wire::{CameraInfo, ComputeUnit, Message, ObjectClass, frame_parts};
+use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+
+use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
+use crate::kitti::TrackingDir;
+use crate::link::{Endpoint, connect};
+use crate::stream::{StreamOptions, StreamResult, stream};
+use crate::tracks_file::{self, Tracks, TracksFrame};
+
+/// Options of `dynotraj stream`.
+#[derive(Debug, Args)]
+pub struct StreamArgs {
+    /// A tracks file (.dtt) to send, as `dynotraj track` writes it.
+    #[arg(long, value_name = "FILE", conflicts_with = "kitti", required_unless_present = "kitti")]
+    pub tracks: Option<PathBuf>,
+    /// A KITTI tracking split folder: the sequence's labels and ego poses drive the track-level
+    /// simulator (as `dynotraj estimate` does) and its tracks are sent.
+    #[arg(long, value_name = "DIR", requires = "sequence")]
+    pub kitti: Option<PathBuf>,
+    /// The KITTI sequence to simulate, e.g. 0000.
+    #[arg(long, value_name = "ID")]
+    pub sequence: Option<String>,
+    /// Only the first N frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// The edge: tcp://HOST:PORT or serial:PATH.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub to: Endpoint,
+    /// Frames per second to send at (default: the stream's camera rate; 0: as fast as possible).
+    #[arg(long, value_name = "HZ")]
+    pub rate: Option<f64>,
+    /// Send a frame only after the edge answered the previous one (no loss from overrun).
+    #[arg(long)]
+    pub lockstep: bool,
+    /// A model blob to load into the edge before the frames.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Write the forecasts as CSV: frame, object_id, step, x, y (world bird's-eye, metres).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Write the edge's replies as received (wire frames).
+    #[arg(long, value_name = "FILE")]
+    pub raw: Option<PathBuf>,
+    /// Write per-frame latency, compute and losses as CSV.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+    /// Seconds to wait for the edge: to connect, per answer in lockstep, for its goodbye.
+    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    pub timeout: f64,
+}
+
+/// Runs `dynotraj stream`.
+///
+/// # Errors
+/// Input, link or output errors, named.
+pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
+    let tracks = load(args)?;
+    let model = args.model.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--model {}", p.display()))).transpose()?;
+    let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
+    let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
+    let opt = StreamOptions { rate_hz: (rate > 0.0).then_some(rate), lockstep: args.lockstep, reply_timeout: timeout, model };
+    let (rx, tx) = connect(&args.to, timeout)?;
+    let result = stream(&tracks, rx, tx, &opt)?;
+    if let Some(p) = &args.out {
+        std::fs::write(p, predictions_csv(&result)).with_context(|| format!("--out {}", p.display()))?;
+    }
+    if let Some(p) = &args.raw {
+        std::fs::write(p, &result.raw).with_context(|| format!("--raw {}", p.display()))?;
+    }
+    if let Some(p) = &args.report {
+        std::fs::write(p, frames_csv(&result)).with_context(|| format!("--report {}", p.display()))?;
+    }
+    print!("{}", summary(&result, &args.to));
+    Ok(())
+}
+
+/// The tracks to send.
+fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
+    let mut tracks = if let Some(path) = &args.tracks {
+        tracks_file::read(path)?
+    } else {
+        let dir = args.kitti.as_ref().context("--tracks or --kitti is needed")?;
+        let id = args.sequence.as_deref().context("--sequence is needed with --kitti")?;
+        simulated(dir, id, args.frames)?
+    };
+    if let Some(n) = args.frames {
+        tracks.frames.truncate(n);
+    }
+    Ok(tracks)
+}
+
+/// The track-level simulator's stream for a KITTI sequence at the paper's 20 Hz.
+fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
+    let data = TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
+    let classes = [ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist, ObjectClass::Pedestrian];
+    let input = sim_input(&data, &classes);
+    let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
+    let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
+    let spec = SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, dt, 1);
+    let sim = simulate(&input.camera_poses[..n], &boxes, &spec);
+    let i = input.intrinsics;
+    let camera = CameraInfo {
+        fx: i.fx,
+        fy: i.fy,
+        cx: i.cx,
+        cy: i.cy,
+        stereo_fb: i.stereo_fb,
+        width: KITTI_IMAGE_SIZE.0 as u16,
+        height: KITTI_IMAGE_SIZE.1 as u16,
+        frame_rate_hz: PAPER_FRAME_RATE_HZ,
+    };
+    let frames = sim
+        .iter()
+        .map(|f| {
+            let parts = frame_parts(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame))?.collect();
+            Ok(TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts })
+        })
+        .collect::<anyhow::Result<_>>()?;
+    Ok(Tracks { camera, frames })
+}
+
+/// The forecasts as CSV.
+#[must_use]
+pub fn predictions_csv(result: &StreamResult) -> String {
+    let mut s = String::from("frame,object_id,step,x,y\n");
+    for msg in &result.replies {
+        if let Message::Prediction(p) = msg {
+            for (k, q) in p.points.iter().enumerate() {
+                let _ = writeln!(s, "{},{},{},{},{}", p.frame, p.object_id, k + 1, q.x, q.y);
+            }
+        }
+    }
+    s
+}
+
+/// Per-frame latency, compute and losses as CSV.
+#[must_use]
+pub fn frames_csv(result: &StreamResult) -> String {
+    let mut s = String::from("frame,sent_ms,latency_ms,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n");
+    for f in &result.frames {
+        let lat = f.latency().map_or(String::new(), |l| format!("{:.3}", l.as_secs_f64() * 1e3));
+        let _ = write!(s, "{},{:.3},{lat},", f.frame, f.sent.as_secs_f64() * 1e3);
+        match &f.stats {
+            Some(st) => {
+                let _ = writeln!(
+                    s,
+                    "{},{},{},{},{},{},{},{}",
+                    st.compute,
+                    unit_name(st.unit),
+                    st.objects,
+                    st.predictions,
+                    st.frames_lost,
+                    st.objects_dropped,
+                    st.tracks_dropped,
+                    st.bytes_dropped
+                );
+            }
+            None => s.push_str(",,,,,,,\n"),
+        }
+    }
+    s
+}
+
+const fn unit_name(u: ComputeUnit) -> &'static str {
+    match u {
+        ComputeUnit::Nanoseconds => "ns",
+        ComputeUnit::Instructions => "instructions",
+    }
+}
+
+/// The closing report: frames answered, latency quantiles, compute, losses.
+#[must_use]
+pub fn summary(result: &StreamResult, to: &Endpoint) -> String {
+    let mut lat: Vec<f64> = result.frames.iter().filter_map(|f| f.latency()).map(|l| l.as_secs_f64() * 1e3).collect();
+    lat.sort_by(f64::total_cmp);
+    let q = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN);
+    let answered = result.frames.iter().filter(|f| f.stats.is_some()).count();
+    let last = result.frames.iter().rev().find_map(|f| f.stats);
+    let forecasts = result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
+    let mut compute: Vec<u32> = result.frames.iter().filter_map(|f| f.stats.map(|s| s.compute)).collect();
+    compute.sort_unstable();
+    let mut s = String::new();
+    let _ = writeln!(s, "edge {to}: {} frames sent, {answered} answered, {forecasts} forecasts", result.frames.len());
+    let _ = writeln!(s, "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}", q(0.5), q(0.95), q(1.0));
+    if let Some(l) = last {
+        let med = compute.get(compute.len() / 2).copied().unwrap_or(0);
+        let max = compute.last().copied().unwrap_or(0);
+        let _ = writeln!(s, "edge compute per frame ({}): median {med}, max {max}", unit_name(l.unit));
+        let _ = writeln!(
+            s,
+            "edge losses: frames lost {}, objects dropped {}, tracks dropped {}, bytes dropped {}",
+            l.frames_lost, l.objects_dropped, l.tracks_dropped, l.bytes_dropped
+        );
+    }
+    match result.edge_link {
+        Some(l) => {
+            let r = l.received;
+            let _ = writeln!(
+                s,
+                "edge link: {} of our {} frames received intact, {} rejected, {} bytes dropped",
+                r.frames_ok,
+                result.frames_sent,
+                r.frames_rejected(),
+                r.bytes_discarded
+            );
+        }
+        None => s.push_str("edge link: no goodbye from the edge (it stopped or timed out)\n"),
+    }
+    let r = result.received;
+    let _ = writeln!(s, "host link: {} frames rejected, {} bytes dropped", r.frames_rejected(), r.bytes_discarded);
+    s
+}

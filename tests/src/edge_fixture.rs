@@ -1,0 +1,133 @@
+//! A fixture stream for the edge tests: the estimator benchmark's scene (16 cars around a
+//! moving camera, 256 static tracks, 128 points per car) through the track simulator, and the
+//! host build of the edge run in process as the reference.
+
+use std::path::PathBuf;
+
+use dynotraj_core::estimate::Intrinsics;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::wire::{CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks};
+use dynotraj_edge::{NoClock, Session, Transport};
+use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+use dynotraj_host::estimate::bench::scene;
+use dynotraj_host::estimate::input::KITTI_IMAGE_SIZE;
+use dynotraj_host::tracks_file::{Tracks, TracksFrame};
+
+/// `frames` frames of the 16-car scene at the paper's 20 Hz.
+#[must_use]
+pub fn scene_tracks(frames: usize) -> Tracks {
+    let (cams, boxes) = scene(frames);
+    let i = Intrinsics::KITTI_0926;
+    let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
+    let sim = simulate(&cams, &boxes, &SimSpec::kitti(i, KITTI_IMAGE_SIZE, dt, 3));
+    let camera = CameraInfo {
+        fx: i.fx,
+        fy: i.fy,
+        cx: i.cx,
+        cy: i.cy,
+        stereo_fb: i.stereo_fb,
+        width: KITTI_IMAGE_SIZE.0 as u16,
+        height: KITTI_IMAGE_SIZE.1 as u16,
+        frame_rate_hz: PAPER_FRAME_RATE_HZ,
+    };
+    let frames = sim
+        .iter()
+        .map(|f| TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: frame_parts(f.frame, f.timestamp_us, &f.tracks).unwrap().collect() })
+        .collect();
+    Tracks { camera, frames }
+}
+
+/// The host's messages for `tracks` as `dynotraj stream` sends them: camera, model chunks,
+/// every frame's parts, goodbye.
+#[must_use]
+pub fn host_messages(tracks: &Tracks, model: Option<&[u8]>) -> Vec<Message> {
+    let mut out = vec![Message::CameraInfo(tracks.camera)];
+    if let Some(blob) = model {
+        out.extend(model_chunks(blob).unwrap().map(Message::ModelChunk));
+    }
+    for f in &tracks.frames {
+        out.extend(f.parts.iter().cloned().map(Message::FrameTracks));
+    }
+    out.push(Message::LinkStats(LinkStats::default()));
+    out
+}
+
+/// Encodes messages into one byte stream.
+#[must_use]
+pub fn encode_all(messages: &[Message]) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
+    for m in messages {
+        let n = encode(m, &mut buf).unwrap();
+        bytes.extend_from_slice(&buf[..n]);
+    }
+    bytes
+}
+
+/// Decodes a byte stream into messages.
+#[must_use]
+pub fn decode_all(bytes: &[u8]) -> Vec<Message> {
+    FrameDecoder::new().feed(bytes).collect()
+}
+
+/// An in-memory link: reads `input` in chunks of `chunk` bytes, collects what is written.
+pub struct MemLink<'a> {
+    /// Bytes not read yet.
+    pub input: &'a [u8],
+    /// Largest read.
+    pub chunk: usize,
+    /// Everything written.
+    pub output: Vec<u8>,
+}
+
+impl Transport for MemLink<'_> {
+    type Error = ();
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, ()> {
+        let n = self.input.len().min(buf.len()).min(self.chunk);
+        buf[..n].copy_from_slice(&self.input[..n]);
+        self.input = &self.input[n..];
+        Ok(n)
+    }
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), ()> {
+        self.output.extend_from_slice(bytes);
+        Ok(())
+    }
+}
+
+/// What the host build of the edge answers to `stream`, run in process (the reference).
+#[must_use]
+pub fn reference_replies(stream: &[u8], model: Option<&[u8]>) -> Vec<Message> {
+    let mut buffer = vec![0u8; 512 * 1024];
+    let mut session: Box<Session<'_>> = Box::new(match model {
+        Some(blob) => Session::with_model(blob).unwrap(),
+        None => Session::with_model_buffer(&mut buffer),
+    });
+    let mut link = MemLink { input: stream, chunk: 256, output: Vec::new() };
+    session.run(&mut link, &mut NoClock).unwrap();
+    decode_all(&link.output)
+}
+
+/// The estimates and forecasts among `replies`, each as its encoded frame: comparing these
+/// compares every bit of every float.
+#[must_use]
+pub fn outputs(replies: &[Message]) -> Vec<Vec<u8>> {
+    let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
+    replies
+        .iter()
+        .filter(|m| matches!(m, Message::ObjectStates(_) | Message::Prediction(_)))
+        .map(|m| {
+            let n = encode(m, &mut buf).unwrap();
+            buf[..n].to_vec()
+        })
+        .collect()
+}
+
+/// The host build of the edge, `dynotraj-edge`, beside the test binaries: `cargo test
+/// --workspace` builds it (the edge package has integration tests, so its binary is built).
+#[must_use]
+pub fn edge_binary() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let path = exe.parent().unwrap().parent().unwrap().join("dynotraj-edge");
+    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-edge` (cargo test --workspace builds it)", path.display());
+    path
+}

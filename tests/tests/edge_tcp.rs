@@ -1,0 +1,50 @@
+//! The host build of the edge over TCP: `dynotraj-edge --listen` fed by the host's streaming
+//! client answers a 16-car fixture stream with exactly the bits the in-process edge computes,
+//! once with constant velocity and once with an int8 model loaded over the link.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use dynotraj_core::model::Dims;
+use dynotraj_core::model::blob::Precision;
+use dynotraj_core::wire::Message;
+use dynotraj_host::cli::bench::random_blob;
+use dynotraj_host::link::{Endpoint, connect};
+use dynotraj_host::stream::{StreamOptions, stream};
+use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
+
+fn run_over_tcp(model: Option<Vec<u8>>) {
+    let tracks = scene_tracks(10);
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, model.as_deref())), model.as_deref());
+    let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
+    assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
+
+    let mut edge = Command::new(edge_binary()).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().unwrap();
+    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let addr = first.rsplit("tcp://").next().unwrap().to_string();
+    let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10)).unwrap();
+    let opt = StreamOptions { lockstep: true, model: model.clone(), ..StreamOptions::default() };
+    let result = stream(&tracks, rx, tx, &opt).unwrap();
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(edge.wait().unwrap().success(), "edge failed: {rest:?}");
+
+    assert_eq!(outputs(&result.replies), outputs(&reference), "TCP edge answers differ from the in-process edge");
+    assert!(result.frames.iter().all(|f| f.stats.is_some_and(|s| s.frames_lost == 0)), "every frame answered, none lost");
+    let link = result.edge_link.expect("edge goodbye");
+    assert_eq!((link.received.frames_ok, link.received.frames_rejected()), (result.frames_sent, 0));
+    if model.is_some() {
+        assert!(rest.iter().any(|l| l.contains("model 52")), "edge reports the loaded model: {rest:?}");
+    }
+}
+
+#[test]
+fn tcp_edge_matches_the_in_process_edge_with_constant_velocity() {
+    run_over_tcp(None);
+}
+
+#[test]
+fn tcp_edge_matches_the_in_process_edge_with_a_model_sent_over_the_link() {
+    run_over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)));
+}
