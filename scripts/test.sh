@@ -9,6 +9,9 @@ source scripts/env.sh
 
 echo "== core for thumbv7em-none-eabihf"
 cargo build -p dynotraj-core -p dynotraj-edge --lib --target thumbv7em-none-eabihf --release
+echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"
+bash scripts/build-firmware.sh
+cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
 echo "== clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing

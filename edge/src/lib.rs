@@ -27,6 +27,6 @@ pub mod session;
 pub mod transport;
 
 pub use link::{EdgeLoop, LoopStats};
-pub use pipeline::{Edge, EdgeStats, ESTIMATOR_SEED};
+pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
 pub use session::{LoadStats, ModelStatus, RunError, Session};
 pub use transport::{Clock, NoClock, Transport};

@@ -1,6 +1,6 @@
 //! The edge's work per message: tracks -> estimator -> histories -> predictor -> messages out.
 
-use dynotraj_core::estimate::{DEFAULT_WINDOW, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
 use dynotraj_core::model::LearnedPredictor;
@@ -17,6 +17,13 @@ use crate::transport::Clock;
 /// Seed of the estimator's RANSAC sampling: fixed, so every build of the edge computes the
 /// same bits from the same stream.
 pub const ESTIMATOR_SEED: u64 = 0x6479_6e6f;
+
+/// The estimator's smoothing window on the edge, frames. DynoSAM uses 20; the ECU's 128 KiB
+/// of RAM holds the estimator, the int8 predictor's scratch, the link buffers and the stack
+/// only with a shorter window (each window frame costs about 2 KiB over 16 objects and the
+/// camera). 10 frames is half a second at the paper's 20 Hz. Both edge builds use it, so they
+/// compute the same bits.
+pub const EDGE_WINDOW: usize = 10;
 
 /// The edge's own counters, beyond the estimator's and the decoder's.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -42,7 +49,7 @@ pub struct EdgeStats {
 /// The estimator and the predictor over one stream, and what they keep between frames.
 /// `W` is the estimator's smoothing window.
 #[derive(Debug)]
-pub struct Edge<'m, const W: usize = DEFAULT_WINDOW> {
+pub struct Edge<'m, const W: usize = EDGE_WINDOW> {
     estimator: Estimator<W>,
     camera: Option<CameraInfo>,
     /// Frame period of forecasts, seconds (from the camera model's rate).
@@ -78,6 +85,20 @@ impl<'m, const W: usize> Edge<'m, W> {
             last_frame: None,
             pending_compute: 0,
         }
+    }
+
+    /// Back to the state of [`Edge::new`], in place (no second edge on the stack: the MCU
+    /// keeps the edge in a static and has less stack than its size).
+    pub fn reset(&mut self) {
+        self.dt = 1.0 / PAPER_FRAME_RATE_HZ;
+        self.estimator.reset(EstimatorParams::kitti(Intrinsics::KITTI_0926, self.dt), ESTIMATOR_SEED);
+        self.camera = None;
+        self.estimate.reset(0, 0);
+        self.histories = Histories::new();
+        self.predictor = None;
+        self.stats = EdgeStats::default();
+        self.last_frame = None;
+        self.pending_compute = 0;
     }
 
     /// Forecasts with the learned model in `blob` from now on.
@@ -139,7 +160,7 @@ impl<'m, const W: usize> Edge<'m, W> {
         let rate = info.frame_rate_hz;
         self.dt = if rate.is_finite() && rate > 0.0 { 1.0 / rate } else { 1.0 / PAPER_FRAME_RATE_HZ };
         let params = EstimatorParams::kitti(Intrinsics::from(info), self.dt);
-        self.estimator = Estimator::new(params, ESTIMATOR_SEED);
+        self.estimator.reset(params, ESTIMATOR_SEED);
         self.camera = Some(*info);
         self.histories = Histories::new();
         self.last_frame = None;

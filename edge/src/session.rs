@@ -1,12 +1,11 @@
 //! One session of the edge over a transport: the model load, then the stream of frames.
 
-use dynotraj_core::estimate::DEFAULT_WINDOW;
 use dynotraj_core::model::blob::{BlobError, ModelBlob};
 use dynotraj_core::wire::{FrameBuf, LinkStats, MAX_FRAME_LEN, Message, WireError, encode};
 
 use crate::link::EdgeLoop;
 use crate::model_load::{ChunkOutcome, ModelLoader};
-use crate::pipeline::Edge;
+use crate::pipeline::{EDGE_WINDOW, Edge};
 use crate::transport::{Clock, Transport};
 
 /// Bytes read from the transport at a time.
@@ -52,7 +51,7 @@ pub enum RunError<E> {
 /// the session (the host's goodbye), as does the end of the byte stream. The edge then answers
 /// with its own [`LinkStats`].
 #[derive(Debug)]
-pub struct Session<'m, const W: usize = DEFAULT_WINDOW> {
+pub struct Session<'m, const W: usize = EDGE_WINDOW> {
     link: EdgeLoop,
     edge: Edge<'m, W>,
     loader: Option<ModelLoader<'m>>,
@@ -83,6 +82,28 @@ impl<'m, const W: usize> Session<'m, W> {
         }
     }
 
+    /// Back to the state of [`Session::new`], in place (see [`Edge::reset`]).
+    pub fn reset(&mut self) {
+        self.link = EdgeLoop::new();
+        self.edge.reset();
+        self.loader = None;
+        self.model = ModelStatus::None;
+        self.load = LoadStats::default();
+        self.frames_sent = 0;
+        self.ended = false;
+    }
+
+    /// Forecasts with the model `blob` (linked into the image) from now on.
+    ///
+    /// # Errors
+    /// When `blob` is not a valid model blob; the session keeps its previous model.
+    pub fn set_model(&mut self, blob: &'m [u8]) -> Result<(), BlobError> {
+        self.edge.set_model(ModelBlob::parse(blob)?);
+        self.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };
+        self.loader = None;
+        Ok(())
+    }
+
     /// A session that loads a model sent over the link into `buf`.
     #[must_use]
     pub fn with_model_buffer(buf: &'m mut [u8]) -> Self {
@@ -97,8 +118,7 @@ impl<'m, const W: usize> Session<'m, W> {
     /// When `blob` is not a valid model blob.
     pub fn with_model(blob: &'m [u8]) -> Result<Self, BlobError> {
         let mut s = Self::new();
-        s.edge.set_model(ModelBlob::parse(blob)?);
-        s.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };
+        s.set_model(blob)?;
         Ok(s)
     }
 

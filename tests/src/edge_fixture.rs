@@ -131,3 +131,58 @@ pub fn edge_binary() -> PathBuf {
     assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-edge` (cargo test --workspace builds it)", path.display());
     path
 }
+
+/// The firmware image: `$DYNOTRAJ_FIRMWARE`, else where `scripts/build-firmware.sh` puts it in
+/// the same build cache as the tests.
+#[must_use]
+pub fn firmware_elf() -> PathBuf {
+    let path = std::env::var_os("DYNOTRAJ_FIRMWARE").map_or_else(
+        || {
+            let exe = std::env::current_exe().unwrap();
+            exe.parent().unwrap().parent().unwrap().parent().unwrap().join("thumbv7em-none-eabihf/release/dynotraj-firmware")
+        },
+        PathBuf::from,
+    );
+    assert!(path.exists(), "{} is missing: run `bash scripts/build-firmware.sh` (scripts/test.sh does)", path.display());
+    path
+}
+
+/// A free loopback port (free when this returns; QEMU binds it right after).
+#[must_use]
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+/// The firmware under QEMU via `scripts/qemu-edge.sh`, its UART0 on `port`, logs piped.
+#[must_use]
+pub fn spawn_qemu(port: u16) -> std::process::Child {
+    let script = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../scripts/qemu-edge.sh"));
+    std::process::Command::new("bash")
+        .arg(script)
+        .args(["--port", &port.to_string(), "--elf"])
+        .arg(firmware_elf())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Sizes of the named sections of a 32-bit little-endian ELF file (the firmware).
+#[must_use]
+pub fn elf_sections(path: &std::path::Path) -> Vec<(String, u32)> {
+    let b = std::fs::read(path).unwrap();
+    let u16_at = |o: usize| u16::from_le_bytes([b[o], b[o + 1]]) as usize;
+    let u32_at = |o: usize| u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]]);
+    assert_eq!(&b[..5], b"\x7fELF\x01", "a 32-bit ELF");
+    let (shoff, shentsize, shnum, shstrndx) = (u32_at(0x20) as usize, u16_at(0x2E), u16_at(0x30), u16_at(0x32));
+    let header = |i: usize| shoff + i * shentsize;
+    let strtab = u32_at(header(shstrndx) + 16) as usize;
+    (0..shnum)
+        .map(|i| {
+            let h = header(i);
+            let name_at = strtab + u32_at(h) as usize;
+            let end = b[name_at..].iter().position(|&c| c == 0).unwrap();
+            (String::from_utf8_lossy(&b[name_at..name_at + end]).into_owned(), u32_at(h + 20))
+        })
+        .collect()
+}

@@ -99,6 +99,32 @@ impl<const W: usize> Estimator<W> {
         }
     }
 
+    /// Starts afresh with `params` and `seed`, in place: the same state as
+    /// `Estimator::new(params, seed)` without building a second estimator on the stack (an MCU
+    /// keeps the estimator in a static and has a few KiB of stack, less than this struct).
+    pub fn reset(&mut self, params: EstimatorParams, seed: u64) {
+        let () = Self::WINDOW_OK;
+        self.model = PointModel::new(&params);
+        self.object_smoothness = Smoothness::new(&params.object_smoother);
+        self.camera_smoothness = Smoothness::new(&params.camera_smoother);
+        self.params = params;
+        self.assembler = FrameAssembler::new();
+        self.frame.reset(0, 0);
+        self.previous_statics.clear();
+        self.has_previous = false;
+        self.window.clear();
+        self.step = 0;
+        self.camera = CameraTrack::new();
+        for run in &mut self.runs {
+            *run = ObjectRun::new();
+        }
+        self.corrs.clear();
+        self.scratch = ChainScratch::new();
+        self.rng = Pcg32::new(seed);
+        self.stats = EstimatorStats::default();
+        self.smoothed.reset(0, 0);
+    }
+
     /// The parameters.
     #[must_use]
     pub const fn params(&self) -> &EstimatorParams {

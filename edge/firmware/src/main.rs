@@ -1,0 +1,139 @@
+//! The dynotraj edge as Cortex-M4F firmware for QEMU's mps2-an386: the same [`Session`] as the
+//! host build, over UART0, with instructions as its compute clock.
+//!
+//! Boot: paint the stack, start SysTick, check the instruction clock, enable the UART; then
+//! serve one session (the host's `LinkStats` goodbye ends it) and exit through semihosting:
+//! status 0 after a clean session, 1 after a transport or encoding failure, a panic (the
+//! `panic-semihosting` exit feature) or a HardFault. The model blob named by
+//! `DYNOTRAJ_FW_MODEL` at build time is linked into flash; without one the edge forecasts
+//! with constant velocity. Logs go to the semihosting console (QEMU's stdout/stderr).
+#![no_std]
+#![no_main]
+
+mod clock;
+mod stack;
+mod uart;
+
+use core::mem::MaybeUninit;
+
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use dynotraj_edge::{ModelStatus, Session};
+use panic_semihosting as _;
+
+/// The model linked into flash (empty: none).
+static MODEL: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/model.bin"));
+
+/// Loop iterations of the boot-time clock check (2 instructions each).
+const CALIBRATION_LOOPS: u32 = 1_000_000;
+
+/// The device interrupt vectors: only UART0 RX (IRQ 0) is used; IRQ 1 (UART0 TX) is not.
+#[unsafe(link_section = ".vector_table.interrupts")]
+#[unsafe(no_mangle)]
+static __INTERRUPTS: [unsafe extern "C" fn(); 2] = [uart0_rx, DefaultHandler];
+
+unsafe extern "C" {
+    fn DefaultHandler();
+}
+
+unsafe extern "C" fn uart0_rx() {
+    uart::uart0_rx();
+}
+
+/// The session lives in .bss: it is most of the RAM budget. It starts as zero bytes and is
+/// initialised in place by [`Session::reset`]: building it by value would need a stack
+/// temporary of its own size (about 100 KiB), which the stack does not have.
+static mut SESSION: MaybeUninit<Session<'static>> = MaybeUninit::zeroed();
+
+#[entry]
+fn main() -> ! {
+    stack::paint();
+    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
+    clock::start(&mut cp.SYST);
+    let ticks = clock::calibrate(CALIBRATION_LOOPS);
+    let expected = u64::from(2 * CALIBRATION_LOOPS) / clock::INSTRUCTIONS_PER_TICK;
+    let exact = ticks.abs_diff(expected) * 100 <= expected;
+    hprintln!(
+        "dynotraj-firmware: clock check: {} instructions in {} SysTick counts ({})",
+        2 * CALIBRATION_LOOPS,
+        ticks,
+        if exact { "instruction counting exact within 1%" } else { "NOT instructions: run under -icount shift=0" }
+    );
+
+    // SAFETY: the only reference to SESSION, taken once. All-zero bytes are a valid value of
+    // every field of a session (integers, floats, bools, arrays, heapless containers of length
+    // zero, enums whose first variant has no data, and options of references, whose None is
+    // null), and `reset` then writes the session's initial state over it.
+    let slot = &raw mut SESSION;
+    let session: &'static mut Session<'static> = unsafe { (*slot).assume_init_mut() };
+    session.reset();
+    if !MODEL.is_empty()
+        && let Err(e) = session.set_model(MODEL)
+    {
+        fail_with(format_args!("linked model rejected: {e:?}"));
+    }
+    let mut link = uart::Uart::new(&mut cp.NVIC);
+    hprintln!("dynotraj-firmware: ready, model {}", describe(session.model()));
+
+    let result = session.run(&mut link, &mut clock::Instructions);
+
+    let e = session.edge().stats();
+    let l = session.link_stats();
+    hprintln!(
+        "dynotraj-firmware: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received {} rejected {} | bytes dropped {} | uart overruns {} | rx ring high water {} B",
+        e.frames_estimated,
+        e.frames_lost,
+        e.forecasts,
+        e.forecasts_fallback,
+        e.forecasts_failed,
+        l.received.frames_ok,
+        l.received.frames_rejected(),
+        l.received.bytes_discarded,
+        dynotraj_edge::Transport::bytes_lost(&link),
+        link.high_water()
+    );
+    let peak = stack::peak();
+    hprintln!("dynotraj-firmware: peak stack {} B of {} B", peak, stack::available());
+    if peak >= stack::available() {
+        fail("stack overflow: the stack reached the statics");
+    }
+    match result {
+        Ok(()) => {
+            debug::exit(debug::EXIT_SUCCESS);
+            halt()
+        }
+        Err(err) => fail_with(format_args!("session stopped: {err:?}")),
+    }
+}
+
+fn describe(m: ModelStatus) -> &'static str {
+    match m {
+        ModelStatus::None => "none (constant velocity)",
+        ModelStatus::Loaded { .. } => "linked in (int8)",
+        ModelStatus::Rejected(_) => "rejected",
+    }
+}
+
+fn fail(why: &str) -> ! {
+    fail_with(format_args!("{why}"))
+}
+
+fn fail_with(why: core::fmt::Arguments<'_>) -> ! {
+    hprintln!("dynotraj-firmware: error: {}", why);
+    debug::exit(debug::EXIT_FAILURE);
+    halt()
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    hprintln!("dynotraj-firmware: HardFault at pc {:#010x}", frame.pc());
+    debug::exit(debug::EXIT_FAILURE);
+    halt()
+}
+
+/// Where the firmware rests if semihosting did not end it (no debugger attached).
+fn halt() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
+}

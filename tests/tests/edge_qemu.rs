@@ -1,0 +1,99 @@
+//! The firmware under QEMU (Cortex-M4F, mps2-an386), fed over its UART0 by the host's
+//! streaming client: its estimates and forecasts for a 16-car fixture stream are equal, bit for
+//! bit, to what the host build of the edge computes from the same stream. The same run checks
+//! the image against the ECU budgets of DESIGN.md (flash <= 512 KiB; .data + .bss + the peak
+//! stack measured by painting <= 128 KiB) and against the golden figures in
+//! `edge/firmware/memory.golden` (`DYNOTRAJ_BLESS=1` rewrites them after a deliberate change),
+//! and reports the instructions per frame (QEMU -icount) against 20 frames/s at 200 MHz.
+
+use std::io::Read as _;
+use std::time::Duration;
+
+use dynotraj_core::wire::{ComputeUnit, Message};
+use dynotraj_host::link::{Endpoint, connect};
+use dynotraj_host::stream::{StreamOptions, stream};
+use dynotraj_tests::edge_fixture::{elf_sections, firmware_elf, encode_all, free_port, host_messages, outputs, reference_replies, scene_tracks, spawn_qemu};
+
+#[test]
+fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
+    let tracks = scene_tracks(10);
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), None);
+
+    let port = free_port();
+    let mut qemu = spawn_qemu(port);
+    let (rx, tx) = connect(&Endpoint::Tcp(format!("127.0.0.1:{port}")), Duration::from_secs(20)).unwrap();
+    let opt = StreamOptions { lockstep: true, reply_timeout: Duration::from_secs(60), ..StreamOptions::default() };
+    let result = stream(&tracks, rx, tx, &opt).unwrap();
+    let status = qemu.wait().unwrap();
+    let mut log = String::new();
+    qemu.stdout.take().unwrap().read_to_string(&mut log).unwrap();
+    qemu.stderr.take().unwrap().read_to_string(&mut log).unwrap();
+    println!("{log}");
+    assert!(status.success(), "firmware exit {status}: {log}");
+
+    let forecasts = result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
+    assert!(forecasts >= 16 * 5, "the firmware forecasts the cars ({forecasts})");
+    assert_eq!(outputs(&result.replies), outputs(&reference), "firmware answers differ from the host edge");
+    for f in &result.frames {
+        let s = f.stats.expect("every frame answered");
+        assert_eq!((s.frames_lost, s.bytes_dropped, s.unit), (0, 0, ComputeUnit::Instructions));
+        assert!(s.compute > 0, "frame {} compute measured", f.frame);
+    }
+    let compute: Vec<u32> = result.frames.iter().map(|f| f.stats.unwrap().compute).collect();
+    println!("compute per frame (instructions): {compute:?}");
+    let mut steady = compute[2..].to_vec();
+    steady.sort_unstable();
+    let median = steady[steady.len() / 2];
+    let budget = 200_000_000 / 20;
+    println!(
+        "16-object frame: median {median} instructions, max {} (budget at 20 frames/s on 200 MHz: {budget} cycles; {:.2}x)",
+        steady.last().unwrap(),
+        f64::from(median) / f64::from(budget)
+    );
+    check_memory(&log);
+}
+
+const KIB: u32 = 1024;
+
+fn check_memory(log: &str) {
+    let peak: u32 = log
+        .lines()
+        .find_map(|l| l.strip_prefix("dynotraj-firmware: peak stack "))
+        .and_then(|l| l.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("the firmware reports its peak stack");
+    let sections = elf_sections(&firmware_elf());
+    let size = |name: &str| sections.iter().find(|(n, _)| n == name).map_or(0, |(_, s)| *s);
+    let figures = [
+        ("vector_table", size(".vector_table")),
+        ("text", size(".text")),
+        ("rodata", size(".rodata")),
+        ("data", size(".data")),
+        ("bss", size(".bss") + size(".uninit")),
+        ("peak_stack", peak),
+    ];
+    let flash = size(".vector_table") + size(".text") + size(".rodata") + size(".data");
+    let ram = size(".data") + size(".bss") + size(".uninit") + peak;
+    for (n, v) in figures {
+        println!("{n:<12} {v:>7} B");
+    }
+    println!("flash {flash} B of {} B; RAM {ram} B of {} B", 512 * KIB, 128 * KIB);
+    assert!(flash <= 512 * KIB, "flash {flash} B over the 512 KiB budget");
+    assert!(ram <= 128 * KIB, "RAM {ram} B (.data + .bss + peak stack) over the 128 KiB budget");
+
+    let golden_path = concat!(env!("CARGO_MANIFEST_DIR"), "/../edge/firmware/memory.golden");
+    let now: String = figures.iter().map(|(n, v)| format!("{n} {v}\n")).collect();
+    if std::env::var_os("DYNOTRAJ_BLESS").is_some() {
+        std::fs::write(golden_path, format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}")).unwrap();
+        return;
+    }
+    let golden = std::fs::read_to_string(golden_path).unwrap();
+    for line in golden.lines().filter(|l| !l.starts_with('#')) {
+        let (name, value) = line.split_once(' ').unwrap();
+        let want: f64 = value.trim().parse().unwrap();
+        let got = f64::from(figures.iter().find(|(n, _)| *n == name).unwrap().1);
+        // 10% either way: the figures move with every change to core; beyond that the change
+        // must be looked at, and blessed.
+        assert!((got - want).abs() <= 0.1 * want.max(1024.0), "{name}: {got} B, golden {want} B (DYNOTRAJ_BLESS=1 after a deliberate change)");
+    }
+}
