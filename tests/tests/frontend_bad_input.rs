@@ -103,3 +103,35 @@ fn a_textureless_frame_and_boxes_without_depth_are_counted_not_fatal() {
     fe.process(FrameInput { left: grey.clone(), depth: DepthInput::Depth(depth), masks: MaskInput::Labels(labels, classes) }).unwrap();
     assert_eq!(fe.tracker.stats.textureless_objects, 1);
 }
+
+#[test]
+fn objects_beyond_the_capacity_are_dropped_and_counted() {
+    use dynotraj_core::limits::{MAX_OBJECTS, MAX_POINTS_PER_OBJECT, MAX_STATIC_TRACKS};
+    // A textured image (a fixed hash pattern), 20 objects of 40 x 40 px, depth 5..25 m by object.
+    let (w, h) = (900, 200);
+    let mut grey = Mat::new_rows_cols_with_default(h, w, CV_8UC1, Scalar::all(0.0)).unwrap();
+    let mut labels = Mat::new_rows_cols_with_default(h, w, opencv::core::CV_16UC1, Scalar::all(0.0)).unwrap();
+    let mut depth = Mat::new_rows_cols_with_default(h, w, opencv::core::CV_32F, Scalar::all(30.0)).unwrap();
+    for v in 0..h {
+        for u in 0..w {
+            *grey.at_2d_mut::<u8>(v, u).unwrap() = (dynotraj_fixtures::image_sim::texture::hash((u / 3 * 7919 + v / 3 * 104_729) as u32) & 0xff) as u8;
+            let (col, row) = (u / 45, v / 100);
+            if u % 45 < 40 && v % 100 < 40 && row == 0 && col < 20 {
+                *labels.at_2d_mut::<u16>(v, u).unwrap() = (col + 1) as u16;
+                *depth.at_2d_mut::<f32>(v, u).unwrap() = 5.0 + col as f32;
+            }
+        }
+    }
+    let classes = (1..=20u16).map(|id| (id, dynotraj_core::wire::ObjectClass::Car)).collect();
+    let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), 100.0).unwrap();
+    let tracks = fe.process(FrameInput { left: grey, depth: DepthInput::Depth(depth), masks: MaskInput::Labels(labels, classes) }).unwrap();
+    let objects: std::collections::BTreeSet<u16> = tracks.iter().filter(|t| !t.is_static()).map(|t| t.object_id).collect();
+    assert_eq!(objects.len(), MAX_OBJECTS);
+    // Nearest first: the four farthest (ids 17-20) are the ones dropped.
+    assert!(objects.iter().all(|&id| id <= 16), "{objects:?}");
+    assert_eq!(fe.tracker.stats.objects_dropped, 4);
+    assert!(tracks.iter().filter(|t| t.is_static()).count() <= MAX_STATIC_TRACKS);
+    for id in objects {
+        assert!(tracks.iter().filter(|t| t.object_id == id).count() <= MAX_POINTS_PER_OBJECT);
+    }
+}

@@ -48,7 +48,8 @@ pub struct TrackArgs {
     /// Print the front-end's counters.
     #[arg(long)]
     pub counters: bool,
-    /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead.
+    /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead; with
+    /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth.
     #[arg(long)]
     pub bench: bool,
     /// Measure the front-end on the real KITTI images of this folder (odometry/06,
@@ -68,7 +69,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return check(root, stereo);
     }
     if args.bench {
-        let (times, stats) = crate::frontend::bench::run(args.frames.unwrap_or(30), stereo)?;
+        let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
+        let (times, stats) = crate::frontend::bench::run(args.frames.unwrap_or(30), stereo, boxes)?;
+        println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
         print_times(&times, &stereo);
         if args.counters {
             println!("{stats:#?}");
@@ -116,11 +119,20 @@ pub fn track_sequence(dir: &Path, seq: &str, out: &Path, args: &TrackArgs, stere
 
 fn print_times(t: &StageTimes, stereo: &StereoParams) {
     let ms = |s: f64| 1e3 * s / t.frames.max(1) as f64;
-    println!("| stage | ms/frame |\n|---|---|");
-    println!("| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} |", stereo.num_disparities, stereo.downscale, ms(t.stereo));
-    println!("| masks | {:.1} |", ms(t.masks));
-    println!("| KLT + detection + sampling | {:.1} |", ms(t.tracking));
-    println!("| total ({} frames) | {:.1} ms = {:.1} frames/s |", t.frames, ms(t.stereo + t.masks + t.tracking), t.fps());
+    let [cs, cm, ct] = t.cpu;
+    println!("| stage | wall ms/frame | CPU ms/frame (all threads) |\n|---|---|---|");
+    println!("| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} | {:.1} |", stereo.num_disparities, stereo.downscale, ms(t.stereo), ms(cs));
+    println!("| masks | {:.1} | {:.1} |", ms(t.masks), ms(cm));
+    println!("| KLT + detection + sampling | {:.1} | {:.1} |", ms(t.tracking), ms(ct));
+    let cpu = ms(cs + cm + ct);
+    println!(
+        "| total ({} frames) | {:.1} = {:.1} frames/s | {:.1} = {:.1} frames/s per core |",
+        t.frames,
+        ms(t.stereo + t.masks + t.tracking),
+        t.fps(),
+        cpu,
+        if cpu > 0.0 { 1e3 / cpu } else { 0.0 }
+    );
 }
 
 fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {

@@ -12,6 +12,7 @@ use opencv::imgproc::{cvt_color, COLOR_BGR2GRAY};
 
 use super::error::{cv, FrontEndError};
 use super::image_io::{bgr_from_rgb, u16_from_buffer};
+use super::masks::Detection;
 use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 use super::stats::FrontEndStats;
 use super::stereo::StereoParams;
@@ -42,17 +43,39 @@ pub fn input_of(f: &RenderedFrame, cam: &Camera) -> Result<FrameInput, FrontEndE
     })
 }
 
-/// Times `frames` frames of the synthetic drive at KITTI resolution.
+/// The rendered objects' 2D boxes (extent of their visible pixels), as a detector would give
+/// them, without ids.
+#[must_use]
+pub fn boxes_of(f: &RenderedFrame, cam: &Camera) -> Vec<Detection> {
+    f.objects
+        .iter()
+        .filter_map(|o| {
+            let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+            for (i, _) in f.ids.iter().enumerate().filter(|(_, id)| **id == o.object_id) {
+                let (u, v) = ((i % cam.width) as f32, (i / cam.width) as f32);
+                b = [b[0].min(u), b[1].min(v), b[2].max(u), b[3].max(v)];
+            }
+            (b[0] <= b[2]).then_some(Detection { bbox: b, class: o.class, object_id: None })
+        })
+        .collect()
+}
+
+/// Times `frames` frames of the synthetic drive at KITTI resolution; masks from the rendered
+/// instance ids, or (`boxes`) from the objects' 2D boxes refined by depth with IoU ids.
 ///
 /// # Errors
 /// An OpenCV failure.
-pub fn run(frames: usize, stereo: StereoParams) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
+pub fn run(frames: usize, stereo: StereoParams, boxes: bool) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
     let drive = generate(&DriveSpec { frames: frames.max(2), ..DriveSpec::default() });
     let sim = ImageSim::new(Camera::kitti(1.0), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), sim.camera.fb() as f32)?;
     for k in 0..sim.len() {
         let Some(f) = sim.frame(k) else { break };
-        fe.process(input_of(&f, &sim.camera)?)?;
+        let mut input = input_of(&f, &sim.camera)?;
+        if boxes {
+            input.masks = MaskInput::Boxes(boxes_of(&f, &sim.camera));
+        }
+        fe.process(input)?;
     }
     Ok((fe.times, fe.tracker.stats))
 }
