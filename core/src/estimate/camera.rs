@@ -9,13 +9,12 @@ use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
 use super::rng::Pcg32;
 use super::fit::fit_pose;
-use crate::geometry::Pose3;
+use super::lie::Vec6;
+use crate::geometry::{se3_log, Pose3};
 
 /// What one camera step produced.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraStep {
-    /// Whether the motion was fitted (false: held).
-    pub fitted: bool,
     /// Whether the smoother broke down (the causal pose was held).
     pub solve_failed: bool,
     /// The smoothed pose of the leaving step, if it was the camera's.
@@ -90,9 +89,12 @@ impl<const W: usize> CameraTrack<W> {
     }
 
     /// Fits the ego-motion from frame k-1's static tracks `previous` to frame k's `current`, or
-    /// holds the previous motion when the fit fails; then advances the smoother.
+    /// holds the previous motion when the fit fails; advances the frame-to-frame pose and adds
+    /// the step to the smoother's window, coupled to the motion the objects of this frame are
+    /// measured against (the frame-to-frame one). Returns whether the motion was fitted.
+    /// [`CameraTrack::finish`] follows the window's solve.
     #[allow(clippy::too_many_arguments)]
-    pub fn step(
+    pub fn measure(
         &mut self,
         previous: &[Obs],
         current: &[Obs],
@@ -102,8 +104,7 @@ impl<const W: usize> CameraTrack<W> {
         corrs: &mut Correspondences,
         s: &Smoothness,
         scratch: &mut ChainScratch<W>,
-        leaving: Option<u32>,
-    ) -> CameraStep {
+    ) -> bool {
         // Source: camera k-1; the fitted pose maps camera k-1 into camera k, i.e. the inverse of
         // the increment n = T_(k-1)^-1 T_k.
         correspondences(previous, current, &Pose3::identity(), model, corrs);
@@ -123,11 +124,35 @@ impl<const W: usize> CameraTrack<W> {
         self.f2f_previous = self.f2f;
         self.f2f = normalised(self.f2f * self.increment);
         let z = measured.as_ref().map(|m| (&m.xi, &m.information));
-        let (emitted, solve_failed) = match self.path.advance(z, s, scratch, leaving) {
+        let c_bar = se3_log(&self.increment);
+        let mut lin = [0.0f32; 6];
+        lin.iter_mut().zip(c_bar.iter()).for_each(|(a, b)| *a = *b);
+        self.path.push(z, &lin, s, scratch);
+        fitted
+    }
+
+    /// Takes the window's solution (`None`: the solve failed, the causal pose holds) and emits
+    /// the leaving step if it is the camera's.
+    pub fn finish(&mut self, xs: Option<&[Vec6]>, s: &Smoothness, leaving: Option<u32>) -> CameraStep {
+        let (emitted, solve_failed) = match self.path.apply(xs, s, leaving, true, None) {
             Ok(e) => (e, false),
             Err(_) => (None, true),
         };
-        CameraStep { fitted, solve_failed, emitted }
+        CameraStep { solve_failed, emitted }
+    }
+
+    /// The pose of the newest frame as the current estimate of the frame before it, moved by the
+    /// newest (measured or held) ego-motion: what objects are measured against in the joint
+    /// solve, between [`CameraTrack::measure`] and [`CameraTrack::finish`].
+    #[must_use]
+    pub fn measurement_pose(&self) -> Pose3 {
+        if self.path.chain().is_empty() { self.f2f } else { normalised(self.path.current() * self.increment) }
+    }
+
+    /// The smoothed path (its chain is the camera's part of the joint solve).
+    #[must_use]
+    pub const fn path(&self) -> &SmoothedPath<W> {
+        &self.path
     }
 
     /// Emits the leaving step without a new frame (flushing at the end of a stream).

@@ -18,7 +18,7 @@
 
 use heapless::Deque;
 
-use super::lie::{map_information, Mat6, PackedSym6, Vec6};
+use super::lie::{lin_to_pose, map_information, pose_to_lin, Mat6, PackedSym6, Vec6};
 use super::params::SmootherParams;
 
 /// Information added to every diagonal block: keeps a window without any measurement solvable
@@ -32,6 +32,23 @@ struct Slot {
     z: [f32; 6],
     /// Its information (zero for a frame without a fit).
     info: PackedSym6,
+    /// What couples this slot to another chain in the joint solve ([`super::joint`]): for the
+    /// camera the twist the objects of this frame were measured against, for an object the
+    /// fitted camera-from-object pose (translation, rotation vector).
+    lin: [f32; 6],
+}
+
+/// A read-only view of one slot, for the joint solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlotView {
+    /// Measured twist.
+    pub z: Vec6,
+    /// Its information (zero for a frame without a fit).
+    pub info: Mat6,
+    /// Whether the frame has a measurement (non-zero information).
+    pub measured: bool,
+    /// The coupling data (see the slot's docs).
+    pub lin: [f32; 6],
 }
 
 /// The diagonal information of the constant-motion prior.
@@ -49,7 +66,7 @@ impl Smoothness {
         Self { diag: Vec6::new(t, t, t, r, r, r) }
     }
 
-    fn matrix(&self) -> Mat6 {
+    pub(crate) fn matrix(&self) -> Mat6 {
         Mat6::from_diagonal(&self.diag)
     }
 }
@@ -151,9 +168,13 @@ impl<const W: usize> ChainSmoother<W> {
     }
 
     /// Appends the next frame: its measured twist and information, or `None` for a frame
-    /// without a fit (the prior carries the motion through). Returns `false` (and stores nothing)
-    /// when the chain is full or the measurement is not finite.
-    pub fn push(&mut self, measurement: Option<(&Vec6, &Mat6)>) -> bool {
+    /// without a fit (the prior carries the motion through), and its coupling data `lin`.
+    /// Returns `false` (and stores nothing) when the chain is full or the measurement or `lin`
+    /// is not finite.
+    pub fn push(&mut self, measurement: Option<(&Vec6, &Mat6)>, lin: &[f32; 6]) -> bool {
+        if !lin.iter().all(|v| v.is_finite()) {
+            return false;
+        }
         let slot = match measurement {
             Some((z, info)) => {
                 let info = PackedSym6::pack(&((info + info.transpose()) * 0.5));
@@ -162,17 +183,46 @@ impl<const W: usize> ChainSmoother<W> {
                 }
                 let mut zz = [0.0; 6];
                 zz.iter_mut().zip(z.iter()).for_each(|(a, b)| *a = *b);
-                Slot { z: zz, info }
+                Slot { z: zz, info, lin: *lin }
             }
-            None => Slot { z: [0.0; 6], info: PackedSym6::ZERO },
+            None => Slot { z: [0.0; 6], info: PackedSym6::ZERO, lin: *lin },
         };
         self.slots.push_back(slot).is_ok()
+    }
+
+    /// Slot `i` (oldest first).
+    #[must_use]
+    pub fn slot(&self, i: usize) -> Option<SlotView> {
+        let s = self.slots.iter().nth(i)?;
+        Some(SlotView {
+            z: Vec6::from_column_slice(&s.z),
+            info: s.info.unpack(),
+            measured: s.info.0.iter().any(|v| *v != 0.0),
+            lin: s.lin,
+        })
+    }
+
+    /// Adds `dz` to the oldest slot's measured twist: fixes the other chain's variable that the
+    /// slot is coupled to before the slot is marginalised (see [`super::joint`]).
+    pub fn shift_front(&mut self, dz: &Vec6) {
+        if let Some(s) = self.slots.front_mut()
+            && dz.iter().all(|v| v.is_finite())
+        {
+            s.z.iter_mut().zip(dz.iter()).for_each(|(a, b)| *a += *b);
+        }
     }
 
     /// Solves the window; the solution (oldest first) is in `scratch.solution(n)` with `n` the
     /// returned slot count. `None` when the system is not positive definite (never seen with the
     /// regularisation; answered by the caller with a hold).
     pub fn solve(&self, s: &Smoothness, scratch: &mut ChainScratch<W>) -> Option<usize> {
+        self.solve_with(s, scratch, |_| None)
+    }
+
+    /// [`ChainSmoother::solve`] with `extra(i)` (information, right-hand side) added to slot
+    /// `i`'s diagonal block and right-hand side: the other chains' factors on this chain's
+    /// variables in the joint solve, with those chains held at their current estimates.
+    pub fn solve_with(&self, s: &Smoothness, scratch: &mut ChainScratch<W>, mut extra: impl FnMut(usize) -> Option<(Mat6, Vec6)>) -> Option<usize> {
         let n = self.slots.len();
         let sm = s.matrix();
         let prior_info = self.prior_info.unpack();
@@ -192,6 +242,10 @@ impl<const W: usize> ChainSmoother<W> {
             }
             if i + 1 < n {
                 a += sm;
+            }
+            if let Some((ea, eb)) = extra(i) {
+                a += ea;
+                b += eb;
             }
             if let Some((d_inv_prev, y_prev)) = &prev {
                 let t = sm * d_inv_prev;
@@ -248,9 +302,10 @@ impl<const W: usize> ChainSmoother<W> {
         }
     }
 
-    /// Re-expresses every twist in a body frame turned by the pose whose adjoint is `ad`
-    /// (`xi' = ad * xi`), when an object's frame is re-oriented.
-    pub fn reframe(&mut self, ad: &Mat6) {
+    /// Re-expresses every twist in a body frame turned by `r` (`xi' = ad * xi` with
+    /// `ad = Ad(r^-1)`), when an object's frame is re-oriented; the coupling poses (camera from
+    /// object) become `m * r`.
+    pub fn reframe(&mut self, ad: &Mat6, r: &crate::geometry::Pose3) {
         let map = |z: &mut [f32; 6], info: &mut PackedSym6| {
             let zz = ad * Vec6::from_column_slice(z);
             zz.iter().zip(z.iter_mut()).for_each(|(a, b)| *b = *a);
@@ -260,6 +315,7 @@ impl<const W: usize> ChainSmoother<W> {
         };
         for slot in self.slots.iter_mut() {
             map(&mut slot.z, &mut slot.info);
+            slot.lin = pose_to_lin(&(lin_to_pose(&slot.lin) * r));
         }
         map(&mut self.prior_mean, &mut self.prior_info);
     }
@@ -305,7 +361,7 @@ mod tests {
         let mut c = ChainSmoother::<8>::new();
         let info = Mat6::identity() * 25.0;
         for z in zs {
-            assert!(c.push(z.map(meas).as_ref().map(|m| (m, &info))));
+            assert!(c.push(z.map(meas).as_ref().map(|m| (m, &info)), &[0.0; 6]));
         }
         let mut scratch = ChainScratch::<8>::new();
         let n = c.solve(&s, &mut scratch).unwrap();
@@ -327,11 +383,11 @@ mod tests {
         let mut s1 = ChainScratch::<6>::new();
         let mut s2 = ChainScratch::<4>::new();
         for z in zs {
-            full.push(Some((&meas(z), &info)));
+            full.push(Some((&meas(z), &info)), &[0.0; 6]);
             if sliding.is_full() {
                 assert!(sliding.pop_marginalise(&s));
             }
-            sliding.push(Some((&meas(z), &info)));
+            sliding.push(Some((&meas(z), &info)), &[0.0; 6]);
         }
         let n1 = full.solve(&s, &mut s1).unwrap();
         let n2 = sliding.solve(&s, &mut s2).unwrap();
@@ -347,12 +403,13 @@ mod tests {
         let mut c = ChainSmoother::<3>::new();
         let mut scratch = ChainScratch::<3>::new();
         assert_eq!(c.solve(&s, &mut scratch), Some(0));
-        assert!(c.push(None));
+        assert!(c.push(None, &[0.0; 6]));
         assert!(c.solve(&s, &mut scratch).is_some());
         let nan = Vec6::repeat(f32::NAN);
-        assert!(!c.push(Some((&nan, &Mat6::identity()))));
-        assert!(c.push(None) && c.push(None));
-        assert!(!c.push(None));
+        assert!(!c.push(Some((&nan, &Mat6::identity())), &[0.0; 6]));
+        assert!(!c.push(None, &[f32::NAN; 6]));
+        assert!(c.push(None, &[0.0; 6]) && c.push(None, &[0.0; 6]));
+        assert!(!c.push(None, &[0.0; 6]));
         assert!(c.pop_marginalise(&s));
         assert!(spd_inverse(&Mat6::zeros()).is_none());
         assert!(spd_inverse(&(Mat6::identity() * f32::NAN)).is_none());

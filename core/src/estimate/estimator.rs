@@ -9,6 +9,8 @@ use super::chain::{ChainScratch, Smoothness};
 use heapless::Vec;
 
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
+use super::joint::{solve_joint, JointScratch};
+use super::output::ObjectEstimate;
 use super::measure::Correspondences;
 use super::model::PointModel;
 use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
@@ -21,6 +23,11 @@ use crate::wire::FrameTracks;
 
 /// The default smoothing window, frames (DynoSAM's sliding window is 20 frames).
 pub const DEFAULT_WINDOW: usize = 20;
+/// The smoothing window of the ECU firmware, frames: the largest that keeps the whole edge
+/// image (estimator, link, predictor and stack) within DESIGN.md's 128 KiB of RAM with room to
+/// spare; each frame of window costs about 2.5 KiB (a 33-float slot per chain for the camera and
+/// 16 objects, plus solve scratch). `tests/tests/estimate_size_budget.rs` holds both budgets.
+pub const ECU_WINDOW: usize = 12;
 
 /// One frame in the window.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,6 +73,7 @@ pub struct Estimator<const W: usize = DEFAULT_WINDOW> {
     runs: [ObjectRun<W>; MAX_OBJECTS],
     corrs: Correspondences,
     scratch: ChainScratch<W>,
+    joint: JointScratch<W>,
     rng: Pcg32,
     stats: EstimatorStats,
     smoothed: PoseEstimate,
@@ -93,6 +101,7 @@ impl<const W: usize> Estimator<W> {
             runs: core::array::from_fn(|_| ObjectRun::new()),
             corrs: heapless::Vec::new(),
             scratch: ChainScratch::new(),
+            joint: JointScratch::new(),
             rng: Pcg32::new(seed),
             stats: EstimatorStats::default(),
             smoothed: PoseEstimate::new(),
@@ -203,7 +212,7 @@ impl<const W: usize> Estimator<W> {
                 self.smoothed.camera = e.pose;
             }
             for run in self.runs.iter_mut().filter(|r| r.state == RunState::Tracking || r.state == RunState::Draining) {
-                if let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, info.step, info.dt) {
+                if let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, info.step, info.dt, &mut self.stats.numerical_failures) {
                     let _ = self.smoothed.objects.push(e);
                 }
             }
@@ -250,9 +259,9 @@ impl<const W: usize> Estimator<W> {
             self.smoothed.reset(i.frame, i.timestamp_us);
         }
 
-        // Camera.
+        // Camera: measured now, solved jointly with the objects below.
         if has_previous {
-            let r = self.camera.step(
+            let fitted = self.camera.measure(
                 &self.previous_statics,
                 &cur.statics,
                 &self.params.camera_fit,
@@ -261,16 +270,9 @@ impl<const W: usize> Estimator<W> {
                 &mut self.corrs,
                 &self.camera_smoothness,
                 &mut self.scratch,
-                leaving,
             );
-            if !r.fitted {
+            if !fitted {
                 bump(&mut self.stats.camera_motion_held);
-            }
-            if r.solve_failed {
-                bump(&mut self.stats.numerical_failures);
-            }
-            if let Some(e) = r.emitted {
-                self.smoothed.camera = e.pose;
             }
         } else {
             // A new stream (or one whose previous frame is unknown) starts a new world frame.
@@ -282,7 +284,12 @@ impl<const W: usize> Estimator<W> {
             }
             self.camera.start(step);
         }
-        let camera_now = *self.camera.frame_to_frame();
+        // The camera pose objects are measured against. Jointly: the camera's current estimate at
+        // k-1 (the one the objects' poses at k-1 were solved with) moved by the new ego-motion, so
+        // an object's measured motion and the camera motion it is coupled to share one frame
+        // (with the never-revised frame-to-frame pose instead, each camera correction would move
+        // an object only until its next measurement pulled it back). Uncoupled: frame-to-frame.
+        let camera_now = if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
 
         // Runs whose object is missing from this frame end.
         for run in &mut self.runs {
@@ -298,7 +305,7 @@ impl<const W: usize> Estimator<W> {
         // Ended runs emit their leaving frame.
         if let Some(s) = leaving {
             for run in self.runs.iter_mut().filter(|r| r.state == RunState::Draining) {
-                if let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, s, dt_leaving) {
+                if let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, s, dt_leaving, &mut self.stats.numerical_failures) {
                     let _ = self.smoothed.objects.push(e);
                 }
             }
@@ -311,20 +318,7 @@ impl<const W: usize> Estimator<W> {
             if let (Some(i), true) = (live, has_previous) {
                 let cx = PairContext { current: &obj.points, camera: &camera_now, leaving };
                 let Some(run) = self.runs.get_mut(i) else { continue };
-                let (outcome, emitted) = run.step(
-                    &cx,
-                    &self.params,
-                    &self.model,
-                    &mut self.rng,
-                    &mut self.corrs,
-                    &self.object_smoothness,
-                    &mut self.scratch,
-                    dt_leaving,
-                    &mut self.stats.numerical_failures,
-                );
-                if let Some(e) = emitted {
-                    let _ = self.smoothed.objects.push(e);
-                }
+                let outcome = run.measure(&cx, &self.params, &self.model, &mut self.rng, &mut self.corrs, &self.object_smoothness, &mut self.scratch);
                 match outcome {
                     StepOutcome::Measured => {}
                     StepOutcome::Held => bump(&mut self.stats.object_motion_held),
@@ -336,16 +330,13 @@ impl<const W: usize> Estimator<W> {
                         } else {
                             run.state = RunState::Draining;
                             if let Some(s) = leaving
-                                && let Some(e) = run.drain(&self.object_smoothness, &mut self.scratch, s, dt_leaving)
+                                && let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, s, dt_leaving, &mut self.stats.numerical_failures)
                             {
                                 let _ = self.smoothed.objects.push(e);
                             }
                         }
                         restart = true;
                     }
-                }
-                if run.reorient_if_moved(self.params.heading_baseline_m) {
-                    bump(&mut self.stats.objects_reoriented);
                 }
             } else if let Some(i) = live {
                 // Live but without a previous frame (a new world frame began): start again.
@@ -368,6 +359,45 @@ impl<const W: usize> Estimator<W> {
             }
         }
 
+        // The joint solve of camera and object motions, then every path takes its solution.
+        if has_previous {
+            self.joint_solve();
+            let xs = (!self.joint.camera_solution().is_empty()).then(|| self.joint.camera_solution());
+            let r = self.camera.finish(xs, &self.camera_smoothness, leaving);
+            if self.params.joint_sweeps == 0 {
+                // No coupling: objects are smoothed alone, against the frame-to-frame camera.
+                self.joint.unload_camera();
+            }
+            if r.solve_failed {
+                bump(&mut self.stats.numerical_failures);
+            }
+            if let Some(e) = r.emitted {
+                self.smoothed.camera = e.pose;
+            }
+        } else {
+            self.joint.unload_camera();
+        }
+        let inlier_px = self.params.object_fit.inlier_px;
+        for run in self.runs.iter_mut().filter(|r| r.stepped()) {
+            let points = self.frame.object(run.object_id).map(|o| &o.points[..]).unwrap_or(&[]);
+            let e = finish_run(
+                run,
+                &self.joint,
+                &self.object_smoothness,
+                &mut self.scratch,
+                leaving,
+                dt_leaving,
+                (points, &camera_now, &self.model, inlier_px),
+                &mut self.stats.numerical_failures,
+            );
+            if let Some(e) = e {
+                let _ = self.smoothed.objects.push(e);
+            }
+            if run.reorient_if_moved(self.params.heading_baseline_m) {
+                bump(&mut self.stats.objects_reoriented);
+            }
+        }
+
         self.previous_statics.clone_from(&self.frame.statics);
         self.has_previous = true;
         let emitted = leaving.is_some();
@@ -376,6 +406,58 @@ impl<const W: usize> Estimator<W> {
         }
         emitted
     }
+}
+
+impl<const W: usize> Estimator<W> {
+    /// Block Gauss-Seidel over the window ([`super::joint`]): the camera alone first, then
+    /// [`JOINT_SWEEPS`] sweeps of (every object with the camera held, the camera with the
+    /// objects held). Leaves the camera's solution in `self.joint`; an empty one if its solve
+    /// failed (objects are then solved alone).
+    fn joint_solve(&mut self) {
+        let Self { camera, runs, joint, scratch, camera_smoothness, object_smoothness, params, .. } = self;
+        let objects = || {
+            runs.iter()
+                .filter(|r| matches!(r.state, RunState::Tracking | RunState::Draining))
+                .map(|r| (r.path().chain(), r.path().first_slot_step()))
+        };
+        let path = camera.path();
+        solve_joint(joint, path.chain(), path.first_slot_step(), camera_smoothness, object_smoothness, scratch, params.joint_sweeps, objects);
+    }
+}
+
+/// Solves a run's chain with the camera held at the joint solution and hands it the result
+/// (see [`ObjectRun::finish`]).
+#[allow(clippy::too_many_arguments)]
+fn finish_run<const W: usize>(
+    run: &mut ObjectRun<W>,
+    joint: &JointScratch<W>,
+    s: &Smoothness,
+    scratch: &mut ChainScratch<W>,
+    leaving: Option<u32>,
+    dt_leaving: f32,
+    fuse_with: (&[Obs], &crate::geometry::Pose3, &PointModel, f32),
+    failures: &mut u32,
+) -> Option<ObjectEstimate> {
+    let (chain, first) = (run.path().chain(), run.path().first_slot_step());
+    let n = chain.solve_with(s, scratch, |i| joint.object_extra(chain, first, i));
+    let shift = joint.front_shift(chain, first);
+    run.finish(n.map(|n| scratch.solution(n)), s, leaving, shift, dt_leaving, Some(fuse_with), failures)
+}
+
+/// Emits step `leaving` of an ended run, solved with the camera held at the joint solution.
+fn drain_run<const W: usize>(
+    run: &mut ObjectRun<W>,
+    joint: &JointScratch<W>,
+    s: &Smoothness,
+    scratch: &mut ChainScratch<W>,
+    leaving: u32,
+    dt_leaving: f32,
+    failures: &mut u32,
+) -> Option<ObjectEstimate> {
+    let (chain, first) = (run.path().chain(), run.path().first_slot_step());
+    let n = chain.solve_with(s, scratch, |i| joint.object_extra(chain, first, i));
+    let shift = joint.front_shift(chain, first);
+    run.finish(n.map(|n| scratch.solution(n)), s, Some(leaving), shift, dt_leaving, None, failures)
 }
 
 /// A slot for a new run: a free one, else the draining run with the fewest frames still to

@@ -82,6 +82,31 @@ pub fn adjoint(t: &Pose3) -> Mat6 {
     a
 }
 
+/// The matrix of `ad(xi)` (the Lie bracket with `xi`) acting on twists `[rho; omega]`.
+#[must_use]
+pub fn ad_matrix(xi: &Vec6) -> Mat6 {
+    let (w, r) = (skew(&omega(xi)), skew(&rho(xi)));
+    let mut ad = Mat6::zeros();
+    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&w);
+    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&r);
+    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&w);
+    ad
+}
+
+/// A pose as 6 floats (translation, rotation vector): the compact form chains store.
+#[must_use]
+pub fn pose_to_lin(p: &Pose3) -> [f32; 6] {
+    let (t, w) = (p.translation.vector, p.rotation.scaled_axis());
+    [t.x, t.y, t.z, w.x, w.y, w.z]
+}
+
+/// The pose of [`pose_to_lin`]'s 6 floats.
+#[must_use]
+pub fn lin_to_pose(l: &[f32; 6]) -> Pose3 {
+    let [tx, ty, tz, wx, wy, wz] = *l;
+    Pose3::from_parts(nalgebra::Translation3::new(tx, ty, tz), nalgebra::UnitQuaternion::from_scaled_axis(Vector3::new(wx, wy, wz)))
+}
+
 /// The information of `b = a_map * a` given the information `info_a` of `a`, for an invertible
 /// linear map: `a_map^-T info_a a_map^-1`. `None` when the map is singular.
 #[must_use]

@@ -6,7 +6,7 @@ use nalgebra::Point3;
 
 use super::fit::{fit_pose, Fit};
 use super::frame::Obs;
-use super::lie::{adjoint, map_information, omega, rho, skew, Mat6, Vec6};
+use super::lie::{ad_matrix, adjoint, map_information, Mat6, Vec6};
 use super::matching::for_each_match;
 use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
@@ -75,12 +75,7 @@ pub fn plausible(delta: &Pose3, fp: &FitParams) -> bool {
 #[must_use]
 pub fn twist_measurement(delta: &Pose3, info: &Mat6, inliers: u16) -> Option<MotionMeasurement> {
     let xi = se3_log(delta);
-    let mut ad = Mat6::zeros();
-    let (w, r) = (skew(&omega(&xi)), skew(&rho(&xi)));
-    ad.fixed_view_mut::<3, 3>(0, 0).copy_from(&w);
-    ad.fixed_view_mut::<3, 3>(0, 3).copy_from(&r);
-    ad.fixed_view_mut::<3, 3>(3, 3).copy_from(&w);
-    let jac = Mat6::identity() + ad * 0.5;
+    let jac = Mat6::identity() + ad_matrix(&xi) * 0.5;
     let information = map_information(info, &jac)?;
     (xi.iter().all(|v| v.is_finite()) && information.iter().all(|v| v.is_finite()))
         .then_some(MotionMeasurement { delta: *delta, xi, information, inliers })

@@ -33,9 +33,16 @@
 //!    prior on the next.
 //!
 //! The point measurements enter the smoother through each frame's Gaussian (Laplace) summary
-//! rather than point by point: that is what makes the memory fixed (27 floats per object and
-//! frame instead of hundreds of points). Objects are measured against the frame-to-frame camera
-//! poses, which are never revised; the camera's smoothed poses are reported beside them.
+//! rather than point by point: that is what makes the memory fixed (33 floats per chain and
+//! frame instead of hundreds of points).
+//! 5. **Joint solve** ([`joint`]): camera and object chains are refined together. Each object's
+//!    fit is a measurement of `C_k^-1 L_k`, so its motion depends on the camera motion of the
+//!    same frame, to first order `xi_k = z_k + B_k (c_k - c̄_k)`; block Gauss-Seidel
+//!    ([`EstimatorParams::joint_sweeps`] sweeps, default [`joint::JOINT_SWEEPS`]) over exact
+//!    chain solves converges to the joint optimum of the window in fixed memory. Objects are
+//!    measured against the camera's current estimate moved by the newest ego-motion. With
+//!    `joint_sweeps = 0` the camera and each object are smoothed apart (objects against the
+//!    frame-to-frame camera), as before the joint solve.
 //!
 //! # Outputs ([`PoseEstimate`], labelled as the wire's [`crate::wire::EstimateKind`])
 //!
@@ -80,6 +87,7 @@
 mod camera;
 mod chain;
 mod estimator;
+pub mod joint;
 pub mod fit;
 pub mod frame;
 mod kabsch;
@@ -96,8 +104,8 @@ mod rng;
 mod stats;
 
 pub use camera::CameraTrack;
-pub use chain::{spd_inverse, ChainScratch, ChainSmoother, Smoothness};
-pub use estimator::{Estimator, Pushed, DEFAULT_WINDOW};
+pub use chain::{spd_inverse, ChainScratch, ChainSmoother, SlotView, Smoothness};
+pub use estimator::{Estimator, Pushed, DEFAULT_WINDOW, ECU_WINDOW};
 pub use fit::{fit_pose, Fit, FitFailure};
 pub use frame::{FrameAssembler, FrameBuffer, Obs, ObjectPoints, MAX_PIXEL};
 pub use kabsch::kabsch3;

@@ -10,7 +10,7 @@
 
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
-use super::lie::normalised;
+use super::lie::{normalised, pose_to_lin, Vec6};
 use super::landmarks::{self, fuse, initial_landmarks, landmark_correspondences, Landmarks};
 use super::measure::{measure_motion, robust_centroid, Correspondences, MotionMeasurement};
 use super::model::PointModel;
@@ -93,6 +93,9 @@ pub struct ObjectRun<const W: usize> {
     held: u8,
     /// Re-orientation count.
     segment: u16,
+    /// Set by [`ObjectRun::measure`] when it added a step (true: measured, false: held),
+    /// taken by [`ObjectRun::finish`].
+    stepped: Option<bool>,
     /// The object's points in its frame.
     landmarks: Landmarks,
 }
@@ -126,6 +129,7 @@ impl<const W: usize> ObjectRun<W> {
             heading_known: false,
             held: 0,
             segment: 0,
+            stepped: None,
             landmarks: Landmarks::new(),
         }
     }
@@ -166,11 +170,11 @@ impl<const W: usize> ObjectRun<W> {
         if self.state == RunState::Initialising { self.provisional } else { *self.path.current() }
     }
 
-    /// Measures and smooths the motion from frame k-1 to frame k. Returns the outcome and the
-    /// smoothed estimate of the leaving step if it is this run's (`dt_leaving` is its frame
-    /// period).
+    /// Measures the motion from frame k-1 to frame k and adds it to the smoother's window
+    /// (coupled to the camera motion `cx.camera` came from). Returns the outcome;
+    /// [`ObjectRun::finish`] follows the window's solve (not after a restart, which adds nothing).
     #[allow(clippy::too_many_arguments)]
-    pub fn step(
+    pub fn measure(
         &mut self,
         cx: &PairContext<'_>,
         params: &EstimatorParams,
@@ -179,9 +183,7 @@ impl<const W: usize> ObjectRun<W> {
         corrs: &mut Correspondences,
         s: &Smoothness,
         scratch: &mut ChainScratch<W>,
-        dt_leaving: f32,
-        solve_failures: &mut u32,
-    ) -> (StepOutcome, Option<ObjectEstimate>) {
+    ) -> StepOutcome {
         let frame = self.frame_pose();
         // Source points: the landmarks, in the object's frame (at k-1, i.e. `frame`).
         let a = cx.camera.inverse() * frame;
@@ -193,7 +195,7 @@ impl<const W: usize> ObjectRun<W> {
         };
         let mut outcome = StepOutcome::Measured;
         let measured = if self.state == RunState::Initialising {
-            let Some(m) = measured else { return (StepOutcome::Restart, None) };
+            let Some(m) = measured else { return StepOutcome::Restart };
             Some(self.start_tracking(&m))
         } else {
             measured
@@ -206,7 +208,7 @@ impl<const W: usize> ObjectRun<W> {
             None => {
                 self.held = self.held.saturating_add(1);
                 if self.held > MAX_HELD_FRAMES {
-                    return (StepOutcome::Restart, None);
+                    return StepOutcome::Restart;
                 }
                 outcome = StepOutcome::Held;
             }
@@ -216,19 +218,60 @@ impl<const W: usize> ObjectRun<W> {
         self.f2f_motion = normalised(frame * self.last_delta * frame.inverse());
         self.f2f = normalised(self.f2f_motion * self.f2f);
         let z = measured.as_ref().map(|m| (&m.xi, &m.information));
-        let emitted = match self.path.advance(z, s, scratch, cx.leaving) {
+        // Camera k from object k as fitted: what couples this motion to the camera's.
+        let lin = measured.as_ref().map_or([0.0; 6], |m| pose_to_lin(&(a * m.delta)));
+        self.path.push(z, &lin, s, scratch);
+        self.stepped = Some(outcome == StepOutcome::Measured);
+        outcome
+    }
+
+    /// Takes the window's solution `xs` (`None`: the solve failed, counted in `solve_failures`),
+    /// emits the leaving step if it is this run's (`dt_leaving` is its frame period; `front_shift`
+    /// conditions it on the camera as solved before it is marginalised), and, for a run measured
+    /// in this frame, fuses its points (`current`, seen by `camera`) into its landmarks. A
+    /// draining run frees itself once nothing is pending.
+    #[allow(clippy::too_many_arguments)]
+    pub fn finish(
+        &mut self,
+        xs: Option<&[Vec6]>,
+        s: &Smoothness,
+        leaving: Option<u32>,
+        front_shift: Option<Vec6>,
+        dt_leaving: f32,
+        fuse_with: Option<(&[Obs], &Pose3, &PointModel, f32)>,
+        solve_failures: &mut u32,
+    ) -> Option<ObjectEstimate> {
+        let stepped = self.stepped.take();
+        let emitted = match self.path.apply(xs, s, leaving, stepped.is_some(), front_shift) {
             Ok(e) => e,
             Err(_) => {
                 *solve_failures = solve_failures.saturating_add(1);
                 None
             }
         };
-        if outcome == StepOutcome::Measured {
-            let object_from_camera = self.path.current().inverse() * cx.camera;
-            fuse(&mut self.landmarks, cx.current, &object_from_camera, model, params.object_fit.inlier_px);
+        if stepped == Some(true)
+            && let Some((current, camera, model, inlier_px)) = fuse_with
+        {
+            let object_from_camera = self.path.current().inverse() * camera;
+            fuse(&mut self.landmarks, current, &object_from_camera, model, inlier_px);
         }
         let out = emitted.map(|e| self.estimate(&e, dt_leaving));
-        (outcome, out)
+        if self.state == RunState::Draining && self.path.pending() == 0 {
+            self.state = RunState::Free;
+        }
+        out
+    }
+
+    /// Whether [`ObjectRun::measure`] added a step that [`ObjectRun::finish`] has not taken.
+    #[must_use]
+    pub const fn stepped(&self) -> bool {
+        self.stepped.is_some()
+    }
+
+    /// The smoothed path (its chain is this object's part of the joint solve).
+    #[must_use]
+    pub const fn path(&self) -> &SmoothedPath<W> {
+        &self.path
     }
 
     /// Sets the first pose `L_0` (the provisional one: the robust centroid, world-aligned) and

@@ -123,6 +123,11 @@ pub struct EstimatorParams {
     pub object_smoother: SmootherParams,
     /// Constant-motion prior of the camera smoother.
     pub camera_smoother: SmootherParams,
+    /// Block Gauss-Seidel sweeps of the joint camera-object solve per frame
+    /// ([`super::joint`]; default [`super::joint::JOINT_SWEEPS`]). 0 turns the coupling off:
+    /// objects are then smoothed against the frame-to-frame camera and the camera alone (the
+    /// estimator before the joint solve, kept for comparison).
+    pub joint_sweeps: u8,
 }
 
 impl EstimatorParams {
@@ -165,6 +170,7 @@ impl EstimatorParams {
             // The ego vehicle's motion changes smoothly: 0.05 m and 0.005 rad per frame of change
             // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.
             camera_smoother: SmootherParams { sigma_translation: 0.05, sigma_rotation: 0.005 },
+            joint_sweeps: super::joint::JOINT_SWEEPS as u8,
         }
     }
 }

@@ -97,6 +97,30 @@ impl<const W: usize> SmoothedPath<W> {
         self.chain.len() + usize::from(!self.anchor_emitted)
     }
 
+    /// The step of the chain's oldest slot (the slot after the anchor).
+    #[must_use]
+    pub fn first_slot_step(&self) -> u32 {
+        self.anchor_step.wrapping_add(1)
+    }
+
+    /// The chain of body motions in the window.
+    #[must_use]
+    pub const fn chain(&self) -> &ChainSmoother<W> {
+        &self.chain
+    }
+
+    /// Appends the next step's measured body twist and information (`None`: no fit) with its
+    /// coupling data `lin`, without solving ([`SmoothedPath::apply`] follows the solve).
+    pub fn push(&mut self, measurement: Option<(&Vec6, &Mat6)>, lin: &[f32; 6], s: &Smoothness, scratch: &mut ChainScratch<W>) {
+        if self.chain.is_full() {
+            // Never happens while steps are emitted in order; keeps memory fixed if they are not.
+            self.pop(s, scratch);
+        }
+        if !self.chain.push(measurement, lin) {
+            let _ = self.chain.push(None, &[0.0; 6]);
+        }
+    }
+
     /// Appends the next step's measured body twist and information (`None`: no fit), solves the
     /// window and updates the causal estimate; then, when `leaving` is a step of this path that
     /// leaves the window, returns its smoothed pose. `Err(())` when the solve broke down: the
@@ -111,14 +135,9 @@ impl<const W: usize> SmoothedPath<W> {
         scratch: &mut ChainScratch<W>,
         leaving: Option<u32>,
     ) -> Result<Option<Emitted>, SolveFailed> {
-        if self.chain.is_full() {
-            // Never happens while steps are emitted in order; keeps memory fixed if they are not.
-            self.pop(s, scratch);
-        }
-        if !self.chain.push(measurement) {
-            self.chain.push(None);
-        }
-        self.solve_and_emit(s, scratch, leaving, true)
+        self.push(measurement, &[0.0; 6], s, scratch);
+        let n = self.chain.solve(s, scratch);
+        self.apply(n.map(|n| scratch.solution(n)), s, leaving, true, None)
     }
 
     /// Emits `leaving` without adding a step (for a path whose object is gone, and for flushing).
@@ -126,11 +145,19 @@ impl<const W: usize> SmoothedPath<W> {
     /// # Errors
     /// [`SolveFailed`] when the solve broke down.
     pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32) -> Result<Option<Emitted>, SolveFailed> {
-        self.solve_and_emit(s, scratch, Some(leaving), false)
+        let n = self.chain.solve(s, scratch);
+        self.apply(n.map(|n| scratch.solution(n)), s, Some(leaving), false, None)
     }
 
-    fn solve_and_emit(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: Option<u32>, new_step: bool) -> Result<Option<Emitted>, SolveFailed> {
-        let Some(n) = self.chain.solve(s, scratch) else {
+    /// Takes the window's solution `xs` (oldest first; `None`: the solve broke down): sets the
+    /// current pose, on a `new_step` extends the causal one, and emits `leaving` if it is this
+    /// path's. `front_shift` is added to the oldest slot's measurement before it is marginalised
+    /// (the joint solve's fixing of the camera motion that slot was coupled to).
+    ///
+    /// # Errors
+    /// [`SolveFailed`] when `xs` is `None` (the causal pose then advances by the previous motion).
+    pub fn apply(&mut self, xs: Option<&[Vec6]>, s: &Smoothness, leaving: Option<u32>, new_step: bool, front_shift: Option<Vec6>) -> Result<Option<Emitted>, SolveFailed> {
+        let Some(xs) = xs else {
             if new_step {
                 let step = se3_exp(&self.causal_xi);
                 self.current = normalised(self.current * step);
@@ -138,7 +165,6 @@ impl<const W: usize> SmoothedPath<W> {
             }
             return Err(SolveFailed);
         };
-        let xs = scratch.solution(n);
         let mut pose = self.anchor;
         for x in xs {
             pose *= se3_exp(x);
@@ -158,6 +184,9 @@ impl<const W: usize> SmoothedPath<W> {
                 self.anchor = normalised(self.anchor * se3_exp(&x));
                 self.anchor_step = j;
                 self.anchor_emitted = true;
+                if let Some(dz) = front_shift {
+                    self.chain.shift_front(&dz);
+                }
                 self.chain.pop_marginalise(s);
                 Emitted { pose: self.anchor, xi: x }
             }),
@@ -185,7 +214,7 @@ impl<const W: usize> SmoothedPath<W> {
         self.current *= r;
         self.causal *= r;
         self.causal_xi = ad * self.causal_xi;
-        self.chain.reframe(&ad);
+        self.chain.reframe(&ad, r);
     }
 }
 

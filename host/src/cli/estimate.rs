@@ -14,9 +14,9 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::progress;
-use crate::estimate::evaluate::{camera_info, evaluate_sequence, params_for, sim_max_depth, write_tracks, EvalOptions, SequenceResult, WINDOW};
+use crate::estimate::evaluate::{camera_info, evaluate_sequence, params_for, run_with_window, sim_max_depth, write_tracks, EvalOptions, SequenceResult, ECU_WINDOW, WINDOW};
 use crate::estimate::files::{write_estimates, write_run};
-use crate::estimate::runner::{run_parts, EstimatorRun, PartsFrame};
+use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::Kind;
 use crate::kitti::TrackingDir;
@@ -83,6 +83,13 @@ pub struct EstimateArgs {
     /// (DynoSAM's world-frame value: 0.01).
     #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
     pub object_sigma_r: f32,
+    /// Block Gauss-Seidel sweeps of the joint camera-object smoother per frame; 0 smooths the
+    /// camera and each object apart (objects against the frame-to-frame camera).
+    #[arg(long, default_value_t = dynotraj_core::estimate::joint::JOINT_SWEEPS as u8, value_name = "N")]
+    pub joint_sweeps: u8,
+    /// Smoothing window in frames: 20 (the default, DynoSAM's) or 12 (the ECU firmware's).
+    #[arg(long, default_value_t = WINDOW, value_name = "FRAMES")]
+    pub window: usize,
     /// Seed of the simulator and of RANSAC.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -112,6 +119,11 @@ impl EstimateArgs {
     /// A bad class name or rate.
     pub fn options(&self) -> anyhow::Result<EvalOptions> {
         anyhow::ensure!(self.rate.is_finite() && self.rate > 0.0, "--rate: expected a positive frame rate in Hz, found {}", self.rate);
+        anyhow::ensure!(
+            self.window == WINDOW || self.window == ECU_WINDOW,
+            "--window: expected {WINDOW} or {ECU_WINDOW} frames, found {}",
+            self.window
+        );
         let classes = self
             .classes
             .iter()
@@ -131,6 +143,8 @@ impl EstimateArgs {
             object_smoother: SmootherParams { sigma_translation: self.object_sigma_t, sigma_rotation: self.object_sigma_r },
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
+            joint_sweeps: self.joint_sweeps,
+            window: self.window,
         })
     }
 }
@@ -213,7 +227,7 @@ pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::R
     let frames: Vec<PartsFrame> =
         tracks.frames.into_iter().take(n).map(|f| PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: f.parts }).collect();
     let t0 = std::time::Instant::now();
-    let run = run_parts::<WINDOW>(&frames, params, opt.seed);
+    let run = run_with_window(&frames, params, &opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();
     Ok(Replay { frames: frames.iter().map(|f| (f.frame, f.timestamp_us)).collect(), run, estimate_seconds })
 }
@@ -289,7 +303,7 @@ pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
     let label = match kind {
         Kind::FrameToFrame => "frame-to-frame",
         Kind::Causal => "causal (smoother, newest frame)",
-        Kind::Smoothed => "smoothed (fixed lag 19)",
+        Kind::Smoothed => "smoothed (fixed lag W - 1)",
     };
     let mut t = Table::new([
         format!("sequence ({label})"),
@@ -319,8 +333,8 @@ pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
         t.push([
             r.id.clone(),
             r.frames.to_string(),
-            fmt_opt(vals[0], 3),
-            fmt_opt(vals[1], 3),
+            fmt_opt(vals[0], 4),
+            fmt_opt(vals[1], 4),
             format!("{}/{}", s.objects, r.scores.moving_objects),
             fmt_opt(vals[2], 3),
             fmt_opt(vals[3], 3),
@@ -414,7 +428,7 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
 /// The compute benchmark as a table.
 #[must_use]
 pub fn bench_table(args: &EstimateArgs) -> Table {
-    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed);
+    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, args.joint_sweeps);
     let mut t = Table::new(["quantity", "value"]);
     let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
     t.push(["build".to_string(), profile.to_string()]);

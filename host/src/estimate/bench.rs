@@ -70,9 +70,10 @@ pub fn scene(frames: usize) -> (Vec<Isometry3<f64>>, Vec<LabelBox>) {
     (cams, boxes)
 }
 
-/// Runs the benchmark over `frames` frames (after `warmup` untimed ones).
+/// Runs the benchmark over `frames` frames (after `warmup` untimed ones), with `joint_sweeps`
+/// sweeps of the joint camera-object solve per frame.
 #[must_use]
-pub fn bench(frames: usize, warmup: usize, seed: u64) -> BenchResult {
+pub fn bench(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> BenchResult {
     let n = frames + warmup;
     let (cams, boxes) = scene(n);
     let intrinsics = Intrinsics::KITTI_0926;
@@ -80,7 +81,9 @@ pub fn bench(frames: usize, warmup: usize, seed: u64) -> BenchResult {
     let sim = simulate(&cams, &boxes, &spec);
     let parts: Vec<Vec<FrameTracks>> =
         sim.iter().map(|f| frame_parts(f.frame, f.timestamp_us, &f.tracks).map(Iterator::collect).unwrap_or_default()).collect();
-    let mut est: Box<Estimator<WINDOW>> = Box::new(Estimator::new(EstimatorParams::kitti(intrinsics, 0.1), seed));
+    let mut params = EstimatorParams::kitti(intrinsics, 0.1);
+    params.joint_sweeps = joint_sweeps;
+    let mut est: Box<Estimator<WINDOW>> = Box::new(Estimator::new(params, seed));
     let mut out = PoseEstimate::new();
     let mut micros = Vec::with_capacity(frames);
     let (mut tracks, mut objects) = (0usize, 0usize);

@@ -8,7 +8,7 @@ use dynotraj_core::wire::{CameraInfo, ObjectClass};
 use dynotraj_fixtures::track_sim::{simulate, SimFrame, SimSpec};
 
 use super::input::{sim_input, KITTI_IMAGE_SIZE};
-use super::runner::{run_estimator, EstimatorRun, Kind};
+use super::runner::{run_estimator, run_parts, EstimatorRun, Kind, PartsFrame};
 use super::score::{moving_objects, score_run, smoothness, RunScores, Smoothness, SmoothnessSum};
 use crate::kitti::SequenceData;
 use crate::sequence::ground_truth_of;
@@ -42,6 +42,26 @@ pub struct EvalOptions {
     pub camera_smoother: SmootherParams,
     /// Use at most this many frames.
     pub max_frames: Option<usize>,
+    /// Joint camera-object sweeps per frame (0: camera and objects smoothed apart).
+    pub joint_sweeps: u8,
+    /// Smoothing window, frames: [`WINDOW`] or [`ECU_WINDOW`].
+    pub window: usize,
+}
+
+/// The firmware's smoothing window (fits the ECU's RAM).
+pub const ECU_WINDOW: usize = dynotraj_core::estimate::ECU_WINDOW;
+
+/// Runs the estimator with the window `opt.window` (one of the two compiled in).
+///
+/// # Panics
+/// On another window: [`EvalOptions::window`] is checked where it is parsed.
+#[must_use]
+pub fn run_with_window(frames: &[PartsFrame], params: EstimatorParams, opt: &EvalOptions) -> EstimatorRun {
+    match opt.window {
+        ECU_WINDOW => run_parts::<ECU_WINDOW>(frames, params, opt.seed),
+        WINDOW => run_parts::<WINDOW>(frames, params, opt.seed),
+        w => panic!("window {w}: only {WINDOW} and {ECU_WINDOW} are compiled in"),
+    }
 }
 
 /// Every class the simulator can place (all KITTI object types).
@@ -101,6 +121,7 @@ pub fn params_for(intrinsics: Intrinsics, max_depth: f64, pixel_sigma: f64, disp
     p.max_depth = max_depth as f32;
     p.object_smoother = opt.object_smoother;
     p.camera_smoother = opt.camera_smoother;
+    p.joint_sweeps = opt.joint_sweeps;
     p
 }
 
@@ -157,7 +178,10 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
     let sim = simulate(cams, &boxes, &spec);
     let params = estimator_params(&spec, opt);
     let t0 = Instant::now();
-    let run = run_estimator::<WINDOW>(&sim, params, opt.seed);
+    let run = match opt.window {
+        ECU_WINDOW => run_estimator::<ECU_WINDOW>(&sim, params, opt.seed),
+        _ => run_estimator::<WINDOW>(&sim, params, opt.seed),
+    };
     let estimate_seconds = t0.elapsed().as_secs_f64();
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
