@@ -68,10 +68,10 @@ impl Default for Hyper {
             beta_max: 100.0,
             patience: 4,
             loss: LossConfig::default(),
-            weight_decay: 0.0,
+            weight_decay: 0.05,
             seed: 1,
             keep_untrained_if_better: true,
-            shrink: false,
+            shrink: true,
         }
     }
 }
@@ -305,5 +305,24 @@ mod tests {
         let refs: Vec<&Sample> = split.validation.iter().collect();
         let forecast = net.forecast(&Batch::new(&refs, &Device::Cpu).unwrap(), dt).unwrap();
         assert!(forecast.flatten_all().unwrap().to_vec1::<f32>().unwrap().iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn shrinking_an_overshooting_model_picks_a_smaller_factor_and_keeps_it() {
+        let dt = 0.05;
+        let runs = constant_control_runs(16, 45, dt, 4);
+        let split = split_by_run(samples(&runs, dt), runs.len(), 0.25, 2);
+        let (net, vars) = Network::new(Dims { enc: 16, edge: 8, k: 2, dec: 16 }, 3).unwrap();
+        let hyper = Hyper { epochs: 4, batch: 32, patience: 4, shrink: false, ..Hyper::default() };
+        fit(&net, &vars, &split.train, &split.validation, dt, &hyper, &mut |_| {}).unwrap();
+        // Make the trained corrections four times too strong: a quarter is then the right one.
+        let weight = vars.data().lock().unwrap().get("out.weight").unwrap().clone();
+        let bias = vars.data().lock().unwrap().get("out.bias").unwrap().clone();
+        weight.set(&(weight.as_tensor() * 4.0).unwrap()).unwrap();
+        bias.set(&(bias.as_tensor() * 4.0).unwrap()).unwrap();
+        let overshooting = mean_ade(&net, &split.validation, dt).unwrap();
+        let (factor, ade) = shrink_towards_cv(&net, &vars, &split.validation, dt).unwrap();
+        assert!(factor < 1.0 && ade < overshooting, "factor {factor}: {overshooting} -> {ade}");
+        assert_eq!(mean_ade(&net, &split.validation, dt).unwrap(), ade, "the chosen factor stays in the weights");
     }
 }

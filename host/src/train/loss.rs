@@ -52,7 +52,7 @@ pub struct LossConfig {
 
 impl Default for LossConfig {
     fn default() -> Self {
-        Self { kl_min: 0.07, position_floor_m: 0.3, likelihood_weight: 1.0, ade_weight: 0.0 }
+        Self { kl_min: 0.07, position_floor_m: 0.3, likelihood_weight: 1.0, ade_weight: 10.0 }
     }
 }
 
@@ -169,5 +169,22 @@ mod tests {
         assert!((beta(100, 400, 100.0) - 50.0).abs() < 1e-3);
         assert!(beta(399, 400, 100.0) > 99.0);
         assert!((beta(400, 100_000, 100.0) - 50.0).abs() < 1e-3, "Trajectron++'s crossover for long runs");
+    }
+
+    #[test]
+    fn the_position_term_of_the_untrained_model_is_the_constant_velocity_ade() {
+        use dynotraj_core::model::arch::Dims;
+
+        use crate::train::synthetic::{constant_control_runs, samples};
+        let dt = 0.05;
+        let all = samples(&constant_control_runs(6, 40, dt, 1), dt);
+        let refs: Vec<&crate::train::Sample> = all.iter().collect();
+        let b = Batch::new(&refs, &Device::Cpu).unwrap();
+        let (net, _) = Network::new(Dims { enc: 8, edge: 8, k: 3, dec: 16 }, 1).unwrap();
+        let only_position = LossConfig { likelihood_weight: 0.0, ade_weight: 2.0, ..LossConfig::default() };
+        let l = loss(&net, &b, dt, 1.0, &only_position).unwrap();
+        let cv = all.iter().map(crate::train::Sample::constant_velocity_ade).sum::<f32>() / all.len() as f32;
+        assert!(cv > 0.05 && (l.ade - cv).abs() < 1e-3 * cv.max(1.0), "zero controls forecast constant velocity: {} vs {cv}", l.ade);
+        assert!((l.total.to_scalar::<f32>().unwrap() - 2.0 * l.ade).abs() < 1e-4, "only the weighted position term is left");
     }
 }

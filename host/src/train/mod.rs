@@ -50,14 +50,14 @@ pub use model::Network;
 
 /// Default share of a fold's training runs held out for early stopping and model selection
 /// (chosen on the tuning folds: docs/decisions.md).
-pub const DEFAULT_VALIDATION_FRACTION: f32 = 0.15;
+pub const DEFAULT_VALIDATION_FRACTION: f32 = 0.3;
 
 /// Whether validation holds out whole training sequences (see
 /// [`TrainConfig::validate_on_sequences`]).
-pub const DEFAULT_VALIDATE_ON_SEQUENCES: bool = false;
+pub const DEFAULT_VALIDATE_ON_SEQUENCES: bool = true;
 
 /// Whether reflected copies of the training instances are trained on by default.
-pub const DEFAULT_MIRROR: bool = false;
+pub const DEFAULT_MIRROR: bool = true;
 
 /// One fold's training set-up.
 #[derive(Debug, Clone)]
