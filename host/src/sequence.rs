@@ -1,35 +1,72 @@
-//! Loading a KITTI tracking sequence into world-frame ground-truth tracks.
+//! Loading a KITTI tracking sequence into world-frame tracks: the labels' (ground truth), and,
+//! when asked for, the estimator's (the paper's Estimated source).
 
 use anyhow::Context as _;
 use dynotraj_core::wire::ObjectClass;
 use nalgebra::Point3;
 
+use crate::estimate::evaluate::EvalOptions;
 use crate::kitti::{SequenceData, TrackingDir};
-use crate::trajectory::{ground_truth_tracks, LabelledObservation, Track};
+use crate::trajectory::{estimated_tracks, ground_truth_tracks, EstimatedTracks, LabelledObservation, Source, Track};
 
-/// The labelled objects of one sequence as world-frame bird's-eye tracks.
+/// The objects of one sequence as world-frame bird's-eye tracks.
 #[derive(Debug, Clone)]
-pub struct GroundTruthSequence {
+pub struct SequenceTracks {
     /// Sequence id, e.g. "0000".
     pub id: String,
     /// Frames in the sequence.
     pub frame_count: usize,
     /// One track per labelled object (DontCare regions and unknown types excluded).
     pub tracks: Vec<Track>,
+    /// The estimator's tracks of the same sequence, when they were asked for
+    /// ([`load_sequence`] with `estimate`).
+    pub estimated: Option<EstimatedTracks>,
+}
+
+impl SequenceTracks {
+    /// The base tracks of `source`: the labels for the GT sources, the estimator's causal or
+    /// smoothed tracks for the estimated ones (empty when they were not loaded: callers check
+    /// [`SequenceTracks::has`] first).
+    #[must_use]
+    pub fn tracks_for(&self, source: Source) -> &[Track] {
+        match (source, &self.estimated) {
+            (Source::Estimated, Some(e)) => &e.causal,
+            (Source::EstimatedSmoothed, Some(e)) => &e.smoothed,
+            (Source::Estimated | Source::EstimatedSmoothed, None) => &[],
+            _ => &self.tracks,
+        }
+    }
+
+    /// Whether the tracks of `source` are loaded.
+    #[must_use]
+    pub fn has(&self, source: Source) -> bool {
+        !source.is_estimated() || self.estimated.is_some()
+    }
 }
 
 /// Loads sequence `id` of `dir` and builds its ground-truth tracks at frame period `dt`.
 ///
 /// # Errors
 /// Any loading error of the sequence's files, with the file named.
-pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result<GroundTruthSequence> {
+pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result<SequenceTracks> {
+    load_sequence(dir, id, dt, None)
+}
+
+/// Loads sequence `id` of `dir` at frame period `dt`: its ground-truth tracks and, with
+/// `estimate`, the estimator's tracks from a simulation of the sequence with those options.
+///
+/// # Errors
+/// Any loading error of the sequence's files, with the file named.
+pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&EvalOptions>) -> anyhow::Result<SequenceTracks> {
     let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    Ok(ground_truth_of(id, &data, dt))
+    let mut seq = ground_truth_of(id, &data, dt);
+    seq.estimated = estimate.map(|opt| estimated_tracks(id, &data, opt));
+    Ok(seq)
 }
 
 /// Builds ground-truth tracks from loaded sequence data.
 #[must_use]
-pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> GroundTruthSequence {
+pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> SequenceTracks {
     let observations: Vec<LabelledObservation> = data
         .labels
         .iter()
@@ -44,5 +81,5 @@ pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> GroundTruthSeq
             })
         })
         .collect();
-    GroundTruthSequence { id: id.to_string(), frame_count: data.frame_count, tracks: ground_truth_tracks(&observations, &data.poses, dt) }
+    SequenceTracks { id: id.to_string(), frame_count: data.frame_count, tracks: ground_truth_tracks(&observations, &data.poses, dt), estimated: None }
 }

@@ -12,6 +12,7 @@ use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
 use dynotraj_core::predict::{Baseline, Forecast};
 use dynotraj_core::{BevState, Point2};
 
+use super::common::DEFAULT_DIMS;
 use crate::evaluate::Forecaster;
 use crate::model_file::ModelFile;
 use crate::report::{Format, Table};
@@ -24,7 +25,7 @@ pub struct BenchArgs {
     #[arg(long, value_name = "PATH")]
     pub model: Option<PathBuf>,
     /// Widths enc,edge,k,dec (one or more sets separated by `;`) when no --model is given.
-    #[arg(long, default_value = "32,32,5,64", value_name = "DIMS")]
+    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
     pub dims: String,
     /// Forecasts timed per configuration.
     #[arg(long, default_value_t = 2000)]

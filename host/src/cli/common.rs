@@ -9,11 +9,16 @@ use dynotraj_core::wire::ObjectClass;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::kitti::TrackingDir;
-use crate::sequence::{load_ground_truth, GroundTruthSequence};
-use crate::trajectory::{EligibilityRule, MovingRule};
+use crate::estimate::evaluate::EvalOptions;
+use crate::sequence::{load_sequence, SequenceTracks};
+use crate::trajectory::{EligibilityRule, MovingRule, Source};
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
+
+/// `Dims::DEFAULT` (the ECU setting) as the commands' `--dims` default; a test holds the two
+/// together.
+pub const DEFAULT_DIMS: &str = "32,32,3,48";
 
 /// Where the data is and how to read it.
 #[derive(Debug, Args)]
@@ -67,16 +72,27 @@ impl DataArgs {
     ///
     /// # Errors
     /// A missing folder, a missing sequence or a bad file, named.
-    pub fn load(&self, sequences: &[String]) -> anyhow::Result<Vec<GroundTruthSequence>> {
+    pub fn load(&self, sequences: &[String]) -> anyhow::Result<Vec<SequenceTracks>> {
+        self.load_for(sequences, &[])
+    }
+
+    /// As [`DataArgs::load`], and when one of `sources` is an estimated one, also runs the
+    /// estimator over each sequence (the track-level simulator driven by its labels, ego poses
+    /// and calibration, with `dynotraj estimate`'s defaults; a few seconds for the nine).
+    ///
+    /// # Errors
+    /// A missing folder, a missing sequence or a bad file, named.
+    pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
         let dir = TrackingDir::open(&self.kitti)?;
         let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
         let dt = self.dt()?;
-        let bar = progress(ids.len() as u64, "loading");
+        let estimate = sources.iter().any(Source::is_estimated).then(|| EvalOptions::kitti(dt));
+        let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
         let out = ids
             .iter()
             .map(|id| {
                 bar.set_message(id.clone());
-                let s = load_ground_truth(&dir, id, dt);
+                let s = load_sequence(&dir, id, dt, estimate.as_ref());
                 bar.inc(1);
                 s
             })
@@ -95,4 +111,15 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynotraj_core::model::arch::Dims;
+
+    #[test]
+    fn the_default_dims_flag_is_the_core_default() {
+        assert_eq!(super::super::bench::parse_dims(DEFAULT_DIMS).unwrap(), Dims::DEFAULT);
+    }
 }

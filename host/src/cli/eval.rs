@@ -57,8 +57,10 @@ pub struct EvalArgs {
     #[command(flatten)]
     pub data: DataArgs,
     /// Trajectory sources, comma-separated: gt (labels), gt-ekf (forward EKF: causal), gt-rts
-    /// (fixed-lag RTS smoother: its inputs have seen later frames, reported apart). Each source
-    /// is scored against its own future (the paper's protocol).
+    /// (fixed-lag RTS smoother: its inputs have seen later frames, reported apart), estimated
+    /// (Ours: the core estimator's newest-frame estimates on the KITTI-driven simulator:
+    /// causal), estimated-smoothed (its estimates as they leave the smoothing window: saw later
+    /// frames). Each source is scored against its own future (the paper's protocol).
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
     /// Predictors, comma-separated: cv, ctra, or model:PATH (a blob written by `dynotraj
@@ -91,13 +93,13 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let dt = args.data.dt()?;
     let ids: Vec<String> =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
-    let seqs = args.data.load(&ids)?;
-    let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(&s.tracks, &rule)).collect();
+    let seqs = args.data.load_for(&ids, &args.source)?;
 
     let mut arms = Vec::new();
     let bar = progress((args.source.len() * args.predictor.len()) as u64, "scoring");
     for &source in &args.source {
-        let scenes: Vec<Scene> = seqs.iter().map(|s| Scene::new(&s.tracks, source, dt)).collect();
+        let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &rule)).collect();
+        let scenes: Vec<Scene> = seqs.iter().map(|s| Scene::new(s.tracks_for(source), source, dt)).collect();
         for spec in &args.predictor {
             let model = match spec {
                 PredictorSpec::Model(path) => Some(ModelFile::load(path)?),

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::bench::parse_dims;
-use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
 use super::train::HyperArgs;
 use crate::experiment::{run_experiment, ExperimentConfig};
 use crate::report::{Format, Table};
@@ -18,15 +18,15 @@ pub struct ExperimentArgs {
     /// Data options.
     #[command(flatten)]
     pub data: DataArgs,
-    /// Arms: the sources trained and tested (gt, gt-ekf; gt-rts is the labelled non-causal
-    /// variant), comma-separated.
+    /// Arms: the sources trained and tested (gt, gt-ekf, estimated; gt-rts and
+    /// estimated-smoothed are the labelled non-causal variants), comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "gt,gt-ekf", value_name = "LIST")]
     pub arms: Vec<Source>,
     /// Test sequences, each held out in turn (training uses every other sequence in --kitti).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Model widths enc,edge,k,dec.
-    #[arg(long, default_value = "32,32,5,64", value_name = "DIMS")]
+    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
     pub dims: String,
     /// Training settings of every fold.
     #[command(flatten)]
@@ -44,7 +44,7 @@ pub struct ExperimentArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
-    let sequences = args.data.load(&[])?;
+    let sequences = args.data.load_for(&[], &args.arms)?;
     let test_sequences =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
     let config = ExperimentConfig {

@@ -8,7 +8,8 @@ use clap::{Args, ValueEnum};
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 
-use super::common::{progress, DataArgs};
+use super::bench::parse_dims;
+use super::common::{progress, DataArgs, DEFAULT_DIMS};
 use crate::train::loss::LossConfig;
 use crate::train::{train_fold_with, Event, Hyper, TrainConfig, DEFAULT_MIRROR, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION};
 use crate::trajectory::Source;
@@ -38,8 +39,10 @@ pub struct TrainArgs {
     /// Data options.
     #[command(flatten)]
     pub data: DataArgs,
-    /// Trajectory source for inputs and targets: gt (labels), gt-ekf (forward EKF: causal) or
-    /// gt-rts (fixed-lag RTS smoother: inputs have seen later frames).
+    /// Trajectory source for inputs and targets: gt (labels), gt-ekf (forward EKF: causal),
+    /// gt-rts (fixed-lag RTS smoother: inputs have seen later frames), estimated (Ours: the core
+    /// estimator's newest-frame estimates on the KITTI-driven simulator, no labels) or
+    /// estimated-smoothed (its states as they leave the smoothing window).
     #[arg(long, default_value = "gt", value_name = "SOURCE")]
     pub source: Source,
     /// Sequences held out of training (the fold's test sequences), comma-separated.
@@ -54,7 +57,7 @@ pub struct TrainArgs {
     #[arg(long, value_name = "PATH")]
     pub out: PathBuf,
     /// Network widths: history encoder, edge encoder, latent modes, decoder.
-    #[arg(long, default_value = "32,32,5,64", value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
+    #[arg(long, default_value = DEFAULT_DIMS, value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
     pub dims: Dims,
     /// Optimisation and loss settings.
     #[command(flatten)]
@@ -152,14 +155,6 @@ impl HyperArgs {
     }
 }
 
-/// Parses "enc,edge,k,dec".
-fn parse_dims(s: &str) -> Result<Dims, String> {
-    let v: Vec<usize> = s.split(',').map(|p| p.trim().parse::<usize>().map_err(|e| format!("`{p}`: {e}"))).collect::<Result<_, _>>()?;
-    let [enc, edge, k, dec] = v[..] else { return Err(format!("expected 4 comma-separated widths enc,edge,k,dec, found {}", v.len())) };
-    let dims = Dims { enc, edge, k, dec };
-    if dims.is_supported() { Ok(dims) } else { Err(format!("{s}: widths must be 1..=64 (enc, edge), 1..=25 (k), 1..=128 (dec)")) }
-}
-
 /// Trains, writes the files and prints a one-line summary.
 ///
 /// # Errors
@@ -170,7 +165,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     }
     let dt = args.data.dt()?;
     let rule = args.data.rule()?;
-    let sequences = args.data.load(&args.sequences)?;
+    let sequences = args.data.load_for(&args.sequences, &[args.source])?;
     for ex in &args.exclude {
         if !sequences.iter().any(|s| &s.id == ex) {
             log::warn!("--exclude {ex}: no such sequence was loaded");

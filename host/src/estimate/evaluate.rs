@@ -48,6 +48,32 @@ pub struct EvalOptions {
     pub window: usize,
 }
 
+impl EvalOptions {
+    /// The defaults of `dynotraj estimate` at frame period `dt`: every class of the default
+    /// list (pedestrians included: they are in the scene even where nothing forecasts them),
+    /// 0.5 px pixel and disparity noise, 5 % outliers, 40-frame mean track lifetime, seed 1,
+    /// DynoSAM's priors and window, the joint solve's default sweeps, every frame.
+    #[must_use]
+    pub fn kitti(dt: f32) -> Self {
+        let defaults = EstimatorParams::kitti(Intrinsics::KITTI_0926, dt);
+        Self {
+            dt,
+            classes: vec![ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist, ObjectClass::Pedestrian],
+            min_step_m: 0.1,
+            seed: 1,
+            pixel_sigma: 0.5,
+            disparity_sigma: 0.5,
+            outlier_fraction: 0.05,
+            track_lifetime: 40,
+            object_smoother: SmootherParams::VEHICLE_OBJECT,
+            camera_smoother: defaults.camera_smoother,
+            max_frames: None,
+            joint_sweeps: dynotraj_core::estimate::joint::JOINT_SWEEPS as u8,
+            window: WINDOW,
+        }
+    }
+}
+
 /// The firmware's smoothing window (fits the ECU's RAM).
 pub const ECU_WINDOW: usize = dynotraj_core::estimate::ECU_WINDOW;
 

@@ -16,7 +16,7 @@ use crate::evaluate::{score_sequence, Forecaster};
 use crate::model_file::ModelFile;
 use crate::report::{forecast_table, ArmScores, Table};
 use crate::scene::Scene;
-use crate::sequence::GroundTruthSequence;
+use crate::sequence::SequenceTracks;
 use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
 use crate::trajectory::{eligible_runs, EligibilityRule, Source};
 
@@ -82,9 +82,9 @@ pub struct ExperimentResult {
 ///
 /// # Errors
 /// A test sequence that is not loaded; a fold with no training data; I/O errors for --out.
-pub fn run_experiment(sequences: &[GroundTruthSequence], config: &ExperimentConfig, progress: &mut dyn FnMut(&str, Event)) -> anyhow::Result<ExperimentResult> {
+pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, progress: &mut dyn FnMut(&str, Event)) -> anyhow::Result<ExperimentResult> {
     let start = Instant::now();
-    let tests: Vec<&GroundTruthSequence> = config
+    let tests: Vec<&SequenceTracks> = config
         .test_sequences
         .iter()
         .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| format!("test sequence {id} is not in the data folder")))
@@ -92,11 +92,16 @@ pub fn run_experiment(sequences: &[GroundTruthSequence], config: &ExperimentConf
     if let Some(dir) = &config.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let runs: Vec<_> = tests.iter().map(|s| eligible_runs(&s.tracks, &config.rule)).collect();
+    for &source in &config.arms {
+        if let Some(s) = sequences.iter().find(|s| !s.has(source)) {
+            anyhow::bail!("arm {source}: the estimator's tracks of sequence {} were not loaded", s.id);
+        }
+    }
     let mut arms = Vec::new();
     let mut folds = Vec::new();
     for &source in &config.arms {
-        let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(&s.tracks, source, config.dt)).collect();
+        let runs: Vec<_> = tests.iter().map(|s| eligible_runs(s.tracks_for(source), &config.rule)).collect();
+        let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(s.tracks_for(source), source, config.dt)).collect();
         let mut learned = [
             ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },
             ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },

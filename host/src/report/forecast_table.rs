@@ -26,8 +26,8 @@ pub struct ReferenceRow {
     pub average: [f64; 3],
 }
 
-/// Builds the table: for each metric, the measured arms then the reference rows; a last row
-/// with the instance (and ACE pair) counts of the first arm.
+/// Builds the table: for each metric, the measured arms then the reference rows; last, the
+/// instance (and ACE pair) counts: one row when all arms share them, else one per distinct set.
 #[must_use]
 pub fn forecast_table(ids: &[String], arms: &[ArmScores], references: &[ReferenceRow]) -> Table {
     let mut headers = vec!["metric".to_string(), "arm".to_string()];
@@ -54,16 +54,30 @@ pub fn forecast_table(ids: &[String], arms: &[ArmScores], references: &[Referenc
             t.push(row);
         }
     }
-    if let Some(arm) = arms.first() {
-        let mut row = vec!["instances".to_string(), "ADE/FDE (ACE pairs)".to_string()];
+    // Instance counts: one row when every arm was scored on the same instances, else a row for
+    // each arm whose counts differ from those of every arm before it (sources with their own
+    // eligible runs, such as the estimator's, have their own instances).
+    let mut seen: Vec<Vec<String>> = Vec::new();
+    for arm in arms {
+        let mut cells = Vec::new();
         let mut n = (0, 0);
         for s in &arm.per_sequence {
-            row.push(format!("{} ({})", s.ade.count(), s.ace.count()));
+            cells.push(format!("{} ({})", s.ade.count(), s.ace.count()));
             n.0 += s.ade.count();
             n.1 += s.ace.count();
         }
-        row.push(format!("{} ({})", n.0, n.1));
-        t.push(row);
+        cells.push(format!("{} ({})", n.0, n.1));
+        if !seen.contains(&cells) {
+            seen.push(cells);
+            let mut row = vec!["instances".to_string(), format!("ADE/FDE (ACE pairs): {}", arm.label)];
+            row.extend(seen.last().into_iter().flatten().cloned());
+            t.push(row);
+        }
+    }
+    if seen.len() == 1
+        && let Some(row) = t.rows.last_mut()
+    {
+        row[1] = "ADE/FDE (ACE pairs)".to_string();
     }
     t
 }

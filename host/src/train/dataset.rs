@@ -20,7 +20,7 @@ use rand::seq::SliceRandom as _;
 use rand::SeedableRng as _;
 
 use crate::scene::Scene;
-use crate::sequence::GroundTruthSequence;
+use crate::sequence::SequenceTracks;
 use crate::trajectory::{eligible_runs, EligibilityRule, Source};
 
 /// One training instance.
@@ -114,9 +114,10 @@ pub fn sample_at(states: &[BevState], s: usize, neighbours: &[&[BevState]], dt: 
 /// `dt`; run k of the sequence gets group `first_group + k`. Returns the samples and the number
 /// of runs.
 #[must_use]
-pub fn sequence_samples(seq: &GroundTruthSequence, source: Source, dt: f32, rule: &EligibilityRule, first_group: usize) -> (Vec<Sample>, usize) {
-    let scene = Scene::new(&seq.tracks, source, dt);
-    let runs = eligible_runs(&seq.tracks, rule);
+pub fn sequence_samples(seq: &SequenceTracks, source: Source, dt: f32, rule: &EligibilityRule, first_group: usize) -> (Vec<Sample>, usize) {
+    let tracks = seq.tracks_for(source);
+    let scene = Scene::new(tracks, source, dt);
+    let runs = eligible_runs(tracks, rule);
     let mut out = Vec::new();
     for (k, run) in runs.iter().enumerate() {
         let states = source.apply(&run.states, dt);

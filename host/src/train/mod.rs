@@ -42,7 +42,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 
-use crate::sequence::GroundTruthSequence;
+use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source};
 pub use dataset::{sample_at, sequence_samples, split_by_run, split_by_sequence, Sample, Split};
 pub use fit::{EpochReport, Event, Hyper};
@@ -63,7 +63,7 @@ pub const DEFAULT_MIRROR: bool = true;
 #[derive(Debug, Clone)]
 pub struct TrainConfig<'a> {
     /// Loaded sequences; every one not in `exclude` is trained on.
-    pub sequences: &'a [GroundTruthSequence],
+    pub sequences: &'a [SequenceTracks],
     /// Sequence ids held out (the fold's test sequences).
     pub exclude: Vec<String>,
     /// The trajectory source trained on (inputs and targets).
@@ -89,7 +89,7 @@ impl<'a> TrainConfig<'a> {
     /// The defaults: the paper's 20 Hz, the default eligibility, the ECU widths,
     /// [`Hyper::default`], [`DEFAULT_VALIDATION_FRACTION`] and [`DEFAULT_MIRROR`].
     #[must_use]
-    pub fn new(sequences: &'a [GroundTruthSequence], exclude: Vec<String>, source: Source) -> Self {
+    pub fn new(sequences: &'a [SequenceTracks], exclude: Vec<String>, source: Source) -> Self {
         Self {
             sequences,
             exclude,

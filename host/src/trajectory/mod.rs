@@ -1,10 +1,13 @@
-//! Bird's-eye object trajectories: built from labels, turned into the paper's sources (GT,
-//! GT+EKF, and the labelled non-causal GT+RTS), cut into eligible runs and test instances.
+//! Bird's-eye object trajectories: built from labels or from the estimator's output, turned
+//! into the paper's sources (GT, GT+EKF, Estimated, and the labelled non-causal GT+RTS and
+//! smoothed Estimated), cut into eligible runs and test instances.
 
 mod eligibility;
+pub mod estimated;
 mod ground_truth;
 mod source;
 
 pub use eligibility::{eligible_runs, instance_frames, EligibilityRule, EligibleRun, MovingRule};
+pub use estimated::{estimated_tracks, tracks_of_estimates, EstimatedTracks};
 pub use ground_truth::{ground_truth_tracks, LabelledObservation, Track};
 pub use source::{Source, RTS_WINDOW};

@@ -1,5 +1,6 @@
-//! The paper's trajectory sources built from labelled runs: GT (the labels), GT+EKF (the
-//! forward unicycle EKF: causal), and GT+RTS (a fixed-lag RTS smoother: has seen later frames).
+//! The paper's trajectory sources: GT (the labels), GT+EKF (the forward unicycle EKF over the
+//! labels: causal), GT+RTS (a fixed-lag RTS smoother over them: has seen later frames), and
+//! Estimated (Ours: the core estimator's own tracks, causal, and their smoothed variant).
 
 use std::fmt;
 use std::str::FromStr;
@@ -21,11 +22,17 @@ pub enum Source {
     /// The labels through a fixed-lag RTS smoother: each state has seen up to
     /// `RTS_WINDOW - 1` later frames. Not causal; reported apart.
     GtRts,
+    /// Ours: the estimator's newest-frame estimate at each frame (causal), from its own tracks
+    /// ([`super::estimated`]); no label enters a state.
+    Estimated,
+    /// The estimator's states as they leave its smoothing window (each has seen up to `W - 1`
+    /// later frames, as the paper's DynoSAM output). Not causal; reported apart.
+    EstimatedSmoothed,
 }
 
 impl Source {
     /// Every source.
-    pub const ALL: [Self; 3] = [Self::Gt, Self::GtEkf, Self::GtRts];
+    pub const ALL: [Self; 5] = [Self::Gt, Self::GtEkf, Self::GtRts, Self::Estimated, Self::EstimatedSmoothed];
 
     /// The command-line name.
     #[must_use]
@@ -34,21 +41,31 @@ impl Source {
             Self::Gt => "gt",
             Self::GtEkf => "gt-ekf",
             Self::GtRts => "gt-rts",
+            Self::Estimated => "estimated",
+            Self::EstimatedSmoothed => "estimated-smoothed",
         }
+    }
+
+    /// True when the states come from the estimator's tracks, not from the labels.
+    #[must_use]
+    pub const fn is_estimated(&self) -> bool {
+        matches!(self, Self::Estimated | Self::EstimatedSmoothed)
     }
 
     /// True when each state depends only on frames up to its own.
     #[must_use]
     pub const fn is_causal(&self) -> bool {
-        !matches!(self, Self::GtRts)
+        !matches!(self, Self::GtRts | Self::EstimatedSmoothed)
     }
 
-    /// The states of this source for one run of consecutive labelled frames `labels`, frame
-    /// period `dt`. The output has one state per input frame.
+    /// The states of this source for one run of consecutive frames of its base tracks
+    /// (`labels`: the labels for the GT sources, the estimator's states for the estimated
+    /// ones, which are already final), frame period `dt`. The output has one state per input
+    /// frame.
     #[must_use]
     pub fn apply(&self, labels: &[BevState], dt: f32) -> Vec<BevState> {
         match self {
-            Self::Gt => labels.to_vec(),
+            Self::Gt | Self::Estimated | Self::EstimatedSmoothed => labels.to_vec(),
             Self::GtEkf => {
                 let mut ekf = UnicycleEkf::new(EkfParams::vehicle(dt));
                 measurements(labels, dt)
@@ -93,7 +110,7 @@ impl FromStr for Source {
         Self::ALL
             .into_iter()
             .find(|src| src.name() == s)
-            .ok_or_else(|| format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts"))
+            .ok_or_else(|| format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts, estimated, estimated-smoothed"))
     }
 }
 
