@@ -3,8 +3,8 @@
 use clap::Args;
 
 use super::common::DataArgs;
-use crate::report::{Format, Table};
-use crate::trajectory::{eligible_runs, Source};
+use crate::report::{instances_table, Format, Table};
+use crate::trajectory::Source;
 
 /// Options of `dynotraj dataset`.
 #[derive(Debug, Args)]
@@ -40,31 +40,5 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
 pub fn table(args: &DatasetArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
     let seqs = args.data.load_for(&args.sequences, &args.source)?;
-    let mut headers = vec![String::new()];
-    headers.extend(seqs.iter().map(|s| s.id.clone()));
-    headers.push("sum".into());
-    let mut t = Table::new(headers);
-    let only_labels = args.source == [Source::Gt];
-    for &source in &args.source {
-        let suffix = if only_labels { String::new() } else { format!(" ({source})") };
-        let mut objects = vec![format!("eligible objects{suffix}")];
-        let mut instances = vec![format!("test instances{suffix}")];
-        let (mut total_objects, mut total_instances) = (0, 0);
-        for s in &seqs {
-            let runs = eligible_runs(s.tracks_for(source), &rule);
-            let mut ids: Vec<i32> = runs.iter().map(|r| r.track_id).collect();
-            ids.dedup();
-            let n: usize = runs.iter().map(|r| r.instances().len()).sum();
-            let cell = |v: usize| if v == 0 { "-".to_string() } else { v.to_string() };
-            objects.push(cell(ids.len()));
-            instances.push(cell(n));
-            total_objects += ids.len();
-            total_instances += n;
-        }
-        objects.push(total_objects.to_string());
-        instances.push(total_instances.to_string());
-        t.push(objects);
-        t.push(instances);
-    }
-    Ok(t)
+    Ok(instances_table(&seqs, &args.source, &rule))
 }

@@ -18,7 +18,7 @@ use crate::estimate::evaluate::{camera_info, evaluate_sequence, params_for, run_
 use crate::estimate::files::{write_estimates, write_run};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
-use crate::estimate::Kind;
+use crate::estimate::{Kind, RunScores};
 use crate::kitti::TrackingDir;
 use crate::report::{fmt_opt, Format, Table};
 
@@ -300,6 +300,13 @@ pub fn tables(results: &[SequenceResult]) -> Vec<Table> {
 /// The paper's Table III layout for one kind of estimate.
 #[must_use]
 pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
+    table_iii_of(results.iter().map(|r| (r.id.as_str(), r.frames, &r.scores)), k, kind)
+}
+
+/// The paper's Table III layout for one kind of estimate (`k`: its index in [`Kind::ALL`]) from
+/// (sequence id, frames, scores) rows.
+#[must_use]
+pub fn table_iii_of<'a>(rows: impl IntoIterator<Item = (&'a str, usize, &'a RunScores)>, k: usize, kind: Kind) -> Table {
     let label = match kind {
         Kind::FrameToFrame => "frame-to-frame",
         Kind::Causal => "causal (smoother, newest frame)",
@@ -316,8 +323,8 @@ pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
     ]);
     let mut sums = [0.0f64; 4];
     let mut counts = [0usize; 4];
-    for r in results {
-        let s = r.scores.kinds[k];
+    for (id, frames, scores) in rows {
+        let s = scores.kinds[k];
         let vals = [
             s.camera.map(|c| c.translation),
             s.camera.map(|c| c.rotation.to_degrees()),
@@ -331,11 +338,11 @@ pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
             }
         }
         t.push([
-            r.id.clone(),
-            r.frames.to_string(),
+            id.to_string(),
+            frames.to_string(),
             fmt_opt(vals[0], 4),
             fmt_opt(vals[1], 4),
-            format!("{}/{}", s.objects, r.scores.moving_objects),
+            format!("{}/{}", s.objects, scores.moving_objects),
             fmt_opt(vals[2], 3),
             fmt_opt(vals[3], 3),
         ]);

@@ -7,10 +7,15 @@ use clap::Args;
 use super::bench::parse_dims;
 use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
 use super::train::HyperArgs;
-use crate::experiment::{run_experiment, ExperimentConfig};
-use crate::report::{Format, Table};
+use super::estimate::table_iii_of;
+use crate::estimate::{Kind, RunScores};
+use crate::experiment::findings::findings;
+use crate::experiment::report::{write_report, Report, Section};
+use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
+use crate::report::{instances_table, Format, Table};
+use crate::sequence::SequenceTracks;
 use crate::train::Event;
-use crate::trajectory::Source;
+use crate::trajectory::{EligibilityRule, Source};
 
 /// Options of `dynotraj experiment`.
 #[derive(Debug, Args)]
@@ -31,9 +36,14 @@ pub struct ExperimentArgs {
     /// Training settings of every fold.
     #[command(flatten)]
     pub hyper: HyperArgs,
-    /// Folder for each fold's model blobs (`<arm>-<seq>.blob`, `.blob.int8`).
+    /// Report folder, e.g. reports/kitti: REPORT.md, every table as Markdown and CSV, each
+    /// fold's model blobs in models/ (`<arm>-<seq>.blob`, `.blob.int8`) and the fold cache in
+    /// cache/ (a rerun trains only folds whose inputs changed).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Train every fold even when the cache holds it.
+    #[arg(long)]
+    pub no_cache: bool,
     /// Output format of the table.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -44,6 +54,15 @@ pub struct ExperimentArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
+    let (result, summary, _) = experiment(args)?;
+    Ok((result.table, summary))
+}
+
+/// Runs the experiment; returns its result, the fold summary and the loaded sequences.
+///
+/// # Errors
+/// Loading, training or writing errors, named.
+pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let sequences = args.data.load_for(&[], &args.arms)?;
     let test_sequences =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
@@ -57,7 +76,8 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
         validate_on_sequences: args.hyper.val_sequences,
         dt: args.data.dt()?,
         rule: args.data.rule()?,
-        out: args.out.clone(),
+        out: args.out.as_ref().map(|d| d.join("models")),
+        cache: args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache")),
     };
     let bar = super::common::progress(0, "training");
     let mut current = String::new();
@@ -79,12 +99,70 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
     let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
     for f in &result.folds {
         summary.push_str(&format!(
-            "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s\n",
-            f.arm, f.sequence, f.train_instances, f.best_epoch, f.shrink, f.val_ade, f.val_cv_ade, f.seconds
+            "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s{}\n",
+            f.arm,
+            f.sequence,
+            f.train_instances,
+            f.best_epoch,
+            f.shrink,
+            f.val_ade,
+            f.val_cv_ade,
+            f.seconds,
+            if f.cached { " (cached)" } else { "" }
         ));
     }
     summary.push_str(&format!("total: {:.1} s\n", result.seconds));
-    Ok((result.table, summary))
+    Ok((result, summary, sequences))
+}
+
+/// The report of a finished run: Table I for every arm's source, Table III of the estimator
+/// behind the estimated arms, Table IV, the folds and the findings.
+#[must_use]
+pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[SequenceTracks], rule: &EligibilityRule) -> Report {
+    let mut sections = vec![Section {
+        stem: "table_i".into(),
+        title: "Table I: eligible objects and test instances".into(),
+        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arms, the estimator's own tracks. Every loaded sequence is a training candidate; the paper's test sequences are held out in turn.".into(),
+        table: instances_table(sequences, &table_i_sources(&args.arms), rule),
+    }];
+    let estimated: Vec<(&str, usize, &RunScores)> = sequences.iter().filter_map(|s| s.estimated.as_ref().map(|e| (s.id.as_str(), e.frames, &e.rpe))).collect();
+    if !estimated.is_empty() {
+        for (k, kind, stem) in [(1, Kind::Causal, "table_iii_causal"), (2, Kind::Smoothed, "table_iii_smoothed")] {
+            sections.push(Section {
+                stem: stem.into(),
+                title: format!("Table III: the estimator behind the Estimated arm, {} estimate", kind.name()),
+                caption: "Camera and object RPE (delta = 1 frame) against the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration (no real images here). Not comparable to DynoSAM on real images, printed below for reference.".into(),
+                table: table_iii_of(estimated.iter().copied(), k, kind),
+            });
+        }
+    }
+    sections.push(Section {
+        stem: "table_iv".into(),
+        title: "Table IV: forecasts, leave one sequence out".into(),
+        caption: "ADE, FDE (m) and ACE per test sequence and weighted per forecast; each arm is scored against its own source's future (the paper's protocol); learned = the Trajectron++-style model trained on the other sequences of that source; int8 = its quantised twin as the ECU runs it. Inputs are causal except in rows labelled otherwise. The paper's rows are on its 522 DynoSAM-tracked instances, not on ours.".into(),
+        table: result.table.clone(),
+    });
+    let mut command = String::from("dynotraj experiment");
+    for a in std::env::args().skip(2) {
+        command.push(' ');
+        command.push_str(&a);
+    }
+    let mut notes = findings(&result.arms, &args.arms);
+    if args.arms.iter().any(Source::is_estimated) {
+        notes.push("The Estimated arm's tracks come from simulated feature tracks of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
+    }
+    Report { command, sections, folds: result.folds.clone(), seconds: result.seconds, notes }
+}
+
+/// The sources Table I counts for `arms`: the labels once (GT, GT+EKF and GT+RTS share them),
+/// then each estimated arm.
+fn table_i_sources(arms: &[Source]) -> Vec<Source> {
+    let mut out = Vec::new();
+    if arms.iter().any(|a| !a.is_estimated()) {
+        out.push(Source::Gt);
+    }
+    out.extend(arms.iter().copied().filter(Source::is_estimated));
+    out
 }
 
 /// Prints the table and the fold summary.
@@ -92,8 +170,12 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 /// # Errors
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
-    let (t, summary) = table(args)?;
-    print!("{}", t.render(args.format));
+    let (result, summary, sequences) = experiment(args)?;
+    print!("{}", result.table.render(args.format));
     eprint!("{summary}");
+    if let Some(dir) = &args.out {
+        let path = write_report(dir, &report(args, &result, &sequences, &args.data.rule()?))?;
+        eprintln!("wrote {}", path.display());
+    }
     Ok(())
 }

@@ -2,7 +2,10 @@
 //! train on every other sequence, then score the float and the int8 model on the held-out one
 //! beside the baselines and the paper's rows.
 
+pub mod cache;
+pub mod findings;
 pub mod paper;
+pub mod report;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,6 +22,7 @@ use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
 use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+use cache::{fold_key, CachedFold, FoldCache};
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -44,6 +48,8 @@ pub struct ExperimentConfig {
     pub rule: EligibilityRule,
     /// Where to keep each fold's blobs (`<arm>-<seq>.blob` and `.blob.int8`), if anywhere.
     pub out: Option<PathBuf>,
+    /// A fold cache folder ([`cache`]): folds found there are not trained again.
+    pub cache: Option<PathBuf>,
 }
 
 /// What one fold took.
@@ -63,8 +69,10 @@ pub struct FoldReport {
     pub best_epoch: usize,
     /// The output shrink factor kept.
     pub shrink: f32,
-    /// Seconds of training.
+    /// Seconds of training (when it was trained; a cached fold reports its original time).
     pub seconds: f32,
+    /// Read from the fold cache instead of trained in this run.
+    pub cached: bool,
 }
 
 /// The experiment's results.
@@ -72,6 +80,8 @@ pub struct FoldReport {
 pub struct ExperimentResult {
     /// Table IV layout: learned f32 and int8 per arm, the baselines, the paper's rows.
     pub table: Table,
+    /// The measured rows of the table (learned f32, int8, cv, ctra per arm), per sequence.
+    pub arms: Vec<ArmScores>,
     /// Per-fold training reports.
     pub folds: Vec<FoldReport>,
     /// Wall-clock seconds of the whole run.
@@ -92,6 +102,7 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
     if let Some(dir) = &config.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
+    let cache = config.cache.as_deref().map(FoldCache::open).transpose()?;
     for &source in &config.arms {
         if let Some(s) = sequences.iter().find(|s| !s.has(source)) {
             anyhow::bail!("arm {source}: the estimator's tracks of sequence {} were not loaded", s.id);
@@ -116,22 +127,49 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
             train.mirror = config.mirror;
             train.validate_on_sequences = config.validate_on_sequences;
             let label = format!("{source} / {}", test.id);
-            let model = train_fold_with(&train, &mut |e| progress(&label, e)).with_context(|| format!("training fold {label}"))?;
-            folds.push(FoldReport {
+            let name = format!("{source}-{}", test.id);
+            let key = fold_key(&train);
+            let template = FoldReport {
                 arm: source,
                 sequence: test.id.clone(),
-                train_instances: model.report.train_instances,
-                val_ade: model.report.best_val_ade,
-                val_cv_ade: model.report.val_cv_ade,
-                best_epoch: model.report.best_epoch,
-                shrink: model.report.shrink,
-                seconds: model.report.seconds,
-            });
-            for (arm, precision) in learned.iter_mut().zip([Precision::F32, Precision::Int8]) {
-                let bytes = model.blob(precision)?;
+                train_instances: 0,
+                val_ade: f32::NAN,
+                val_cv_ade: f32::NAN,
+                best_epoch: 0,
+                shrink: 1.0,
+                seconds: 0.0,
+                cached: true,
+            };
+            let fold = match cache.as_ref().and_then(|c| c.load(&name, key, &template)) {
+                Some(fold) => {
+                    log::info!("{label}: trained fold {key:016x} read from the cache");
+                    fold
+                }
+                None => {
+                    let model = train_fold_with(&train, &mut |e| progress(&label, e)).with_context(|| format!("training fold {label}"))?;
+                    let r = &model.report;
+                    let report = FoldReport {
+                        train_instances: r.train_instances,
+                        val_ade: r.best_val_ade,
+                        val_cv_ade: r.val_cv_ade,
+                        best_epoch: r.best_epoch,
+                        shrink: r.shrink,
+                        seconds: r.seconds,
+                        cached: false,
+                        ..template
+                    };
+                    let fold = CachedFold { f32_blob: model.blob(Precision::F32)?, int8_blob: model.blob(Precision::Int8)?, report };
+                    if let Some(c) = &cache {
+                        c.store(&name, key, &fold)?;
+                    }
+                    fold
+                }
+            };
+            folds.push(fold.report.clone());
+            for (arm, (precision, bytes)) in learned.iter_mut().zip([(Precision::F32, fold.f32_blob), (Precision::Int8, fold.int8_blob)]) {
                 if let Some(dir) = &config.out {
                     let ext = if precision == Precision::F32 { "blob" } else { "blob.int8" };
-                    let path = dir.join(format!("{source}-{}.{ext}", test.id));
+                    let path = dir.join(format!("{name}.{ext}"));
                     std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
                 }
                 let file = ModelFile::from_bytes(bytes, &label)?;
@@ -149,5 +187,5 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
     let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
     let ids: Vec<String> = tests.iter().map(|s| s.id.clone()).collect();
     let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
-    Ok(ExperimentResult { table, folds, seconds: start.elapsed().as_secs_f64() })
+    Ok(ExperimentResult { table, arms, folds, seconds: start.elapsed().as_secs_f64() })
 }

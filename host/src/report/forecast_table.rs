@@ -14,6 +14,18 @@ pub struct ArmScores {
     pub per_sequence: Vec<ForecastScores>,
 }
 
+impl ArmScores {
+    /// The weighted average over every sequence (per forecast, as the paper reports).
+    #[must_use]
+    pub fn total(&self) -> ForecastScores {
+        let mut t = ForecastScores::default();
+        for s in &self.per_sequence {
+            t.merge(s);
+        }
+        t
+    }
+}
+
 /// Published figures to print beside measured rows: per metric, per sequence (aligned with the
 /// table's columns; `None` where not published) and the average.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,0 +1,124 @@
+//! The experiment's report folder: every table as Markdown and CSV, and a REPORT.md that
+//! embeds them with the fold summary and the run's time.
+//!
+//! Layout of `DIR`: `REPORT.md`; `table_i.{md,csv}` (eligible objects and test instances per
+//! source), `table_iii_<kind>.{md,csv}` (RPE of the estimator behind the Estimated arm, when it
+//! ran), `table_iv.{md,csv}` (ADE, FDE, ACE per arm), `folds.csv`; `models/` (each fold's
+//! blobs) and `cache/` (trained folds, see [`super::cache`]).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+
+use super::FoldReport;
+use crate::report::{Format, Table};
+
+/// One table of the report.
+#[derive(Debug, Clone)]
+pub struct Section {
+    /// File stem (`table_iv`).
+    pub stem: String,
+    /// Heading in REPORT.md.
+    pub title: String,
+    /// What the reader must know to read it (one paragraph, may be empty).
+    pub caption: String,
+    /// The table.
+    pub table: Table,
+}
+
+/// Everything REPORT.md shows.
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// The command line that made it.
+    pub command: String,
+    /// The tables, in order.
+    pub sections: Vec<Section>,
+    /// Per fold: how it was trained.
+    pub folds: Vec<FoldReport>,
+    /// Wall-clock seconds of the whole run.
+    pub seconds: f64,
+    /// Findings and caveats, one paragraph each.
+    pub notes: Vec<String>,
+}
+
+/// The fold summary as a table.
+#[must_use]
+pub fn folds_table(folds: &[FoldReport]) -> Table {
+    let mut t = Table::new(["arm", "held-out sequence", "training instances", "epoch kept", "shrink", "val ADE (m)", "val cv ADE (m)", "training s", "cached"]);
+    for f in folds {
+        t.push([
+            f.arm.to_string(),
+            f.sequence.clone(),
+            f.train_instances.to_string(),
+            f.best_epoch.to_string(),
+            f.shrink.to_string(),
+            format!("{:.3}", f.val_ade),
+            format!("{:.3}", f.val_cv_ade),
+            format!("{:.1}", f.seconds),
+            if f.cached { "yes" } else { "no" }.to_string(),
+        ]);
+    }
+    t
+}
+
+/// Writes the report into `dir`; returns the path of REPORT.md.
+///
+/// # Errors
+/// A file cannot be written, named.
+pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let write = |name: String, text: &str| -> anyhow::Result<()> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+    };
+    let mut md = String::from("# dynotraj experiment report\n\n");
+    let _ = writeln!(md, "Made by `{}` in {:.0} s ({:.1} min).\n", report.command, report.seconds, report.seconds / 60.0);
+    for s in &report.sections {
+        write(format!("{}.md", s.stem), &s.table.render(Format::Md))?;
+        write(format!("{}.csv", s.stem), &s.table.render(Format::Csv))?;
+        let _ = writeln!(md, "## {}\n", s.title);
+        if !s.caption.is_empty() {
+            let _ = writeln!(md, "{}\n", s.caption);
+        }
+        let _ = writeln!(md, "{}\n\n([{1}.csv]({1}.csv))\n", s.table.render(Format::Md).trim_end(), s.stem);
+    }
+    let folds = folds_table(&report.folds);
+    write("folds.csv".into(), &folds.render(Format::Csv))?;
+    let _ = writeln!(md, "## Folds\n\nEpoch 0 is the untrained model (the constant-velocity forecast), kept when no epoch beats it on the held-out training sequences.\n\n{}\n", folds.render(Format::Md).trim_end());
+    if !report.notes.is_empty() {
+        md.push_str("## Findings\n\n");
+        for n in &report.notes {
+            let _ = writeln!(md, "- {n}");
+        }
+    }
+    let path = dir.join("REPORT.md");
+    std::fs::write(&path, md).with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trajectory::Source;
+
+    #[test]
+    fn every_table_is_written_twice_and_embedded() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut table = Table::new(["metric", "avg"]);
+        table.push(["ADE", "1.25"]);
+        let fold = FoldReport { arm: Source::Estimated, sequence: "0003".into(), train_instances: 9, val_ade: 1.0, val_cv_ade: 1.1, best_epoch: 2, shrink: 1.0, seconds: 3.0, cached: true };
+        let report = Report {
+            command: "dynotraj experiment".into(),
+            sections: vec![Section { stem: "table_iv".into(), title: "Table IV".into(), caption: "scored against own future".into(), table }],
+            folds: vec![fold],
+            seconds: 90.0,
+            notes: vec!["a finding".into()],
+        };
+        let md = std::fs::read_to_string(write_report(dir.path(), &report).unwrap()).unwrap();
+        assert!(md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"), "{md}");
+        assert!(md.contains("| estimated | 0003"), "{md}");
+        assert_eq!(std::fs::read_to_string(dir.path().join("table_iv.csv")).unwrap(), "metric,avg\nADE,1.25\n");
+        assert!(dir.path().join("table_iv.md").is_file() && dir.path().join("folds.csv").is_file());
+    }
+}
