@@ -27,11 +27,11 @@ fn the_report_folder_and_a_cached_rerun() {
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
     println!("{md}");
-    for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Folds", "## Findings"] {
+    for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Table IV against one common reference", "## Folds", "## Findings"] {
         assert!(md.contains(heading), "{heading} missing");
     }
     assert!(md.contains("learned int8 on estimated") && md.contains("eligible objects (estimated)"));
-    for stem in ["table_i", "table_iii_causal", "table_iii_smoothed", "table_iv"] {
+    for stem in ["table_i", "table_iii_causal", "table_iii_smoothed", "table_iv", "table_iv_truth"] {
         let csv = fs::read_to_string(out.join(format!("{stem}.csv"))).unwrap();
         assert!(csv.lines().count() > 2, "{stem}.csv: {csv}");
         assert!(out.join(format!("{stem}.md")).is_file());
@@ -42,6 +42,11 @@ fn the_report_folder_and_a_cached_rerun() {
     }
     let cached = fs::read_dir(out.join("cache")).unwrap().count();
     assert_eq!(cached, 6, "two folds x (blob, int8 blob, report)");
+
+    // Against the common reference every arm has the same instances: one instance row.
+    let truth = fs::read_to_string(out.join("table_iv_truth.csv")).unwrap();
+    assert_eq!(truth.lines().filter(|l| l.starts_with("instances")).count(), 1, "{truth}");
+    assert!(md.contains("Against the simulator's truth: estimated against gt"), "{md}");
 
     let (again, _, _) = experiment::experiment(&a).unwrap();
     assert!(again.folds.iter().all(|f| f.cached), "{:?}", again.folds);

@@ -9,7 +9,7 @@ use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
 use super::train::HyperArgs;
 use super::estimate::table_iii_of;
 use crate::estimate::{Kind, RunScores};
-use crate::experiment::findings::findings;
+use crate::experiment::findings::{findings, Scoring};
 use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
 use crate::report::{instances_table, Format, Table};
@@ -142,12 +142,23 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         caption: "ADE, FDE (m) and ACE per test sequence and weighted per forecast; each arm is scored against its own source's future (the paper's protocol); learned = the Trajectron++-style model trained on the other sequences of that source; int8 = its quantised twin as the ECU runs it. Inputs are causal except in rows labelled otherwise. The paper's rows are on its 522 DynoSAM-tracked instances, not on ours.".into(),
         table: result.table.clone(),
     });
+    if let Some((table, _)) = &result.common {
+        sections.push(Section {
+            stem: "table_iv_truth".into(),
+            title: "Table IV against one common reference: the simulator's truth".into(),
+            caption: "The same models and forecasts, every arm scored against the simulator's true future (the box centre, as a displacement from the current frame: see host/src/evaluate.rs) on the instances that every arm has, so the rows share their instances and their reference. The paper cannot make this comparison on real data; a simulator can.".into(),
+            table: table.clone(),
+        });
+    }
     let mut command = String::from("dynotraj experiment");
     for a in std::env::args().skip(2) {
         command.push(' ');
         command.push_str(&a);
     }
-    let mut notes = findings(&result.arms, &args.arms);
+    let mut notes = findings(&result.arms, &args.arms, Scoring::OwnFuture);
+    if let Some((_, arms)) = &result.common {
+        notes.extend(findings(arms, &args.arms, Scoring::CommonTruth));
+    }
     if args.arms.iter().any(Source::is_estimated) {
         notes.push("The Estimated arm's tracks come from simulated feature tracks of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
     }
@@ -172,6 +183,10 @@ fn table_i_sources(arms: &[Source]) -> Vec<Source> {
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     let (result, summary, sequences) = experiment(args)?;
     print!("{}", result.table.render(args.format));
+    if let Some((table, _)) = &result.common {
+        println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
+        print!("{}", table.render(args.format));
+    }
     eprint!("{summary}");
     if let Some(dir) = &args.out {
         let path = write_report(dir, &report(args, &result, &sequences, &args.data.rule()?))?;

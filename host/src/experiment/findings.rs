@@ -30,16 +30,33 @@ fn compare(a: [f64; 3], b: [f64; 3]) -> String {
     )
 }
 
+/// How the rows were scored, for the sentences.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scoring {
+    /// Each arm against its own source's future, on its own instances (the paper's protocol).
+    OwnFuture,
+    /// Every arm against the simulator's truth, on the instances all arms share.
+    CommonTruth,
+}
+
 /// One sentence per arm (its int8 model against cv on the same source) and one per pair of
-/// the Estimated arm with a GT arm (int8 models, each scored against its own source).
+/// the Estimated arm with a GT arm (int8 models), scored as `scoring` says.
 #[must_use]
-pub fn findings(arms: &[ArmScores], sources: &[Source]) -> Vec<String> {
+pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec<String> {
+    let how = match scoring {
+        Scoring::OwnFuture => "each scored against its own source's future, on its own instances",
+        Scoring::CommonTruth => "both scored against the simulator's truth, on the instances every arm has",
+    };
+    let prefix = match scoring {
+        Scoring::OwnFuture => "",
+        Scoring::CommonTruth => "Against the simulator's truth: ",
+    };
     let mut out = Vec::new();
     for s in sources {
         if let (Some(l), Some(cv)) = (total_of(arms, &format!("learned int8 on {s}")), total_of(arms, &format!("cv on {s}"))) {
             let beats = l[0] < cv[0];
             out.push(format!(
-                "{s}: the learned int8 model {} constant velocity on the weighted ADE: {}.",
+                "{prefix}{s}: the learned int8 model {} constant velocity on the weighted ADE: {}.",
                 if beats { "beats" } else { "does not beat" },
                 compare(l, cv)
             ));
@@ -48,10 +65,7 @@ pub fn findings(arms: &[ArmScores], sources: &[Source]) -> Vec<String> {
     for ours in sources.iter().filter(|s| s.is_estimated()) {
         for other in sources.iter().filter(|s| !s.is_estimated()) {
             if let (Some(a), Some(b)) = (total_of(arms, &format!("learned int8 on {ours}")), total_of(arms, &format!("learned int8 on {other}"))) {
-                out.push(format!(
-                    "{ours} against {other} (learned int8, each scored against its own source's future, on its own instances): {}.",
-                    compare(a, b)
-                ));
+                out.push(format!("{prefix}{ours} against {other} (learned int8, {how}): {}.", compare(a, b)));
             }
         }
     }
@@ -73,7 +87,7 @@ mod tests {
     #[test]
     fn findings_say_who_beats_whom() {
         let arms = [arm("learned int8 on gt", 1.3), arm("cv on gt", 1.2), arm("learned int8 on estimated", 1.0), arm("cv on estimated", 1.1)];
-        let f = findings(&arms, &[Source::Estimated, Source::Gt]);
+        let f = findings(&arms, &[Source::Estimated, Source::Gt], Scoring::OwnFuture);
         assert_eq!(f.len(), 3, "{f:?}");
         assert!(f[0].starts_with("estimated: the learned int8 model beats"), "{}", f[0]);
         assert!(f[1].starts_with("gt: the learned int8 model does not beat"), "{}", f[1]);

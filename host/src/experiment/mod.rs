@@ -15,7 +15,9 @@ use dynotraj_core::model::blob::Precision;
 use dynotraj_core::model::Dims;
 use dynotraj_core::predict::Baseline;
 
-use crate::evaluate::{score_sequence, Forecaster};
+use std::collections::BTreeSet;
+
+use crate::evaluate::{instance_keys, score_sequence, score_sequence_against, Forecaster, Reference};
 use crate::model_file::ModelFile;
 use crate::report::{forecast_table, ArmScores, Table};
 use crate::scene::Scene;
@@ -82,6 +84,9 @@ pub struct ExperimentResult {
     pub table: Table,
     /// The measured rows of the table (learned f32, int8, cv, ctra per arm), per sequence.
     pub arms: Vec<ArmScores>,
+    /// The same forecasts scored against the simulator's truth on the instances every arm
+    /// has (when an estimated arm brought the truth): the table and its rows.
+    pub common: Option<(Table, Vec<ArmScores>)>,
     /// Per-fold training reports.
     pub folds: Vec<FoldReport>,
     /// Wall-clock seconds of the whole run.
@@ -110,14 +115,30 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
     }
     let mut arms = Vec::new();
     let mut folds = Vec::new();
+    // The common reference: the simulator's truth of each test sequence, and the instances
+    // that every arm has (all or none of the tests have it: estimated arms load every one).
+    let truths: Option<Vec<Scene>> = tests.iter().map(|s| s.estimated.as_ref().map(|e| Scene::new(&e.truth, Source::Gt, config.dt))).collect();
+    let common_keys: Vec<BTreeSet<(i32, u32)>> = tests
+        .iter()
+        .map(|s| {
+            let mut sets = config.arms.iter().map(|&a| instance_keys(&eligible_runs(s.tracks_for(a), &config.rule)));
+            let first = sets.next().unwrap_or_default();
+            sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
+        })
+        .collect();
+    let mut common_arms = Vec::new();
     for &source in &config.arms {
         let runs: Vec<_> = tests.iter().map(|s| eligible_runs(s.tracks_for(source), &config.rule)).collect();
         let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(s.tracks_for(source), source, config.dt)).collect();
+        let references: Vec<Option<Reference<'_>>> = (0..tests.len())
+            .map(|i| truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common { truth, only: &common_keys[i] }))
+            .collect();
         let mut learned = [
             ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },
             ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },
         ];
-        for ((test, seq_runs), scene) in tests.iter().zip(&runs).zip(&scenes) {
+        let mut learned_common = learned.clone();
+        for (((test, seq_runs), scene), reference) in tests.iter().zip(&runs).zip(&scenes).zip(&references) {
             let mut train = TrainConfig::new(sequences, vec![test.id.clone()], source);
             train.dt = config.dt;
             train.rule = config.rule.clone();
@@ -175,17 +196,34 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
                 let file = ModelFile::from_bytes(bytes, &label)?;
                 let mut predictor = file.predictor();
                 arm.per_sequence.push(score_sequence(seq_runs, scene, &mut predictor, config.dt).scores);
+                if let Some(r) = reference {
+                    let slot = if precision == Precision::F32 { 0 } else { 1 };
+                    learned_common[slot].per_sequence.push(score_sequence_against(seq_runs, scene, &mut predictor, config.dt, *r).scores);
+                }
             }
         }
         arms.extend(learned);
+        if truths.is_some() {
+            common_arms.extend(learned_common);
+        }
         for (name, baseline) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
             let mut b = baseline;
             let per_sequence = runs.iter().zip(&scenes).map(|(r, sc)| score_sequence(r, sc, &mut b as &mut dyn Forecaster, config.dt).scores).collect();
             arms.push(ArmScores { label: format!("{name} on {source}"), per_sequence });
+            if truths.is_some() {
+                let per_sequence = runs
+                    .iter()
+                    .zip(&scenes)
+                    .zip(&references)
+                    .filter_map(|((r, sc), rf)| rf.map(|rf| score_sequence_against(r, sc, &mut b as &mut dyn Forecaster, config.dt, rf).scores))
+                    .collect();
+                common_arms.push(ArmScores { label: format!("{name} on {source}"), per_sequence });
+            }
         }
     }
     let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
     let ids: Vec<String> = tests.iter().map(|s| s.id.clone()).collect();
     let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
-    Ok(ExperimentResult { table, arms, folds, seconds: start.elapsed().as_secs_f64() })
+    let common = truths.is_some().then(|| (forecast_table(&ids, &common_arms, &[]), common_arms));
+    Ok(ExperimentResult { table, arms, common, folds, seconds: start.elapsed().as_secs_f64() })
 }

@@ -28,6 +28,7 @@ use super::Track;
 use crate::estimate::evaluate::{evaluate_sequence, EvalOptions};
 use crate::estimate::{Kind, RunScores};
 use crate::kitti::SequenceData;
+use dynotraj_fixtures::track_sim::SimFrame;
 
 /// A sequence's tracks through the estimator, both variants, and how well it did.
 #[derive(Debug, Clone)]
@@ -38,6 +39,10 @@ pub struct EstimatedTracks {
     pub smoothed: Vec<Track>,
     /// RPE of the run against the simulator's truth (the paper's Table III for Ours).
     pub rpe: RunScores,
+    /// The simulator's true bird's-eye paths of every simulated object (box centre, heading;
+    /// speed 0: only positions are used), the common reference every arm can be scored
+    /// against.
+    pub truth: Vec<Track>,
     /// Frames estimated.
     pub frames: usize,
 }
@@ -50,8 +55,26 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
         causal: tracks_of_estimates(r.run.of(Kind::Causal)),
         smoothed: tracks_of_estimates(r.run.of(Kind::Smoothed)),
         rpe: r.scores,
+        truth: truth_tracks(&r.sim),
         frames: r.frames,
     }
+}
+
+/// The simulator's true object paths, one track per object, ordered by id (track id = KITTI
+/// id): the box centre on the bird's-eye plane and the heading of its x axis.
+#[must_use]
+pub fn truth_tracks(sim: &[SimFrame]) -> Vec<Track> {
+    let mut by_id: BTreeMap<u16, Track> = BTreeMap::new();
+    for f in sim {
+        for o in &f.objects {
+            let t = by_id.entry(o.object_id).or_insert_with(|| Track { track_id: i32::from(o.object_id) - 1, class: o.class, frames: Vec::new(), states: Vec::new() });
+            let p = o.pose.translation.vector;
+            let x_axis = o.pose.rotation * nalgebra::Vector3::x();
+            t.frames.push(f.frame);
+            t.states.push(BevState { x: p.x as f32, y: p.z as f32, heading: x_axis.z.atan2(x_axis.x) as f32, speed: 0.0 });
+        }
+    }
+    by_id.into_values().collect()
 }
 
 /// Groups per-frame estimates into one track per object, ordered by id. Kept: finite states
