@@ -4,7 +4,7 @@
 set -euo pipefail
 
 need_apt=()
-for pkg in libopencv-dev clang libclang-dev qemu-system-arm pkg-config; do
+for pkg in libopencv-dev clang libclang-dev qemu-system-arm pkg-config fonts-dejavu-core; do
   dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || need_apt+=("$pkg")
 done
 if [ ${#need_apt[@]} -gt 0 ]; then

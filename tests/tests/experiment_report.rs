@@ -36,6 +36,11 @@ fn the_report_folder_and_a_cached_rerun() {
         assert!(csv.lines().count() > 2, "{stem}.csv: {csv}");
         assert!(out.join(format!("{stem}.md")).is_file());
     }
+    // The paper's figures 2-5 for the drive's longest-seen mover (no sequence 0018 here).
+    for fig in ["fig2_distance_0000", "fig3_speed_0000", "fig4_heading_0000", "fig5_ace_0000"] {
+        assert!(out.join(format!("figures/{fig}.png")).is_file() && out.join(format!("figures/{fig}.svg")).is_file(), "{fig}");
+        assert!(md.contains(&format!("figures/{fig}.png")), "{fig} not embedded");
+    }
     for arm in ["estimated", "gt"] {
         assert!(out.join(format!("models/{arm}-0000.blob")).is_file());
         assert!(out.join(format!("models/{arm}-0000.blob.int8")).is_file());

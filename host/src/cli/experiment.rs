@@ -9,6 +9,7 @@ use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
 use super::train::HyperArgs;
 use super::estimate::table_iii_of;
 use crate::estimate::{Kind, RunScores};
+use crate::experiment::figures::write_figures;
 use crate::experiment::findings::{findings, Scoring};
 use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
@@ -162,7 +163,7 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
     if args.arms.iter().any(Source::is_estimated) {
         notes.push("The Estimated arm's tracks come from simulated feature tracks of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
     }
-    Report { command, sections, folds: result.folds.clone(), seconds: result.seconds, notes }
+    Report { command, sections, folds: result.folds.clone(), seconds: result.seconds, notes, figures: Vec::new() }
 }
 
 /// The sources Table I counts for `arms`: the labels once (GT, GT+EKF and GT+RTS share them),
@@ -189,7 +190,10 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     }
     eprint!("{summary}");
     if let Some(dir) = &args.out {
-        let path = write_report(dir, &report(args, &result, &sequences, &args.data.rule()?))?;
+        let rule = args.data.rule()?;
+        let mut r = report(args, &result, &sequences, &rule);
+        r.figures = write_figures(&dir.join("figures"), &sequences, &args.arms, &rule, args.data.dt()?, &dir.join("models"))?;
+        let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

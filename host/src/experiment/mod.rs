@@ -3,6 +3,7 @@
 //! beside the baselines and the paper's rows.
 
 pub mod cache;
+pub mod figures;
 pub mod findings;
 pub mod paper;
 pub mod report;

@@ -3,8 +3,9 @@
 //!
 //! Layout of `DIR`: `REPORT.md`; `table_i.{md,csv}` (eligible objects and test instances per
 //! source), `table_iii_<kind>.{md,csv}` (RPE of the estimator behind the Estimated arm, when it
-//! ran), `table_iv.{md,csv}` (ADE, FDE, ACE per arm), `folds.csv`; `models/` (each fold's
-//! blobs) and `cache/` (trained folds, see [`super::cache`]).
+//! ran), `table_iv.{md,csv}` (ADE, FDE, ACE per arm), `table_iv_truth.{md,csv}` (against the
+//! simulator's truth), `folds.csv`; `figures/` (PNG and SVG, [`super::figures`]); `models/`
+//! (each fold's blobs) and `cache/` (trained folds, see [`super::cache`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -40,6 +41,8 @@ pub struct Report {
     pub seconds: f64,
     /// Findings and caveats, one paragraph each.
     pub notes: Vec<String>,
+    /// Figures to embed (PNG paths; an SVG of each sits beside it).
+    pub figures: Vec<super::figures::Figure>,
 }
 
 /// The fold summary as a table.
@@ -86,6 +89,13 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     let folds = folds_table(&report.folds);
     write("folds.csv".into(), &folds.render(Format::Csv))?;
     let _ = writeln!(md, "## Folds\n\nEpoch 0 is the untrained model (the constant-velocity forecast), kept when no epoch beats it on the held-out training sequences.\n\n{}\n", folds.render(Format::Md).trim_end());
+    if !report.figures.is_empty() {
+        md.push_str("## Figures\n\n");
+        for f in &report.figures {
+            let rel = f.png.strip_prefix(dir).unwrap_or(&f.png).display().to_string();
+            let _ = writeln!(md, "![{}]({rel})\n\n{} ([SVG]({}))\n", f.caption, f.caption, rel.replace(".png", ".svg"));
+        }
+    }
     if !report.notes.is_empty() {
         md.push_str("## Findings\n\n");
         for n in &report.notes {
@@ -114,10 +124,12 @@ mod tests {
             folds: vec![fold],
             seconds: 90.0,
             notes: vec!["a finding".into()],
+            figures: vec![super::super::figures::Figure { png: dir.path().join("figures/fig5.png"), caption: "ACE".into() }],
         };
         let md = std::fs::read_to_string(write_report(dir.path(), &report).unwrap()).unwrap();
         assert!(md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"), "{md}");
         assert!(md.contains("| estimated | 0003"), "{md}");
+        assert!(md.contains("![ACE](figures/fig5.png)") && md.contains("(figures/fig5.svg)"), "{md}");
         assert_eq!(std::fs::read_to_string(dir.path().join("table_iv.csv")).unwrap(), "metric,avg\nADE,1.25\n");
         assert!(dir.path().join("table_iv.md").is_file() && dir.path().join("folds.csv").is_file());
     }

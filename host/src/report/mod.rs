@@ -1,5 +1,6 @@
 //! Reports: tables in Markdown or CSV (Table I and Table IV layouts among them).
 
+pub mod chart;
 mod forecast_table;
 mod instances_table;
 mod table;
