@@ -6,8 +6,9 @@ use dynotraj_core::wire::ObjectClass;
 use nalgebra::Point3;
 
 use crate::estimate::evaluate::EvalOptions;
+use crate::estimate::from_images::{estimate_from_images, has_images};
 use crate::kitti::{SequenceData, TrackingDir};
-use crate::trajectory::{estimated_tracks, ground_truth_tracks, EstimatedTracks, LabelledObservation, Source, Track};
+use crate::trajectory::{estimated_tracks, ground_truth_tracks, image_estimated_tracks, EstimatedTracks, LabelledObservation, Source, Track};
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
 #[derive(Debug, Clone)]
@@ -53,14 +54,23 @@ pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result
 }
 
 /// Loads sequence `id` of `dir` at frame period `dt`: its ground-truth tracks and, with
-/// `estimate`, the estimator's tracks from a simulation of the sequence with those options.
+/// `estimate`, the estimator's tracks with those options: from the sequence's own stereo
+/// images through the image front-end where the folder holds every frame of them (a full KITTI
+/// download), else from the track-level simulator driven by its labels and ego poses.
 ///
 /// # Errors
 /// Any loading error of the sequence's files, with the file named.
 pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&EvalOptions>) -> anyhow::Result<SequenceTracks> {
     let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let mut seq = ground_truth_of(id, &data, dt);
-    seq.estimated = estimate.map(|opt| estimated_tracks(id, &data, opt));
+    seq.estimated = match estimate {
+        Some(opt) if has_images(dir.root(), id, data.frame_count) => {
+            log::info!("sequence {id}: estimating from its stereo images");
+            Some(image_estimated_tracks(&estimate_from_images(dir.root(), id, opt)?))
+        }
+        Some(opt) => Some(estimated_tracks(id, &data, opt)),
+        None => None,
+    };
     Ok(seq)
 }
 

@@ -87,3 +87,21 @@ fn the_causal_estimate_never_sees_later_frames() {
     let smoothed = |run: &dynotraj_host::estimate::EstimatorRun| states_before(&tracks_of_estimates(run.of(Kind::Smoothed)), 60);
     assert_ne!(smoothed(&cut), smoothed(&full.run));
 }
+
+#[test]
+fn a_folder_with_stereo_images_is_estimated_from_its_images() {
+    // The committed rendered fixture: 24 frames of the synthetic drive at 0.4 scale, with
+    // image_02/, image_03/, instance masks, labels and poses.
+    let root = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/data/image_sim"));
+    let dir = TrackingDir::open(&root).unwrap();
+    let seq = dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&EvalOptions::kitti(0.1))).unwrap();
+    let e = seq.estimated.as_ref().unwrap();
+    assert_eq!(e.input, dynotraj_host::trajectory::EstimateInput::Images);
+    assert!(e.rpe.is_none() && e.truth.is_empty(), "no truth from images");
+    assert_eq!(e.frames, 24);
+    // The moving car is estimated with a known heading over most of the frames.
+    let longest = e.causal.iter().map(|t| t.frames.len()).max().unwrap_or(0);
+    assert!(longest >= 12, "{:?}", e.causal.iter().map(|t| (t.track_id, t.frames.len())).collect::<Vec<_>>());
+    // Without every image the simulator drives the source instead.
+    assert!(!dynotraj_host::estimate::from_images::has_images(&root, "0000", 25));
+}

@@ -126,7 +126,8 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arms, the estimator's own tracks. Every loaded sequence is a training candidate; the paper's test sequences are held out in turn.".into(),
         table: instances_table(sequences, &table_i_sources(&args.arms), rule),
     }];
-    let estimated: Vec<(&str, usize, &RunScores)> = sequences.iter().filter_map(|s| s.estimated.as_ref().map(|e| (s.id.as_str(), e.frames, &e.rpe))).collect();
+    let estimated: Vec<(&str, usize, &RunScores)> =
+        sequences.iter().filter_map(|s| s.estimated.as_ref().and_then(|e| e.rpe.as_ref().map(|rpe| (s.id.as_str(), e.frames, rpe)))).collect();
     if !estimated.is_empty() {
         for (k, kind, stem) in [(1, Kind::Causal, "table_iii_causal"), (2, Kind::Smoothed, "table_iii_smoothed")] {
             sections.push(Section {

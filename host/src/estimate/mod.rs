@@ -8,11 +8,13 @@
 //!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
 //! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
 //! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
+//! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
 //! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
 pub mod bench;
 pub mod evaluate;
 pub mod files;
+pub mod from_images;
 pub mod input;
 pub mod runner;
 pub mod score;

@@ -117,8 +117,9 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
     let mut arms = Vec::new();
     let mut folds = Vec::new();
     // The common reference: the simulator's truth of each test sequence, and the instances
-    // that every arm has (all or none of the tests have it: estimated arms load every one).
-    let truths: Option<Vec<Scene>> = tests.iter().map(|s| s.estimated.as_ref().map(|e| Scene::new(&e.truth, Source::Gt, config.dt))).collect();
+    // that every arm has; only when every test sequence has a truth (none from real images).
+    let truths: Option<Vec<Scene>> =
+        tests.iter().map(|s| s.estimated.as_ref().filter(|e| !e.truth.is_empty()).map(|e| Scene::new(&e.truth, Source::Gt, config.dt))).collect();
     let common_keys: Vec<BTreeSet<(i32, u32)>> = tests
         .iter()
         .map(|s| {

@@ -26,22 +26,34 @@ use dynotraj_core::BevState;
 
 use super::Track;
 use crate::estimate::evaluate::{evaluate_sequence, EvalOptions};
-use crate::estimate::{Kind, RunScores};
+use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
+
+/// What the estimator ran on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EstimateInput {
+    /// Tracks of the track-level simulator driven by the sequence's labels and ego poses.
+    Simulated,
+    /// The image front-end's tracks of the sequence's own stereo images (no truth).
+    Images,
+}
 
 /// A sequence's tracks through the estimator, both variants, and how well it did.
 #[derive(Debug, Clone)]
 pub struct EstimatedTracks {
+    /// What the estimator ran on.
+    pub input: EstimateInput,
     /// Newest-frame estimates (causal).
     pub causal: Vec<Track>,
     /// Estimates as they left the smoothing window (saw later frames).
     pub smoothed: Vec<Track>,
-    /// RPE of the run against the simulator's truth (the paper's Table III for Ours).
-    pub rpe: RunScores,
+    /// RPE of the run against the simulator's truth (the paper's Table III for Ours); `None`
+    /// on real images.
+    pub rpe: Option<RunScores>,
     /// The simulator's true bird's-eye paths of every simulated object (box centre, heading;
     /// speed 0: only positions are used), the common reference every arm can be scored
-    /// against.
+    /// against; empty on real images.
     pub truth: Vec<Track>,
     /// Frames estimated.
     pub frames: usize,
@@ -52,11 +64,25 @@ pub struct EstimatedTracks {
 pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> EstimatedTracks {
     let r = evaluate_sequence(id, data, opt);
     EstimatedTracks {
+        input: EstimateInput::Simulated,
         causal: tracks_of_estimates(r.run.of(Kind::Causal)),
         smoothed: tracks_of_estimates(r.run.of(Kind::Smoothed)),
-        rpe: r.scores,
+        rpe: Some(r.scores),
         truth: truth_tracks(&r.sim),
         frames: r.frames,
+    }
+}
+
+/// The tracks of an estimator run on real images (no truth, no RPE).
+#[must_use]
+pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
+    EstimatedTracks {
+        input: EstimateInput::Images,
+        causal: tracks_of_estimates(run.of(Kind::Causal)),
+        smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
+        rpe: None,
+        truth: Vec::new(),
+        frames: run.causal.len(),
     }
 }
 

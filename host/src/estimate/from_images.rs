@@ -1,0 +1,48 @@
+//! The Estimated source from real images: where a KITTI tracking folder holds the stereo
+//! images of a sequence (image_02/ and image_03/ for every frame, as a full KITTI download or
+//! `dynotraj simulate` has them), the image front-end (OpenCV) tracks them and the core
+//! estimator runs on its tracks, exactly as `dynotraj track` then `dynotraj estimate --tracks`
+//! would. There is no truth then: no RPE and no common reference.
+
+use std::path::Path;
+
+use anyhow::Context as _;
+use dynotraj_core::estimate::Intrinsics;
+use dynotraj_core::wire::frame_parts;
+
+use super::evaluate::{params_for, run_with_window, sim_max_depth, EvalOptions};
+use super::runner::{EstimatorRun, PartsFrame};
+use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
+
+/// True when `dir` holds a left and a right image of every frame `0..frames` of `seq`.
+#[must_use]
+pub fn has_images(dir: &Path, seq: &str, frames: usize) -> bool {
+    frames > 0
+        && ["image_02", "image_03"].iter().all(|cam| {
+            let folder = dir.join(cam).join(seq);
+            (0..frames).all(|k| folder.join(format!("{k:06}.png")).is_file())
+        })
+}
+
+/// Tracks the images of `seq` (stereo depth, masks from instance_02/ or the label boxes) and
+/// runs the estimator on them with `opt`'s window, priors and seed.
+///
+/// # Errors
+/// An unreadable image or calibration, or a front-end failure, with the file or frame named.
+pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<EstimatorRun> {
+    let s = ImageSequence::open(dir, seq, DepthMode::Stereo, MaskMode::Auto)?;
+    let [fx, fy, cx, cy] = s.intrinsics;
+    let intrinsics = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: s.fb as f32 };
+    let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), s.fb as f32)?;
+    let n = opt.max_frames.map_or(s.frames.len(), |m| m.min(s.frames.len()));
+    let mut frames = Vec::with_capacity(n);
+    for &frame in &s.frames[..n] {
+        let tracks = fe.process(s.load(frame)?).with_context(|| format!("{}: image_02/{seq}/{frame:06}.png", dir.display()))?;
+        let timestamp_us = (f64::from(frame) * f64::from(opt.dt) * 1e6).round() as u64;
+        let parts = frame_parts(frame, timestamp_us, &tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
+        frames.push(PartsFrame { frame, timestamp_us, parts });
+    }
+    let params = params_for(intrinsics, sim_max_depth(), opt.pixel_sigma.max(0.5), opt.disparity_sigma.max(0.5), opt);
+    Ok(run_with_window(&frames, params, opt))
+}
