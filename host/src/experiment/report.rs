@@ -76,7 +76,13 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
     };
     let mut md = String::from("# dynotraj experiment report\n\n");
-    let _ = writeln!(md, "Made by `{}` in {:.0} s ({:.1} min).\n", report.command, report.seconds, report.seconds / 60.0);
+    let _ = write!(md, "Made by `{}` in {:.0} s ({:.1} min).", report.command, report.seconds, report.seconds / 60.0);
+    let cached: Vec<&FoldReport> = report.folds.iter().filter(|f| f.cached).collect();
+    if !cached.is_empty() {
+        let trained: f32 = cached.iter().map(|f| f.seconds).sum();
+        let _ = write!(md, " {} of {} folds were read from the fold cache; training them took {trained:.0} s when they were trained.", cached.len(), report.folds.len());
+    }
+    md.push_str("\n\n");
     for s in &report.sections {
         write(format!("{}.md", s.stem), &s.table.render(Format::Md))?;
         write(format!("{}.csv", s.stem), &s.table.render(Format::Csv))?;
@@ -130,6 +136,7 @@ mod tests {
         assert!(md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"), "{md}");
         assert!(md.contains("| estimated | 0003"), "{md}");
         assert!(md.contains("![ACE](figures/fig5.png)") && md.contains("(figures/fig5.svg)"), "{md}");
+        assert!(md.contains("1 of 1 folds were read from the fold cache; training them took 3 s"), "{md}");
         assert_eq!(std::fs::read_to_string(dir.path().join("table_iv.csv")).unwrap(), "metric,avg\nADE,1.25\n");
         assert!(dir.path().join("table_iv.md").is_file() && dir.path().join("folds.csv").is_file());
     }
