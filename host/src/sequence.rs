@@ -6,9 +6,11 @@ use dynotraj_core::wire::ObjectClass;
 use nalgebra::Point3;
 
 use crate::estimate::evaluate::EvalOptions;
-use crate::estimate::from_images::{estimate_from_images, has_images};
+use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images};
 use crate::kitti::{SequenceData, TrackingDir};
-use crate::trajectory::{estimated_tracks, ground_truth_tracks, image_estimated_tracks, EstimatedTracks, LabelledObservation, Source, Track};
+use crate::trajectory::{
+    estimated_tracks, ground_truth_tracks, image_estimated_tracks, rendered_estimated_tracks, EstimatedTracks, LabelledObservation, OursInput, Source, Track,
+};
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
 #[derive(Debug, Clone)]
@@ -53,22 +55,46 @@ pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result
     load_sequence(dir, id, dt, None)
 }
 
+/// How the Estimated source is made for sequences without real images.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimateSettings {
+    /// The estimator's (and the track-level simulator's) options.
+    pub options: EvalOptions,
+    /// Simulated tracks or a rendering.
+    pub input: OursInput,
+    /// Render scale for [`OursInput::Rendered`] (1: KITTI's 1242 x 375).
+    pub render_scale: f64,
+}
+
+impl EstimateSettings {
+    /// The track-level simulator with `options`.
+    #[must_use]
+    pub fn tracks(options: EvalOptions) -> Self {
+        Self { options, input: OursInput::Tracks, render_scale: 0.5 }
+    }
+}
+
 /// Loads sequence `id` of `dir` at frame period `dt`: its ground-truth tracks and, with
-/// `estimate`, the estimator's tracks with those options: from the sequence's own stereo
+/// `estimate`, the estimator's tracks with those settings: from the sequence's own stereo
 /// images through the image front-end where the folder holds every frame of them (a full KITTI
-/// download), else from the track-level simulator driven by its labels and ego poses.
+/// download), else from the track-level simulator driven by its labels and ego poses, or from
+/// a rendering of it ([`OursInput`]).
 ///
 /// # Errors
 /// Any loading error of the sequence's files, with the file named.
-pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&EvalOptions>) -> anyhow::Result<SequenceTracks> {
+pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&EstimateSettings>) -> anyhow::Result<SequenceTracks> {
     let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let mut seq = ground_truth_of(id, &data, dt);
     seq.estimated = match estimate {
-        Some(opt) if has_images(dir.root(), id, data.frame_count) => {
+        Some(e) if has_images(dir.root(), id, data.frame_count) => {
             log::info!("sequence {id}: estimating from its stereo images");
-            Some(image_estimated_tracks(&estimate_from_images(dir.root(), id, opt)?))
+            Some(image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?))
         }
-        Some(opt) => Some(estimated_tracks(id, &data, opt)),
+        Some(e) if e.input == OursInput::Rendered => {
+            let r = estimate_rendered(&data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
+            Some(rendered_estimated_tracks(&r))
+        }
+        Some(e) => Some(estimated_tracks(id, &data, &e.options)),
         None => None,
     };
     Ok(seq)

@@ -10,8 +10,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::kitti::TrackingDir;
 use crate::estimate::evaluate::EvalOptions;
-use crate::sequence::{load_sequence, SequenceTracks};
-use crate::trajectory::{EligibilityRule, MovingRule, Source};
+use crate::sequence::{load_sequence, EstimateSettings, SequenceTracks};
+use crate::trajectory::{EligibilityRule, MovingRule, OursInput, Source};
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
@@ -38,6 +38,14 @@ pub struct DataArgs {
     /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
     #[arg(long, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f32,
+    /// Where the estimated sources take their feature tracks for sequences without real stereo
+    /// images in the folder: tracks (the track-level simulator, seconds) or rendered (the
+    /// image simulator renders each sequence and the OpenCV front-end tracks it, minutes).
+    #[arg(long, value_enum, default_value_t = OursInput::Tracks, value_name = "INPUT")]
+    pub ours_input: OursInput,
+    /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375).
+    #[arg(long, default_value_t = 0.5, value_name = "SCALE")]
+    pub render_scale: f64,
 }
 
 impl DataArgs {
@@ -86,7 +94,11 @@ impl DataArgs {
         let dir = TrackingDir::open(&self.kitti)?;
         let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
         let dt = self.dt()?;
-        let estimate = sources.iter().any(Source::is_estimated).then(|| EvalOptions::kitti(dt));
+        let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
+            input: self.ours_input,
+            render_scale: self.render_scale,
+            ..EstimateSettings::tracks(EvalOptions::kitti(dt))
+        });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
         let out = ids
             .iter()

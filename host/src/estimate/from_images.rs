@@ -3,6 +3,11 @@
 //! `dynotraj simulate` has them), the image front-end (OpenCV) tracks them and the core
 //! estimator runs on its tracks, exactly as `dynotraj track` then `dynotraj estimate --tracks`
 //! would. There is no truth then: no RPE and no common reference.
+//!
+//! Without real images, [`estimate_rendered`] renders the sequence with the image simulator
+//! (textured boxes of the label sizes on the simulator's smoothed label paths, over a textured
+//! ground and static structures, from the real ego poses and calibration) and runs the same
+//! front-end and estimator on the rendering, with the simulator's truth kept for scoring.
 
 use std::path::Path;
 
@@ -10,8 +15,13 @@ use anyhow::Context as _;
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::frame_parts;
 
+use dynotraj_fixtures::image_sim::{Camera, ImageSim};
+
 use super::evaluate::{params_for, run_with_window, sim_max_depth, EvalOptions};
+use super::input::sim_input;
 use super::runner::{EstimatorRun, PartsFrame};
+use crate::frontend::e2e::{self, EndToEnd};
+use crate::kitti::SequenceData;
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
 
@@ -45,4 +55,22 @@ pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow:
     }
     let params = params_for(intrinsics, sim_max_depth(), opt.pixel_sigma.max(0.5), opt.disparity_sigma.max(0.5), opt);
     Ok(run_with_window(&frames, params, opt))
+}
+
+/// Renders sequence `data` at `scale` of KITTI's resolution (1: 1242 x 375) with `opt`'s
+/// classes and seed, tracks the rendering with the front-end (SGBM stereo, the rendered
+/// instance masks, KLT) and runs the estimator on the tracks.
+///
+/// # Errors
+/// A front-end failure, named.
+pub fn estimate_rendered(data: &SequenceData, opt: &EvalOptions, scale: f64) -> anyhow::Result<EndToEnd> {
+    anyhow::ensure!(scale.is_finite() && (0.05..=2.0).contains(&scale), "--render-scale: expected 0.05..=2, found {scale}");
+    let input = sim_input(data, &opt.classes);
+    let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
+    let sim = ImageSim::new(Camera { noise: 2, ..Camera::kitti(scale) }, &input.camera_poses[..n], &boxes, opt.seed);
+    // Disparities scale with the image: 128 at full resolution reaches 3 m.
+    let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
+    let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
+    Ok(e2e::run(&sim, n, opt.dt, stereo, opt.min_step_m)?)
 }

@@ -37,6 +37,20 @@ pub enum EstimateInput {
     Simulated,
     /// The image front-end's tracks of the sequence's own stereo images (no truth).
     Images,
+    /// The image front-end's tracks of a rendering of the sequence by the image simulator.
+    Rendered,
+}
+
+/// Where the Estimated source takes its feature tracks for a sequence without real images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum OursInput {
+    /// The track-level simulator: tracks of points on the labelled boxes and the static scene
+    /// with pixel and depth noise and outliers (seconds for the nine sequences).
+    #[default]
+    Tracks,
+    /// The image simulator renders each sequence and the OpenCV front-end tracks the images
+    /// (minutes: rendering, SGBM stereo and KLT at the render scale).
+    Rendered,
 }
 
 /// A sequence's tracks through the estimator, both variants, and how well it did.
@@ -70,6 +84,19 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
         rpe: Some(r.scores),
         truth: truth_tracks(&r.sim),
         frames: r.frames,
+    }
+}
+
+/// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
+#[must_use]
+pub fn rendered_estimated_tracks(e: &crate::frontend::e2e::EndToEnd) -> EstimatedTracks {
+    EstimatedTracks {
+        input: EstimateInput::Rendered,
+        causal: tracks_of_estimates(e.run.of(Kind::Causal)),
+        smoothed: tracks_of_estimates(e.run.of(Kind::Smoothed)),
+        rpe: Some(e.scores),
+        truth: truth_tracks(&e.frames),
+        frames: e.frames.len(),
     }
 }
 

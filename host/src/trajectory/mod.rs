@@ -8,6 +8,6 @@ mod ground_truth;
 mod source;
 
 pub use eligibility::{eligible_runs, instance_frames, EligibilityRule, EligibleRun, MovingRule};
-pub use estimated::{estimated_tracks, image_estimated_tracks, tracks_of_estimates, EstimateInput, EstimatedTracks};
+pub use estimated::{estimated_tracks, image_estimated_tracks, rendered_estimated_tracks, tracks_of_estimates, EstimateInput, EstimatedTracks, OursInput};
 pub use ground_truth::{ground_truth_tracks, LabelledObservation, Track};
 pub use source::{Source, RTS_WINDOW};
