@@ -34,8 +34,9 @@ fn run_over_tcp(model: Option<Vec<u8>>) {
     assert!(result.frames.iter().all(|f| f.stats.is_some_and(|s| s.frames_lost == 0)), "every frame answered, none lost");
     let link = result.edge_link.expect("edge goodbye");
     assert_eq!((link.received.frames_ok, link.received.frames_rejected()), (result.frames_sent, 0));
-    if model.is_some() {
-        assert!(rest.iter().any(|l| l.contains("model 52")), "edge reports the loaded model: {rest:?}");
+    if let Some(m) = &model {
+        let loaded = format!("model {} B", m.len());
+        assert!(rest.iter().any(|l| l.contains(&loaded)), "edge reports the loaded model ({loaded}): {rest:?}");
     }
 }
 

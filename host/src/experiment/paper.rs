@@ -16,11 +16,12 @@ const TABLE_IV: [(&str, [Scores; 5], Scores); 3] = [
     ("paper: GT+EKF", [[1.45, 3.89, 0.67], [0.86, 2.35, 1.27], [1.40, 3.76, 0.46], [0.39, 0.93, 0.39], [0.69, 1.98, 0.79]], [1.00, 2.73, 0.73]),
 ];
 
-/// The paper's rows for the arms named (`"ours"`, `"gt"`, `"gt-ekf"`), aligned with `ids`.
+/// The paper's rows for the arms named (`"estimated"` or `"ours"`, `"gt"`, `"gt-ekf"`),
+/// aligned with `ids`.
 #[must_use]
 pub fn reference_rows(arms: &[&str], ids: &[String]) -> Vec<ReferenceRow> {
     let index = |arm: &str| match arm {
-        "ours" => Some(0),
+        "ours" | "estimated" => Some(0),
         "gt" => Some(1),
         "gt-ekf" => Some(2),
         _ => None,

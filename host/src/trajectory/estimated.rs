@@ -77,39 +77,32 @@ pub struct EstimatedTracks {
 #[must_use]
 pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> EstimatedTracks {
     let r = evaluate_sequence(id, data, opt);
-    EstimatedTracks {
-        input: EstimateInput::Simulated,
-        causal: tracks_of_estimates(r.run.of(Kind::Causal)),
-        smoothed: tracks_of_estimates(r.run.of(Kind::Smoothed)),
-        rpe: Some(r.scores),
-        truth: truth_tracks(&r.sim),
-        frames: r.frames,
-    }
+    EstimatedTracks::of_run(EstimateInput::Simulated, &r.run, Some(r.scores), truth_tracks(&r.sim))
 }
 
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
 #[must_use]
 pub fn rendered_estimated_tracks(e: &crate::frontend::e2e::EndToEnd) -> EstimatedTracks {
-    EstimatedTracks {
-        input: EstimateInput::Rendered,
-        causal: tracks_of_estimates(e.run.of(Kind::Causal)),
-        smoothed: tracks_of_estimates(e.run.of(Kind::Smoothed)),
-        rpe: Some(e.scores),
-        truth: truth_tracks(&e.frames),
-        frames: e.frames.len(),
-    }
+    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), truth_tracks(&e.frames))
 }
 
 /// The tracks of an estimator run on real images (no truth, no RPE).
 #[must_use]
 pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
-    EstimatedTracks {
-        input: EstimateInput::Images,
-        causal: tracks_of_estimates(run.of(Kind::Causal)),
-        smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
-        rpe: None,
-        truth: Vec::new(),
-        frames: run.causal.len(),
+    EstimatedTracks::of_run(EstimateInput::Images, run, None, Vec::new())
+}
+
+impl EstimatedTracks {
+    /// Both variants' tracks of `run`, with what is known of its accuracy.
+    fn of_run(input: EstimateInput, run: &EstimatorRun, rpe: Option<RunScores>, truth: Vec<Track>) -> Self {
+        Self {
+            input,
+            causal: tracks_of_estimates(run.of(Kind::Causal)),
+            smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
+            rpe,
+            truth,
+            frames: run.causal.len(),
+        }
     }
 }
 
