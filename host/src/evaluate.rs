@@ -8,7 +8,9 @@
 //! labels and the truth to the box, the estimator to the centroid of the object's first tracked
 //! points), and a fixed offset between those points is not a forecast error. What remains is
 //! the offset turned by the object's heading change over the horizon (offset x angle: about
-//! 0.1 m for 2 m and 3 degrees).
+//! 0.1 m for 2 m and 3 degrees). A source in its own world (the estimator's, which drifts from
+//! the truth's as its camera errors add up) has the true displacement turned into its world by
+//! the yaw between its camera and the true camera at the forecast's frame.
 
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ace, ade, fde, ForecastScores};
@@ -76,16 +78,19 @@ pub enum Reference<'a> {
         truth: &'a Scene,
         /// The instances scored.
         only: &'a std::collections::BTreeSet<(i32, u32)>,
+        /// For a source in its own world (the estimator's), the yaw per frame that turns it
+        /// into the truth's; `None` when the source is in the truth's world (the labels).
+        world_yaw: Option<&'a std::collections::BTreeMap<u32, f32>>,
     },
 }
 
 impl Reference<'_> {
-    /// The 30 points a forecast made at `frame` from current position `current` is held to,
-    /// or `None` when this instance is not scored.
+    /// The 30 points a forecast made at instance `s` (frame `frame`) of `run` is held to, in
+    /// the source's world, or `None` when this instance is not scored.
     fn future(&self, run: &SourcedRun, s: usize, frame: u32) -> Option<Vec<Point2>> {
         match self {
             Self::OwnFuture => Some(run.states.get(s + 1..=s + HORIZON)?.iter().map(BevState::position).collect()),
-            Self::Common { truth, only } => {
+            Self::Common { truth, only, world_yaw } => {
                 if !only.contains(&(run.track_id, frame)) {
                     return None;
                 }
@@ -94,7 +99,21 @@ impl Reference<'_> {
                 let k = usize::try_from(frame - path.first_frame).ok()?;
                 let anchor = path.states.get(k)?.position();
                 let future = path.states.get(k + 1..=k + HORIZON)?;
-                Some(future.iter().map(|p| Point2::new(current.x + p.x - anchor.x, current.y + p.y - anchor.y)).collect())
+                // A true displacement, turned from the truth's world into the source's.
+                let yaw = match world_yaw {
+                    Some(m) => -*m.get(&frame)?,
+                    None => 0.0,
+                };
+                let (sin, cos) = yaw.sin_cos();
+                Some(
+                    future
+                        .iter()
+                        .map(|p| {
+                            let (dx, dy) = (p.x - anchor.x, p.y - anchor.y);
+                            Point2::new(current.x + cos * dx - sin * dy, current.y + sin * dx + cos * dy)
+                        })
+                        .collect(),
+                )
             }
         }
     }
@@ -200,7 +219,7 @@ mod tests {
         let source = Scene::new(&[track(line(5.0, 0.0))], Source::Gt, 0.1);
         let truth = Scene::new(&[track(line(0.0, 0.01))], Source::Gt, 0.1);
         let only: std::collections::BTreeSet<(i32, u32)> = [(1, 2), (1, 3), (1, 7)].into();
-        let common = Reference::Common { truth: &truth, only: &only };
+        let common = Reference::Common { truth: &truth, only: &only, world_yaw: None };
         let r = score_run_against(&source.runs[0], 1..10, &source, &mut Baseline::ConstantVelocity, 0.1, common);
         assert_eq!(r.instances.iter().map(|i| i.frame).collect::<Vec<_>>(), vec![2, 3, 7]);
         assert_eq!(r.scores.ace.count(), 1, "pairs only of consecutive scored instances");
@@ -213,5 +232,27 @@ mod tests {
         // With its own future the straight source is exact.
         let own = score_run(&source.runs[0], 1..10, &source, &mut Baseline::ConstantVelocity, 0.1);
         assert!(own.scores.ade.value().unwrap_or(1.0) < 1e-4);
+    }
+
+    #[test]
+    fn the_common_reference_turns_the_truth_into_the_sources_world() {
+        let frames: Vec<u32> = (0..40).collect();
+        let track = |dx: f32, dy: f32| Track {
+            track_id: 1,
+            class: ObjectClass::Car,
+            frames: frames.clone(),
+            states: frames.iter().map(|&k| BevState { x: dx * k as f32, y: dy * k as f32, heading: 0.0, speed: 0.0 }).collect(),
+        };
+        // The source's world is the truth's turned by a quarter turn: the truth's +x is its +y.
+        let source = Scene::new(&[track(0.0, 0.5)], Source::Gt, 0.1);
+        let truth = Scene::new(&[track(0.5, 0.0)], Source::Gt, 0.1);
+        let only: std::collections::BTreeSet<(i32, u32)> = (1..10).map(|f| (1, f)).collect();
+        let yaw: std::collections::BTreeMap<u32, f32> = frames.iter().map(|&f| (f, -std::f32::consts::FRAC_PI_2)).collect();
+        let score = |world_yaw| {
+            let r = score_run_against(&source.runs[0], 1..10, &source, &mut Baseline::ConstantVelocity, 0.1, Reference::Common { truth: &truth, only: &only, world_yaw });
+            r.scores.ade.value().unwrap_or(f64::NAN)
+        };
+        assert!(score(Some(&yaw)) < 1e-4, "{}", score(Some(&yaw)));
+        assert!(score(None) > 5.0, "unaligned worlds disagree: {}", score(None));
     }
 }

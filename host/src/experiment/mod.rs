@@ -133,7 +133,10 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
         let runs: Vec<_> = tests.iter().map(|s| eligible_runs(s.tracks_for(source), &config.rule)).collect();
         let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(s.tracks_for(source), source, config.dt)).collect();
         let references: Vec<Option<Reference<'_>>> = (0..tests.len())
-            .map(|i| truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common { truth, only: &common_keys[i] }))
+            .map(|i| {
+                let world_yaw = tests[i].estimated.as_ref().filter(|_| source.is_estimated()).map(|e| &e.world_yaw);
+                truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common { truth, only: &common_keys[i], world_yaw })
+            })
             .collect();
         let mut learned = [
             ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },

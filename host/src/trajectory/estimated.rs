@@ -20,7 +20,7 @@
 
 use std::collections::BTreeMap;
 
-use dynotraj_core::estimate::PoseEstimate;
+use dynotraj_core::estimate::{bev_heading, PoseEstimate};
 use dynotraj_core::wire::ObjectClass;
 use dynotraj_core::BevState;
 
@@ -69,6 +69,12 @@ pub struct EstimatedTracks {
     /// speed 0: only positions are used), the common reference every arm can be scored
     /// against; empty on real images.
     pub truth: Vec<Track>,
+    /// Per frame: the yaw (radians) that turns the estimator's world into the truth's at that
+    /// frame (true camera yaw minus the causal estimate's), from the camera poses. The
+    /// estimator's world drifts from the truth's as camera errors accumulate; a displacement
+    /// forecast at frame s is turned by this before it is held to the true one. Empty on real
+    /// images.
+    pub world_yaw: std::collections::BTreeMap<u32, f32>,
     /// Frames estimated.
     pub frames: usize,
 }
@@ -77,30 +83,41 @@ pub struct EstimatedTracks {
 #[must_use]
 pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> EstimatedTracks {
     let r = evaluate_sequence(id, data, opt);
-    EstimatedTracks::of_run(EstimateInput::Simulated, &r.run, Some(r.scores), truth_tracks(&r.sim))
+    EstimatedTracks::of_run(EstimateInput::Simulated, &r.run, Some(r.scores), &r.sim)
 }
 
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
 #[must_use]
 pub fn rendered_estimated_tracks(e: &crate::frontend::e2e::EndToEnd) -> EstimatedTracks {
-    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), truth_tracks(&e.frames))
+    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames)
 }
 
 /// The tracks of an estimator run on real images (no truth, no RPE).
 #[must_use]
 pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
-    EstimatedTracks::of_run(EstimateInput::Images, run, None, Vec::new())
+    EstimatedTracks::of_run(EstimateInput::Images, run, None, &[])
 }
 
 impl EstimatedTracks {
-    /// Both variants' tracks of `run`, with what is known of its accuracy.
-    fn of_run(input: EstimateInput, run: &EstimatorRun, rpe: Option<RunScores>, truth: Vec<Track>) -> Self {
+    /// Both variants' tracks of `run`, with what is known of its accuracy and the truth of the
+    /// simulated frames `sim` it ran on (empty for real images).
+    fn of_run(input: EstimateInput, run: &EstimatorRun, rpe: Option<RunScores>, sim: &[SimFrame]) -> Self {
+        let world_yaw = sim
+            .iter()
+            .zip(run.of(Kind::Causal))
+            .filter_map(|(f, e)| {
+                let e = e.as_ref()?;
+                let truth = dynotraj_core::estimate::bev_heading(&f.camera.cast::<f32>());
+                Some((f.frame, dynotraj_core::geometry::angle_diff(truth, bev_heading(&e.camera))))
+            })
+            .collect();
         Self {
             input,
             causal: tracks_of_estimates(run.of(Kind::Causal)),
             smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
             rpe,
-            truth,
+            truth: truth_tracks(sim),
+            world_yaw,
             frames: run.causal.len(),
         }
     }
