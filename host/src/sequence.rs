@@ -5,6 +5,7 @@ use anyhow::Context as _;
 use dynotraj_core::wire::ObjectClass;
 use nalgebra::Point3;
 
+use crate::estimate::cache;
 use crate::estimate::evaluate::EvalOptions;
 use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images};
 use crate::kitti::{SequenceData, TrackingDir};
@@ -64,13 +65,15 @@ pub struct EstimateSettings {
     pub input: OursInput,
     /// Render scale for [`OursInput::Rendered`] (1: KITTI's 1242 x 375).
     pub render_scale: f64,
+    /// A folder where estimated tracks are kept between runs ([`crate::estimate::cache`]).
+    pub cache: Option<std::path::PathBuf>,
 }
 
 impl EstimateSettings {
     /// The track-level simulator with `options`.
     #[must_use]
     pub fn tracks(options: EvalOptions) -> Self {
-        Self { options, input: OursInput::Tracks, render_scale: 0.5 }
+        Self { options, input: OursInput::Tracks, render_scale: 0.5, cache: None }
     }
 }
 
@@ -90,11 +93,29 @@ pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&Est
             log::info!("sequence {id}: estimating from its stereo images");
             Some(image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?))
         }
-        Some(e) if e.input == OursInput::Rendered => {
-            let r = estimate_rendered(&data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
-            Some(rendered_estimated_tracks(&r))
+        Some(e) => {
+            let key = e.cache.as_ref().map(|_| cache::estimate_key(id, &data, e)).transpose()?;
+            let cached = e.cache.as_deref().zip(key).and_then(|(dir, key)| cache::load(dir, id, key));
+            if cached.is_some() {
+                log::info!("sequence {id}: estimated tracks read from the cache");
+            }
+            let tracks = match cached {
+                Some(t) => t,
+                None => {
+                    let t = if e.input == OursInput::Rendered {
+                        let r = estimate_rendered(&data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
+                        rendered_estimated_tracks(&r)
+                    } else {
+                        estimated_tracks(id, &data, &e.options)
+                    };
+                    if let (Some(dir), Some(key)) = (&e.cache, key) {
+                        cache::store(dir, id, key, &t)?;
+                    }
+                    t
+                }
+            };
+            Some(tracks)
         }
-        Some(e) => Some(estimated_tracks(id, &data, &e.options)),
         None => None,
     };
     Ok(seq)

@@ -46,7 +46,7 @@ fn the_report_folder_and_a_cached_rerun() {
         assert!(out.join(format!("models/{arm}-0000.blob.int8")).is_file());
     }
     let cached = fs::read_dir(out.join("cache")).unwrap().count();
-    assert_eq!(cached, 6, "two folds x (blob, int8 blob, report)");
+    assert_eq!(cached, 6 + 3, "two folds x (blob, int8 blob, report), three sequences' estimated tracks");
 
     // Against the common reference every arm has the same instances: one instance row.
     let truth = fs::read_to_string(out.join("table_iv_truth.csv")).unwrap();

@@ -5,7 +5,7 @@
 use crate::geometry::{rotation_angle, Pose3};
 
 /// RMSE of the relative pose error.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RpeResult {
     /// Translation RMSE, metres.
     pub translation: f64,

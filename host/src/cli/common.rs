@@ -91,12 +91,21 @@ impl DataArgs {
     /// # Errors
     /// A missing folder, a missing sequence or a bad file, named.
     pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
+        self.load_cached(sequences, sources, None)
+    }
+
+    /// As [`DataArgs::load_for`], keeping estimated tracks in `cache` between runs.
+    ///
+    /// # Errors
+    /// A missing folder, a missing sequence or a bad file, named.
+    pub fn load_cached(&self, sequences: &[String], sources: &[Source], cache: Option<std::path::PathBuf>) -> anyhow::Result<Vec<SequenceTracks>> {
         let dir = TrackingDir::open(&self.kitti)?;
         let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
         let dt = self.dt()?;
         let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
             input: self.ours_input,
             render_scale: self.render_scale,
+            cache: cache.clone(),
             ..EstimateSettings::tracks(EvalOptions::kitti(dt))
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });

@@ -42,7 +42,7 @@ pub struct ExperimentArgs {
     /// cache/ (a rerun trains only folds whose inputs changed).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Train every fold even when the cache holds it.
+    /// Estimate and train everything again even when the cache holds it.
     #[arg(long)]
     pub no_cache: bool,
     /// Output format of the table.
@@ -64,7 +64,8 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
-    let sequences = args.data.load_for(&[], &args.arms)?;
+    let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
+    let sequences = args.data.load_cached(&[], &args.arms, cache)?;
     let test_sequences =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
     let config = ExperimentConfig {

@@ -6,12 +6,14 @@
 //!   the estimator, and collect its three outputs per frame with the truth.
 //! - [`score`]: RPE (Sturm et al., delta = 1 frame) of the camera and of every moving object, and
 //!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
+//! - [`cache`]: estimated tracks kept between runs of the experiment.
 //! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
 //! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
 //! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
 //! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
 pub mod bench;
+pub mod cache;
 pub mod evaluate;
 pub mod files;
 pub mod from_images;

@@ -19,7 +19,7 @@ use dynotraj_fixtures::track_sim::SimFrame;
 use super::runner::{EstimatorRun, Kind};
 
 /// RPE of one output kind.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct KindScores {
     /// Camera RPE.
     pub camera: Option<RpeResult>,
@@ -30,7 +30,7 @@ pub struct KindScores {
 }
 
 /// Scores of a run, per kind in [`Kind::ALL`] order.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct RunScores {
     /// Per kind: frame-to-frame, causal, smoothed.
     pub kinds: [KindScores; 3],

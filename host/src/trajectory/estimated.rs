@@ -31,7 +31,7 @@ use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
 
 /// What the estimator ran on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum EstimateInput {
     /// Tracks of the track-level simulator driven by the sequence's labels and ego poses.
     Simulated,
@@ -54,7 +54,7 @@ pub enum OursInput {
 }
 
 /// A sequence's tracks through the estimator, both variants, and how well it did.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EstimatedTracks {
     /// What the estimator ran on.
     pub input: EstimateInput,

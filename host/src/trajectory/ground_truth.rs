@@ -24,7 +24,7 @@ pub struct LabelledObservation {
 
 /// An object's world-frame trajectory on the bird's-eye plane, frames strictly increasing
 /// (possibly with gaps where the object was not labelled).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Track {
     /// Track id.
     pub track_id: i32,

@@ -1,0 +1,88 @@
+//! The estimated tracks of a sequence kept between runs of the experiment, so that a rerun
+//! does not simulate (or render, track) and estimate again.
+//!
+//! A sequence is found by a key: CRC-64 (ECMA-182) over [`ESTIMATE_CACHE_VERSION`], the
+//! estimation settings, the sequence id and the bytes of its label, calibration and pose
+//! files. What the key cannot see is a change to the simulator, front-end or estimator code:
+//! bump the version with one, or run with `--no-cache`. Estimates from real images are not
+//! cached (the key would have to read every image).
+//!
+//! File: `estimated-<seq>-<key>.bin`, the [`EstimatedTracks`] as postcard bytes. A file that
+//! does not decode is a miss, never an error.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use crc::{Crc, CRC_64_ECMA_182};
+
+use crate::kitti::SequenceData;
+use crate::sequence::EstimateSettings;
+use crate::trajectory::EstimatedTracks;
+
+/// Version of what estimation computes; part of every key.
+pub const ESTIMATE_CACHE_VERSION: u32 = 1;
+
+/// The key of sequence `id`'s estimation inputs.
+///
+/// # Errors
+/// A label, calibration or pose file that cannot be read, named.
+pub fn estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings) -> anyhow::Result<u64> {
+    let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
+    let mut d = crc.digest();
+    let what = format!("v{ESTIMATE_CACHE_VERSION} {id} {:?} {:?} {}", settings.options, settings.input, settings.render_scale);
+    d.update(what.as_bytes());
+    for path in [&data.labels_path, &data.calib_path, &data.poses_path] {
+        d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);
+    }
+    Ok(d.finalize())
+}
+
+fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
+    dir.join(format!("estimated-{id}-{key:016x}.bin"))
+}
+
+/// The cached tracks of `id` under `key`, if a readable file holds them.
+#[must_use]
+pub fn load(dir: &Path, id: &str, key: u64) -> Option<EstimatedTracks> {
+    let bytes = std::fs::read(path(dir, id, key)).ok()?;
+    postcard::from_bytes(&bytes).ok()
+}
+
+/// Keeps `tracks` of `id` under `key`.
+///
+/// # Errors
+/// The folder or file cannot be written, named.
+pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let bytes = postcard::to_stdvec(tracks).context("encoding estimated tracks")?;
+    let p = path(dir, id, key);
+    std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trajectory::{EstimateInput, Track};
+    use dynotraj_core::wire::ObjectClass;
+    use dynotraj_core::BevState;
+
+    #[test]
+    fn tracks_round_trip_and_garbage_is_a_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let track = Track { track_id: 3, class: ObjectClass::Cyclist, frames: vec![4, 5], states: vec![BevState { x: 1.5, y: -2.0, heading: 0.25, speed: 3.0 }; 2] };
+        let tracks = EstimatedTracks {
+            input: EstimateInput::Rendered,
+            causal: vec![track.clone()],
+            smoothed: vec![],
+            rpe: Some(crate::estimate::RunScores::default()),
+            truth: vec![track],
+            world_yaw: [(4, 0.01), (5, -0.02)].into(),
+            frames: 6,
+        };
+        store(dir.path(), "0003", 9, &tracks).unwrap();
+        assert_eq!(load(dir.path(), "0003", 9), Some(tracks));
+        assert_eq!(load(dir.path(), "0003", 10), None);
+        std::fs::write(path(dir.path(), "0003", 9), [1, 2, 3]).unwrap();
+        assert_eq!(load(dir.path(), "0003", 9), None);
+    }
+}
