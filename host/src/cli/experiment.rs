@@ -64,6 +64,7 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
+    let start = std::time::Instant::now();
     let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
     let sequences = args.data.load_cached(&[], &args.arms, cache)?;
     let test_sequences =
@@ -83,7 +84,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     };
     let bar = super::common::progress(0, "training");
     let mut current = String::new();
-    let result = run_experiment(&sequences, &config, &mut |label, e| {
+    let mut result = run_experiment(&sequences, &config, &mut |label, e| {
         if label != current {
             current = label.to_string();
             bar.set_position(0);
@@ -98,6 +99,8 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
         }
     })?;
     bar.finish_and_clear();
+    // The whole command: loading and estimating the sequences too.
+    result.seconds = start.elapsed().as_secs_f64();
     let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
     for f in &result.folds {
         summary.push_str(&format!(
