@@ -16,3 +16,4 @@ pub mod train;
 pub mod kitti;
 pub mod link;
 pub mod stream;
+pub mod soak;

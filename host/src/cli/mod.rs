@@ -7,6 +7,7 @@ pub mod estimate;
 pub mod eval;
 pub mod experiment;
 pub mod simulate;
+pub mod soak;
 pub mod track;
 pub mod stream;
 pub mod train;
@@ -46,6 +47,9 @@ pub enum Command {
     Track(track::TrackArgs),
     /// Streams feature tracks to an edge (TCP or serial) and collects its forecasts.
     Stream(stream::StreamArgs),
+    /// A long stream into the host build of the edge over a link with random faults: losses
+    /// counted, clean frames all answered, the edge's memory at start and end.
+    Soak(soak::SoakArgs),
 }
 
 /// Runs the parsed command line.
@@ -63,5 +67,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(&a),
         Command::Track(a) => track::run(&a),
         Command::Stream(a) => stream::run(&a),
+        Command::Soak(a) => soak::run(&a),
     }
 }

@@ -86,7 +86,7 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
 }
 
 /// The tracks to send.
-fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
+pub(crate) fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
     let mut tracks = if let Some(path) = &args.tracks {
         tracks_file::read(path)?
     } else {
@@ -101,7 +101,10 @@ fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
 }
 
 /// The track-level simulator's stream for a KITTI sequence at the paper's 20 Hz.
-fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
+///
+/// # Errors
+/// Loading errors, named.
+pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
     let data = TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let classes = [ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist, ObjectClass::Pedestrian];
     let input = sim_input(&data, &classes);

@@ -1,0 +1,115 @@
+//! `dynotraj soak`: the host build of the edge (`dynotraj-edge`, started here) fed a long,
+//! randomly damaged stream; prints what was sent, damaged, answered and lost, and the edge's
+//! resident memory after the first frames and at the end.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use anyhow::Context as _;
+use clap::Args;
+
+use crate::link::{connect, Endpoint};
+use crate::soak::{soak, SoakOptions, SoakReport};
+use crate::tracks_file::{self, Tracks};
+
+/// Options of `dynotraj soak`.
+#[derive(Debug, Args)]
+pub struct SoakArgs {
+    /// A tracks file (.dtt) whose frames are looped.
+    #[arg(long, value_name = "FILE", conflicts_with = "kitti", required_unless_present = "kitti")]
+    pub tracks: Option<PathBuf>,
+    /// A KITTI tracking split folder: the sequence's simulated tracks are looped.
+    #[arg(long, value_name = "DIR", env = "DYNOTRAJ_KITTI")]
+    pub kitti: Option<PathBuf>,
+    /// The KITTI sequence to simulate.
+    #[arg(long, default_value = "0000", value_name = "ID")]
+    pub sequence: String,
+    /// Camera frames to send.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub frames: u64,
+    /// Probability that a wire frame (one part) is damaged: a byte flipped, its tail dropped,
+    /// or sent twice.
+    #[arg(long, default_value_t = 0.01, value_name = "P")]
+    pub fault_probability: f64,
+    /// Seed of the faults.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The edge binary to start (default: `dynotraj-edge` beside this program; build both with
+    /// `cargo build --release --bins`).
+    #[arg(long, value_name = "PATH")]
+    pub edge: Option<PathBuf>,
+}
+
+/// Runs the soak and prints its report.
+///
+/// # Errors
+/// Input, edge start-up or link errors, named; a clean frame left unanswered.
+pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
+    let report = soak_edge(args)?;
+    print!("{}", summary(&report));
+    anyhow::ensure!(report.clean_unanswered == 0, "{} clean frames were not answered", report.clean_unanswered);
+    Ok(())
+}
+
+/// Starts the edge, soaks it and waits for it to exit.
+///
+/// # Errors
+/// See [`run`].
+pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
+    anyhow::ensure!((0.0..=1.0).contains(&args.fault_probability), "--fault-probability: expected 0..=1, found {}", args.fault_probability);
+    let base: Tracks = match &args.tracks {
+        Some(p) => tracks_file::read(p)?,
+        None => super::stream::simulated(args.kitti.as_ref().context("--tracks or --kitti is needed")?, &args.sequence, None)?,
+    };
+    let edge = match &args.edge {
+        Some(p) => p.clone(),
+        None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),
+    };
+    let mut child = Command::new(&edge)
+        .args(["--listen", "tcp://127.0.0.1:0"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("starting the edge {} (build it with `cargo build --release --bins`, or give --edge)", edge.display()))?;
+    let mut lines = BufReader::new(child.stderr.take().context("edge stderr")?).lines();
+    let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
+    let addr = first.rsplit("tcp://").next().unwrap_or_default().trim().to_string();
+    let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10))?;
+    let opt = SoakOptions { frames: args.frames, fault_probability: args.fault_probability, seed: args.seed, ..SoakOptions::default() };
+    let report = soak(&base, rx, tx, &opt, Some(child.id()))?;
+    // The edge's last words (its session summary) go to our stderr.
+    for l in lines.map_while(Result::ok) {
+        eprintln!("{l}");
+    }
+    let status = child.wait().context("waiting for the edge")?;
+    anyhow::ensure!(status.success(), "the edge exited with {status}");
+    Ok(report)
+}
+
+/// The report as text.
+#[must_use]
+pub fn summary(r: &SoakReport) -> String {
+    let mem = r.edge_memory.map_or_else(
+        || "edge memory: not read".to_string(),
+        |(a, b)| format!("edge memory: resident {} KiB after the first frames, {} KiB at the end (peak {} KiB)", a.rss_kib, b.rss_kib, b.peak_kib),
+    );
+    let link = r.edge_link.map_or_else(
+        || "edge goodbye: none".to_string(),
+        |l| format!("edge decoder: {} wire frames accepted, {} rejected, {} bytes discarded", l.received.frames_ok, l.received.frames_rejected(), l.received.bytes_discarded),
+    );
+    format!(
+        "soak: {} camera frames ({} wire frames) in {:.1} s\nfaults injected: {} ({} flipped bytes, {} dropped tails, {} duplicated frames) in {} damaged camera frames\nanswered: {} frames; clean frames unanswered: {}; edge's frames lost: {}\n{link}\n{mem}\n",
+        r.frames_sent,
+        r.wire_frames_sent,
+        r.seconds,
+        r.faults_injected(),
+        r.faults[0],
+        r.faults[1],
+        r.faults[2],
+        r.damaged_frames,
+        r.answered,
+        r.clean_unanswered,
+        r.edge_frames_lost
+    )
+}
