@@ -83,3 +83,20 @@ pub fn connect(endpoint: &Endpoint, connect_timeout: Duration) -> anyhow::Result
         }
     }
 }
+
+/// Reads the next bytes of the link into `buf`, waiting through read time-outs and
+/// interruptions (serial ports and sockets with a read time-out report those); `None` once the
+/// link is closed or fails.
+pub fn read_some(rx: &mut LinkReader, buf: &mut [u8]) -> Option<usize> {
+    loop {
+        match rx.read(buf) {
+            Ok(0) => return None,
+            Ok(n) => return Some(n),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted | std::io::ErrorKind::WouldBlock) => {}
+            Err(e) => {
+                log::debug!("link read: {e}");
+                return None;
+            }
+        }
+    }
+}

@@ -9,7 +9,7 @@
 //! only counters (no replies), so a run of any length uses fixed host memory; the edge's
 //! resident memory is read from /proc at the start and the end when its process id is known.
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -20,7 +20,7 @@ use dynotraj_core::wire::{encode, DecoderStats, FrameBuf, FrameDecoder, LinkStat
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::link::{LinkReader, LinkWriter};
+use crate::link::{read_some, LinkReader, LinkWriter};
 use crate::tracks_file::Tracks;
 
 /// How to soak.
@@ -110,13 +110,7 @@ fn read_answers(mut rx: LinkReader, last_answered: &AtomicU64, out: &mpsc::Sende
     let mut decoder = FrameDecoder::new();
     let mut seen = Seen::default();
     let mut buf = [0u8; 4096];
-    loop {
-        let n = match rx.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted | std::io::ErrorKind::WouldBlock) => continue,
-            Err(_) => break,
-        };
+    while let Some(n) = read_some(&mut rx, &mut buf) {
         let mut bye = false;
         for msg in decoder.feed(buf.get(..n).unwrap_or_default()) {
             match msg {

@@ -7,7 +7,7 @@
 //! decodes the edge's replies as they arrive and timestamps them; a frame's latency is the
 //! time from sending its last part to receiving its [`FrameStats`].
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
@@ -16,7 +16,7 @@ use dynotraj_core::wire::{
     DecoderStats, FrameBuf, FrameDecoder, FrameStats, LinkStats, MAX_FRAME_LEN, Message, encode, model_chunks,
 };
 
-use crate::link::{LinkReader, LinkWriter};
+use crate::link::{read_some, LinkReader, LinkWriter};
 use crate::tracks_file::Tracks;
 
 /// How to stream.
@@ -177,16 +177,7 @@ fn drain(events: &Receiver<Event>, out: &mut StreamResult, start: Instant, deadl
 fn read_replies(mut rx: LinkReader, events: &mpsc::Sender<Event>) {
     let mut decoder = FrameDecoder::new();
     let mut buf = [0u8; 4096];
-    loop {
-        let n = match rx.read(&mut buf) {
-            Ok(0) => break,
-            Ok(n) => n,
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted | std::io::ErrorKind::WouldBlock) => continue,
-            Err(e) => {
-                log::debug!("link read: {e}");
-                break;
-            }
-        };
+    while let Some(n) = read_some(&mut rx, &mut buf) {
         let at = Instant::now();
         let chunk = &buf[..n];
         if events.send(Event::Bytes(chunk.to_vec())).is_err() {
