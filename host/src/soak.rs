@@ -198,7 +198,8 @@ pub fn soak(base: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &SoakOptions
     let last_answered = Arc::new(AtomicU64::new(0));
     let (seen_tx, seen_rx) = mpsc::channel();
     let reader_mark = Arc::clone(&last_answered);
-    let reader = std::thread::spawn(move || read_answers(rx, &reader_mark, &seen_tx));
+    // Detached: it ends with the edge's goodbye or the link's close.
+    std::thread::spawn(move || read_answers(rx, &reader_mark, &seen_tx));
     let mut report = SoakReport::default();
     let mut damaged = vec![false; usize::try_from(opt.frames).context("--frames")?];
     let mut sender = FaultySender { tx: &mut tx, buf: [0; MAX_FRAME_LEN], rng: SmallRng::seed_from_u64(opt.seed), probability: opt.fault_probability.clamp(0.0, 1.0) };
@@ -235,7 +236,6 @@ pub fn soak(base: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &SoakOptions
     sender.send(&Message::LinkStats(goodbye), false, &mut report)?;
     sender.tx.flush().context("writing to the link")?;
     let seen = seen_rx.recv_timeout(opt.reply_timeout).unwrap_or_default();
-    drop(reader);
     let mut answered = vec![false; damaged.len()];
     for &f in &seen.answered {
         if let Some(a) = answered.get_mut(f as usize) {

@@ -76,16 +76,8 @@ impl DataArgs {
         Ok(EligibilityRule { classes, moving: MovingRule { min_step_m: self.min_step }, ..EligibilityRule::default() })
     }
 
-    /// Opens the folder and loads `sequences` (all present when empty), with a progress bar.
-    ///
-    /// # Errors
-    /// A missing folder, a missing sequence or a bad file, named.
-    pub fn load(&self, sequences: &[String]) -> anyhow::Result<Vec<SequenceTracks>> {
-        self.load_for(sequences, &[])
-    }
-
-    /// As [`DataArgs::load`], and when one of `sources` is an estimated one, also runs the
-    /// estimator over each sequence (the track-level simulator driven by its labels, ego poses
+    /// Opens the folder and loads `sequences` (all present when empty), with a progress bar;
+    /// when one of `sources` is an estimated one, also runs the estimator over each sequence (the track-level simulator driven by its labels, ego poses
     /// and calibration, with `dynotraj estimate`'s defaults; a few seconds for the nine).
     ///
     /// # Errors

@@ -107,12 +107,7 @@ pub fn track_sequence(dir: &Path, seq: &str, out: &Path, args: &TrackArgs, stere
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
-    let n = args.frames.map_or(s.frames.len(), |m| m.min(s.frames.len()));
-    for &frame in &s.frames[..n] {
-        let tracks = fe.process(s.load(frame)?).with_context(|| format!("frame {frame}"))?;
-        let t_us = (f64::from(frame) * 1e6 / f64::from(args.rate)).round() as u64;
-        w.write_frame(frame, t_us, &tracks)?;
-    }
+    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate), |frame, t_us, tracks| Ok(w.write_frame(frame, t_us, tracks)?))?;
     w.finish()?;
     Ok((fe.times, fe.tracker.stats, n))
 }

@@ -11,7 +11,6 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::frame_parts;
 
@@ -45,14 +44,12 @@ pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow:
     let [fx, fy, cx, cy] = s.intrinsics;
     let intrinsics = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: s.fb as f32 };
     let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), s.fb as f32)?;
-    let n = opt.max_frames.map_or(s.frames.len(), |m| m.min(s.frames.len()));
-    let mut frames = Vec::with_capacity(n);
-    for &frame in &s.frames[..n] {
-        let tracks = fe.process(s.load(frame)?).with_context(|| format!("{}: image_02/{seq}/{frame:06}.png", dir.display()))?;
-        let timestamp_us = (f64::from(frame) * f64::from(opt.dt) * 1e6).round() as u64;
-        let parts = frame_parts(frame, timestamp_us, &tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
+    let mut frames = Vec::new();
+    s.track(&mut fe, opt.max_frames.unwrap_or(usize::MAX), 1.0 / f64::from(opt.dt), |frame, timestamp_us, tracks| {
+        let parts = frame_parts(frame, timestamp_us, tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
         frames.push(PartsFrame { frame, timestamp_us, parts });
-    }
+        Ok(())
+    })?;
     let params = params_for(intrinsics, sim_max_depth(), opt.pixel_sigma.max(0.5), opt.disparity_sigma.max(0.5), opt);
     Ok(run_with_window(&frames, params, opt))
 }

@@ -24,7 +24,7 @@ use crate::report::{forecast_table, ArmScores, Table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
-use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+use crate::trajectory::{eligible_runs, EligibilityRule, EligibleRun, Source};
 use cache::{fold_key, CachedFold, FoldCache};
 
 /// What to run.
@@ -94,6 +94,15 @@ pub struct ExperimentResult {
     pub seconds: f64,
 }
 
+/// Scores `forecaster` on one sequence against the source's own future into `own` and, when
+/// there is a common reference, against it into `common`.
+fn score_both(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32, reference: Option<Reference<'_>>, own: &mut ArmScores, common: &mut ArmScores) {
+    own.per_sequence.push(score_sequence(runs, scene, forecaster, dt).scores);
+    if let Some(r) = reference {
+        common.per_sequence.push(score_sequence_against(runs, scene, forecaster, dt, r).scores);
+    }
+}
+
 /// Runs the experiment on `sequences` (every loaded sequence is a training candidate).
 ///
 /// # Errors
@@ -120,17 +129,18 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
     // that every arm has; only when every test sequence has a truth (none from real images).
     let truths: Option<Vec<Scene>> =
         tests.iter().map(|s| s.estimated.as_ref().filter(|e| !e.truth.is_empty()).map(|e| Scene::new(&e.truth, Source::Gt, config.dt))).collect();
-    let common_keys: Vec<BTreeSet<(i32, u32)>> = tests
-        .iter()
-        .map(|s| {
-            let mut sets = config.arms.iter().map(|&a| instance_keys(&eligible_runs(s.tracks_for(a), &config.rule)));
+    // Per arm, per test sequence: the eligible runs of the arm's own tracks.
+    let runs_by_arm: Vec<Vec<Vec<EligibleRun>>> =
+        config.arms.iter().map(|&a| tests.iter().map(|s| eligible_runs(s.tracks_for(a), &config.rule)).collect()).collect();
+    let common_keys: Vec<BTreeSet<(i32, u32)>> = (0..tests.len())
+        .map(|i| {
+            let mut sets = runs_by_arm.iter().filter_map(|per_test| per_test.get(i)).map(|r| instance_keys(r));
             let first = sets.next().unwrap_or_default();
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
         })
         .collect();
     let mut common_arms = Vec::new();
-    for &source in &config.arms {
-        let runs: Vec<_> = tests.iter().map(|s| eligible_runs(s.tracks_for(source), &config.rule)).collect();
+    for (&source, runs) in config.arms.iter().zip(&runs_by_arm) {
         let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(s.tracks_for(source), source, config.dt)).collect();
         let references: Vec<Option<Reference<'_>>> = (0..tests.len())
             .map(|i| {
@@ -143,7 +153,7 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
             ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },
         ];
         let mut learned_common = learned.clone();
-        for (((test, seq_runs), scene), reference) in tests.iter().zip(&runs).zip(&scenes).zip(&references) {
+        for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(&scenes).zip(&references) {
             let mut train = TrainConfig::new(sequences, vec![test.id.clone()], source);
             train.dt = config.dt;
             train.rule = config.rule.clone();
@@ -192,37 +202,30 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
                 }
             };
             folds.push(fold.report.clone());
-            for (arm, (precision, bytes)) in learned.iter_mut().zip([(Precision::F32, fold.f32_blob), (Precision::Int8, fold.int8_blob)]) {
+            let blobs = [(Precision::F32, fold.f32_blob), (Precision::Int8, fold.int8_blob)];
+            for ((arm, common), (precision, bytes)) in learned.iter_mut().zip(learned_common.iter_mut()).zip(blobs) {
                 if let Some(dir) = &config.out {
                     let ext = if precision == Precision::F32 { "blob" } else { "blob.int8" };
                     let path = dir.join(format!("{name}.{ext}"));
                     std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
                 }
                 let file = ModelFile::from_bytes(bytes, &label)?;
-                let mut predictor = file.predictor();
-                arm.per_sequence.push(score_sequence(seq_runs, scene, &mut predictor, config.dt).scores);
-                if let Some(r) = reference {
-                    let slot = if precision == Precision::F32 { 0 } else { 1 };
-                    learned_common[slot].per_sequence.push(score_sequence_against(seq_runs, scene, &mut predictor, config.dt, *r).scores);
-                }
+                score_both(seq_runs, scene, &mut file.predictor(), config.dt, *reference, arm, common);
             }
         }
         arms.extend(learned);
         if truths.is_some() {
             common_arms.extend(learned_common);
         }
-        for (name, baseline) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
-            let mut b = baseline;
-            let per_sequence = runs.iter().zip(&scenes).map(|(r, sc)| score_sequence(r, sc, &mut b as &mut dyn Forecaster, config.dt).scores).collect();
-            arms.push(ArmScores { label: format!("{name} on {source}"), per_sequence });
+        for (name, mut baseline) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
+            let mut own = ArmScores { label: format!("{name} on {source}"), per_sequence: Vec::new() };
+            let mut common = own.clone();
+            for ((r, sc), rf) in runs.iter().zip(&scenes).zip(&references) {
+                score_both(r, sc, &mut baseline, config.dt, *rf, &mut own, &mut common);
+            }
+            arms.push(own);
             if truths.is_some() {
-                let per_sequence = runs
-                    .iter()
-                    .zip(&scenes)
-                    .zip(&references)
-                    .filter_map(|((r, sc), rf)| rf.map(|rf| score_sequence_against(r, sc, &mut b as &mut dyn Forecaster, config.dt, rf).scores))
-                    .collect();
-                common_arms.push(ArmScores { label: format!("{name} on {source}"), per_sequence });
+                common_arms.push(common);
             }
         }
     }

@@ -24,7 +24,8 @@ use opencv::prelude::*;
 use super::error::{cv, FrontEndError};
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::Detection;
-use super::pipeline::{DepthInput, FrameInput, MaskInput};
+use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput};
+use dynotraj_core::wire::Track;
 use crate::kitti::{read_calib, read_labels, LabelRow};
 
 /// How to get depth.
@@ -135,6 +136,21 @@ impl ImageSequence {
     #[must_use]
     pub const fn masks(&self) -> MaskMode {
         self.masks
+    }
+
+    /// Tracks the first `frames` frames with `fe` and hands each frame's tracks to `each` with
+    /// its number and capture time (frame / `rate_hz`, microseconds); returns the frames done.
+    ///
+    /// # Errors
+    /// An unreadable frame or a front-end failure, with the frame named; what `each` returns.
+    pub fn track(&self, fe: &mut FrontEnd, frames: usize, rate_hz: f64, mut each: impl FnMut(u32, u64, &[Track]) -> anyhow::Result<()>) -> anyhow::Result<usize> {
+        let n = frames.min(self.frames.len());
+        for &frame in self.frames.iter().take(n) {
+            let tracks = fe.process(self.load(frame)?).map_err(|e| anyhow::anyhow!("{}: image_02/{}/{frame:06}.png: {e}", self.dir.display(), self.seq))?;
+            let timestamp_us = (f64::from(frame) * 1e6 / rate_hz).round() as u64;
+            each(frame, timestamp_us, &tracks)?;
+        }
+        Ok(n)
     }
 
     /// Loads frame `frame`.

@@ -157,8 +157,8 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
                     continue;
                 }
                 if frame + 1 == e.frame && segment != o.segment {
-                    // Force a gap: the new segment starts a new run at its next frame.
-                    rows.push((e.frame, o.segment, BevState { x: f32::NAN, ..o.bev }));
+                    // Left out, this frame is the gap that starts the new segment's run at its
+                    // next frame.
                     continue;
                 }
             }
@@ -168,7 +168,6 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
     by_id
         .into_iter()
         .map(|(object_id, (class, rows))| {
-            let rows: Vec<_> = rows.into_iter().filter(|r| r.2.is_finite()).collect();
             Track {
                 track_id: i32::from(object_id) - 1,
                 class,
@@ -176,7 +175,6 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
                 states: rows.iter().map(|r| r.2).collect(),
             }
         })
-        .filter(|t| !t.frames.is_empty())
         .collect()
 }
 
