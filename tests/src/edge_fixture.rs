@@ -156,7 +156,7 @@ pub fn free_port() -> u16 {
 /// The firmware under QEMU via `scripts/qemu-edge.sh`, its UART0 on `port`, logs piped.
 #[must_use]
 pub fn spawn_qemu(port: u16) -> std::process::Child {
-    let script = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../scripts/qemu-edge.sh"));
+    let script = crate::manifest_dir().join("../scripts/qemu-edge.sh");
     std::process::Command::new("bash")
         .arg(script)
         .args(["--port", &port.to_string(), "--elf"])

@@ -6,13 +6,22 @@ pub mod synthetic_kitti;
 
 use std::path::PathBuf;
 
+/// This crate's folder (`tests/`) as the running test sees it: cargo sets `CARGO_MANIFEST_DIR`
+/// when it runs a test too, and that value is read first because the compile-time one goes stale
+/// when a shared `CARGO_TARGET_DIR` reuses a test binary built from another checkout (cargo keys
+/// artifacts by workspace-relative paths, so a clone elsewhere does not rebuild them).
+#[must_use]
+pub fn manifest_dir() -> PathBuf {
+    std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
+}
+
 /// The KITTI tracking training folder: `$DYNOTRAJ_KITTI`, else `../shared/kitti/tracking/training`
 /// beside the workspace. `None` (with a note on stderr) when it is absent, so that tests which
 /// need real data skip clearly instead of failing on a machine without it.
 #[must_use]
 pub fn kitti_training_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("DYNOTRAJ_KITTI").map_or_else(
-        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/kitti/tracking/training")),
+        || manifest_dir().join("../../shared/kitti/tracking/training"),
         PathBuf::from,
     );
     if dir.join("label_02").is_dir() {
@@ -31,7 +40,7 @@ pub fn kitti_training_dir() -> Option<PathBuf> {
 pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
     let root = std::env::var_os("DYNOTRAJ_KITTI_ROOT").map(PathBuf::from).unwrap_or_else(|| {
         std::env::var_os("DYNOTRAJ_KITTI").map_or_else(
-            || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/kitti")),
+            || manifest_dir().join("../../shared/kitti"),
             |t| PathBuf::from(t).join("../.."),
         )
     });

@@ -87,13 +87,13 @@ fn check_memory(log: &str, golden: bool) {
     if !golden {
         return;
     }
-    let golden_path = concat!(env!("CARGO_MANIFEST_DIR"), "/../edge/firmware/memory.golden");
+    let golden_path = dynotraj_tests::manifest_dir().join("../edge/firmware/memory.golden");
     let now: String = figures.iter().map(|(n, v)| format!("{n} {v}\n")).collect();
     if std::env::var_os("DYNOTRAJ_BLESS").is_some() {
-        std::fs::write(golden_path, format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}")).unwrap();
+        std::fs::write(&golden_path, format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}")).unwrap();
         return;
     }
-    let golden = std::fs::read_to_string(golden_path).unwrap();
+    let golden = std::fs::read_to_string(&golden_path).unwrap();
     for line in golden.lines().filter(|l| !l.starts_with('#')) {
         let (name, value) = line.split_once(' ').unwrap();
         let want: f64 = value.trim().parse().unwrap();

@@ -122,7 +122,7 @@ fn the_causal_estimate_never_sees_later_frames() {
 fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     // The committed rendered fixture: 24 frames of the synthetic drive at 0.4 scale, with
     // image_02/, image_03/, instance masks, labels and poses.
-    let root = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/data/image_sim"));
+    let root = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
     let dir = TrackingDir::open(&root).unwrap();
     let settings = dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     let seq = dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();

@@ -23,7 +23,7 @@ const TARGETS: [&str; 7] =
     ["wire_decoder", "model_blob", "kitti_labels", "kitti_calib", "kitti_poses", "kitti_oxts", "tracks_file"];
 
 fn fuzz_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz")
+    dynotraj_tests::manifest_dir().join("../fuzz")
 }
 
 /// What each fuzz target does with one input (the same checks as fuzz/fuzz_targets/*.rs).

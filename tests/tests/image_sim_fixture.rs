@@ -14,7 +14,7 @@ use opencv::imgcodecs::{imread, IMREAD_COLOR};
 use opencv::prelude::*;
 
 fn fixture() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/data/image_sim"))
+    dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim")
 }
 
 #[test]

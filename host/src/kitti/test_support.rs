@@ -78,7 +78,11 @@ pub fn kitti_root(test: &str) -> Option<PathBuf> {
     let root = std::env::var_os("DYNOTRAJ_KITTI")
         .map(PathBuf::from)
         .unwrap_or_else(|| {
-            PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/kitti"))
+            // Read at run time first: a reused test binary's compile-time value may name another
+            // checkout (see dynotraj_tests::manifest_dir).
+            std::env::var_os("CARGO_MANIFEST_DIR")
+                .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
+                .join("../../shared/kitti")
         });
     if root.join("tracking/training/label_02").is_dir() {
         Some(root)
