@@ -11,6 +11,7 @@
 //! - [`link`]: decoding and frame-part bookkeeping ([`EdgeLoop`]);
 //! - [`pipeline`]: the per-frame work ([`Edge`]);
 //! - [`model_load`]: a model blob over the link into a fixed buffer, checked by CRC;
+//! - [`provisioned`]: the Ed25519 key a model over the link must be signed with (build time);
 //! - [`session`]: one link session tying them together ([`Session::run`]).
 //!
 //! [`FrameTracks`]: dynotraj_core::wire::FrameTracks
@@ -23,6 +24,12 @@ pub mod history;
 pub mod link;
 pub mod model_load;
 pub mod pipeline;
+
+/// The build-time provisioning of this edge (edge/build.rs, `DYNOTRAJ_MODEL_PUBKEY`).
+pub mod provisioned {
+    include!(concat!(env!("OUT_DIR"), "/model_key.rs"));
+}
+
 pub mod session;
 pub mod transport;
 

@@ -1,9 +1,13 @@
 //! One session of the edge over a transport: the model load, then the stream of frames.
 
 use dynotraj_core::model::blob::{BlobError, ModelBlob};
+#[cfg(feature = "model-over-link")]
+use dynotraj_core::model::signed::{self, PublicKey};
+use dynotraj_core::model::signed::SignatureError;
 use dynotraj_core::wire::{FrameBuf, LinkStats, MAX_FRAME_LEN, Message, WireError, encode};
 
 use crate::link::EdgeLoop;
+#[cfg(feature = "model-over-link")]
 use crate::model_load::{ChunkOutcome, ModelLoader};
 use crate::pipeline::{EDGE_WINDOW, Edge};
 use crate::transport::{Clock, Transport};
@@ -21,8 +25,12 @@ pub enum ModelStatus {
         /// Blob length, bytes.
         len: u32,
     },
-    /// A model arrived complete with a good CRC but is not a valid blob for this build.
+    /// A model arrived complete with a good CRC and a good signature but is not a valid blob
+    /// for this build.
     Rejected(BlobError),
+    /// A model arrived complete with a good CRC but without a valid signature by the
+    /// provisioned key ([`crate::provisioned::MODEL_KEY`]); the previous model stays in use.
+    SignatureRejected(SignatureError),
 }
 
 /// Counters of the model load.
@@ -35,6 +43,11 @@ pub struct LoadStats {
     pub chunks_rejected: u32,
     /// Blobs whose bytes all arrived but whose CRC did not match.
     pub crc_mismatches: u32,
+    /// Complete blobs refused for carrying no signature trailer.
+    pub unsigned: u32,
+    /// Complete blobs refused because their signature does not verify under the provisioned
+    /// key (signed by another key, or changed after signing).
+    pub bad_signatures: u32,
 }
 
 /// Why [`Session::run`] stopped.
@@ -54,7 +67,11 @@ pub enum RunError<E> {
 pub struct Session<'m, const W: usize = EDGE_WINDOW> {
     link: EdgeLoop,
     edge: Edge<'m, W>,
+    #[cfg(feature = "model-over-link")]
     loader: Option<ModelLoader<'m>>,
+    /// The key a model over the link must be signed with.
+    #[cfg(feature = "model-over-link")]
+    model_key: PublicKey,
     model: ModelStatus,
     load: LoadStats,
     frames_sent: u32,
@@ -74,7 +91,10 @@ impl<'m, const W: usize> Session<'m, W> {
         Self {
             link: EdgeLoop::new(),
             edge: Edge::new(),
+            #[cfg(feature = "model-over-link")]
             loader: None,
+            #[cfg(feature = "model-over-link")]
+            model_key: crate::provisioned::MODEL_KEY,
             model: ModelStatus::None,
             load: LoadStats::default(),
             frames_sent: 0,
@@ -86,7 +106,11 @@ impl<'m, const W: usize> Session<'m, W> {
     pub fn reset(&mut self) {
         self.link = EdgeLoop::new();
         self.edge.reset();
-        self.loader = None;
+        #[cfg(feature = "model-over-link")]
+        {
+            self.loader = None;
+            self.model_key = crate::provisioned::MODEL_KEY;
+        }
         self.model = ModelStatus::None;
         self.load = LoadStats::default();
         self.frames_sent = 0;
@@ -100,15 +124,22 @@ impl<'m, const W: usize> Session<'m, W> {
     pub fn set_model(&mut self, blob: &'m [u8]) -> Result<(), BlobError> {
         self.edge.set_model(ModelBlob::parse(blob)?);
         self.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };
-        self.loader = None;
+        #[cfg(feature = "model-over-link")]
+        {
+            self.loader = None;
+        }
         Ok(())
     }
 
-    /// A session that loads a model sent over the link into `buf`.
+    /// A session that loads a model sent over the link into `buf` (room for the blob and its
+    /// [`signed::TRAILER_LEN`]-byte signature trailer) and accepts it only when it is signed
+    /// with `key` (normally [`crate::provisioned::MODEL_KEY`]).
+    #[cfg(feature = "model-over-link")]
     #[must_use]
-    pub fn with_model_buffer(buf: &'m mut [u8]) -> Self {
+    pub fn with_model_buffer(buf: &'m mut [u8], key: PublicKey) -> Self {
         let mut s = Self::new();
         s.loader = Some(ModelLoader::new(buf));
+        s.model_key = key;
         s
     }
 
@@ -164,12 +195,18 @@ impl<'m, const W: usize> Session<'m, W> {
     /// # Errors
     /// A transport failure, or a message that cannot be encoded.
     pub fn on_bytes<T: Transport, C: Clock>(&mut self, chunk: &[u8], io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
-        let Self { link, edge, loader, model, load, frames_sent, ended } = self;
+        #[cfg(feature = "model-over-link")]
+        let Self { link, edge, loader, model_key, model, load, frames_sent, ended } = self;
+        #[cfg(not(feature = "model-over-link"))]
+        let Self { link, edge, model: _, load, frames_sent, ended } = self;
         let lost = io.bytes_lost();
         let mut result = Ok(());
         let dropped = link.decoder_stats().bytes_discarded;
         link.on_bytes_with(chunk, |msg| {
             match &msg {
+                #[cfg(not(feature = "model-over-link"))]
+                Message::ModelChunk(_) => load.chunks_rejected += 1,
+                #[cfg(feature = "model-over-link")]
                 Message::ModelChunk(c) => match loader.as_mut() {
                     Some(l) if edge.stats().frames_estimated == 0 => match l.accept(c) {
                         ChunkOutcome::Stored => load.chunks_stored += 1,
@@ -177,14 +214,8 @@ impl<'m, const W: usize> Session<'m, W> {
                         ChunkOutcome::CrcMismatch => load.crc_mismatches += 1,
                         ChunkOutcome::Complete => {
                             load.chunks_stored += 1;
-                            if let Some(blob) = loader.take().and_then(ModelLoader::finish) {
-                                *model = match ModelBlob::parse(blob) {
-                                    Ok(b) => {
-                                        edge.set_model(b);
-                                        ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) }
-                                    }
-                                    Err(e) => ModelStatus::Rejected(e),
-                                };
+                            if let Some(bytes) = loader.take().and_then(ModelLoader::finish) {
+                                *model = accept_signed(bytes, model_key, load, edge);
                             }
                         }
                     },
@@ -224,6 +255,34 @@ impl<'m, const W: usize> Session<'m, W> {
         }
         let stats = self.link_stats();
         send(io, &mut self.frames_sent, &Message::LinkStats(stats))
+    }
+}
+
+/// The status after a complete, CRC-checked load of `bytes`: the signature by `key` first, then
+/// the blob; a refusal is counted in `load` and leaves `edge`'s model as it was. Never inlined:
+/// the verifier's large locals then live on the stack only while a model is checked, not in
+/// the frame that also runs every camera frame.
+#[cfg(feature = "model-over-link")]
+#[inline(never)]
+fn accept_signed<'m, const W: usize>(bytes: &'m [u8], key: &PublicKey, load: &mut LoadStats, edge: &mut Edge<'m, W>) -> ModelStatus {
+    let blob = match signed::verify(bytes, key) {
+        Ok(blob) => blob,
+        Err(e) => {
+            if e == SignatureError::Unsigned {
+                load.unsigned = load.unsigned.saturating_add(1);
+            } else {
+                load.bad_signatures = load.bad_signatures.saturating_add(1);
+            }
+            log::warn!("model: refused {e:?}");
+            return ModelStatus::SignatureRejected(e);
+        }
+    };
+    match ModelBlob::parse(blob) {
+        Ok(b) => {
+            edge.set_model(b);
+            ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) }
+        }
+        Err(e) => ModelStatus::Rejected(e),
     }
 }
 

@@ -6,6 +6,7 @@ pub mod frontend;
 pub mod image_sim_files;
 pub mod experiment;
 pub mod model_file;
+pub mod model_signing;
 pub mod scene;
 pub mod sequence;
 pub mod report;

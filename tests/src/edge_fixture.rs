@@ -97,14 +97,32 @@ impl Transport for MemLink<'_> {
 /// What the host build of the edge answers to `stream`, run in process (the reference).
 #[must_use]
 pub fn reference_replies(stream: &[u8], model: Option<&[u8]>) -> Vec<Message> {
+    run_in_process(stream, model).replies
+}
+
+/// An in-process session's answers and where its model load ended.
+#[derive(Debug)]
+pub struct InProcess {
+    /// Every message the edge sent.
+    pub replies: Vec<Message>,
+    /// The session's model at the end.
+    pub model: dynotraj_edge::ModelStatus,
+    /// The model load's counters.
+    pub load: dynotraj_edge::LoadStats,
+}
+
+/// Runs the host build of the edge in process on `stream`: with `model` linked in, or else
+/// loading one from the stream (signed by the provisioned key).
+#[must_use]
+pub fn run_in_process(stream: &[u8], model: Option<&[u8]>) -> InProcess {
     let mut buffer = vec![0u8; 512 * 1024];
     let mut session: Box<Session<'_>> = Box::new(match model {
         Some(blob) => Session::with_model(blob).unwrap(),
-        None => Session::with_model_buffer(&mut buffer),
+        None => Session::with_model_buffer(&mut buffer, dynotraj_edge::provisioned::MODEL_KEY),
     });
     let mut link = MemLink { input: stream, chunk: 256, output: Vec::new() };
     session.run(&mut link, &mut NoClock).unwrap();
-    decode_all(&link.output)
+    InProcess { replies: decode_all(&link.output), model: session.model(), load: session.load_stats() }
 }
 
 /// The estimates and forecasts among `replies`, each as its encoded frame: comparing these

@@ -11,12 +11,15 @@ use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::Message;
 use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
+use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_host::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
 
-fn run_over_tcp(model: Option<Vec<u8>>) {
+/// Streams the fixture over TCP with `sent` over the link and compares with the in-process
+/// edge that has `expected` linked in; returns the edge's stderr after its first line.
+fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> Vec<String> {
     let tracks = scene_tracks(10);
-    let reference = reference_replies(&encode_all(&host_messages(&tracks, model.as_deref())), model.as_deref());
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), expected);
     let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
     assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
 
@@ -25,7 +28,7 @@ fn run_over_tcp(model: Option<Vec<u8>>) {
     let first = lines.next().unwrap().unwrap();
     let addr = first.rsplit("tcp://").next().unwrap().to_string();
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10)).unwrap();
-    let opt = StreamOptions { lockstep: true, model: model.clone(), ..StreamOptions::default() };
+    let opt = StreamOptions { lockstep: true, model: sent, ..StreamOptions::default() };
     let result = stream(&tracks, rx, tx, &opt).unwrap();
     let rest: Vec<String> = lines.map_while(Result::ok).collect();
     assert!(edge.wait().unwrap().success(), "edge failed: {rest:?}");
@@ -34,10 +37,25 @@ fn run_over_tcp(model: Option<Vec<u8>>) {
     assert!(result.frames.iter().all(|f| f.stats.is_some_and(|s| s.frames_lost == 0)), "every frame answered, none lost");
     let link = result.edge_link.expect("edge goodbye");
     assert_eq!((link.received.frames_ok, link.received.frames_rejected()), (result.frames_sent, 0));
+    rest
+}
+
+/// Streams the fixture over TCP with `model` (a blob, signed with the development key before it
+/// is sent) and compares with the in-process edge that has the blob linked in.
+fn run_over_tcp(model: Option<Vec<u8>>) {
+    let signed = model.as_deref().map(|b| sign(b, &development_signing_key().unwrap()));
+    let rest = over_tcp(signed, model.as_deref());
     if let Some(m) = &model {
         let loaded = format!("model {} B", m.len());
         assert!(rest.iter().any(|l| l.contains(&loaded)), "edge reports the loaded model ({loaded}): {rest:?}");
     }
+}
+
+#[test]
+fn tcp_edge_refuses_an_unsigned_model_counts_it_and_forecasts_with_constant_velocity() {
+    let rest = over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)), None);
+    assert!(rest.iter().any(|l| l.contains("must be signed by key 46712c052d70bfea")), "edge names the key it trusts: {rest:?}");
+    assert!(rest.iter().any(|l| l.contains("model refused, signature: Unsigned (unsigned 1 bad signature 0)")), "{rest:?}");
 }
 
 #[test]

@@ -9,6 +9,9 @@ use std::path::{Path, PathBuf};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
+use dynotraj_core::model::signed;
+use dynotraj_edge::provisioned::MODEL_KEY;
+use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_core::model::infer::LearnedPredictor;
 use dynotraj_core::predict::Predictor;
 use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message};
@@ -19,8 +22,8 @@ use dynotraj_host::tracks_file::{self, TracksWriter};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.
-const TARGETS: [&str; 7] =
-    ["wire_decoder", "model_blob", "kitti_labels", "kitti_calib", "kitti_poses", "kitti_oxts", "tracks_file"];
+const TARGETS: [&str; 8] =
+    ["wire_decoder", "model_blob", "model_signature", "kitti_labels", "kitti_calib", "kitti_poses", "kitti_oxts", "tracks_file"];
 
 fn fuzz_dir() -> PathBuf {
     dynotraj_tests::manifest_dir().join("../fuzz")
@@ -57,6 +60,19 @@ fn run_target(target: &str, data: &[u8]) {
                 ];
                 let mut out = [Point2::default(); HORIZON];
                 let _ = p.predict(&history, dt, &mut out);
+            }
+        }
+        "model_signature" => {
+            let Some((&mode, data)) = data.split_first() else { return };
+            let mut data = data.to_vec();
+            if mode & 1 == 1
+                && let Some(at) = data.len().checked_sub(signed::TRAILER_LEN)
+            {
+                data[at..at + 4].copy_from_slice(&signed::SIGNATURE_MAGIC);
+                data[at + 4..at + 12].copy_from_slice(&signed::key_id(&MODEL_KEY));
+            }
+            if let Ok(blob) = signed::verify(&data, &MODEL_KEY) {
+                let _ = ModelBlob::parse(blob);
             }
         }
         "kitti_labels" => drop(text.map(|t| parse_labels(t, path))),
@@ -127,7 +143,11 @@ fn write_seeds(root: &Path) {
         write_blob(&dims, precision, 0.05, &slices, &mut blob).unwrap();
         // First byte: the target's mode (1 = repair the CRC).
         seed("model_blob", name, &[&[1u8][..], &blob].concat());
+        // Signed by the development key; mode 0 keeps the trailer as it is.
+        let signed_blob = sign(&blob, &development_signing_key().unwrap());
+        seed("model_signature", &format!("{name}_signed"), &[&[0u8][..], &signed_blob].concat());
     }
+    seed("model_signature", "unsigned_with_trailer", &[1u8; 120]);
     // KITTI text formats from a synthetic drive.
     let kitti = tmp.path().join("kitti");
     write_sequence(&kitti, "0000", &drive);

@@ -7,6 +7,7 @@ use dynotraj_core::geometry::Point2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
+use dynotraj_core::model::signed;
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, Prediction, encode};
 use proptest::prelude::*;
 
@@ -95,6 +96,22 @@ proptest! {
     #[test]
     fn any_bytes_are_refused_or_parsed_as_a_blob(bytes in prop::collection::vec(any::<u8>(), 0..4000)) {
         let _ = ModelBlob::parse(&bytes);
+    }
+
+    /// Arbitrary bytes, also ones ending in a well-formed trailer naming the trusted key, are
+    /// never accepted as signed and never panic the verifier.
+    #[test]
+    fn any_bytes_are_refused_by_the_signature_check(
+        mut bytes in prop::collection::vec(any::<u8>(), 0..600),
+        with_trailer in any::<bool>(),
+    ) {
+        let key = dynotraj_edge::provisioned::MODEL_KEY;
+        if with_trailer && bytes.len() >= signed::TRAILER_LEN {
+            let at = bytes.len() - signed::TRAILER_LEN;
+            bytes[at..at + 4].copy_from_slice(&signed::SIGNATURE_MAGIC);
+            bytes[at + 4..at + 12].copy_from_slice(&signed::key_id(&key));
+        }
+        prop_assert!(signed::verify(&bytes, &key).is_err());
     }
 }
 

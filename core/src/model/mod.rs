@@ -4,12 +4,14 @@
 //! - [`arch`]: the one architecture definition (sizes, feature definition, weight layout).
 //! - [`features`]: the input features, shared by training (host) and inference (ECU).
 //! - [`blob`]: the versioned, checksummed model image in f32 or int8, read in place.
+//! - [`signed`]: a blob with an Ed25519 signature trailer, checked against a provisioned key.
 
 pub mod arch;
 pub mod blob;
 pub mod features;
 pub mod infer;
 pub mod kernel;
+pub mod signed;
 mod lut;
 
 pub use arch::Dims;

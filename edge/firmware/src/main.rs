@@ -111,6 +111,7 @@ fn describe(m: ModelStatus) -> &'static str {
         ModelStatus::None => "none (constant velocity)",
         ModelStatus::Loaded { .. } => "linked in (int8)",
         ModelStatus::Rejected(_) => "rejected",
+        ModelStatus::SignatureRejected(_) => "refused (signature)",
     }
 }
 

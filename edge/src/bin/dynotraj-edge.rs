@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use clap::Parser;
 use dynotraj_core::wire::ComputeUnit;
+use dynotraj_edge::provisioned::{MODEL_KEY, MODEL_KEY_IS_DEVELOPMENT};
 use dynotraj_edge::{Clock, ModelStatus, Session, Transport};
 
 /// Bytes of the buffer a model sent over the link is loaded into (the default int8 model is
@@ -38,7 +39,10 @@ struct Args {
     /// Baud rate of --serial (ignored by pseudo-terminals).
     #[arg(long, default_value_t = 115_200)]
     baud: u32,
-    /// Forecast with this int8/f32 model blob instead of waiting for one over the link.
+    /// Forecast with this int8/f32 model blob (a file on the edge's own disk, trusted as a
+    /// model linked into firmware is) instead of waiting for one over the link. A model sent
+    /// over the link is accepted only when signed with the key provisioned at build time
+    /// (`DYNOTRAJ_MODEL_PUBKEY`; `dynotraj sign`).
     #[arg(long)]
     model: Option<PathBuf>,
 }
@@ -95,13 +99,23 @@ fn serve(args: &Args) -> Result<ExitCode, String> {
     let mut buffer = vec![0u8; MODEL_BUFFER_LEN];
     let mut session: Session<'_> = match model {
         Some(blob) => Session::with_model(blob).map_err(|e| format!("model blob: {e:?}"))?,
-        None => Session::with_model_buffer(&mut buffer),
+        None => Session::with_model_buffer(&mut buffer, MODEL_KEY),
+    };
+    // Said once the link is up (the first line stays the listening address, which callers
+    // read), and only when a model may come over the link.
+    let key_note = || {
+        if model.is_none() {
+            let id: String = MODEL_KEY.iter().take(8).map(|b| format!("{b:02x}")).collect();
+            let dev = if MODEL_KEY_IS_DEVELOPMENT { " (the repository's development key: its secret is public)" } else { "" };
+            eprintln!("dynotraj-edge: a model sent over the link must be signed by key {id}{dev}");
+        }
     };
     let mut clock = WallClock(Instant::now());
     let result = if let Some(url) = &args.listen {
         let stream = accept(url, args.allow_remote)?;
         let rx = stream.try_clone().map_err(|e| e.to_string())?;
         let _ = stream.set_nodelay(true);
+        key_note();
         session.run(&mut Io { rx, tx: stream }, &mut clock)
     } else if let Some(path) = &args.serial {
         let name = path.to_string_lossy();
@@ -110,8 +124,10 @@ fn serve(args: &Args) -> Result<ExitCode, String> {
             .open_native()
             .map_err(|e| format!("{name}: {e}"))?;
         let rx = port.try_clone_native().map_err(|e| format!("{name}: {e}"))?;
+        key_note();
         session.run(&mut Io { rx, tx: port }, &mut clock)
     } else {
+        key_note();
         session.run(&mut Io { rx: std::io::stdin().lock(), tx: std::io::stdout().lock() }, &mut clock)
     };
     report(&session);
@@ -143,14 +159,18 @@ fn report(session: &Session<'_>) {
         ModelStatus::None => "none (constant velocity)".to_string(),
         ModelStatus::Loaded { len } => format!("{len} B"),
         ModelStatus::Rejected(err) => format!("rejected: {err:?}"),
+        ModelStatus::SignatureRejected(err) => format!("refused, signature: {err:?}"),
     };
+    let ld = session.load_stats();
     eprintln!(
-        "dynotraj-edge: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | model {m} | msgs ok {} rejected {} | bytes dropped {}",
+        "dynotraj-edge: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | model {m} (unsigned {} bad signature {}) | msgs ok {} rejected {} | bytes dropped {}",
         e.frames_estimated,
         e.frames_lost,
         e.forecasts,
         e.forecasts_fallback,
         e.forecasts_failed,
+        ld.unsigned,
+        ld.bad_signatures,
         l.frames_ok,
         l.frames_rejected(),
         l.bytes_discarded

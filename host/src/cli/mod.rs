@@ -6,6 +6,7 @@ pub mod dataset;
 pub mod estimate;
 pub mod eval;
 pub mod experiment;
+pub mod sign;
 pub mod simulate;
 pub mod soak;
 pub mod track;
@@ -50,6 +51,12 @@ pub enum Command {
     /// A long stream into the host build of the edge over a link with random faults: losses
     /// counted, clean frames all answered, the edge's memory at start and end.
     Soak(soak::SoakArgs),
+    /// A new Ed25519 key pair for signing model blobs.
+    Keygen(sign::KeygenArgs),
+    /// Signs a model blob, as an edge requires of a model sent over its link.
+    Sign(sign::SignArgs),
+    /// Checks a signed model blob against a public key.
+    Verify(sign::VerifyArgs),
 }
 
 /// Runs the parsed command line.
@@ -68,5 +75,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Track(a) => track::run(&a),
         Command::Stream(a) => stream::run(&a),
         Command::Soak(a) => soak::run(&a),
+        Command::Keygen(a) => sign::keygen(&a),
+        Command::Sign(a) => sign::sign(&a),
+        Command::Verify(a) => sign::verify(&a),
     }
 }

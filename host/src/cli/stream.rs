@@ -43,7 +43,8 @@ pub struct StreamArgs {
     /// Send a frame only after the edge answered the previous one (no loss from overrun).
     #[arg(long)]
     pub lockstep: bool,
-    /// A model blob to load into the edge before the frames.
+    /// A signed model blob (`dynotraj sign`) to load into the edge before the frames; the edge
+    /// refuses, and counts, one not signed by the key it was built with.
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
     /// Write the forecasts as CSV: frame, object_id, step, x, y (world bird's-eye, metres).
@@ -67,6 +68,11 @@ pub struct StreamArgs {
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let tracks = load(args)?;
     let model = args.model.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--model {}", p.display()))).transpose()?;
+    if let (Some(bytes), Some(p)) = (&model, &args.model)
+        && let Err(e) = dynotraj_core::model::signed::split(bytes)
+    {
+        eprintln!("warning: --model {}: {}; the edge will refuse it", p.display(), crate::model_signing::describe(&e));
+    }
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
     let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
     let opt = StreamOptions { rate_hz: (rate > 0.0).then_some(rate), lockstep: args.lockstep, reply_timeout: timeout, model };

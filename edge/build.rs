@@ -1,0 +1,34 @@
+//! Provisions the edge with the Ed25519 public key it requires of a model sent over the link:
+//! the file named by `DYNOTRAJ_MODEL_PUBKEY` (64 hex digits, from `dynotraj keygen`), else the
+//! repository's development key (keys/README.md). Writes `$OUT_DIR/model_key.rs`.
+
+use std::path::PathBuf;
+
+fn main() {
+    println!("cargo:rerun-if-env-changed=DYNOTRAJ_MODEL_PUBKEY");
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
+    let dev = manifest.join("../keys/dev-model-signing.pub");
+    let (path, development) = match std::env::var_os("DYNOTRAJ_MODEL_PUBKEY") {
+        Some(p) if !p.is_empty() => (PathBuf::from(p), false),
+        _ => (dev, true),
+    };
+    println!("cargo:rerun-if-changed={}", path.display());
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| fail(&format!("DYNOTRAJ_MODEL_PUBKEY {}: {e}", path.display())));
+    let t = text.trim();
+    if t.len() != 64 || !t.bytes().all(|c| c.is_ascii_hexdigit()) {
+        fail(&format!("{}: expected one line of 64 hex digits (an Ed25519 public key from `dynotraj keygen`)", path.display()));
+    }
+    let bytes: Vec<String> = (0..32).map(|i| format!("0x{}", &t[2 * i..2 * i + 2])).collect();
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap_or_default()).join("model_key.rs");
+    let code = format!(
+        "/// The Ed25519 public key a model sent over the link must be signed with ({}).\npub const MODEL_KEY: dynotraj_core::model::signed::PublicKey = [{}];\n/// Whether [`MODEL_KEY`] is the repository's development key (whose secret is public).\npub const MODEL_KEY_IS_DEVELOPMENT: bool = {development};\n",
+        if development { "the repository's development key" } else { "provisioned by DYNOTRAJ_MODEL_PUBKEY" },
+        bytes.join(", ")
+    );
+    std::fs::write(&out, code).unwrap_or_else(|e| fail(&format!("{}: {e}", out.display())));
+}
+
+fn fail(msg: &str) -> ! {
+    eprintln!("error: {msg}");
+    std::process::exit(1)
+}
