@@ -72,8 +72,8 @@ pub fn fit_pose(
     if usize::from(best.1) < min_inliers {
         return Err(FitFailure::TooFewInliers);
     }
-    let pose = refine(corrs, best.0, fp, model);
-    let fit = information(corrs, &pose, fp, model).ok_or(FitFailure::Numerical)?;
+    let (pose, normal) = refine(corrs, best.0, fp, model);
+    let fit = information(&pose, &normal, fp).ok_or(FitFailure::Numerical)?;
     if usize::from(fit.inliers) < min_inliers {
         return Err(FitFailure::TooFewInliers);
     }
@@ -170,21 +170,19 @@ fn robust_weight(r: f32, k: f32, tau: f32) -> f32 {
     }
 }
 
-/// Total robust cost of a pose.
-fn total_cost(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> f32 {
-    corrs
-        .iter()
-        .map(|c| robust_cost(model.residual(m, c).map_or(f32::INFINITY, |r| r.norm()), fp.huber_px, fp.inlier_px))
-        .sum()
-}
-
-/// Levenberg-Marquardt on the truncated Huber cost from `m`, for a fixed number of iterations.
-fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointModel) -> Pose3 {
+/// Levenberg-Marquardt on the truncated Huber cost from `m`, for at most
+/// `fp.refine_iterations` iterations; returns the pose and its normal equations.
+///
+/// Each iteration costs one pass over the points: the candidate's residuals and Jacobians give
+/// both its cost (to accept or reject it) and, when accepted, the next system, and a rejected
+/// step keeps the current system (only the damping changes). The loop ends once an accepted
+/// step lowers the cost by less than [`COST_DONE`] of it: Gauss-Newton converges about
+/// quadratically there, so the steps left would move the pose by far less than its noise.
+fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointModel) -> (Pose3, Normal) {
     let mut lambda = LM_START;
-    let mut cost = total_cost(corrs, &m, fp, model);
+    let mut at_m = normal_equations(corrs, &m, fp, model);
     for _ in 0..fp.refine_iterations {
-        let (h, g, _, _) = normal_equations(corrs, &m, fp, model);
-        let mut damped = h;
+        let mut damped = at_m.h;
         for i in 0..6 {
             if let Some(d) = damped.get_mut((i, i)) {
                 *d += lambda * (*d).max(1e-6);
@@ -194,16 +192,20 @@ fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointM
             lambda = (lambda * 10.0).min(LM_MAX);
             continue;
         };
-        let step: Vector6<f32> = -chol.solve(&g);
+        let step: Vector6<f32> = -chol.solve(&at_m.g);
         if !step.iter().all(|v| v.is_finite()) {
             break;
         }
         let candidate = super::lie::normalised(m * se3_exp(&step));
-        let c = total_cost(corrs, &candidate, fp, model);
-        if c < cost {
+        let at_candidate = normal_equations(corrs, &candidate, fp, model);
+        if at_candidate.cost < at_m.cost {
+            let decrease = at_m.cost - at_candidate.cost;
             m = candidate;
-            cost = c;
+            at_m = at_candidate;
             lambda = (lambda * 0.1).max(LM_MIN);
+            if decrease <= COST_DONE * at_m.cost {
+                break;
+            }
         } else {
             lambda = (lambda * 10.0).min(LM_MAX);
         }
@@ -211,39 +213,65 @@ fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointM
             break;
         }
     }
-    m
+    (m, at_m)
 }
 
-/// Gauss-Newton normal equations at `m`: (J^T W J, J^T W r, sum w r^2, inliers).
-fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> (Mat6, Vector6<f32>, f32, u16) {
-    let mut h = Matrix6::zeros();
-    let mut g = Vector6::zeros();
-    let mut sq = 0.0;
-    let mut inliers = 0u16;
+/// An accepted step that lowers the cost by less than this share of it ends the refinement.
+const COST_DONE: f32 = 1e-3;
+
+/// Gauss-Newton normal equations at a pose, with its robust cost.
+#[derive(Debug, Clone, Copy)]
+struct Normal {
+    /// J^T W J.
+    h: Mat6,
+    /// J^T W r.
+    g: Vector6<f32>,
+    /// sum w r^2 over the inliers.
+    sq: f32,
+    /// Points with a non-zero weight.
+    inliers: u16,
+    /// Truncated Huber cost over every point (a point without a residual costs the maximum).
+    cost: f32,
+}
+
+/// The normal equations and robust cost at `m`. J^T W J is accumulated in its upper triangle
+/// (21 of 36 entries: it is symmetric) and mirrored once at the end.
+fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> Normal {
+    let mut n = Normal { h: Matrix6::zeros(), g: Vector6::zeros(), sq: 0.0, inliers: 0, cost: 0.0 };
+    let rot = m.rotation.to_rotation_matrix().into_inner();
+    let t = m.translation.vector;
     for c in corrs {
-        let Some((r, j)) = model.residual_and_jacobian(m, c) else { continue };
-        let w = robust_weight(r.norm(), fp.huber_px, fp.inlier_px);
+        let Some((r, [j0, j1, j2])) = model.linearise(&rot, &t, c) else {
+            n.cost += robust_cost(f32::INFINITY, fp.huber_px, fp.inlier_px);
+            continue;
+        };
+        let norm = r.norm();
+        n.cost += robust_cost(norm, fp.huber_px, fp.inlier_px);
+        let w = robust_weight(norm, fp.huber_px, fp.inlier_px);
         if w <= 0.0 {
             continue;
         }
-        h += j.transpose() * j * w;
-        g += j.transpose() * r * w;
-        sq += w * r.norm_squared();
-        inliers = inliers.saturating_add(1);
+        // Lower triangle only (symmetric rank-1 updates); mirrored once at the end.
+        n.h.syger(w, &j0, &j0, 1.0);
+        n.h.syger(w, &j1, &j1, 1.0);
+        n.h.syger(w, &j2, &j2, 1.0);
+        n.g += (j0 * r.x + j1 * r.y + j2 * r.z) * w;
+        n.sq += w * r.norm_squared();
+        n.inliers = n.inliers.saturating_add(1);
     }
-    (h, g, sq, inliers)
+    n.h.fill_upper_triangle_with_lower_triangle();
+    n
 }
 
 /// The fit's information: J^T W J over the inliers divided by the a-posteriori residual variance
 /// (floored at `min_sigma_px`), so that the information reflects the noise actually seen,
 /// including the source points' own depth noise.
-fn information(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> Option<Fit> {
-    let (h, _, sq, inliers) = normal_equations(corrs, m, fp, model);
-    let dof = (3 * usize::from(inliers)).saturating_sub(6).max(1) as f32;
-    let sigma = libm::sqrtf(sq / dof).max(fp.min_sigma_px);
-    let information = h / (sigma * sigma);
+fn information(m: &Pose3, n: &Normal, fp: &FitParams) -> Option<Fit> {
+    let dof = (3 * usize::from(n.inliers)).saturating_sub(6).max(1) as f32;
+    let sigma = libm::sqrtf(n.sq / dof).max(fp.min_sigma_px);
+    let information = n.h / (sigma * sigma);
     (pose_is_finite(m) && information.iter().all(|v| v.is_finite()) && sigma.is_finite())
-        .then_some(Fit { pose: *m, information, inliers, sigma_px: sigma })
+        .then_some(Fit { pose: *m, information, inliers: n.inliers, sigma_px: sigma })
 }
 
 #[cfg(test)]
