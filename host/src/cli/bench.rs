@@ -5,6 +5,7 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{blob_len, write_blob, Precision};
@@ -33,6 +34,10 @@ pub struct BenchArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
+    /// Also write each --dims set's seeded random int8 blob as DIR/random-ENC,EDGE,K,DEC.int8,
+    /// to link into the firmware (`DYNOTRAJ_FW_MODEL`) and count its instructions per frame.
+    #[arg(long, value_name = "DIR")]
+    pub write_blobs: Option<PathBuf>,
 }
 
 /// Parses `enc,edge,k,dec`.
@@ -111,6 +116,11 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
     } else {
         for d in args.dims.split(';') {
             let dims = parse_dims(d)?;
+            if let Some(dir) = &args.write_blobs {
+                std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+                let path = dir.join(format!("random-{},{},{},{}.int8", dims.enc, dims.edge, dims.k, dims.dec));
+                std::fs::write(&path, random_blob(&dims, Precision::Int8, dt)).with_context(|| format!("writing {}", path.display()))?;
+            }
             configs.push(("random weights".into(), dims, random_blob(&dims, Precision::F32, dt), random_blob(&dims, Precision::Int8, dt)));
         }
     }
