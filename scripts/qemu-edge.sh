@@ -22,9 +22,12 @@ while [ $# -gt 0 ]; do
     esac
 done
 [ -f "$elf" ] || { echo "$elf: no firmware; build it: bash scripts/build-firmware.sh" >&2; exit 2; }
+# DYNOTRAJ_QEMU_EXTRA adds QEMU options, e.g. "-d nochain,in_asm,exec -D FILE" to log every
+# executed block for scripts/profile-firmware.py.
 echo "qemu-edge: firmware $elf, UART0 on tcp://127.0.0.1:$port" >&2
 exec qemu-system-arm -cpu cortex-m4 -machine mps2-an386 -nographic -monitor none \
     -semihosting-config enable=on,target=native \
     -icount shift=0,align=off,sleep=off \
     -serial "tcp:127.0.0.1:$port,server=on,wait=on" \
+    ${DYNOTRAJ_QEMU_EXTRA:-} \
     -kernel "$elf"

@@ -245,9 +245,17 @@ fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: 
             n.cost += robust_cost(f32::INFINITY, fp.huber_px, fp.inlier_px);
             continue;
         };
-        let norm = r.norm();
-        n.cost += robust_cost(norm, fp.huber_px, fp.inlier_px);
-        let w = robust_weight(norm, fp.huber_px, fp.inlier_px);
+        // Inside the Huber kernel (most points) cost and weight need no square root, which the
+        // MCU computes in software.
+        let r2 = r.norm_squared();
+        let quadratic = fp.huber_px.min(fp.inlier_px);
+        let (cost, w) = if r2 <= quadratic * quadratic {
+            (0.5 * r2, 1.0)
+        } else {
+            let norm = libm::sqrtf(r2);
+            (robust_cost(norm, fp.huber_px, fp.inlier_px), robust_weight(norm, fp.huber_px, fp.inlier_px))
+        };
+        n.cost += cost;
         if w <= 0.0 {
             continue;
         }
@@ -256,7 +264,7 @@ fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: 
         n.h.syger(w, &j1, &j1, 1.0);
         n.h.syger(w, &j2, &j2, 1.0);
         n.g += (j0 * r.x + j1 * r.y + j2 * r.z) * w;
-        n.sq += w * r.norm_squared();
+        n.sq += w * r2;
         n.inliers = n.inliers.saturating_add(1);
     }
     n.h.fill_upper_triangle_with_lower_triangle();

@@ -9,6 +9,7 @@
 mod angle;
 mod bev;
 mod se3;
+pub mod trig;
 
 pub use angle::{angle_diff, wrap_angle};
 pub use bev::{bev_heading_of_rotation_y, bev_point, BevState, Point2};

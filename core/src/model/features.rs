@@ -29,7 +29,8 @@ impl AgentFrame {
     /// The frame at `origin` with its x axis along `heading`.
     #[must_use]
     pub fn new(origin: Point2, heading: f32) -> Self {
-        Self { origin, heading, cos: libm::cosf(heading), sin: libm::sinf(heading) }
+        let (sin, cos) = crate::geometry::trig::sin_cos(heading);
+        Self { origin, heading, cos, sin }
     }
 
     /// The frame's heading in the world, radians.

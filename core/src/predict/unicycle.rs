@@ -3,6 +3,7 @@
 //! Trajectron++ stores limits but never applies them; the paper applies |turn rate| <= 0.7 rad/s
 //! and |acceleration| <= 4 m/s^2, so every step here clamps its controls first.
 
+use crate::geometry::trig::sin_cos;
 use crate::geometry::{wrap_angle, BevState};
 use crate::limits::{MAX_ACCEL, MAX_TURN_RATE};
 
@@ -27,8 +28,8 @@ pub fn unicycle_step(s: &BevState, turn_rate: f32, accel: f32, dt: f32) -> BevSt
     let (phi, v) = (s.heading, s.speed);
     let phi1 = phi + w * dt;
     let (x, y) = if w.abs() > STRAIGHT_TURN_RATE {
-        let (s0, c0) = (libm::sinf(phi), libm::cosf(phi));
-        let (s1, c1) = (libm::sinf(phi1), libm::cosf(phi1));
+        let (s0, c0) = sin_cos(phi);
+        let (s1, c1) = sin_cos(phi1);
         (
             s.x + (a / (w * w)) * (c1 - c0) + (v / w) * (s1 - s0) + (a / w) * s1 * dt,
             s.y - (v / w) * (c1 - c0) + (a / (w * w)) * (s1 - s0) - (a / w) * c1 * dt,
@@ -38,7 +39,8 @@ pub fn unicycle_step(s: &BevState, turn_rate: f32, accel: f32, dt: f32) -> BevSt
         // branches meet at the threshold.
         let d = v * dt + 0.5 * a * dt * dt;
         let mid = phi + 0.5 * w * dt;
-        (s.x + d * libm::cosf(mid), s.y + d * libm::sinf(mid))
+        let (sm, cm) = sin_cos(mid);
+        (s.x + d * cm, s.y + d * sm)
     };
     BevState { x, y, heading: wrap_angle(phi1), speed: v + a * dt }
 }
