@@ -19,8 +19,9 @@ use crate::kitti::SequenceData;
 use crate::sequence::EstimateSettings;
 use crate::trajectory::EstimatedTracks;
 
-/// Version of what estimation computes; part of every key.
-pub const ESTIMATE_CACHE_VERSION: u32 = 1;
+/// Version of what estimation computes; part of every key. Bump it with every change to the
+/// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop, 2026-12-01).
+pub const ESTIMATE_CACHE_VERSION: u32 = 2;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
