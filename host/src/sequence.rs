@@ -7,7 +7,7 @@ use nalgebra::Point3;
 
 use crate::estimate::cache;
 use crate::estimate::evaluate::EvalOptions;
-use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images};
+use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
 use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{
     estimated_tracks, ground_truth_tracks, image_estimated_tracks, rendered_estimated_tracks, EstimatedTracks, LabelledObservation, OursInput, Source, Track,
@@ -89,36 +89,39 @@ pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&Est
     let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let mut seq = ground_truth_of(id, &data, dt);
     seq.estimated = match estimate {
-        Some(e) if has_images(dir.root(), id, data.frame_count) => {
-            log::info!("sequence {id}: estimating from its stereo images");
-            Some(image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?))
-        }
-        Some(e) => {
-            let key = e.cache.as_ref().map(|_| cache::estimate_key(id, &data, e)).transpose()?;
-            let cached = e.cache.as_deref().zip(key).and_then(|(dir, key)| cache::load(dir, id, key));
-            if cached.is_some() {
-                log::info!("sequence {id}: estimated tracks read from the cache");
-            }
-            let tracks = match cached {
-                Some(t) => t,
-                None => {
-                    let t = if e.input == OursInput::Rendered {
-                        let r = estimate_rendered(&data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
-                        rendered_estimated_tracks(&r)
-                    } else {
-                        estimated_tracks(id, &data, &e.options)
-                    };
-                    if let (Some(dir), Some(key)) = (&e.cache, key) {
-                        cache::store(dir, id, key, &t)?;
-                    }
-                    t
-                }
-            };
-            Some(tracks)
-        }
+        Some(e) => Some(estimated_cached(dir, id, &data, e)?),
         None => None,
     };
     Ok(seq)
+}
+
+/// The estimator's tracks of sequence `id` with settings `e`: from the cache when a file there
+/// has the key of these inputs, else computed (from the sequence's images where it has them all,
+/// else from the simulator or its rendering) and stored.
+fn estimated_cached(dir: &TrackingDir, id: &str, data: &SequenceData, e: &EstimateSettings) -> anyhow::Result<EstimatedTracks> {
+    let images = has_images(dir.root(), id, data.frame_count);
+    let key = match &e.cache {
+        Some(_) if images => Some(cache::image_estimate_key(id, data, e, &image_files(dir.root(), id, data.frame_count))?),
+        Some(_) => Some(cache::estimate_key(id, data, e)?),
+        None => None,
+    };
+    if let Some(t) = e.cache.as_deref().zip(key).and_then(|(dir, key)| cache::load(dir, id, key)) {
+        log::info!("sequence {id}: estimated tracks read from the cache");
+        return Ok(t);
+    }
+    let tracks = if images {
+        log::info!("sequence {id}: estimating from its stereo images");
+        image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?)
+    } else if e.input == OursInput::Rendered {
+        let r = estimate_rendered(data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
+        rendered_estimated_tracks(&r)
+    } else {
+        estimated_tracks(id, data, &e.options)
+    };
+    if let (Some(dir), Some(key)) = (&e.cache, key) {
+        cache::store(dir, id, key, &tracks)?;
+    }
+    Ok(tracks)
 }
 
 /// Builds ground-truth tracks from loaded sequence data.

@@ -136,3 +136,42 @@ fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     // Without every image the simulator drives the source instead.
     assert!(!dynotraj_host::estimate::from_images::has_images(&root, "0000", 25));
 }
+
+#[test]
+fn estimates_from_images_are_cached_under_a_key_that_covers_the_image_bytes() {
+    let fixture = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path().join("kitti");
+    copy_tree(&fixture, &root);
+    let cache = tmp.path().join("cache");
+    let mut settings = dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.1));
+    settings.cache = Some(cache.clone());
+    let load = || {
+        let dir = TrackingDir::open(&root).unwrap();
+        dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap().estimated.unwrap()
+    };
+    let first = load();
+    let files = || std::fs::read_dir(&cache).unwrap().count();
+    assert_eq!(files(), 1, "the estimate is stored");
+    let again = load();
+    assert_eq!(format!("{:?}", again.causal), format!("{:?}", first.causal), "read back as computed");
+    assert_eq!(files(), 1, "the second load hit the cache");
+    // A changed image (the right camera's last frame replaced by the one before it, still a
+    // valid picture) is a new key: computed again and stored beside the first entry.
+    std::fs::copy(root.join("image_03/0000/000022.png"), root.join("image_03/0000/000023.png")).unwrap();
+    let _ = load();
+    assert_eq!(files(), 2, "a changed image is not served from the old entry");
+}
+
+fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_tree(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).unwrap();
+        }
+    }
+}

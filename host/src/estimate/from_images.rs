@@ -34,6 +34,21 @@ pub fn has_images(dir: &Path, seq: &str, frames: usize) -> bool {
         })
 }
 
+/// Every file the image front-end reads for `seq` besides calibration and labels: the stereo
+/// pair of each frame and, where the folder has them, its instance masks (in frame order).
+#[must_use]
+pub fn image_files(dir: &Path, seq: &str, frames: usize) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for cam in ["image_02", "image_03", "instance_02"] {
+        let folder = dir.join(cam).join(seq);
+        if cam == "instance_02" && !folder.is_dir() {
+            continue;
+        }
+        out.extend((0..frames).map(|k| folder.join(format!("{k:06}.png"))));
+    }
+    out
+}
+
 /// Tracks the images of `seq` (stereo depth, masks from instance_02/ or the label boxes) and
 /// runs the estimator on them with `opt`'s window, priors and seed.
 ///
