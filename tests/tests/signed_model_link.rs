@@ -29,14 +29,29 @@ fn forecasts(r: &InProcess) -> usize {
     r.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count()
 }
 
+/// Whether this build trusts the repository's development key (no DYNOTRAJ_MODEL_PUBKEY at
+/// build time); the tests below sign with that key, so they skip, saying so, in a build
+/// provisioned with another.
+fn development_build() -> bool {
+    let dev = dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT;
+    if !dev {
+        eprintln!("SKIPPED: the edge was built with DYNOTRAJ_MODEL_PUBKEY; these tests sign with the development key");
+    }
+    dev
+}
+
 #[test]
 fn the_test_build_trusts_the_repository_development_key() {
-    assert_eq!(MODEL_KEY, development_public_key().unwrap(), "edge/build.rs provisions keys/dev-model-signing.pub unless told otherwise");
-    assert!(dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT);
+    if development_build() {
+        assert_eq!(MODEL_KEY, development_public_key().unwrap(), "edge/build.rs provisions keys/dev-model-signing.pub unless told otherwise");
+    }
 }
 
 #[test]
 fn a_model_signed_by_the_provisioned_key_is_loaded_and_used() {
+    if !development_build() {
+        return;
+    }
     let blob = blob();
     let signed = sign(&blob, &development_signing_key().unwrap());
     let got = streamed(Some(&signed));
@@ -75,6 +90,9 @@ fn a_model_signed_by_another_key_is_refused_and_counted() {
 
 #[test]
 fn a_model_changed_after_signing_is_refused_even_with_a_fresh_crc() {
+    if !development_build() {
+        return;
+    }
     // The link's CRC is computed by the sender over what it sends, so a changed weight arrives
     // with a matching CRC: only the signature catches it.
     let mut signed = sign(&blob(), &development_signing_key().unwrap());
@@ -85,6 +103,9 @@ fn a_model_changed_after_signing_is_refused_even_with_a_fresh_crc() {
 
 #[test]
 fn another_keys_signature_under_the_provisioned_key_id_is_refused() {
+    if !development_build() {
+        return;
+    }
     let blob = blob();
     let mut forged = sign(&blob, &development_signing_key().unwrap());
     let other = SigningKey::from_bytes(&[9u8; 32]);

@@ -75,7 +75,8 @@ mod tests {
             x += 0.000_731;
         }
         assert!(worst < 4e-7, "largest difference from libm {worst}");
-        for x in [0.0f32, -0.0, 1e-30, 1e-6, 0.785_398_2, 1.570_796_4, 3.141_592_7, 4000.3, -8191.9] {
+        use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+        for x in [0.0f32, -0.0, 1e-30, 1e-6, FRAC_PI_4, FRAC_PI_2, PI, 4000.3, -8191.9] {
             let (s, c) = sin_cos(x);
             let tol = 4e-7 + x.abs() * 2e-8;
             assert!((s - libm::sinf(x)).abs() < tol && (c - libm::cosf(x)).abs() < tol, "{x}: {s} {c}");
