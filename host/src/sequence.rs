@@ -73,7 +73,7 @@ impl EstimateSettings {
     /// The track-level simulator with `options`.
     #[must_use]
     pub fn tracks(options: EvalOptions) -> Self {
-        Self { options, input: OursInput::Tracks, render_scale: 0.5, cache: None }
+        Self { options, input: OursInput::Tracks, render_scale: 1.0, cache: None }
     }
 }
 
