@@ -67,11 +67,9 @@ pub enum RunError<E> {
 pub struct Session<'m, const W: usize = EDGE_WINDOW> {
     link: EdgeLoop,
     edge: Edge<'m, W>,
+    /// The loader of a model sent over the link, with the key it must be signed with.
     #[cfg(feature = "model-over-link")]
-    loader: Option<ModelLoader<'m>>,
-    /// The key a model over the link must be signed with.
-    #[cfg(feature = "model-over-link")]
-    model_key: PublicKey,
+    loader: Option<(ModelLoader<'m>, PublicKey)>,
     model: ModelStatus,
     load: LoadStats,
     frames_sent: u32,
@@ -93,8 +91,6 @@ impl<'m, const W: usize> Session<'m, W> {
             edge: Edge::new(),
             #[cfg(feature = "model-over-link")]
             loader: None,
-            #[cfg(feature = "model-over-link")]
-            model_key: crate::provisioned::MODEL_KEY,
             model: ModelStatus::None,
             load: LoadStats::default(),
             frames_sent: 0,
@@ -109,7 +105,6 @@ impl<'m, const W: usize> Session<'m, W> {
         #[cfg(feature = "model-over-link")]
         {
             self.loader = None;
-            self.model_key = crate::provisioned::MODEL_KEY;
         }
         self.model = ModelStatus::None;
         self.load = LoadStats::default();
@@ -138,8 +133,7 @@ impl<'m, const W: usize> Session<'m, W> {
     #[must_use]
     pub fn with_model_buffer(buf: &'m mut [u8], key: PublicKey) -> Self {
         let mut s = Self::new();
-        s.loader = Some(ModelLoader::new(buf));
-        s.model_key = key;
+        s.loader = Some((ModelLoader::new(buf), key));
         s
     }
 
@@ -195,10 +189,18 @@ impl<'m, const W: usize> Session<'m, W> {
     /// # Errors
     /// A transport failure, or a message that cannot be encoded.
     pub fn on_bytes<T: Transport, C: Clock>(&mut self, chunk: &[u8], io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
-        #[cfg(feature = "model-over-link")]
-        let Self { link, edge, loader, model_key, model, load, frames_sent, ended } = self;
-        #[cfg(not(feature = "model-over-link"))]
-        let Self { link, edge, model: _, load, frames_sent, ended } = self;
+        let Self {
+            link,
+            edge,
+            #[cfg(feature = "model-over-link")]
+            loader,
+            #[cfg(feature = "model-over-link")]
+            model,
+            load,
+            frames_sent,
+            ended,
+            ..
+        } = self;
         let lost = io.bytes_lost();
         let mut result = Ok(());
         let dropped = link.decoder_stats().bytes_discarded;
@@ -208,14 +210,16 @@ impl<'m, const W: usize> Session<'m, W> {
                 Message::ModelChunk(_) => load.chunks_rejected += 1,
                 #[cfg(feature = "model-over-link")]
                 Message::ModelChunk(c) => match loader.as_mut() {
-                    Some(l) if edge.stats().frames_estimated == 0 => match l.accept(c) {
+                    Some((l, _)) if edge.stats().frames_estimated == 0 => match l.accept(c) {
                         ChunkOutcome::Stored => load.chunks_stored += 1,
                         ChunkOutcome::Rejected => load.chunks_rejected += 1,
                         ChunkOutcome::CrcMismatch => load.crc_mismatches += 1,
                         ChunkOutcome::Complete => {
                             load.chunks_stored += 1;
-                            if let Some(bytes) = loader.take().and_then(ModelLoader::finish) {
-                                *model = accept_signed(bytes, model_key, load, edge);
+                            if let Some((l, key)) = loader.take()
+                                && let Some(bytes) = l.finish()
+                            {
+                                *model = accept_signed(bytes, &key, load, edge);
                             }
                         }
                     },

@@ -234,21 +234,21 @@ struct Normal {
     cost: f32,
 }
 
-/// The normal equations and robust cost at `m`. J^T W J is accumulated in its upper triangle
-/// (21 of 36 entries: it is symmetric) and mirrored once at the end.
+/// The normal equations and robust cost at `m`. J^T W J is accumulated in its lower triangle by
+/// symmetric rank-1 updates (it is symmetric) and mirrored once at the end.
 fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: &PointModel) -> Normal {
     let mut n = Normal { h: Matrix6::zeros(), g: Vector6::zeros(), sq: 0.0, inliers: 0, cost: 0.0 };
     let rot = m.rotation.to_rotation_matrix().into_inner();
     let t = m.translation.vector;
+    // Inside the Huber kernel (most points) cost and weight need no square root, which the MCU
+    // computes in software.
+    let quadratic = fp.huber_px.min(fp.inlier_px);
     for c in corrs {
         let Some((r, [j0, j1, j2])) = model.linearise(&rot, &t, c) else {
             n.cost += robust_cost(f32::INFINITY, fp.huber_px, fp.inlier_px);
             continue;
         };
-        // Inside the Huber kernel (most points) cost and weight need no square root, which the
-        // MCU computes in software.
         let r2 = r.norm_squared();
-        let quadratic = fp.huber_px.min(fp.inlier_px);
         let (cost, w) = if r2 <= quadratic * quadratic {
             (0.5 * r2, 1.0)
         } else {
@@ -259,7 +259,6 @@ fn normal_equations(corrs: &[Correspondence], m: &Pose3, fp: &FitParams, model: 
         if w <= 0.0 {
             continue;
         }
-        // Lower triangle only (symmetric rank-1 updates); mirrored once at the end.
         n.h.syger(w, &j0, &j0, 1.0);
         n.h.syger(w, &j1, &j1, 1.0);
         n.h.syger(w, &j2, &j2, 1.0);

@@ -49,18 +49,6 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
     }
 }
 
-/// sin x.
-#[must_use]
-pub fn sin(x: f32) -> f32 {
-    sin_cos(x).0
-}
-
-/// cos x.
-#[must_use]
-pub fn cos(x: f32) -> f32 {
-    sin_cos(x).1
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

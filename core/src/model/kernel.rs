@@ -115,22 +115,17 @@ fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) 
 /// firmware builds with overflow checks) cost a compare and a branch per product on the MCU
 /// (measured: about 8 instructions per multiply-accumulate before, see docs/results.md).
 fn dot_i8(w: &[u8], x: &[i8]) -> i32 {
-    let quad = |a: [u8; 4], b: [i8; 4]| {
-        let p = |i: usize| i32::from(a.get(i).copied().unwrap_or(0) as i8).wrapping_mul(i32::from(b.get(i).copied().unwrap_or(0)));
-        p(0).wrapping_add(p(1)).wrapping_add(p(2)).wrapping_add(p(3))
-    };
-    let (wq, wr) = (w.chunks_exact(4), w.chunks_exact(4).remainder());
-    let (xc, xr) = (x.chunks_exact(4), x.chunks_exact(4).remainder());
-    let mut acc = 0i32;
-    for (a, b) in wq.zip(xc) {
-        if let (Ok(a), Ok(b)) = (<[u8; 4]>::try_from(a), <[i8; 4]>::try_from(b)) {
-            acc = acc.wrapping_add(quad(a, b));
-        }
-    }
-    for (&a, &b) in wr.iter().zip(xr) {
-        acc = acc.wrapping_add(i32::from(a as i8).wrapping_mul(i32::from(b)));
-    }
-    acc
+    let product = |a: u8, b: i8| i32::from(a as i8).wrapping_mul(i32::from(b));
+    let (wq, xq) = (w.chunks_exact(4), x.chunks_exact(4));
+    let tail = wq.remainder().iter().zip(xq.remainder()).fold(0i32, |acc, (&a, &b)| acc.wrapping_add(product(a, b)));
+    wq.zip(xq).fold(tail, |acc, (a, b)| match (a, b) {
+        ([a0, a1, a2, a3], [b0, b1, b2, b3]) => acc
+            .wrapping_add(product(*a0, *b0))
+            .wrapping_add(product(*a1, *b1))
+            .wrapping_add(product(*a2, *b2))
+            .wrapping_add(product(*a3, *b3)),
+        _ => acc,
+    })
 }
 
 /// Symmetric per-vector int8 quantisation of `x` into `q`; returns the scale (x ~ q * scale).
