@@ -2,10 +2,11 @@
 """Instructions per function of the firmware from a QEMU block log.
 
 Run the firmware with DYNOTRAJ_QEMU_EXTRA="-d nochain,in_asm,exec -D LOG" (scripts/qemu-edge.sh),
-then: scripts/profile-firmware.py LOG ELF [TOP]. Each translated block's guest instructions come
+then: scripts/profile-firmware.py LOG ELF [TOP] [--blocks NAME]. Each translated block's guest instructions come
 from the in_asm part of the log, its executions from the exec part (chaining off, so every
 execution is logged); symbols from llvm-nm. Prints executed instructions per function, largest
-first. A profile, not a benchmark: the instruction totals match QEMU's -icount count.
+first; with --blocks, the blocks of the functions whose names contain NAME, by start address
+(to read beside `llvm-objdump -d`). A profile, not a benchmark: the instruction totals match QEMU's -icount count.
 """
 import collections, re, subprocess, sys, bisect, glob, os
 
@@ -21,8 +22,14 @@ def symbols(elf):
     return syms
 
 def main():
-    log, elf = sys.argv[1], sys.argv[2]
-    top = int(sys.argv[3]) if len(sys.argv) > 3 else 30
+    args = sys.argv[1:]
+    blocks_of = None
+    if "--blocks" in args:
+        i = args.index("--blocks")
+        blocks_of = args[i + 1]
+        del args[i:i + 2]
+    log, elf = args[0], args[1]
+    top = int(args[2]) if len(args) > 2 else 30
     length = {}        # block start pc -> guest instructions
     execs = collections.Counter()
     current, count = None, 0
@@ -49,6 +56,7 @@ def main():
     syms = symbols(elf)
     starts = [s[0] for s in syms]
     per_fn = collections.Counter()
+    per_block = collections.Counter()
     total = 0
     for pc, n in execs.items():
         k = length.get(pc, 0) * n
@@ -56,8 +64,14 @@ def main():
         i = bisect.bisect_right(starts, pc) - 1
         name = syms[i][2] if i >= 0 and pc < syms[i][0] + max(syms[i][1], 1) else hex(pc)
         per_fn[re.sub(r"::h[0-9a-f]{16}$", "", name)] += k
+        if blocks_of is not None and blocks_of in name:
+            per_block[(pc, length.get(pc, 0), n)] += k
     print(f"{total:,} instructions executed")
     for name, k in per_fn.most_common(top):
         print(f"{k:>14,} {100 * k / max(total, 1):5.1f}%  {name}")
+    if blocks_of is not None:
+        print(f"blocks of *{blocks_of}*: start, instructions, executions")
+        for (pc, length_, n), k in per_block.most_common(top):
+            print(f"{k:>14,} {100 * k / max(total, 1):5.1f}%  {pc:#x} {length_:>4} x {n:,}")
 
 main()

@@ -113,15 +113,22 @@ fn lstm_step(k: &Kernel<'_>, tensors: [usize; 4], input: &[f32], w: usize, s: &m
     let gh = s.gates_h.get_mut(..4 * w).ok_or(ShapeError)?;
     k.affine(w_hh, Some(b_hh), s.h.get(..w).ok_or(ShapeError)?, gh)?;
     let (h, c) = (s.h.get_mut(..w).ok_or(ShapeError)?, s.c.get_mut(..w).ok_or(ShapeError)?);
-    for j in 0..w {
-        let g = |q: usize| s.gates_x.get(q * w + j).copied().unwrap_or(0.0) + s.gates_h.get(q * w + j).copied().unwrap_or(0.0);
-        let (i, f, gg, o) = (k.sigmoid(g(0)), k.sigmoid(g(1)), k.tanh(g(2)), k.sigmoid(g(3)));
-        if let (Some(hj), Some(cj)) = (h.get_mut(j), c.get_mut(j)) {
-            *cj = f * *cj + i * gg;
-            *hj = o * k.tanh(*cj);
-        }
+    let gates = |g, q| gate(g, q, w);
+    let (gx, gh) = (&*s.gates_x, &*s.gates_h);
+    let (xi, xf, xg, xo) = (gates(gx, 0)?, gates(gx, 1)?, gates(gx, 2)?, gates(gx, 3)?);
+    let (hi, hf, hg, ho) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?, gates(gh, 3)?);
+    for (j, (hj, cj)) in h.iter_mut().zip(c.iter_mut()).enumerate() {
+        let at = |a: &[f32], b: &[f32]| a.get(j).copied().unwrap_or(0.0) + b.get(j).copied().unwrap_or(0.0);
+        let (i, f, gg, o) = (k.sigmoid(at(xi, hi)), k.sigmoid(at(xf, hf)), k.tanh(at(xg, hg)), k.sigmoid(at(xo, ho)));
+        *cj = f * *cj + i * gg;
+        *hj = o * k.tanh(*cj);
     }
     Ok(())
+}
+
+/// Gate `q` of width `w` in a vector of stacked gates.
+fn gate(g: &[f32], q: usize, w: usize) -> Result<&[f32], ShapeError> {
+    g.get(q * w..(q + 1) * w).ok_or(ShapeError)
 }
 
 /// Borrowed LSTM working state.
@@ -207,15 +214,17 @@ fn gru_step(k: &Kernel<'_>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(
     k.affine_columns(t::GRU_W_IH, 0, None, u, gx, false)?;
     let gh = s.gates_h.get_mut(..3 * w).ok_or(ShapeError)?;
     k.affine(t::GRU_W_HH, Some(t::GRU_B_HH), s.h.get(..w).ok_or(ShapeError)?, gh)?;
-    for j in 0..w {
-        let gx = |q: usize| s.gates_x.get(q * w + j).copied().unwrap_or(0.0);
-        let gh = |q: usize| s.gates_h.get(q * w + j).copied().unwrap_or(0.0);
-        let r = k.sigmoid(gx(0) + gh(0));
-        let z = k.sigmoid(gx(1) + gh(1));
-        let nn = k.tanh(gx(2) + r * gh(2));
-        if let Some(hj) = s.h.get_mut(j) {
-            *hj = (1.0 - z) * nn + z * *hj;
-        }
+    let gates = |g, q| gate(g, q, w);
+    let (gx, gh) = (&s.gates_x, &s.gates_h);
+    let (xr, xz, xn) = (gates(gx, 0)?, gates(gx, 1)?, gates(gx, 2)?);
+    let (hr, hz, hn) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?);
+    let h = s.h.get_mut(..w).ok_or(ShapeError)?;
+    for (j, hj) in h.iter_mut().enumerate() {
+        let at = |g: &[f32]| g.get(j).copied().unwrap_or(0.0);
+        let r = k.sigmoid(at(xr) + at(hr));
+        let z = k.sigmoid(at(xz) + at(hz));
+        let nn = k.tanh(at(xn) + r * at(hn));
+        *hj = (1.0 - z) * nn + z * *hj;
     }
     Ok(())
 }

@@ -9,6 +9,14 @@ use super::lut::{sigmoid_lut, tanh_lut};
 /// Longest input of any affine map: the decoder GRU's [u_prev (2), z (k), x (cond)].
 pub const MAX_AFFINE_IN: usize = 2 + MAX_K + 2 * MAX_DEC;
 
+/// Inputs shorter than this are multiplied in f32 with dequantised int8 weights instead of
+/// being quantised (the decoder's two control columns).
+const NARROW_IN: usize = 4;
+/// Rows multiplied together: each activation is loaded once for four rows of weights, and the
+/// per-row setup is shared (on the MCU the products then cost about 2.5 instructions each
+/// instead of 3.5, and the setup had been about 60 instructions per row).
+const ROW_BLOCK: usize = 4;
+
 /// Why an affine map could not be applied: a shape the blob does not have (a bug, not an input
 /// error: blobs are validated on load). Callers turn it into a refused forecast.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -60,16 +68,7 @@ impl<'a> Kernel<'a> {
             }
             TensorView::Int8 { rows, cols, scales, data } => {
                 check(rows, cols, &cols_used, out)?;
-                let mut xq = [0i8; MAX_AFFINE_IN];
-                let sx = quantise(x, &mut xq);
-                let xq = xq.get(..x.len()).ok_or(ShapeError)?;
-                for (r, (o, row)) in out.iter_mut().zip(data.chunks_exact(cols)).enumerate() {
-                    let part = row.get(cols_used.clone()).ok_or(ShapeError)?;
-                    let acc = dot_i8(part, xq);
-                    // |acc| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
-                    let dot = acc as f32 * f32_at(scales, r) * sx;
-                    *o = if overwrite { dot } else { *o + dot };
-                }
+                affine_int8(Int8Rows { cols, scales, data }, cols_used, x, out, overwrite)?;
             }
         }
         if let Some(b) = b {
@@ -104,6 +103,67 @@ impl<'a> Kernel<'a> {
     }
 }
 
+/// An int8 tensor's rows: `rows * cols` weights and a little-endian f32 scale per row.
+struct Int8Rows<'a> {
+    cols: usize,
+    scales: &'a [u8],
+    data: &'a [u8],
+}
+
+/// `out (+)= W[:, used] x` for an int8 tensor whose shape [`check`] has accepted.
+///
+/// Rows go four at a time through [`dot4_i8`]; rows and scales are walked by iterators so that
+/// the MCU computes no checked index products per row (with the firmware's overflow checks,
+/// the per-row setup had cost more than the products of a 16-wide row).
+fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], out: &mut [f32], overwrite: bool) -> Result<(), ShapeError> {
+    let Int8Rows { cols, scales, data } = t;
+    if cols == 0 {
+        return Err(ShapeError);
+    }
+    let (first, end) = (used.start, used.end);
+    if x.len() < NARROW_IN {
+        // A quantisation step costs more than these few products: multiply in f32 with the
+        // dequantised weights.
+        for ((row, scale), o) in data.chunks_exact(cols).zip(scales.chunks_exact(4)).zip(out.iter_mut()) {
+            let part = row.get(first..end).ok_or(ShapeError)?;
+            let dot = part.iter().zip(x).fold(0.0f32, |acc, (&w, xi)| acc + f32::from(w as i8) * xi) * le_f32(scale);
+            *o = if overwrite { dot } else { *o + dot };
+        }
+        return Ok(());
+    }
+    let mut xq = [0i8; MAX_AFFINE_IN];
+    let sx = quantise(x, &mut xq);
+    let xq = xq.get(..x.len()).ok_or(ShapeError)?;
+    // |acc| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
+    let store = |o: &mut f32, acc: i32, scale: &[u8]| {
+        let dot = acc as f32 * (le_f32(scale) * sx);
+        *o = if overwrite { dot } else { *o + dot };
+    };
+    let blocked = out.len() - out.len() % ROW_BLOCK;
+    let (out_blocked, out_rest) = out.split_at_mut(blocked);
+    let (rows_blocked, rows_rest) = data.split_at_checked(blocked * cols).ok_or(ShapeError)?;
+    let (scales_blocked, scales_rest) = scales.split_at_checked(4 * blocked).ok_or(ShapeError)?;
+    let blocks = rows_blocked.chunks_exact(ROW_BLOCK * cols).zip(scales_blocked.chunks_exact(4 * ROW_BLOCK)).zip(out_blocked.chunks_exact_mut(ROW_BLOCK));
+    for ((w, scale), o) in blocks {
+        let mut rows = w.chunks_exact(cols);
+        let mut row = || rows.next().and_then(|r| r.get(first..end)).ok_or(ShapeError);
+        let acc = dot4_i8([row()?, row()?, row()?, row()?], xq);
+        for ((o, a), s) in o.iter_mut().zip(acc).zip(scale.chunks_exact(4)) {
+            store(o, a, s);
+        }
+    }
+    for ((row, s), o) in rows_rest.chunks_exact(cols).zip(scales_rest.chunks_exact(4)).zip(out_rest) {
+        store(o, dot_i8(row.get(first..end).ok_or(ShapeError)?, xq), s);
+    }
+    Ok(())
+}
+
+/// The little-endian f32 in a 4-byte chunk (0 for another length, which `chunks_exact(4)`
+/// never yields).
+fn le_f32(b: &[u8]) -> f32 {
+    if let [a, b, c, d] = *b { f32::from_le_bytes([a, b, c, d]) } else { 0.0 }
+}
+
 fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) -> Result<(), ShapeError> {
     if used.end <= cols && out.len() == rows && used.len() <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
 }
@@ -128,23 +188,38 @@ fn dot_i8(w: &[u8], x: &[i8]) -> i32 {
     })
 }
 
-/// Symmetric per-vector int8 quantisation of `x` into `q`; returns the scale (x ~ q * scale).
-/// Rounds half away from zero as `libm::roundf` does (adding +-(0.5 - EPSILON / 4), so that a
-/// value just below a half does not round up, then truncating), but with the hardware
-/// float-to-int conversion and a multiply instead of a division per element: the division and
-/// the software `roundf` were most of the quantisation's cost on the MCU.
+/// The dot products of four rows of int8 weights, each as long as `x`, with the int8
+/// activations `x` (each activation loaded once for the four rows).
+fn dot4_i8(w: [&[u8]; 4], x: &[i8]) -> [i32; 4] {
+    let [w0, w1, w2, w3] = w;
+    // Wrapping: see dot_i8.
+    let mac = |acc: i32, w: u8, xi: i32| acc.wrapping_add(i32::from(w as i8).wrapping_mul(xi));
+    x.iter().zip(w0).zip(w1).zip(w2).zip(w3).fold([0i32; 4], |[a0, a1, a2, a3], ((((&xi, &b0), &b1), &b2), &b3)| {
+        let xi = i32::from(xi);
+        [mac(a0, b0, xi), mac(a1, b1, xi), mac(a2, b2, xi), mac(a3, b3, xi)]
+    })
+}
+
+/// Symmetric per-vector int8 quantisation of `x` into `q`; returns the
+/// scale (x ~ q * scale). A vector holding a NaN or an infinity quantises to zeros.
+///
+/// Written for the MCU: the largest magnitude from the bit patterns (for floats that are not
+/// NaN, the order of |x| is the order of their bits without the sign; libm's `fmaxf` was a call
+/// per element), a multiply by the reciprocal instead of a division per element, and rounding
+/// to nearest, ties to even, by adding and subtracting 1.5 * 2^23 (exact IEEE arithmetic, the
+/// same on the host and the MCU, where a software `roundf` was most of the cost); the float to
+/// integer conversion cannot saturate as |x * 127 / max| <= 127.
 fn quantise(x: &[f32], q: &mut [i8; MAX_AFFINE_IN]) -> f32 {
-    let max = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    if !(max > 0.0 && max.is_finite()) {
+    const ROUND: f32 = 12_582_912.0;
+    let max_bits = x.iter().fold(0u32, |m, v| m.max(v.to_bits() & 0x7fff_ffff));
+    if max_bits == 0 || max_bits >= f32::INFINITY.to_bits() {
         q.fill(0);
         return 0.0;
     }
-    let s = max / 127.0;
+    let max = f32::from_bits(max_bits);
     let inv = 127.0 / max;
     for (d, v) in q.iter_mut().zip(x) {
-        let y = v * inv;
-        // |y| <= 127 (to rounding) by construction; the float-to-int cast saturates anyway.
-        *d = (y + (0.5 - 0.25 * f32::EPSILON).copysign(y)) as i8;
+        *d = ((v * inv + ROUND) - ROUND) as i32 as i8;
     }
-    s
+    max / 127.0
 }
