@@ -13,4 +13,4 @@ pub mod trig;
 
 pub use angle::{angle_diff, wrap_angle};
 pub use bev::{bev_heading_of_rotation_y, bev_point, BevState, Point2};
-pub use se3::{rotation_angle, se2_of_bev, se3_exp, se3_log, Pose3};
+pub use se3::{rotation_angle, rotation_of_scaled_axis, se2_of_bev, se3_exp, se3_log, Pose3};

@@ -149,25 +149,33 @@ pub fn initial_control(current_row: &[f32; FEATURES]) -> [f32; 2] {
 /// closest [`MAX_NEIGHBOURS`] of them. Returns how many were summed.
 pub fn neighbour_sum(neighbours: &[&[BevState]], frame: &AgentFrame, n: usize, dt: f32, out: &mut StepFeatures) -> usize {
     *out = [[0.0; FEATURES]; MAX_STEPS];
-    // Pick the closest neighbours without allocating: repeatedly take the nearest not yet chosen.
-    let mut chosen: [Option<usize>; MAX_NEIGHBOURS] = [None; MAX_NEIGHBOURS];
-    let dist = |h: &[BevState]| h.last().map(|s| frame.to_agent(&s.position())).map(|p| libm::hypotf(p.x, p.y));
+    // The closest neighbours in one pass, without allocating: `chosen[..count]` stays sorted by
+    // squared distance (earlier index first among equals), each distance computed once.
+    let mut chosen: [(usize, f32); MAX_NEIGHBOURS] = [(usize::MAX, f32::INFINITY); MAX_NEIGHBOURS];
     let mut count = 0;
-    for slot in 0..MAX_NEIGHBOURS {
-        let mut best: Option<(usize, f32)> = None;
-        for (j, h) in neighbours.iter().enumerate() {
-            let taken = chosen.contains(&Some(j));
-            match dist(h) {
-                Some(d) if d <= NEIGHBOUR_RADIUS_M && !taken && best.is_none_or(|(_, bd)| d < bd) => best = Some((j, d)),
-                _ => {}
-            }
+    for (j, h) in neighbours.iter().enumerate() {
+        let Some(p) = h.last().map(|s| frame.to_agent(&s.position())) else { continue };
+        let d2 = p.x * p.x + p.y * p.y;
+        // Also refuses NaN.
+        if !(d2 <= NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M) {
+            continue;
         }
-        let (Some((j, _)), Some(c)) = (best, chosen.get_mut(slot)) else { break };
-        *c = Some(j);
-        count += 1;
+        let at = chosen.get(..count).unwrap_or(&[]).iter().position(|&(_, c)| d2 < c).unwrap_or(count);
+        let last = count.min(MAX_NEIGHBOURS - 1);
+        // Empty when the list is full and this one is the farthest (rotating an empty slice
+        // would panic).
+        if let Some(tail @ [_, ..]) = chosen.get_mut(at..=last) {
+            // The farthest falls off the end when the list is full.
+            tail.rotate_right(1);
+            if let Some(first) = tail.first_mut() {
+                *first = (j, d2);
+            }
+            count = (count + 1).min(MAX_NEIGHBOURS);
+        }
     }
+    let chosen = chosen.get(..count).unwrap_or(&[]);
     let mut rows: StepFeatures = [[0.0; FEATURES]; MAX_STEPS];
-    for j in chosen.iter().flatten() {
+    for (j, _) in chosen {
         let Some(h) = neighbours.get(*j) else { continue };
         let m = state_features(h, frame, dt, &mut rows);
         // Align the newest rows: neighbour row m-1 adds to agent row n-1.
@@ -221,5 +229,26 @@ mod tests {
         assert_eq!(neighbour_sum(&hs, &frame, 3, 0.1, &mut out), 1);
         assert_eq!(out[0], [0.0; FEATURES], "a shorter neighbour history leaves the oldest row empty");
         assert!((out[2][0] - 4.0 / POS_SCALE).abs() < 1e-6 && (out[2][1] - 2.0 / POS_SCALE).abs() < 1e-6);
+    }
+
+    #[test]
+    fn only_the_closest_neighbours_within_the_radius_count() {
+        let own = [st(0.0, 0.0, 0.0), st(1.0, 0.0, 0.0)];
+        let frame = AgentFrame::of(&own[1]);
+        // 24 neighbours at distances 1, 2.5, 4, ... (shuffled): more within the radius than are
+        // summed, the farthest beyond it.
+        let order = [7usize, 19, 2, 11, 23, 0, 14, 5, 9, 21, 3, 16, 12, 1, 22, 8, 18, 4, 13, 20, 6, 10, 17, 15];
+        let hists: [[BevState; 2]; 24] = core::array::from_fn(|i| {
+            let d = 1.0 + 1.5 * order[i] as f32;
+            [st(1.0 + d, 0.5, 0.0), st(1.0 + d, 0.0, 0.0)]
+        });
+        let refs: [&[BevState]; 24] = core::array::from_fn(|i| &hists[i][..]);
+        let mut out = [[0.0; FEATURES]; MAX_STEPS];
+        let within = (0..24).filter(|&k| 1.0 + 1.5 * k as f32 <= NEIGHBOUR_RADIUS_M).count();
+        assert!(within > MAX_NEIGHBOURS);
+        assert_eq!(neighbour_sum(&refs, &frame, 2, 0.1, &mut out), within.min(MAX_NEIGHBOURS));
+        // The newest rows' x positions sum to those of the closest ones.
+        let want: f32 = (0..MAX_NEIGHBOURS).map(|k| (1.0 + 1.5 * k as f32) / POS_SCALE).sum();
+        assert!((out[1][0] - want).abs() < 1e-4, "{} vs {want}", out[1][0]);
     }
 }

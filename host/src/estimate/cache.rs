@@ -21,7 +21,7 @@ use crate::trajectory::EstimatedTracks;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop, 2026-12-01).
-pub const ESTIMATE_CACHE_VERSION: u32 = 2;
+pub const ESTIMATE_CACHE_VERSION: u32 = 3;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
