@@ -156,8 +156,7 @@ pub fn neighbour_sum(neighbours: &[&[BevState]], frame: &AgentFrame, n: usize, d
     for (j, h) in neighbours.iter().enumerate() {
         let Some(p) = h.last().map(|s| frame.to_agent(&s.position())) else { continue };
         let d2 = p.x * p.x + p.y * p.y;
-        // Also refuses NaN.
-        if !(d2 <= NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M) {
+        if d2.is_nan() || d2 > NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M {
             continue;
         }
         let at = chosen.get(..count).unwrap_or(&[]).iter().position(|&(_, c)| d2 < c).unwrap_or(count);

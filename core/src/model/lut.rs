@@ -55,6 +55,20 @@ static TANH_Q15: [i16; STEPS + 1] = [
     32767, 32767, 32767, 32767, 32767, 32767, 32767, 32767, 32767,
 ];
 
+/// The table in f32 (computed at compile time): the MCU then interpolates without integer to
+/// float conversions. Evaluated by the compiler, so an index out of range is a build error, not
+/// a panic.
+#[allow(clippy::indexing_slicing)]
+static TANH_F32: [f32; STEPS + 1] = {
+    let mut t = [0.0f32; STEPS + 1];
+    let mut i = 0;
+    while i <= STEPS {
+        t[i] = TANH_Q15[i] as f32 * (1.0 / 32767.0);
+        i += 1;
+    }
+    t
+};
+
 /// tanh(x) from the table.
 #[must_use]
 pub fn tanh_lut(x: f32) -> f32 {
@@ -65,13 +79,8 @@ pub fn tanh_lut(x: f32) -> f32 {
     // t is in [0, STEPS]: the cast cannot wrap.
     let i = (t as usize).min(STEPS - 1);
     let frac = t - i as f32;
-    // Interpolated in table units, scaled once (a division per entry was most of the cost on
-    // the MCU).
-    match (TANH_Q15.get(i), TANH_Q15.get(i + 1)) {
-        (Some(&a), Some(&b)) => {
-            let a = f32::from(a);
-            (a + (f32::from(b) - a) * frac) * (1.0 / 32767.0)
-        }
+    match (TANH_F32.get(i), TANH_F32.get(i + 1)) {
+        (Some(&a), Some(&b)) => a + (b - a) * frac,
         _ => 0.0,
     }
 }
