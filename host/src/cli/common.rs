@@ -18,7 +18,7 @@ pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "00
 
 /// `Dims::DEFAULT` (the ECU setting) as the commands' `--dims` default; a test holds the two
 /// together.
-pub const DEFAULT_DIMS: &str = "32,32,3,48";
+pub const DEFAULT_DIMS: &str = "8,8,3,8";
 
 /// Where the data is and how to read it.
 #[derive(Debug, Args)]
