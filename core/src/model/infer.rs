@@ -4,7 +4,8 @@
 use super::arch::{tensor as t, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, ACCEL_SCALE};
 use super::blob::ModelBlob;
 use super::features::{initial_control, neighbour_sum, rollout_start, state_features, StepFeatures};
-use super::kernel::{Kernel, ShapeError, MAX_AFFINE_IN};
+use super::blob::Precision;
+use super::kernel::{Activation, Exact, Kernel, ShapeError, Table, MAX_AFFINE_IN};
 use crate::geometry::{BevState, Point2};
 use crate::limits::HORIZON;
 use crate::predict::{checked_history, unicycle_step, Forecast, PredictError, Predictor};
@@ -112,6 +113,14 @@ fn lstm_step(k: &Kernel<'_>, tensors: [usize; 4], input: &[f32], w: usize, s: &m
     k.affine(w_ih, Some(b_ih), input, gx)?;
     let gh = s.gates_h.get_mut(..4 * w).ok_or(ShapeError)?;
     k.affine(w_hh, Some(b_hh), s.h.get(..w).ok_or(ShapeError)?, gh)?;
+    match k.blob().precision() {
+        Precision::F32 => lstm_gates::<Exact>(s, w),
+        Precision::Int8 => lstm_gates::<Table>(s, w),
+    }
+}
+
+/// The LSTM's cell and output update from its summed-in gate vectors.
+fn lstm_gates<A: Activation>(s: &mut LstmState<'_>, w: usize) -> Result<(), ShapeError> {
     let (h, c) = (s.h.get_mut(..w).ok_or(ShapeError)?, s.c.get_mut(..w).ok_or(ShapeError)?);
     let gates = |g, q| gate(g, q, w);
     let (gx, gh) = (&*s.gates_x, &*s.gates_h);
@@ -119,9 +128,9 @@ fn lstm_step(k: &Kernel<'_>, tensors: [usize; 4], input: &[f32], w: usize, s: &m
     let (hi, hf, hg, ho) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?, gates(gh, 3)?);
     for (j, (hj, cj)) in h.iter_mut().zip(c.iter_mut()).enumerate() {
         let at = |a: &[f32], b: &[f32]| a.get(j).copied().unwrap_or(0.0) + b.get(j).copied().unwrap_or(0.0);
-        let (i, f, gg, o) = (k.sigmoid(at(xi, hi)), k.sigmoid(at(xf, hf)), k.tanh(at(xg, hg)), k.sigmoid(at(xo, ho)));
+        let (i, f, gg, o) = (A::sigmoid(at(xi, hi)), A::sigmoid(at(xf, hf)), A::tanh(at(xg, hg)), A::sigmoid(at(xo, ho)));
         *cj = f * *cj + i * gg;
-        *hj = o * k.tanh(*cj);
+        *hj = o * A::tanh(*cj);
     }
     Ok(())
 }
@@ -214,6 +223,14 @@ fn gru_step(k: &Kernel<'_>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(
     k.affine_columns(t::GRU_W_IH, 0, None, u, gx, false)?;
     let gh = s.gates_h.get_mut(..3 * w).ok_or(ShapeError)?;
     k.affine(t::GRU_W_HH, Some(t::GRU_B_HH), s.h.get(..w).ok_or(ShapeError)?, gh)?;
+    match k.blob().precision() {
+        Precision::F32 => gru_gates::<Exact>(s, w),
+        Precision::Int8 => gru_gates::<Table>(s, w),
+    }
+}
+
+/// The GRU's state update from its gate vectors.
+fn gru_gates<A: Activation>(s: &mut Scratch, w: usize) -> Result<(), ShapeError> {
     let gates = |g, q| gate(g, q, w);
     let (gx, gh) = (&s.gates_x, &s.gates_h);
     let (xr, xz, xn) = (gates(gx, 0)?, gates(gx, 1)?, gates(gx, 2)?);
@@ -221,9 +238,9 @@ fn gru_step(k: &Kernel<'_>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(
     let h = s.h.get_mut(..w).ok_or(ShapeError)?;
     for (j, hj) in h.iter_mut().enumerate() {
         let at = |g: &[f32]| g.get(j).copied().unwrap_or(0.0);
-        let r = k.sigmoid(at(xr) + at(hr));
-        let z = k.sigmoid(at(xz) + at(hz));
-        let nn = k.tanh(at(xn) + r * at(hn));
+        let r = A::sigmoid(at(xr) + at(hr));
+        let z = A::sigmoid(at(xz) + at(hz));
+        let nn = A::tanh(at(xn) + r * at(hn));
         *hj = (1.0 - z) * nn + z * *hj;
     }
     Ok(())

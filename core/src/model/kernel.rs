@@ -74,8 +74,8 @@ impl<'a> Kernel<'a> {
         if let Some(b) = b {
             match self.blob.tensor(b).ok_or(ShapeError)? {
                 TensorView::F32 { rows, data, .. } if rows == out.len() => {
-                    for (i, o) in out.iter_mut().enumerate() {
-                        *o += f32_at(data, i);
+                    for (o, b) in out.iter_mut().zip(data.chunks_exact(4)) {
+                        *o += le_f32(b);
                     }
                 }
                 _ => return Err(ShapeError),
@@ -88,8 +88,8 @@ impl<'a> Kernel<'a> {
     #[must_use]
     pub fn sigmoid(&self, x: f32) -> f32 {
         match self.blob.precision() {
-            Precision::F32 => 1.0 / (1.0 + libm::expf(-x)),
-            Precision::Int8 => sigmoid_lut(x),
+            Precision::F32 => Exact::sigmoid(x),
+            Precision::Int8 => Table::sigmoid(x),
         }
     }
 
@@ -97,9 +97,45 @@ impl<'a> Kernel<'a> {
     #[must_use]
     pub fn tanh(&self, x: f32) -> f32 {
         match self.blob.precision() {
-            Precision::F32 => libm::tanhf(x),
-            Precision::Int8 => tanh_lut(x),
+            Precision::F32 => Exact::tanh(x),
+            Precision::Int8 => Table::tanh(x),
         }
+    }
+}
+
+/// The gate nonlinearities of one precision. The recurrent cells pick one per step and run
+/// their unit loop monomorphised over it (a precision test per call had cost a compare and a
+/// branch per nonlinearity on the MCU).
+pub trait Activation {
+    /// The logistic sigmoid.
+    fn sigmoid(x: f32) -> f32;
+    /// tanh.
+    fn tanh(x: f32) -> f32;
+}
+
+/// f32 inference's activations: libm.
+#[derive(Debug, Clone, Copy)]
+pub struct Exact;
+
+impl Activation for Exact {
+    fn sigmoid(x: f32) -> f32 {
+        1.0 / (1.0 + libm::expf(-x))
+    }
+    fn tanh(x: f32) -> f32 {
+        libm::tanhf(x)
+    }
+}
+
+/// int8 inference's activations: the interpolated table of [`super::lut`].
+#[derive(Debug, Clone, Copy)]
+pub struct Table;
+
+impl Activation for Table {
+    fn sigmoid(x: f32) -> f32 {
+        sigmoid_lut(x)
+    }
+    fn tanh(x: f32) -> f32 {
+        tanh_lut(x)
     }
 }
 

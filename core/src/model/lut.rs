@@ -72,16 +72,24 @@ static TANH_F32: [f32; STEPS + 1] = {
 /// tanh(x) from the table.
 #[must_use]
 pub fn tanh_lut(x: f32) -> f32 {
-    if x.is_nan() {
-        return 0.0;
-    }
-    let t = (x.clamp(-TANH_RANGE, TANH_RANGE) + TANH_RANGE) * (STEPS as f32 / (2.0 * TANH_RANGE));
-    // t is in [0, STEPS]: the cast cannot wrap.
-    let i = (t as usize).min(STEPS - 1);
-    let frac = t - i as f32;
-    match (TANH_F32.get(i), TANH_F32.get(i + 1)) {
-        (Some(&a), Some(&b)) => a + (b - a) * frac,
-        _ => 0.0,
+    let t = x * (STEPS as f32 / (2.0 * TANH_RANGE)) + (STEPS / 2) as f32;
+    // Inside the table: interpolate. Beyond it the ends answer (its first and last intervals
+    // are flat); NaN gives 0. Two compares instead of clamping x and the index: the MCU's float
+    // clamps cost a compare, a flag transfer and a conditional move each.
+    if t > 0.0 && t < STEPS as f32 {
+        // 0 < t < STEPS: the cast cannot wrap.
+        let i = t as usize;
+        let frac = t - i as f32;
+        match (TANH_F32.get(i), TANH_F32.get(i + 1)) {
+            (Some(&a), Some(&b)) => a + (b - a) * frac,
+            _ => 0.0,
+        }
+    } else if t >= STEPS as f32 {
+        TANH_F32.last().copied().unwrap_or(1.0)
+    } else if x.is_nan() {
+        0.0
+    } else {
+        TANH_F32.first().copied().unwrap_or(-1.0)
     }
 }
 
@@ -112,5 +120,7 @@ mod tests {
         assert!(worst < 1.5e-4, "worst error {worst}");
         assert_eq!(tanh_lut(f32::NAN), 0.0);
         assert!((tanh_lut(100.0) - 1.0).abs() < 1e-4);
+        assert!((tanh_lut(f32::INFINITY) - 1.0).abs() < 1e-4 && (tanh_lut(f32::NEG_INFINITY) + 1.0).abs() < 1e-4);
+        assert!((sigmoid_lut(f32::NEG_INFINITY)).abs() < 1e-4);
     }
 }
