@@ -16,6 +16,9 @@ const NARROW_IN: usize = 4;
 /// per-row setup is shared (on the MCU the products then cost about 2.5 instructions each
 /// instead of 3.5, and the setup had been about 60 instructions per row).
 const ROW_BLOCK: usize = 4;
+/// Inputs up to this length are quantised into a buffer of this size (every input of the
+/// 8- and 16-wide networks), longer ones into one of [`MAX_AFFINE_IN`].
+const SHORT_IN: usize = 48;
 
 /// Why an affine map could not be applied: a shape the blob does not have (a bug, not an input
 /// error: blobs are validated on load). Callers turn it into a refused forecast.
@@ -167,9 +170,19 @@ fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], ou
         }
         return Ok(());
     }
-    let mut xq = [0i8; MAX_AFFINE_IN];
-    let sx = quantise(x, &mut xq);
-    let xq = xq.get(..x.len()).ok_or(ShapeError)?;
+    // A short input quantises into a short buffer: clearing the full MAX_AFFINE_IN bytes on
+    // every call cost more than the products of a small network's row block.
+    let mut small = [0i8; SHORT_IN];
+    let mut long;
+    let xq = if x.len() <= SHORT_IN {
+        small.get_mut(..x.len())
+    } else {
+        long = [0i8; MAX_AFFINE_IN];
+        long.get_mut(..x.len())
+    }
+    .ok_or(ShapeError)?;
+    let sx = quantise(x, xq);
+    let xq = &*xq;
     // |acc| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
     let store = |o: &mut f32, acc: i32, scale: &[u8]| {
         let dot = acc as f32 * (le_f32(scale) * sx);
@@ -245,7 +258,7 @@ fn dot4_i8(w: [&[u8]; 4], x: &[i8]) -> [i32; 4] {
 /// to nearest, ties to even, by adding and subtracting 1.5 * 2^23 (exact IEEE arithmetic, the
 /// same on the host and the MCU, where a software `roundf` was most of the cost); the float to
 /// integer conversion cannot saturate as |x * 127 / max| <= 127.
-fn quantise(x: &[f32], q: &mut [i8; MAX_AFFINE_IN]) -> f32 {
+fn quantise(x: &[f32], q: &mut [i8]) -> f32 {
     const ROUND: f32 = 12_582_912.0;
     let max_bits = x.iter().fold(0u32, |m, v| m.max(v.to_bits() & 0x7fff_ffff));
     if max_bits == 0 || max_bits >= f32::INFINITY.to_bits() {
