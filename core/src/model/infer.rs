@@ -206,7 +206,10 @@ fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, 
     let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed };
     for step in 0..HORIZON {
         gru_step(k, s, &u, dec)?;
-        k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, &mut s.out)?;
+        // Only the mean controls are read at inference: the spreads and correlation (the other
+        // three outputs) are for training.
+        let mean = s.out.get_mut(..2).ok_or(ShapeError)?;
+        k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, mean)?;
         let [mu_w, mu_a, ..] = s.out;
         u = [mu_w, mu_a];
         state = unicycle_step(&state, mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE, dt);
@@ -291,6 +294,22 @@ mod tests {
             assert!(mean < 0.1, "{dims:?}: int8 strays {mean} m from float");
             // The forecast starts near the current position and moves.
             assert!(a[0].distance(&h[6].position()) < 2.0 && a[HORIZON - 1].distance(&a[0]) > 0.1);
+        }
+    }
+
+    #[test]
+    fn a_shorter_output_gets_the_first_rows_exactly() {
+        let dims = Dims::DEFAULT;
+        for precision in [Precision::F32, Precision::Int8] {
+            let b = random_blob(&dims, precision, 4);
+            let k = Kernel::new(ModelBlob::parse(&b).unwrap());
+            let h: Vec<f32> = (0..dims.dec).map(|i| 0.3 * (i as f32 * 0.7).sin()).collect();
+            let (mut all, mut first) = ([0.0f32; OUTPUTS], [0.0f32; 2]);
+            k.affine(t::OUT_W, Some(t::OUT_B), &h, &mut all).unwrap();
+            k.affine(t::OUT_W, Some(t::OUT_B), &h, &mut first).unwrap();
+            assert_eq!(first.map(f32::to_bits), [all[0].to_bits(), all[1].to_bits()], "{precision:?}");
+            // A longer output than the tensor has rows is refused.
+            assert_eq!(k.affine(t::OUT_W, Some(t::OUT_B), &h, &mut [0.0; OUTPUTS + 1]), Err(ShapeError));
         }
     }
 

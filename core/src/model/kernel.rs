@@ -44,7 +44,9 @@ impl<'a> Kernel<'a> {
         &self.blob
     }
 
-    /// `out = W x (+ b)`, W tensor `w`, b tensor `b` (a bias is always f32).
+    /// `out = W x (+ b)`, W tensor `w`, b tensor `b` (a bias is always f32). An `out` shorter
+    /// than the tensor's rows receives its first `out.len()` rows only (outputs nobody reads
+    /// are not computed).
     ///
     /// # Errors
     /// [`ShapeError`] when `x` or `out` do not fit the tensor.
@@ -76,7 +78,7 @@ impl<'a> Kernel<'a> {
         }
         if let Some(b) = b {
             match self.blob.tensor(b).ok_or(ShapeError)? {
-                TensorView::F32 { rows, data, .. } if rows == out.len() => {
+                TensorView::F32 { rows, data, .. } if rows >= out.len() => {
                     for (o, b) in out.iter_mut().zip(data.chunks_exact(4)) {
                         *o += le_f32(b);
                     }
@@ -214,7 +216,7 @@ fn le_f32(b: &[u8]) -> f32 {
 }
 
 fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) -> Result<(), ShapeError> {
-    if used.end <= cols && out.len() == rows && used.len() <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
+    if used.end <= cols && out.len() <= rows && used.len() <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
 }
 
 /// The dot product of int8 weights (as stored bytes) with int8 activations.
