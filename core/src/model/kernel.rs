@@ -165,10 +165,21 @@ fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], ou
     if x.len() < NARROW_IN {
         // A quantisation step costs more than these few products: multiply in f32 with the
         // dequantised weights.
-        for ((row, scale), o) in data.chunks_exact(cols).zip(scales.chunks_exact(4)).zip(out.iter_mut()) {
-            let part = row.get(first..end).ok_or(ShapeError)?;
-            let dot = part.iter().zip(x).fold(0.0f32, |acc, (&w, xi)| acc + f32::from(w as i8) * xi) * le_f32(scale);
-            *o = if overwrite { dot } else { *o + dot };
+        let rows = data.chunks_exact(cols).zip(scales.chunks_exact(4)).zip(out.iter_mut());
+        let w = |b: u8| f32::from(b as i8);
+        if let [x0, x1] = *x {
+            // The decoder's two controls, 30 times per forecast: written out.
+            for ((row, scale), o) in rows {
+                let Some(&[w0, w1]) = row.get(first..end) else { return Err(ShapeError) };
+                let dot = (w(w0) * x0 + w(w1) * x1) * le_f32(scale);
+                *o = if overwrite { dot } else { *o + dot };
+            }
+        } else {
+            for ((row, scale), o) in rows {
+                let part = row.get(first..end).ok_or(ShapeError)?;
+                let dot = part.iter().zip(x).fold(0.0f32, |acc, (&b, xi)| acc + w(b) * xi) * le_f32(scale);
+                *o = if overwrite { dot } else { *o + dot };
+            }
         }
         return Ok(());
     }
