@@ -185,6 +185,31 @@ pub fn spawn_qemu(port: u16) -> std::process::Child {
         .unwrap()
 }
 
+/// Waits for the firmware under QEMU to exit, at most `limit` (QEMU's own wall time, so
+/// generous): a firmware that hangs is killed and fails the test with its logs instead of
+/// holding the run until CI's limit (`scripts/qemu-edge.sh` execs QEMU, so the child is QEMU).
+///
+/// # Panics
+/// When QEMU has not exited within `limit`.
+pub fn wait_for_firmware(qemu: &mut std::process::Child, limit: std::time::Duration) -> std::process::ExitStatus {
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = qemu.try_wait().unwrap() {
+            return status;
+        }
+        if start.elapsed() > limit {
+            qemu.kill().ok();
+            qemu.wait().ok();
+            let mut log = String::new();
+            if let Some(mut out) = qemu.stdout.take() {
+                std::io::Read::read_to_string(&mut out, &mut log).ok();
+            }
+            panic!("the firmware did not exit within {limit:?} after the stream ended (killed); its log:\n{log}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
 /// Sizes of the named sections of a 32-bit little-endian ELF file (the firmware).
 #[must_use]
 pub fn elf_sections(path: &std::path::Path) -> Vec<(String, u32)> {

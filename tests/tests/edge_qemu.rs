@@ -12,7 +12,7 @@ use std::time::Duration;
 use dynotraj_core::wire::{ComputeUnit, Message};
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, stream};
-use dynotraj_tests::edge_fixture::{elf_sections, firmware_elf, encode_all, free_port, host_messages, outputs, reference_replies, scene_tracks, spawn_qemu};
+use dynotraj_tests::edge_fixture::{elf_sections, encode_all, firmware_elf, free_port, host_messages, outputs, reference_replies, scene_tracks, spawn_qemu, wait_for_firmware};
 
 #[test]
 fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
@@ -27,7 +27,7 @@ fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
     let (rx, tx) = connect(&Endpoint::Tcp(format!("127.0.0.1:{port}")), Duration::from_secs(20)).unwrap();
     let opt = StreamOptions { lockstep: true, reply_timeout: Duration::from_secs(60), ..StreamOptions::default() };
     let result = stream(&tracks, rx, tx, &opt).unwrap();
-    let status = qemu.wait().unwrap();
+    let status = wait_for_firmware(&mut qemu, Duration::from_secs(120));
     let mut log = String::new();
     qemu.stdout.take().unwrap().read_to_string(&mut log).unwrap();
     qemu.stderr.take().unwrap().read_to_string(&mut log).unwrap();
