@@ -119,11 +119,10 @@ impl Default for FrameBuffer {
 /// float below one half and truncating rounds halves up and everything else to nearest,
 /// exactly, since the sum is either exact or rounds to an integer boundary that truncation
 /// keeps (test: every float within 16 ulps of each integer and half-integer to 2^16).
+#[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
 fn round_non_negative(y: f32) -> f32 {
     // The float-to-integer conversion truncates; the result is a whole number below 2^23.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_precision_loss)]
-    let r = (y + (0.5 - 0.25 * f32::EPSILON)) as u32 as f32;
-    r
+    (y + (0.5 - 0.25 * f32::EPSILON)) as u32 as f32
 }
 
 /// Inserts `obs` into `list` keeping it sorted; a duplicate id or a full list is reported.

@@ -223,7 +223,14 @@ fn u32_at(b: &[u8], at: usize) -> Option<u32> {
 /// Reads the `i`-th little-endian f32 of `b` (0.0 past the end; callers stay in bounds).
 #[must_use]
 pub fn f32_at(b: &[u8], i: usize) -> f32 {
-    b.get(4 * i..4 * i + 4).and_then(|s| s.try_into().ok()).map_or(0.0, f32::from_le_bytes)
+    b.get(4 * i..4 * i + 4).map_or(0.0, le_f32)
+}
+
+/// The little-endian f32 in a 4-byte chunk (0.0 for another length, which `chunks_exact(4)`
+/// never yields): for walking a tensor's floats by iterator, without an index product each.
+#[must_use]
+pub fn le_f32(b: &[u8]) -> f32 {
+    if let [a, b, c, d] = *b { f32::from_le_bytes([a, b, c, d]) } else { 0.0 }
 }
 
 impl<'a> ModelBlob<'a> {

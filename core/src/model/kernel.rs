@@ -3,7 +3,7 @@
 //! sigmoid and tanh). The network code above it is shared by both.
 
 use super::arch::{MAX_DEC, MAX_K};
-use super::blob::{f32_at, ModelBlob, Precision, TensorView};
+use super::blob::{le_f32, ModelBlob, TensorView};
 use super::lut::{sigmoid_lut, tanh_lut};
 
 /// Longest input of any affine map: the decoder GRU's [u_prev (2), z (k), x (cond)].
@@ -13,8 +13,8 @@ pub const MAX_AFFINE_IN: usize = 2 + MAX_K + 2 * MAX_DEC;
 /// being quantised (the decoder's two control columns).
 const NARROW_IN: usize = 4;
 /// Rows multiplied together: each activation is loaded once for four rows of weights, and the
-/// per-row setup is shared (on the MCU the products then cost about 2.5 instructions each
-/// instead of 3.5, and the setup had been about 60 instructions per row).
+/// per-row setup is shared (on the MCU the products cost about 3.3 instructions each, and the
+/// setup had been about 60 instructions per row).
 const ROW_BLOCK: usize = 4;
 /// Inputs up to this length are quantised into a buffer of this size (every input of the
 /// 8- and 16-wide networks), longer ones into one of [`MAX_AFFINE_IN`].
@@ -67,7 +67,7 @@ impl<'a> Kernel<'a> {
                 check(rows, cols, &cols_used, out)?;
                 for (o, row) in out.iter_mut().zip(data.chunks_exact(4 * cols)) {
                     let part = row.get(4 * cols_used.start..4 * cols_used.end).ok_or(ShapeError)?;
-                    let dot: f32 = part.chunks_exact(4).zip(x).map(|(c, xi)| f32_at(c, 0) * xi).sum();
+                    let dot: f32 = part.chunks_exact(4).zip(x).map(|(c, xi)| le_f32(c) * xi).sum();
                     *o = if overwrite { dot } else { *o + dot };
                 }
             }
@@ -87,24 +87,6 @@ impl<'a> Kernel<'a> {
             }
         }
         Ok(())
-    }
-
-    /// The logistic sigmoid in this blob's precision.
-    #[must_use]
-    pub fn sigmoid(&self, x: f32) -> f32 {
-        match self.blob.precision() {
-            Precision::F32 => Exact::sigmoid(x),
-            Precision::Int8 => Table::sigmoid(x),
-        }
-    }
-
-    /// tanh in this blob's precision.
-    #[must_use]
-    pub fn tanh(&self, x: f32) -> f32 {
-        match self.blob.precision() {
-            Precision::F32 => Exact::tanh(x),
-            Precision::Int8 => Table::tanh(x),
-        }
     }
 }
 
@@ -218,12 +200,6 @@ fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], ou
         store(o, dot_i8(row.get(first..end).ok_or(ShapeError)?, xq), s);
     }
     Ok(())
-}
-
-/// The little-endian f32 in a 4-byte chunk (0 for another length, which `chunks_exact(4)`
-/// never yields).
-fn le_f32(b: &[u8]) -> f32 {
-    if let [a, b, c, d] = *b { f32::from_le_bytes([a, b, c, d]) } else { 0.0 }
 }
 
 fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) -> Result<(), ShapeError> {
