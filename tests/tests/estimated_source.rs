@@ -30,7 +30,7 @@ fn estimated_source_on_a_synthetic_drive() {
     let root = dir.path().to_str().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
 
-    let Command::Dataset(args) = cli(&["dataset", "--kitti", root, "--source", "gt,estimated"]) else { panic!() };
+    let Command::Dataset(args) = cli(&["dataset", "--kitti", root, "--source", "gt,estimated", "--ours-input", "tracks"]) else { panic!() };
     let t = dataset::table(&args).unwrap();
     println!("{}", t.render(dynotraj_host::report::Format::Md));
     let c = column(&t, "0000");
@@ -44,7 +44,7 @@ fn estimated_source_on_a_synthetic_drive() {
     let estimated: usize = row(&t, "test instances (estimated)", None)[c].parse().unwrap();
     assert!((20..29).contains(&estimated), "{estimated}");
 
-    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,estimated,estimated-smoothed", "--predictor", "cv"])
+    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,estimated,estimated-smoothed", "--predictor", "cv", "--ours-input", "tracks"])
     else {
         panic!()
     };

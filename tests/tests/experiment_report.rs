@@ -20,13 +20,16 @@ fn the_report_folder_and_a_cached_rerun() {
     let out = dir.path().join("report");
     let args = [
         "dynotraj", "experiment", "--kitti", root.to_str().unwrap(), "--sequences", "0000", "--arms", "estimated,gt", "--dims", "8,8,2,16", "--epochs", "1",
-        "--batch", "16", "--rate", "10", "--out", out.to_str().unwrap(),
+        "--batch", "16", "--rate", "10", "--ours-input", "tracks", "--out", out.to_str().unwrap(),
     ];
     let Command::Experiment(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the experiment command") };
     experiment::run(&a).unwrap();
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
     println!("{md}");
+    // The captions and notes name what the Estimated arm ran on (here the track-level simulator).
+    assert!(md.contains("against the truth of the track-level simulator"), "Table III caption");
+    assert!(md.contains("`--ours-input tracks`") && !md.contains("image simulator's rendering"), "input note");
     for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Table IV against one common reference", "## Folds", "## Findings"] {
         assert!(md.contains(heading), "{heading} missing");
     }

@@ -39,14 +39,21 @@ pub struct DataArgs {
     #[arg(long, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f32,
     /// Where the estimated sources take their feature tracks for sequences without real stereo
-    /// images in the folder: tracks (the track-level simulator, seconds) or rendered (the
-    /// image simulator renders each sequence and the OpenCV front-end tracks it, minutes).
-    #[arg(long, value_enum, default_value_t = OursInput::Tracks, value_name = "INPUT")]
+    /// images in the folder: rendered (the image simulator renders each sequence and the
+    /// OpenCV front-end tracks it: images -> front-end -> estimator, as Ours is defined;
+    /// about 15 minutes for the nine sequences at scale 1, kept in --estimate-cache) or tracks
+    /// (the track-level simulator: tracks of points on the labelled boxes, seconds).
+    #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
     pub ours_input: OursInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
     #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
     pub render_scale: f64,
+    /// A folder where the estimated sources' tracks are kept between runs, keyed by every
+    /// input (labels, poses, calibration, images, settings, estimator version): a rerun with the
+    /// same inputs reads them back. `dynotraj experiment` uses its report's cache/ unless given.
+    #[arg(long, value_name = "DIR")]
+    pub estimate_cache: Option<PathBuf>,
 }
 
 impl DataArgs {
@@ -78,13 +85,14 @@ impl DataArgs {
     }
 
     /// Opens the folder and loads `sequences` (all present when empty), with a progress bar;
-    /// when one of `sources` is an estimated one, also runs the estimator over each sequence (the track-level simulator driven by its labels, ego poses
-    /// and calibration, with `dynotraj estimate`'s defaults; a few seconds for the nine).
+    /// when one of `sources` is an estimated one, also runs the estimator over each sequence
+    /// (on its images, its rendering or the track-level simulator: `--ours-input`), keeping
+    /// the tracks in `--estimate-cache` when given.
     ///
     /// # Errors
     /// A missing folder, a missing sequence or a bad file, named.
     pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
-        self.load_cached(sequences, sources, None)
+        self.load_cached(sequences, sources, self.estimate_cache.clone())
     }
 
     /// As [`DataArgs::load_for`], keeping estimated tracks in `cache` between runs.

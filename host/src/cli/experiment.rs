@@ -16,7 +16,7 @@ use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
 use crate::report::{instances_table, Format, Table};
 use crate::sequence::SequenceTracks;
 use crate::train::Event;
-use crate::trajectory::{EligibilityRule, Source};
+use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
 /// Options of `dynotraj experiment`.
 #[derive(Debug, Args)]
@@ -66,7 +66,8 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
     let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
-    let sequences = args.data.load_cached(&[], &args.arms, cache)?;
+    let estimate_cache = if args.no_cache { None } else { args.data.estimate_cache.clone().or_else(|| cache.clone()) };
+    let sequences = args.data.load_cached(&[], &args.arms, estimate_cache)?;
     let test_sequences =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
     let config = ExperimentConfig {
@@ -80,7 +81,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
         dt: args.data.dt()?,
         rule: args.data.rule()?,
         out: args.out.as_ref().map(|d| d.join("models")),
-        cache: args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache")),
+        cache,
     };
     let bar = super::common::progress(0, "training");
     let mut current = String::new();
@@ -130,6 +131,7 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arms, the estimator's own tracks. Every loaded sequence is a training candidate; the paper's test sequences are held out in turn.".into(),
         table: instances_table(sequences, &table_i_sources(&args.arms), rule),
     }];
+    let inputs: Vec<EstimateInput> = sequences.iter().filter_map(|s| s.estimated.as_ref().map(|e| e.input)).collect();
     let estimated: Vec<(&str, usize, &RunScores)> =
         sequences.iter().filter_map(|s| s.estimated.as_ref().and_then(|e| e.rpe.as_ref().map(|rpe| (s.id.as_str(), e.frames, rpe)))).collect();
     if !estimated.is_empty() {
@@ -137,7 +139,7 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
             sections.push(Section {
                 stem: stem.into(),
                 title: format!("Table III: the estimator behind the Estimated arm, {} estimate", kind.name()),
-                caption: "Camera and object RPE (delta = 1 frame) against the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration (no real images here). Not comparable to DynoSAM on real images, printed below for reference.".into(),
+                caption: table_iii_caption(&inputs, args.data.render_scale),
                 table: table_iii_of(estimated.iter().copied(), k, kind),
             });
         }
@@ -166,9 +168,38 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         notes.extend(findings(arms, &args.arms, Scoring::CommonTruth));
     }
     if args.arms.iter().any(Source::is_estimated) {
-        notes.push("The Estimated arm's tracks come from simulated feature tracks of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
+        notes.extend(input_notes(&inputs));
     }
     Report { command, sections, folds: result.folds.clone(), seconds: result.seconds, notes, figures: Vec::new() }
+}
+
+/// Table III's caption for estimates made from `inputs` (one per sequence).
+fn table_iii_caption(inputs: &[EstimateInput], render_scale: f64) -> String {
+    let truth = if inputs.iter().all(|i| *i == EstimateInput::Rendered) {
+        format!(
+            "the truth of the image simulator, which renders each sequence from its real labels, ego poses and calibration (scale {render_scale}); the OpenCV front-end tracks the rendered stereo images and the core estimator runs on its tracks. DynoSAM's figures on real images are printed below for reference (rendered images lack real images' blur, glare and texture)"
+        )
+    } else if inputs.iter().all(|i| *i == EstimateInput::Simulated) {
+        "the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration (no images: simulated feature tracks). Not comparable to DynoSAM on real images, printed below for reference".into()
+    } else {
+        "the simulator's truth of each sequence made by a simulator (the track-level one or the image renderer, per sequence; real-image sequences have no truth and no row)".into()
+    };
+    format!("Camera and object RPE (delta = 1 frame) against {truth}.")
+}
+
+/// What the Estimated arm's inputs mean for its results, one note per kind of input present.
+fn input_notes(inputs: &[EstimateInput]) -> Vec<String> {
+    let mut out = Vec::new();
+    if inputs.contains(&EstimateInput::Rendered) {
+        out.push("The Estimated arm runs images -> front-end -> estimator on the image simulator's rendering of each sequence: boxes moving along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels, and the images are cleaner than real ones: part of any advantage is the simulator's (docs/decisions.md).".into());
+    }
+    if inputs.contains(&EstimateInput::Simulated) {
+        out.push("The Estimated arm's tracks come from simulated feature tracks (`--ours-input tracks`) of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
+    }
+    if inputs.contains(&EstimateInput::Images) {
+        out.push("Where a sequence has its own stereo images, the Estimated arm ran on them (no simulator, no truth: only the paper's protocol scores it).".into());
+    }
+    out
 }
 
 /// The sources Table I counts for `arms`: the labels once (GT, GT+EKF and GT+RTS share them),

@@ -46,10 +46,11 @@ pub enum EstimateInput {
 pub enum OursInput {
     /// The track-level simulator: tracks of points on the labelled boxes and the static scene
     /// with pixel and depth noise and outliers (seconds for the nine sequences).
-    #[default]
     Tracks,
     /// The image simulator renders each sequence and the OpenCV front-end tracks the images
-    /// (minutes: rendering, SGBM stereo and KLT at the render scale).
+    /// (minutes: rendering, SGBM stereo and KLT at the render scale). The default: Ours is
+    /// images -> front-end -> estimator.
+    #[default]
     Rendered,
 }
 
