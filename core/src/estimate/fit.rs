@@ -80,8 +80,12 @@ pub fn fit_pose(
     Ok(fit)
 }
 
-/// Score of a pose: MSAC cost (sum of squared residuals truncated at the threshold) and inliers.
-fn score(corrs: &[Correspondence], m: &Pose3, tau2: f32, model: &PointModel) -> (f32, u16) {
+/// Score of a pose: MSAC cost (sum of squared residuals truncated at the threshold) and inliers;
+/// `None` as soon as the partial cost reaches `bound` (the best cost so far). Every term is
+/// non-negative and a rounded sum of non-negative terms never decreases, so a pose stopped
+/// early could not have scored below `bound`: the search picks the same pose as a full scoring
+/// would, for a fraction of the residuals on poor hypotheses.
+fn score(corrs: &[Correspondence], m: &Pose3, tau2: f32, model: &PointModel, bound: f32) -> Option<(f32, u16)> {
     let mut cost = 0.0;
     let mut inliers = 0u16;
     for c in corrs {
@@ -92,8 +96,11 @@ fn score(corrs: &[Correspondence], m: &Pose3, tau2: f32, model: &PointModel) -> 
         } else {
             cost += tau2;
         }
+        if cost >= bound {
+            return None;
+        }
     }
-    (cost, inliers)
+    Some((cost, inliers))
 }
 
 /// Hypotheses needed for `confidence` at inlier share `w` with 3-point samples.
@@ -125,8 +132,8 @@ fn ransac(
     let n = corrs.len();
     let mut best: Option<(Pose3, f32, u16)> = None;
     let consider = |m: Pose3, best: &mut Option<(Pose3, f32, u16)>| {
-        let (cost, inl) = score(corrs, &m, tau2, model);
-        if best.as_ref().is_none_or(|b| cost < b.1) {
+        let bound = best.as_ref().map_or(f32::INFINITY, |b| b.1);
+        if let Some((cost, inl)) = score(corrs, &m, tau2, model, bound) {
             *best = Some((m, cost, inl));
         }
     };
@@ -331,6 +338,25 @@ mod tests {
         assert!(rotation_angle(&err) < 1e-3);
         assert!(fit.inliers >= 150 && fit.inliers <= 165, "{}", fit.inliers);
         assert!(fit.information.cholesky().is_some());
+    }
+
+    #[test]
+    fn a_bounded_score_stops_only_where_the_full_score_could_not_win() {
+        let m = se3_exp(&nalgebra::Vector6::new(0.1, 0.02, -1.0, 0.001, 0.02, -0.003));
+        let (corrs, model) = scene(&m, 120, 4, 0.5);
+        let tau2 = 9.0;
+        for k in 0..8 {
+            let off = 0.004 * k as f32;
+            let pose = m * se3_exp(&nalgebra::Vector6::new(off, -off, 2.0 * off, off * 0.1, -off * 0.2, off * 0.05));
+            let (full, inliers) = score(&corrs, &pose, tau2, &model, f32::INFINITY).unwrap();
+            for bound in [0.5 * full, full, full * 1.000_001 + 1e-3, 2.0 * full] {
+                let bounded = score(&corrs, &pose, tau2, &model, bound);
+                assert_eq!(bounded.is_some(), full < bound, "pose {k}, bound {bound} vs cost {full}");
+                if let Some(b) = bounded {
+                    assert_eq!(b, (full, inliers));
+                }
+            }
+        }
     }
 
     #[test]
