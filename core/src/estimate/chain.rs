@@ -112,12 +112,36 @@ pub fn spd_inverse(m: &Mat6) -> Option<Mat6> {
         }
         *s = 1.0 / libm::sqrtf(d);
     }
-    let sm = Mat6::from_diagonal(&scale);
-    let scaled = sm * m * sm;
-    let inv = scaled.cholesky()?.inverse();
-    let out = sm * inv * sm;
+    let inv = diagonal_scaled(m, &scale).cholesky()?.inverse();
+    let out = diagonal_scaled(&inv, &scale);
     let out = (out + out.transpose()) * 0.5;
     out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// `diag(d) m` (row i scaled by `d_i`), entry by entry: what the dense product with a diagonal
+/// matrix computes (its other terms are exact zeros), for a sixth of the work.
+fn scaled_rows(d: &Vec6, m: &Mat6) -> Mat6 {
+    let mut out = *m;
+    for col in out.column_iter_mut() {
+        for (x, di) in col.into_iter().zip(d.iter()) {
+            *x *= di;
+        }
+    }
+    out
+}
+
+/// `m diag(d)` (column j scaled by `d_j`), entry by entry, as [`scaled_rows`].
+fn scaled_columns(m: &Mat6, d: &Vec6) -> Mat6 {
+    let mut out = *m;
+    for (mut col, dj) in out.column_iter_mut().zip(d.iter()) {
+        col *= *dj;
+    }
+    out
+}
+
+/// `diag(s) m diag(s)`.
+fn diagonal_scaled(m: &Mat6, s: &Vec6) -> Mat6 {
+    scaled_columns(&scaled_rows(s, m), s)
 }
 
 /// The chain of one object's (or the camera's) motions over the last `W` frames.
@@ -248,8 +272,8 @@ impl<const W: usize> ChainSmoother<W> {
                 b += eb;
             }
             if let Some((d_inv_prev, y_prev)) = &prev {
-                let t = sm * d_inv_prev;
-                a -= t * sm;
+                let t = scaled_rows(&s.diag, d_inv_prev);
+                a -= scaled_columns(&t, &s.diag);
                 b += t * y_prev;
             }
             let d_inv = spd_inverse(&a)?;
@@ -263,7 +287,7 @@ impl<const W: usize> ChainSmoother<W> {
             let d_inv = scratch.d_inv.get(i)?.unpack();
             let y = scratch.y.get_mut(i)?;
             let x = match next {
-                Some(xn) => d_inv * (*y + sm * xn),
+                Some(xn) => d_inv * (*y + s.diag.component_mul(&xn)),
                 None => d_inv * *y,
             };
             *y = x;

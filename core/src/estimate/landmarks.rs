@@ -19,7 +19,7 @@ use super::frame::Obs;
 use super::measure::Correspondences;
 use super::model::{Correspondence, PointModel};
 use super::matching::for_each_match;
-use crate::geometry::Pose3;
+use crate::geometry::{NormBound, Pose3};
 use crate::limits::MAX_POINTS_PER_OBJECT;
 
 /// Landmark position steps per metre.
@@ -92,13 +92,14 @@ pub fn landmark_correspondences(landmarks: &Landmarks, current: &[Obs], out: &mu
 /// tracks become landmarks of weight 1. In place: the list never outgrows `current`.
 pub fn fuse(landmarks: &mut Landmarks, current: &[Obs], object_from_camera: &Pose3, model: &PointModel, gate_px: f32) {
     let camera_from_object = object_from_camera.inverse();
+    let gate = NormBound::new(gate_px);
     let measured = |o: &Obs| object_from_camera.transform_point(&model.back_project(o.u(), o.v(), o.depth)).coords;
     landmarks.retain_mut(|l| {
         let Some(o) = current.binary_search_by_key(&l.track_id, |o| o.track_id).ok().and_then(|i| current.get(i)) else {
             return false;
         };
         let c = Correspondence { src: l.point(), u: o.u(), v: o.v(), depth: o.depth };
-        let agrees = model.residual(&camera_from_object, &c).is_some_and(|r| r.norm() <= gate_px);
+        let agrees = model.residual(&camera_from_object, &c).is_some_and(|r| gate.admits(r.norm_squared()));
         let m = measured(o);
         let next = if agrees {
             let w = f32::from(l.weight);
