@@ -16,7 +16,10 @@ use dynotraj_tests::edge_fixture::{elf_sections, encode_all, firmware_elf, free_
 
 #[test]
 fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
-    let tracks = scene_tracks(10);
+    // 24 frames: the compute figure is taken from frame STEADY_FROM on, once the windows have
+    // filled. DYNOTRAJ_QEMU_FRAMES streams more.
+    let frames = std::env::var("DYNOTRAJ_QEMU_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(24).max(STEADY_FROM + 2);
+    let tracks = scene_tracks(frames);
     // A firmware built with DYNOTRAJ_FW_MODEL=BLOB is compared with the host edge running BLOB:
     // name the same file in DYNOTRAJ_FIRMWARE_MODEL (and the image in DYNOTRAJ_FIRMWARE).
     let model = std::env::var_os("DYNOTRAJ_FIRMWARE_MODEL").map(|p| std::fs::read(p).unwrap());
@@ -44,17 +47,23 @@ fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
     }
     let compute: Vec<u32> = result.frames.iter().map(|f| f.stats.unwrap().compute).collect();
     println!("compute per frame (instructions): {compute:?}");
-    let mut steady = compute[2..].to_vec();
+    let mut steady = compute[STEADY_FROM..].to_vec();
     steady.sort_unstable();
     let median = steady[steady.len() / 2];
     let budget = 200_000_000 / 20;
     println!(
-        "16-object frame: median {median} instructions, max {} (budget at 20 frames/s on 200 MHz: {budget} cycles; {:.2}x)",
+        "16-object frame (frames {STEADY_FROM}-{}): median {median} instructions, max {} (budget at 20 frames/s on 200 MHz: {budget} cycles; {:.2}x)",
+        compute.len() - 1,
         steady.last().unwrap(),
         f64::from(median) / f64::from(budget)
     );
     check_memory(&log, model.is_none());
 }
+
+/// First frame of the compute figure: after the edge's smoothing window (8 frames) and the
+/// forecast histories have filled (measured over 40 frames: the cost rises until about frame 12
+/// and stays within 2% from there on).
+const STEADY_FROM: usize = 12;
 
 const KIB: u32 = 1024;
 
