@@ -183,8 +183,9 @@ fn robust_weight(r: f32, k: f32, tau: f32) -> f32 {
 /// Each iteration costs one pass over the points: the candidate's residuals and Jacobians give
 /// both its cost (to accept or reject it) and, when accepted, the next system, and a rejected
 /// step keeps the current system (only the damping changes). The loop ends once an accepted
-/// step lowers the cost by less than [`COST_DONE`] of it: Gauss-Newton converges about
-/// quadratically there, so the steps left would move the pose by far less than its noise.
+/// step lowers the cost by less than [`COST_DONE`] of it, or once the next step promises less
+/// than that: Gauss-Newton converges about quadratically there, so the steps left would move
+/// the pose by far less than its noise.
 fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointModel) -> (Pose3, Normal) {
     let mut lambda = LM_START;
     let mut at_m = normal_equations(corrs, &m, fp, model);
@@ -201,6 +202,13 @@ fn refine(corrs: &[Correspondence], mut m: Pose3, fp: &FitParams, model: &PointM
         };
         let step: Vector6<f32> = -chol.solve(&at_m.g);
         if !step.iter().all(|v| v.is_finite()) {
+            break;
+        }
+        // The decrease the quadratic model promises for this step; when even that is below
+        // COST_DONE of the cost the pose has converged, and the pass over the points that would
+        // confirm it (a third of a fit's work) is skipped.
+        let promised = -(at_m.g.dot(&step) + 0.5 * step.dot(&(at_m.h * step)));
+        if promised <= COST_DONE * at_m.cost {
             break;
         }
         let candidate = super::lie::normalised(m * se3_exp(&step));

@@ -20,8 +20,10 @@ use crate::sequence::EstimateSettings;
 use crate::trajectory::EstimatedTracks;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the
-/// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop, 2026-12-01).
-pub const ESTIMATE_CACHE_VERSION: u32 = 3;
+/// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
+/// hypotheses by TRIAD instead of an SVD, and a step whose promised decrease is below the stop
+/// is not evaluated, 2026-12-01).
+pub const ESTIMATE_CACHE_VERSION: u32 = 4;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
