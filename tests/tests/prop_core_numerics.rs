@@ -11,7 +11,7 @@ use dynotraj_core::limits::{HORIZON, MAX_ACCEL, MAX_TURN_RATE};
 use dynotraj_core::metrics::{ace, ade, fde};
 use dynotraj_core::predict::{constant_velocity, ctra, unicycle_step, Forecast};
 use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
-use dynotraj_core::estimate::kabsch3;
+use dynotraj_core::estimate::rigid_from_three;
 use dynotraj_core::{BevState, Point2};
 use nalgebra::{Vector3, Vector6};
 use proptest::prelude::*;
@@ -173,7 +173,7 @@ proptest! {
         src in prop::array::uniform3(any_point3()),
         dst in prop::array::uniform3(any_point3()),
     ) {
-        if let Some(p) = kabsch3(&src, &dst) {
+        if let Some(p) = rigid_from_three(&src, &dst) {
             prop_assert!(p.translation.vector.iter().all(|v| v.is_finite()));
             let r = p.rotation.to_rotation_matrix();
             let ortho = (r.matrix() * r.matrix().transpose() - nalgebra::Matrix3::identity()).norm();
@@ -193,7 +193,7 @@ proptest! {
         // Collinear (incl. identical, d = 0) source points leave the rotation unobservable.
         let src = [a + d * t[0], a + d * t[1], a + d * t[2]];
         let dst = [a + d * s[0], a + Vector3::new(1.0, 2.0, 3.0), a - Vector3::new(3.0, 1.0, 2.0)];
-        prop_assert!(kabsch3(&src, &dst).is_none());
+        prop_assert!(rigid_from_three(&src, &dst).is_none());
     }
 }
 
@@ -201,11 +201,11 @@ proptest! {
 #[test]
 fn identical_and_huge_points_are_refused() {
     let p = Vector3::new(1.0e30, -1.0e30, 1.0e30);
-    assert!(kabsch3(&[p; 3], &[p; 3]).is_none());
+    assert!(rigid_from_three(&[p; 3], &[p; 3]).is_none());
     let z = Vector3::zeros();
-    assert!(kabsch3(&[z; 3], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
+    assert!(rigid_from_three(&[z; 3], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
     let nan = Vector3::new(f32::NAN, 0.0, 0.0);
-    assert!(kabsch3(&[nan, Vector3::y(), Vector3::z()], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
+    assert!(rigid_from_three(&[nan, Vector3::y(), Vector3::z()], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
 }
 
 /// The input the property test shrank the EKF failure to: a 3.4e38 position, then 0. The filter

@@ -1,4 +1,4 @@
-//! Robust pose fit from correspondences: minimal-set RANSAC (3-point Kabsch hypotheses, MSAC
+//! Robust pose fit from correspondences: minimal-set RANSAC (3-point TRIAD hypotheses, MSAC
 //! scoring on the stereo reprojection residual, a fixed iteration budget with the standard early
 //! stop), then Levenberg-Marquardt on a truncated Huber cost, then the fit's information matrix.
 //!
@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix6, Vector6};
 
-use super::kabsch::kabsch3;
+use super::triad::rigid_from_three;
 use super::lie::{pose_is_finite, Mat6};
 use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
@@ -151,7 +151,7 @@ fn ransac(
         let (Some(a), Some(b), Some(c)) = (corrs.get(i), corrs.get(j), corrs.get(k)) else { continue };
         let src = [a.src, b.src, c.src];
         let dst = [model.target(a), model.target(b), model.target(c)];
-        let Some(m) = kabsch3(&src, &dst) else { continue };
+        let Some(m) = rigid_from_three(&src, &dst) else { continue };
         consider(m, &mut best);
         if let Some((_, _, inl)) = best {
             needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);

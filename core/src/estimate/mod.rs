@@ -6,7 +6,7 @@
 //! 1. **Assembly** ([`FrameAssembler`]): the [`crate::wire::FrameTracks`] parts of one frame
 //!    are collected into fixed, id-sorted arrays (one static list, one list per object).
 //! 2. **Ego-motion** ([`CameraTrack`]): static tracks matched by id between frames k-1 and k;
-//!    3-point Kabsch RANSAC (fixed budget, deterministic [`Pcg32`] seeded by the caller), then
+//!    3-point TRIAD RANSAC (fixed budget, deterministic [`Pcg32`] seeded by the caller), then
 //!    Levenberg-Marquardt on the stereo reprojection error `(u, v, disparity)` under a truncated
 //!    Huber kernel. The fit's information (J^T W J over the a-posteriori residual variance) is
 //!    the measurement of the camera motion.
@@ -90,7 +90,7 @@ mod estimator;
 pub mod joint;
 pub mod fit;
 pub mod frame;
-mod kabsch;
+mod triad;
 pub mod landmarks;
 mod lie;
 mod matching;
@@ -108,7 +108,7 @@ pub use chain::{spd_inverse, ChainScratch, ChainSmoother, SlotView, Smoothness};
 pub use estimator::{Estimator, Pushed, DEFAULT_WINDOW, ECU_WINDOW};
 pub use fit::{fit_pose, Fit, FitFailure};
 pub use frame::{FrameAssembler, FrameBuffer, Obs, ObjectPoints, MAX_PIXEL};
-pub use kabsch::kabsch3;
+pub use triad::rigid_from_three;
 pub use landmarks::{Landmark, Landmarks, MAX_LANDMARK_WEIGHT};
 pub use lie::{adjoint, PackedSym6};
 pub use model::{Correspondence, PointModel};

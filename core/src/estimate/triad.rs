@@ -19,7 +19,7 @@ const MIN_TRIANGLE_SHAPE: f32 = 0.05;
 /// The pose `m` with `m * src_i = dst_i` for three exact correspondences (close to it for noisy
 /// ones), or `None` for a degenerate (near-collinear or non-finite) triangle.
 #[must_use]
-pub fn kabsch3(src: &[Vector3<f32>; 3], dst: &[Vector3<f32>; 3]) -> Option<Pose3> {
+pub fn rigid_from_three(src: &[Vector3<f32>; 3], dst: &[Vector3<f32>; 3]) -> Option<Pose3> {
     let [a, b, c] = src;
     let [d0, d1, d2] = dst;
     if !well_shaped(a, b, c) || !well_shaped(d0, d1, d2) {
@@ -63,12 +63,12 @@ mod tests {
         let m = se3_exp(&Vector6::new(1.0, -0.5, 2.0, 0.1, 0.7, -0.2));
         let src = [Vector3::new(0.0, 0.0, 10.0), Vector3::new(2.0, 0.5, 12.0), Vector3::new(-1.0, 1.5, 9.0)];
         let dst = src.map(|s| m.transform_point(&Point3::from(s)).coords);
-        let fit = kabsch3(&src, &dst).unwrap();
+        let fit = rigid_from_three(&src, &dst).unwrap();
         assert!((fit.translation.vector - m.translation.vector).norm() < 1e-4);
         assert!(fit.rotation.angle_to(&m.rotation) < 1e-4);
         let line = [Vector3::new(0.0, 0.0, 1.0), Vector3::new(0.0, 0.0, 2.0), Vector3::new(0.0, 0.0, 3.0)];
-        assert!(kabsch3(&line, &line).is_none());
+        assert!(rigid_from_three(&line, &line).is_none());
         let nan = [Vector3::new(f32::NAN, 0.0, 1.0), src[1], src[2]];
-        assert!(kabsch3(&nan, &dst).is_none());
+        assert!(rigid_from_three(&nan, &dst).is_none());
     }
 }
