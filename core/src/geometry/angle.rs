@@ -61,7 +61,7 @@ mod tests {
 
     #[test]
     fn the_short_path_has_the_bits_of_the_remainder() {
-        let mut check = |a: f32| {
+        let check = |a: f32| {
             let (fast, general) = (wrap_angle(a), wrap_by_remainder(a));
             assert!(fast.to_bits() == general.to_bits() || (fast.is_nan() && general.is_nan()), "{a}: {fast} vs {general}");
         };
