@@ -111,15 +111,20 @@ fn bad_depths_and_pixels_are_skipped_and_counted() {
 }
 
 #[test]
-fn duplicate_track_ids_keep_the_first() {
+fn duplicate_track_ids_are_counted_and_one_copy_kept() {
     let frames = sim(10);
-    let run = feed(sim_frames(&frames).map(|(k, t, mut tracks)| {
-        // Every static track sent twice, the copy 40 px off: the copy must be ignored.
-        let copies: Vec<Track> = tracks.iter().filter(|t| t.is_static()).map(|t| Track { u: t.u + 40.0, ..*t }).collect();
-        tracks.extend(copies.into_iter().take(64));
-        (k, t, tracks)
+    let run = feed(sim_frames(&frames).map(|(k, t, tracks)| {
+        // 64 static tracks sent twice, the copy 40 px off and first: the copy must be ignored
+        // (the smaller pixel is kept, whatever the order). The list keeps room for the copies:
+        // repeats count against its capacity until the frame completes.
+        let statics: Vec<Track> = tracks.iter().filter(|t| t.is_static()).take(192).copied().collect();
+        let mut out: Vec<Track> = statics.iter().take(64).map(|t| Track { u: t.u + 40.0, ..*t }).collect();
+        out.extend(statics);
+        out.extend(tracks.iter().filter(|t| !t.is_static()).copied());
+        (k, t, out)
     }));
     assert_eq!(run.stats.tracks_duplicate, 10 * 64);
+    assert_eq!(run.stats.static_tracks_dropped, 0);
     assert_eq!(run.stats.camera_motion_held, 0);
     let z = run.causal[9].camera.translation.vector.z;
     assert!((z - 7.2).abs() < 0.02, "camera at {z} m, expected 7.2 m");
