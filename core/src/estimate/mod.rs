@@ -73,7 +73,7 @@
 //! | depth beyond `max_depth` | skip the track | `tracks_too_far` |
 //! | pixel non-finite or outside [0, 4096) px | skip the track | `tracks_bad_pixel` |
 //! | track id repeated in a frame (static list or one object) | keep one, the smallest by (pixel, depth), whatever the arrival order | `tracks_duplicate` |
-//! | more than 256 static / 128 per-object tracks | drop the excess (arrival order) | `static_tracks_dropped`, `object_points_dropped` |
+//! | more than 256 static / 128 per-object tracks | drop the excess (arrival order; repeated ids count until the frame completes) | `static_tracks_dropped`, `object_points_dropped` |
 //! | more than 16 objects in a frame | drop the later objects' tracks (the sender orders by priority) | `object_tracks_dropped`, `frames_with_objects_dropped` |
 //! | fewer static matches than `min_inliers`, or RANSAC/LM fails | hold the previous ego-motion; the smoother gets no measurement | `camera_motion_held` |
 //! | fewer object matches than `object_min_points`, or the fit fails | hold the previous object motion; after [`MAX_HELD_FRAMES`] holds re-initialise | `object_motion_held` |
