@@ -131,18 +131,18 @@ fn ransac(
     let tau2 = fp.inlier_px * fp.inlier_px;
     let n = corrs.len();
     let mut best: Option<(Pose3, f32, u16)> = None;
-    let consider = |m: Pose3, best: &mut Option<(Pose3, f32, u16)>| {
+    let mut needed = fp.ransac_iterations;
+    // A hypothesis that scores better becomes the best, and the iterations still needed follow
+    // its inlier share (recomputed only then: it depends on nothing else).
+    let consider = |m: Pose3, best: &mut Option<(Pose3, f32, u16)>, needed: &mut u16| {
         let bound = best.as_ref().map_or(f32::INFINITY, |b| b.1);
         if let Some((cost, inl)) = score(corrs, &m, tau2, model, bound) {
             *best = Some((m, cost, inl));
+            *needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);
         }
     };
     if let Some(g) = guess.filter(|g| pose_is_finite(g)) {
-        consider(*g, &mut best);
-    }
-    let mut needed = fp.ransac_iterations;
-    if let Some((_, _, inl)) = best {
-        needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);
+        consider(*g, &mut best, &mut needed);
     }
     let mut it = 0u16;
     while it < needed {
@@ -152,10 +152,7 @@ fn ransac(
         let src = [a.src, b.src, c.src];
         let dst = [model.target(a), model.target(b), model.target(c)];
         let Some(m) = rigid_from_three(&src, &dst) else { continue };
-        consider(m, &mut best);
-        if let Some((_, _, inl)) = best {
-            needed = needed_iterations(f32::from(inl) / n as f32, fp.confidence, fp.ransac_iterations);
-        }
+        consider(m, &mut best, &mut needed);
     }
     best.map(|(m, _, inl)| (m, inl))
 }

@@ -22,11 +22,9 @@ const MIN_TRIANGLE_SHAPE: f32 = 0.05;
 pub fn rigid_from_three(src: &[Vector3<f32>; 3], dst: &[Vector3<f32>; 3]) -> Option<Pose3> {
     let [a, b, c] = src;
     let [d0, d1, d2] = dst;
-    if !well_shaped(a, b, c) || !well_shaped(d0, d1, d2) {
-        return None;
-    }
     // R F_src = F_dst.
-    let r = triad(d0, d1, d2)? * triad(a, b, c)?.transpose();
+    let (f_src, f_dst) = (triad(a, b, c)?, triad(d0, d1, d2)?);
+    let r = f_dst * f_src.transpose();
     let cs = (a + b + c) / 3.0;
     let cd = (d0 + d1 + d2) / 3.0;
     let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
@@ -36,19 +34,20 @@ pub fn rigid_from_three(src: &[Vector3<f32>; 3], dst: &[Vector3<f32>; 3]) -> Opt
 }
 
 /// The orthonormal frame of a triangle as the columns of a matrix: its first edge, the normal,
-/// and the normal crossed with the edge.
+/// and the normal crossed with the edge; `None` for a non-finite or too thin triangle (twice
+/// its area at most [`MIN_TRIANGLE_SHAPE`] of its squared longest side).
 fn triad(a: &Vector3<f32>, b: &Vector3<f32>, c: &Vector3<f32>) -> Option<Matrix3<f32>> {
-    let e1 = (b - a).try_normalize(0.0)?;
-    let n = (b - a).cross(&(c - a)).try_normalize(0.0)?;
-    Some(Matrix3::from_columns(&[e1, n.cross(&e1), n]))
-}
-
-/// True for a finite, not too thin triangle.
-fn well_shaped(a: &Vector3<f32>, b: &Vector3<f32>, c: &Vector3<f32>) -> bool {
     let (ab, ac, bc) = (b - a, c - a, c - b);
     let longest = ab.norm_squared().max(ac.norm_squared()).max(bc.norm_squared());
-    let twice_area = ab.cross(&ac).norm();
-    longest.is_finite() && twice_area.is_finite() && longest > 0.0 && twice_area > MIN_TRIANGLE_SHAPE * longest
+    let normal = ab.cross(&ac);
+    let twice_area = normal.norm();
+    let well_shaped = longest.is_finite() && twice_area.is_finite() && longest > 0.0 && twice_area > MIN_TRIANGLE_SHAPE * longest;
+    if !well_shaped {
+        return None;
+    }
+    let e1 = ab.try_normalize(0.0)?;
+    let n = normal.try_normalize(0.0)?;
+    Some(Matrix3::from_columns(&[e1, n.cross(&e1), n]))
 }
 
 #[cfg(test)]

@@ -66,7 +66,8 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
     let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
-    let estimate_cache = if args.no_cache { None } else { args.data.estimate_cache.clone().or_else(|| cache.clone()) };
+    // --no-cache recomputes the estimates too; without --estimate-cache they live in the report's cache.
+    let estimate_cache = args.data.estimate_cache.clone().filter(|_| !args.no_cache).or_else(|| cache.clone());
     let sequences = args.data.load_cached(&[], &args.arms, estimate_cache)?;
     let test_sequences =
         if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
