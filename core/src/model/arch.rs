@@ -18,8 +18,9 @@
 //!     u_prev = (mu_w, mu_a)                     (standardised, unclamped: fed back as is)
 //!     control = clamp(mu_w * TURN_RATE_SCALE, +-0.7), clamp(mu_a * ACCEL_SCALE, +-4)
 //!     state = unicycle_step(state, control, dt)  (agent frame, from (0, 0, 0, speed))
-//! where the agent frame and speed are `features::rollout_start`: along the last displacement,
-//! at its speed, so that zero controls reproduce the constant-velocity forecast.
+//! where the agent frame and speed are `features::rollout_start`: along the current velocity of
+//! a parabola fitted through the history (`predict::fitted_velocity`), at its speed, so that zero
+//! controls reproduce the `cv-fit` baseline (`predict::constant_velocity_fit`).
 //! ```
 //!
 //! Training adds q(z|x,y) = Linear(cond + 2*FUTURE_ENC -> k) over a bidirectional LSTM of the
@@ -36,7 +37,7 @@
 //!
 //! For a history of states s_0..s_n (oldest first, s_n current; 1 <= n <= MAX_HISTORY), the
 //! agent frame (`features::rollout_start`) has its origin at s_n's position and its x axis along
-//! the last displacement s_n - s_(n-1) (along s_n's heading below 1 m/s). Per state:
+//! the fitted current velocity (along s_n's heading below 1 m/s). Per state:
 //! position p_i (agent frame), velocity v_i = (p_i - p_(i-1)) / dt (v_0 = v_1; 0 when n = 0),
 //! acceleration a_i = (v_i - v_(i-1)) / dt (a_0 = 0), relative heading wrap(h_i - h_n), heading
 //! rate r_i = wrap(h_i - h_(i-1)) / dt (r_0 = r_1). The feature vector is

@@ -26,8 +26,10 @@ use crate::wire::crc32;
 
 /// The blob's magic bytes.
 pub const BLOB_MAGIC: [u8; 4] = *b"DTJM";
-/// Version of the blob layout (and of the architecture it encodes).
-pub const BLOB_VERSION: u16 = 1;
+/// Version of the blob layout (and of the architecture it encodes, including where the rollout
+/// starts: a blob's controls are corrections to that start). 2: the rollout starts from the
+/// fitted current velocity (`features::rollout_start`) instead of the last displacement.
+pub const BLOB_VERSION: u16 = 2;
 /// Header length, bytes.
 pub const HEADER_LEN: usize = 32;
 /// CRC trailer length, bytes.

@@ -53,26 +53,28 @@ impl AgentFrame {
     }
 }
 
-/// Below this displacement speed (m/s) the direction of the last displacement is mostly noise,
-/// so the rollout keeps the source's heading.
+/// Below this fitted speed (m/s) the direction of motion is mostly noise, so the rollout keeps
+/// the source's heading.
 pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
 
 /// Where the decoder's rollout starts for a history (oldest first, at least two states): the
-/// agent frame, at the current position with its x axis along the last displacement (the
-/// source's heading when the object barely moves), and the initial speed, |last displacement| /
-/// dt. At zero controls the forecast is then exactly the constant-velocity forecast, and the
-/// network learns corrections to it; Trajectron++ likewise starts its unicycle from
-/// atan2(vy, vx) and |v|. Starting from the source's own heading and speed instead lets a
+/// agent frame, at the current position with its x axis along the current velocity of the
+/// least-squares parabola through the history ([`crate::predict::fitted_velocity`]; the
+/// source's heading when the object barely moves), and that velocity's magnitude as the initial
+/// speed. At zero controls the forecast is then the `cv-fit` baseline, and the network learns
+/// corrections to it. Trajectron++ starts its unicycle from atan2(vy, vx) and |v| of the current
+/// finite difference; the fit has its lag-free slope at half the noise (the tuning folds:
+/// docs/decisions.md). Starting from the source's own heading and speed instead would let a
 /// smoother's lag (the EKF trails turns and braking) leak straight into every forecast.
 #[must_use]
 pub fn rollout_start(history: &[BevState], dt: f32) -> Option<(AgentFrame, f32)> {
-    let [.., prev, cur] = history else { return None };
-    let (dx, dy) = (cur.x - prev.x, cur.y - prev.y);
-    let speed = libm::hypotf(dx, dy) / dt;
-    if !(speed.is_finite() && dt > 0.0) {
+    let cur = history.last()?;
+    let v = crate::predict::fitted_velocity(history, dt)?;
+    let speed = libm::hypotf(v.x, v.y);
+    if !speed.is_finite() {
         return None;
     }
-    let heading = if speed >= MOTION_HEADING_MIN_SPEED { libm::atan2f(dy, dx) } else { cur.heading };
+    let heading = if speed >= MOTION_HEADING_MIN_SPEED { libm::atan2f(v.y, v.x) } else { cur.heading };
     Some((AgentFrame::new(cur.position(), heading), speed))
 }
 

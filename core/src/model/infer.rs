@@ -314,8 +314,8 @@ mod tests {
     }
 
     #[test]
-    fn zero_controls_reproduce_constant_velocity() {
-        use crate::predict::constant_velocity;
+    fn zero_controls_reproduce_constant_velocity_along_the_fitted_velocity() {
+        use crate::predict::constant_velocity_fit;
         let dims = Dims::DEFAULT;
         let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| vec![0.0; r * c]).collect();
         let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
@@ -324,7 +324,7 @@ mod tests {
         let mut p = LearnedPredictor::new(ModelBlob::parse(&buf).unwrap());
         let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
         p.predict(&history(), 0.05, &mut a).unwrap();
-        constant_velocity(&history(), 0.05, &mut b).unwrap();
+        constant_velocity_fit(&history(), 0.05, &mut b).unwrap();
         for (x, y) in a.iter().zip(&b) {
             assert!(x.distance(y) < 1e-3, "{x:?} vs {y:?}");
         }

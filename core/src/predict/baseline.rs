@@ -1,5 +1,6 @@
 //! Baseline predictors: constant velocity (CV) and constant turn rate and acceleration (CTRA).
 
+use super::fit::fitted_velocity;
 use super::{checked_forecast, checked_history, unicycle_step, Forecast, PredictError, Predictor};
 use crate::geometry::{angle_diff, BevState, Point2};
 
@@ -17,6 +18,21 @@ pub fn constant_velocity(history: &[BevState], dt: f32, out: &mut Forecast) -> R
     for (k, p) in out.iter_mut().enumerate() {
         let t = (k + 1) as f32 * dt;
         *p = Point2::new(cur.x + vx * t, cur.y + vy * t);
+    }
+    checked_forecast(out)
+}
+
+/// Constant velocity along the least-squares line through the history ([`fitted_velocity`]),
+/// from the current position. Like [`constant_velocity`] it reads positions only.
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn constant_velocity_fit(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    let h = checked_history(history, dt)?;
+    let (Some(cur), Some(v)) = (h.last(), fitted_velocity(h, dt)) else { return Err(PredictError::HistoryTooShort) };
+    for (k, p) in out.iter_mut().enumerate() {
+        let t = (k + 1) as f32 * dt;
+        *p = Point2::new(cur.x + v.x * t, cur.y + v.y * t);
     }
     checked_forecast(out)
 }
@@ -47,6 +63,8 @@ pub fn ctra(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), Pre
 pub enum Baseline {
     /// [`constant_velocity`].
     ConstantVelocity,
+    /// [`constant_velocity_fit`].
+    ConstantVelocityFit,
     /// [`ctra`].
     Ctra,
 }
@@ -55,6 +73,7 @@ impl Predictor for Baseline {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
         match self {
             Self::ConstantVelocity => constant_velocity(history, dt, out),
+            Self::ConstantVelocityFit => constant_velocity_fit(history, dt, out),
             Self::Ctra => ctra(history, dt, out),
         }
     }
@@ -77,6 +96,24 @@ mod tests {
         constant_velocity(&h, 0.1, &mut out).unwrap_or_default();
         assert!((out[0].x - 2.0).abs() < 1e-5 && (out[0].y - 1.0).abs() < 1e-5);
         assert!((out[HORIZON - 1].x - 31.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn cv_fit_holds_the_current_velocity_of_the_fitted_parabola() {
+        // Braking from 10 m/s at 2 m/s^2 over seven frames of 0.1 s: 8.8 m/s at the newest.
+        let h: [BevState; 7] = core::array::from_fn(|k| {
+            let t = k as f32 * 0.1;
+            st(10.0 * t - t * t, 1.0, 0.0, 0.0)
+        });
+        let (mut fit, mut last) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
+        constant_velocity_fit(&h, 0.1, &mut fit).unwrap_or_default();
+        constant_velocity(&h, 0.1, &mut last).unwrap_or_default();
+        let cur = h[6].x;
+        assert!((fit[0].x - (cur + 0.88)).abs() < 1e-3, "{:?}", fit[0]);
+        assert!((last[0].x - (cur + 0.89)).abs() < 1e-3, "the last displacement is half a frame older");
+        assert!((fit[HORIZON - 1].y - 1.0).abs() < 1e-5);
+        assert_eq!(Baseline::ConstantVelocityFit.predict(&h, 0.1, &mut last), Ok(()));
+        assert_eq!(last, fit);
     }
 
     #[test]

@@ -4,9 +4,11 @@
 //! whose last element is frame s; it holds positions for frames s+1 ..= s+HORIZON.
 
 mod baseline;
+mod fit;
 mod unicycle;
 
-pub use baseline::{constant_velocity, ctra, Baseline};
+pub use baseline::{constant_velocity, constant_velocity_fit, ctra, Baseline};
+pub use fit::fitted_velocity;
 pub use unicycle::{clamp_controls, unicycle_step};
 
 use crate::geometry::{BevState, Point2};

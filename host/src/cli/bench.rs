@@ -140,7 +140,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             ]);
         }
     }
-    for (name, mut b) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
+    for (name, mut b) in [("cv", Baseline::ConstantVelocity), ("cv-fit", Baseline::ConstantVelocityFit), ("ctra", Baseline::Ctra)] {
         let us = time_per_forecast(&mut b, dt, args.iterations * 10);
         t.push([name.to_string(), "-".into(), "0".into(), "0".into(), "0".into(), format!("{us:.2}")]);
     }

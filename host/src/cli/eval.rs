@@ -17,6 +17,8 @@ use crate::trajectory::{eligible_runs, Source};
 pub enum PredictorSpec {
     /// Constant velocity from the last two positions.
     Cv,
+    /// Constant velocity along the least-squares line through the history.
+    CvFit,
     /// Constant turn rate and acceleration on the unicycle, within the paper's limits.
     Ctra,
     /// A trained model blob (f32 or int8) from `dynotraj train`.
@@ -28,12 +30,13 @@ impl std::str::FromStr for PredictorSpec {
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
             "cv" => Ok(Self::Cv),
+            "cv-fit" => Ok(Self::CvFit),
             "ctra" => Ok(Self::Ctra),
             _ => s
                 .strip_prefix("model:")
                 .filter(|p| !p.is_empty())
                 .map(|p| Self::Model(PathBuf::from(p)))
-                .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, ctra or model:PATH")),
+                .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH")),
         }
     }
 }
@@ -44,6 +47,7 @@ impl PredictorSpec {
     pub fn label(&self) -> String {
         match self {
             Self::Cv => "cv".into(),
+            Self::CvFit => "cv-fit".into(),
             Self::Ctra => "ctra".into(),
             Self::Model(p) => format!("model {}", p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())),
         }
@@ -63,7 +67,8 @@ pub struct EvalArgs {
     /// frames). Each source is scored against its own future (the paper's protocol).
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
-    /// Predictors, comma-separated: cv, ctra, or model:PATH (a blob written by `dynotraj
+    /// Predictors, comma-separated: cv, cv-fit (constant velocity of a line fitted through the
+    /// history), ctra, or model:PATH (a blob written by `dynotraj
     /// train`, f32 or int8; it must have been trained at the same --rate).
     #[arg(long, value_delimiter = ',', default_value = "cv", value_name = "LIST")]
     pub predictor: Vec<PredictorSpec>,
@@ -107,6 +112,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
             };
             let mut forecaster: Box<dyn Forecaster + '_> = match (spec, &model) {
                 (PredictorSpec::Cv, _) => Box::new(Baseline::ConstantVelocity),
+                (PredictorSpec::CvFit, _) => Box::new(Baseline::ConstantVelocityFit),
                 (PredictorSpec::Ctra, _) => Box::new(Baseline::Ctra),
                 (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),
                 (PredictorSpec::Model(p), None) => anyhow::bail!("model {} not loaded", p.display()),

@@ -22,7 +22,7 @@ use super::FoldReport;
 use crate::train::TrainConfig;
 
 /// Version of what training computes; part of every key.
-pub const CACHE_VERSION: u32 = 1;
+pub const CACHE_VERSION: u32 = 2;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]

@@ -39,7 +39,8 @@ pub enum Scoring {
     CommonTruth,
 }
 
-/// One sentence per arm (its int8 model against cv on the same source) and one per pair of
+/// One or two sentences per arm (its int8 model against cv, and against cv-fit, on the same
+/// source) and one per pair of
 /// the Estimated arm with a GT arm (int8 models), scored as `scoring` says.
 #[must_use]
 pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec<String> {
@@ -60,6 +61,13 @@ pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec
                 if beats { "beats" } else { "does not beat" },
                 compare(l, cv)
             ));
+            if let Some(fit) = total_of(arms, &format!("cv-fit on {s}")) {
+                out.push(format!(
+                    "{prefix}{s}: against its own zero-control forecast (cv-fit, constant velocity along the fitted velocity) the learned int8 model {} on the weighted ADE: {}.",
+                    if l[0] < fit[0] { "gains" } else { "gains nothing" },
+                    compare(l, fit)
+                ));
+            }
         }
     }
     for ours in sources.iter().filter(|s| s.is_estimated()) {
@@ -92,5 +100,9 @@ mod tests {
         assert!(f[0].starts_with("estimated: the learned int8 model beats"), "{}", f[0]);
         assert!(f[1].starts_with("gt: the learned int8 model does not beat"), "{}", f[1]);
         assert!(f[2].contains("ADE 1.00 vs 1.30 (lower)"), "{}", f[2]);
+        let with_fit = [arm("learned int8 on gt", 1.3), arm("cv on gt", 1.2), arm("cv-fit on gt", 1.25)];
+        let g = findings(&with_fit, &[Source::Gt], Scoring::OwnFuture);
+        assert_eq!(g.len(), 2, "{g:?}");
+        assert!(g[1].starts_with("gt: against its own zero-control forecast") && g[1].contains("gains nothing"), "{}", g[1]);
     }
 }

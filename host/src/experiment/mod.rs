@@ -68,7 +68,8 @@ pub struct FoldReport {
     pub val_ade: f32,
     /// Constant-velocity ADE on the same validation runs, metres.
     pub val_cv_ade: f32,
-    /// The epoch kept (0: the untrained model, i.e. constant velocity).
+    /// The epoch kept (0: the untrained model, i.e. constant velocity along the fitted
+    /// velocity, cv-fit).
     pub best_epoch: usize,
     /// The output shrink factor kept.
     pub shrink: f32,
@@ -217,7 +218,7 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
         if truths.is_some() {
             common_arms.extend(learned_common);
         }
-        for (name, mut baseline) in [("cv", Baseline::ConstantVelocity), ("ctra", Baseline::Ctra)] {
+        for (name, mut baseline) in [("cv", Baseline::ConstantVelocity), ("cv-fit", Baseline::ConstantVelocityFit), ("ctra", Baseline::Ctra)] {
             let mut own = ArmScores { label: format!("{name} on {source}"), per_sequence: Vec::new() };
             let mut common = own.clone();
             for ((r, sc), rf) in runs.iter().zip(&scenes).zip(&references) {

@@ -94,7 +94,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     }
     let folds = folds_table(&report.folds);
     write("folds.csv".into(), &folds.render(Format::Csv))?;
-    let _ = writeln!(md, "## Folds\n\nEpoch 0 is the untrained model (the constant-velocity forecast), kept when no epoch beats it on the held-out training sequences.\n\n{}\n", folds.render(Format::Md).trim_end());
+    let _ = writeln!(md, "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola fitted through the history), kept when no epoch beats it on the held-out training sequences.\n\n{}\n", folds.render(Format::Md).trim_end());
     if !report.figures.is_empty() {
         md.push_str("## Figures\n\n");
         for f in &report.figures {

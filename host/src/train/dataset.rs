@@ -37,7 +37,7 @@ pub struct Sample {
     pub neighbours: StepFeatures,
     /// The decoder's first control input (`initial_control` of the newest row).
     pub initial_control: [f32; 2],
-    /// The unicycle's initial speed, m/s (`rollout_start`: the last displacement over dt).
+    /// The unicycle's initial speed, m/s (`rollout_start`: the fitted current velocity's).
     pub speed: f32,
     /// Future positions, frames s+1 ..= s+HORIZON, agent frame, metres.
     pub future: [Point2; HORIZON],
@@ -58,6 +58,16 @@ impl Sample {
         // The current position is the agent frame's origin; the step is minus the previous one.
         let (dx, dy) = (-prev[0] * POS_SCALE, -prev[1] * POS_SCALE);
         let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * dx - p.x).hypot((k + 1) as f32 * dy - p.y)).sum();
+        sum / HORIZON as f32
+    }
+
+    /// ADE (metres) of the forecast at zero controls: constant speed along the agent frame's x
+    /// axis, which is the rollout start (`rollout_start`, the cv-fit forecast), at frame period
+    /// `dt`.
+    #[must_use]
+    pub fn start_ade(&self, dt: f32) -> f32 {
+        let step = self.speed * dt;
+        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * step - p.x).hypot(p.y)).sum();
         sum / HORIZON as f32
     }
 

@@ -45,7 +45,7 @@ pub struct Hyper {
     pub weight_decay: f64,
     /// Seed of the shuffling (and, in [`super::TrainConfig`], of the initial weights).
     pub seed: u64,
-    /// Keep the untrained model (zero controls: the constant-velocity forecast) when no
+    /// Keep the untrained model (zero controls: the cv-fit forecast) when no
     /// epoch beats it on the held-out runs. Off only to study trained weights as they are.
     pub keep_untrained_if_better: bool,
     /// After training, scale the mean-control outputs by the factor of [`SHRINK_FACTORS`]
@@ -54,7 +54,7 @@ pub struct Hyper {
 }
 
 /// Factors tried by [`shrink_towards_cv`] (1: the trained weights; 0 would be the
-/// constant-velocity forecast, which the untrained epoch 0 already is).
+/// cv-fit forecast, which the untrained epoch 0 already is).
 pub const SHRINK_FACTORS: [f32; 4] = [0.25, 0.5, 0.75, 1.0];
 
 impl Default for Hyper {
@@ -181,8 +181,8 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
     let per_epoch = train.len().div_ceil(batch);
     let total = per_epoch * hyper.epochs;
     let mut order: Vec<usize> = (0..train.len()).collect();
-    // Epoch 0 is the untrained model (the constant-velocity forecast when the output layer starts
-    // at zero): a trained epoch is kept only if it beats it on the held-out runs.
+    // Epoch 0 is the untrained model (the cv-fit forecast, constant velocity along the fitted
+    // velocity, when the output layer starts at zero): a trained epoch is kept only if it beats it on the held-out runs.
     let untrained = if hyper.keep_untrained_if_better { mean_ade(net, held_out, dt)? } else { f32::INFINITY };
     let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0, shrink: 1.0 };
     let mut best = snapshot(vars)?;
@@ -246,7 +246,7 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
 /// acceleration) by each of [`SHRINK_FACTORS`], keeps the factor with the lowest ADE on
 /// `held_out` and returns it with that ADE. Why: a fold's eight sequences are few, and a
 /// correction learned on them can be right in direction but too strong on another sequence;
-/// shrinking towards zero controls (constant velocity) is the one-number regulariser that
+/// shrinking towards zero controls (constant velocity along the fitted velocity) is the one-number regulariser that
 /// held-out runs can choose. The factor is folded into the weights, so the blob and core
 /// inference need nothing new.
 ///

@@ -172,7 +172,7 @@ mod tests {
     }
 
     #[test]
-    fn the_position_term_of_the_untrained_model_is_the_constant_velocity_ade() {
+    fn the_position_term_of_the_untrained_model_is_the_ade_of_the_rollout_start() {
         use dynotraj_core::model::arch::Dims;
 
         use crate::train::synthetic::{constant_control_runs, samples};
@@ -183,8 +183,8 @@ mod tests {
         let (net, _) = Network::new(Dims { enc: 8, edge: 8, k: 3, dec: 16 }, 1).unwrap();
         let only_position = LossConfig { likelihood_weight: 0.0, ade_weight: 2.0, ..LossConfig::default() };
         let l = loss(&net, &b, dt, 1.0, &only_position).unwrap();
-        let cv = all.iter().map(crate::train::Sample::constant_velocity_ade).sum::<f32>() / all.len() as f32;
-        assert!(cv > 0.05 && (l.ade - cv).abs() < 1e-3 * cv.max(1.0), "zero controls forecast constant velocity: {} vs {cv}", l.ade);
+        let start = all.iter().map(|s| s.start_ade(dt)).sum::<f32>() / all.len() as f32;
+        assert!(start > 0.05 && (l.ade - start).abs() < 1e-3 * start.max(1.0), "zero controls forecast cv-fit: {} vs {start}", l.ade);
         assert!((l.total.to_scalar::<f32>().unwrap() - 2.0 * l.ade).abs() < 1e-4, "only the weighted position term is left");
     }
 }

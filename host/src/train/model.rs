@@ -89,7 +89,8 @@ impl Network {
             dec_init: linear(&mut p, "dec_init", k + cond, dec)?,
             gru: GruCell::new(&mut p, "gru", 2 + k + cond, dec)?,
             // Zero output layer: the untrained model forecasts zero controls, i.e. exactly the
-            // constant-velocity forecast, and training starts from that solution.
+            // constant-velocity forecast along the fitted velocity (cv-fit), and training
+            // starts from that solution.
             out: linear_within(&mut p, "out", dec, OUTPUTS, 0.0)?,
             future_fwd: LstmCell::new(&mut p, "future", "", 2, FUTURE_ENC)?,
             future_bwd: LstmCell::new(&mut p, "future", "_reverse", 2, FUTURE_ENC)?,
