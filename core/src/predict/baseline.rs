@@ -1,4 +1,5 @@
-//! Baseline predictors: constant velocity (CV) and constant turn rate and acceleration (CTRA).
+//! Baseline predictors: constant velocity (CV, and cv-fit along a fitted velocity) and constant
+//! turn rate and acceleration (CTRA).
 
 use super::fit::fitted_velocity;
 use super::{checked_forecast, checked_history, unicycle_step, Forecast, PredictError, Predictor};
@@ -14,22 +15,23 @@ use crate::geometry::{angle_diff, BevState, Point2};
 pub fn constant_velocity(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
     let h = checked_history(history, dt)?;
     let [.., prev, cur] = h else { return Err(PredictError::HistoryTooShort) };
-    let (vx, vy) = ((cur.x - prev.x) / dt, (cur.y - prev.y) / dt);
-    for (k, p) in out.iter_mut().enumerate() {
-        let t = (k + 1) as f32 * dt;
-        *p = Point2::new(cur.x + vx * t, cur.y + vy * t);
-    }
-    checked_forecast(out)
+    hold_velocity(cur, Point2::new((cur.x - prev.x) / dt, (cur.y - prev.y) / dt), dt, out)
 }
 
-/// Constant velocity along the least-squares line through the history ([`fitted_velocity`]),
-/// from the current position. Like [`constant_velocity`] it reads positions only.
+/// Constant velocity along the current velocity of the least-squares parabola through the
+/// history ([`fitted_velocity`]), from the current position (`cv-fit`: the learned model's
+/// forecast at zero controls). Like [`constant_velocity`] it reads positions only.
 ///
 /// # Errors
 /// See [`PredictError`].
 pub fn constant_velocity_fit(history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
     let h = checked_history(history, dt)?;
     let (Some(cur), Some(v)) = (h.last(), fitted_velocity(h, dt)) else { return Err(PredictError::HistoryTooShort) };
+    hold_velocity(cur, v, dt, out)
+}
+
+/// Fills `out` with the positions of `cur` moving at velocity `v` (m/s) for 1..=HORIZON frames.
+fn hold_velocity(cur: &BevState, v: Point2, dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
     for (k, p) in out.iter_mut().enumerate() {
         let t = (k + 1) as f32 * dt;
         *p = Point2::new(cur.x + v.x * t, cur.y + v.y * t);
