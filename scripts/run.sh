@@ -20,4 +20,4 @@ echo "## Eligible objects and test instances (Table I layout)"
 "$bin" dataset --kitti "$DYNOTRAJ_KITTI" --source gt,estimated --estimate-cache "$out/cache" "$@"
 echo
 echo "## Baselines on the paper's test sequences (Table IV layout)"
-"$bin" eval --kitti "$DYNOTRAJ_KITTI" --source gt,gt-ekf,gt-rts,estimated,estimated-smoothed --predictor cv,ctra --estimate-cache "$out/cache" "$@"
+"$bin" eval --kitti "$DYNOTRAJ_KITTI" --source gt,gt-ekf,gt-rts,estimated,estimated-smoothed --predictor cv,cv-fit,ctra --estimate-cache "$out/cache" "$@"

@@ -35,7 +35,7 @@ fn dataset_and_eval_on_a_synthetic_drive() {
     assert_eq!(cell(&t, 0, "0001"), "-");
     assert_eq!(cell(&t, 1, "sum"), "38");
 
-    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,gt-ekf", "--predictor", "cv,ctra"])
+    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,gt-ekf", "--predictor", "cv,cv-fit,ctra"])
     else {
         panic!()
     };
@@ -48,6 +48,8 @@ fn dataset_and_eval_on_a_synthetic_drive() {
     // paths use turn rates and accelerations within the limits), CV drifts on the curve.
     assert!(ade("ctra on gt") < 0.05, "{t:?}");
     assert!(ade("cv on gt") > ade("ctra on gt"));
+    // The parabola's slope is the current velocity; the last displacement is half a frame old.
+    assert!(ade("cv-fit on gt") < ade("cv on gt"), "{t:?}");
     assert!(ade("cv on gt-ekf").is_finite());
     let instances = t.rows.last().unwrap();
     assert_eq!(instances[2], "38 (36)");
