@@ -133,21 +133,10 @@ fn round_non_negative(y: f32) -> f32 {
 fn sort_unique<const N: usize>(list: &mut Vec<Obs, N>) -> usize {
     list.sort_unstable_by_key(|o| (o.track_id, o.u, o.v, o.depth.to_bits()));
     let n = list.len();
-    let mut kept = 0usize;
     let mut last = None;
-    for i in 0..n {
-        let Some(o) = list.get(i).copied() else { break };
-        if last == Some(o.track_id) {
-            continue;
-        }
-        last = Some(o.track_id);
-        if let Some(slot) = list.get_mut(kept) {
-            *slot = o;
-        }
-        kept += 1;
-    }
-    list.truncate(kept);
-    n - kept
+    // Sorted: the first copy of an id is its smallest; later ones repeat the previous id.
+    list.retain(|o| last.replace(o.track_id) != Some(o.track_id));
+    n - list.len()
 }
 
 /// Depth limits applied while assembling.

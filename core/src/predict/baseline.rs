@@ -71,6 +71,21 @@ pub enum Baseline {
     Ctra,
 }
 
+impl Baseline {
+    /// Every baseline, in the order tables print them.
+    pub const ALL: [Self; 3] = [Self::ConstantVelocity, Self::ConstantVelocityFit, Self::Ctra];
+
+    /// The name in tables and on the command line.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::ConstantVelocity => "cv",
+            Self::ConstantVelocityFit => "cv-fit",
+            Self::Ctra => "ctra",
+        }
+    }
+}
+
 impl Predictor for Baseline {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
         match self {

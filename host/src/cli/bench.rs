@@ -140,9 +140,9 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             ]);
         }
     }
-    for (name, mut b) in [("cv", Baseline::ConstantVelocity), ("cv-fit", Baseline::ConstantVelocityFit), ("ctra", Baseline::Ctra)] {
+    for mut b in Baseline::ALL {
         let us = time_per_forecast(&mut b, dt, args.iterations * 10);
-        t.push([name.to_string(), "-".into(), "0".into(), "0".into(), "0".into(), format!("{us:.2}")]);
+        t.push([b.name().to_string(), "-".into(), "0".into(), "0".into(), "0".into(), format!("{us:.2}")]);
     }
     Ok(t)
 }

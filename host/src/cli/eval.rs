@@ -15,12 +15,10 @@ use crate::trajectory::{eligible_runs, Source};
 /// A predictor `eval` can run.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum PredictorSpec {
-    /// Constant velocity from the last two positions.
-    Cv,
-    /// Constant velocity along the least-squares line through the history.
-    CvFit,
-    /// Constant turn rate and acceleration on the unicycle, within the paper's limits.
-    Ctra,
+    /// A baseline by its name ([`Baseline::name`]): cv (constant velocity from the last two
+    /// positions), cv-fit (along the fitted current velocity), ctra (constant turn rate and
+    /// acceleration on the unicycle, within the paper's limits).
+    Baseline(Baseline),
     /// A trained model blob (f32 or int8) from `dynotraj train`.
     Model(PathBuf),
 }
@@ -28,16 +26,13 @@ pub enum PredictorSpec {
 impl std::str::FromStr for PredictorSpec {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        match s {
-            "cv" => Ok(Self::Cv),
-            "cv-fit" => Ok(Self::CvFit),
-            "ctra" => Ok(Self::Ctra),
-            _ => s
-                .strip_prefix("model:")
-                .filter(|p| !p.is_empty())
-                .map(|p| Self::Model(PathBuf::from(p)))
-                .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH")),
+        if let Some(b) = Baseline::ALL.into_iter().find(|b| b.name() == s) {
+            return Ok(Self::Baseline(b));
         }
+        s.strip_prefix("model:")
+            .filter(|p| !p.is_empty())
+            .map(|p| Self::Model(PathBuf::from(p)))
+            .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH"))
     }
 }
 
@@ -46,9 +41,7 @@ impl PredictorSpec {
     #[must_use]
     pub fn label(&self) -> String {
         match self {
-            Self::Cv => "cv".into(),
-            Self::CvFit => "cv-fit".into(),
-            Self::Ctra => "ctra".into(),
+            Self::Baseline(b) => b.name().into(),
             Self::Model(p) => format!("model {}", p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())),
         }
     }
@@ -67,9 +60,10 @@ pub struct EvalArgs {
     /// frames). Each source is scored against its own future (the paper's protocol).
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
-    /// Predictors, comma-separated: cv, cv-fit (constant velocity of a line fitted through the
-    /// history), ctra, or model:PATH (a blob written by `dynotraj
-    /// train`, f32 or int8; it must have been trained at the same --rate).
+    /// Predictors, comma-separated: cv, cv-fit (constant velocity along the current velocity of
+    /// a parabola fitted through the history: the learned model at zero controls), ctra, or
+    /// model:PATH (a blob written by `dynotraj train`, f32 or int8; it must have been trained at
+    /// the same --rate).
     #[arg(long, value_delimiter = ',', default_value = "cv", value_name = "LIST")]
     pub predictor: Vec<PredictorSpec>,
     /// Test sequences, comma-separated (default: the paper's 0000,0003,0005,0018,0020).
@@ -111,9 +105,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
                 _ => None,
             };
             let mut forecaster: Box<dyn Forecaster + '_> = match (spec, &model) {
-                (PredictorSpec::Cv, _) => Box::new(Baseline::ConstantVelocity),
-                (PredictorSpec::CvFit, _) => Box::new(Baseline::ConstantVelocityFit),
-                (PredictorSpec::Ctra, _) => Box::new(Baseline::Ctra),
+                (PredictorSpec::Baseline(b), _) => Box::new(*b),
                 (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),
                 (PredictorSpec::Model(p), None) => anyhow::bail!("model {} not loaded", p.display()),
             };

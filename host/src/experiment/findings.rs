@@ -40,8 +40,8 @@ pub enum Scoring {
 }
 
 /// One or two sentences per arm (its int8 model against cv, and against cv-fit, on the same
-/// source) and one per pair of
-/// the Estimated arm with a GT arm (int8 models), scored as `scoring` says.
+/// source) and one per pair of the Estimated arm with a GT arm (int8 models), scored as
+/// `scoring` says.
 #[must_use]
 pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec<String> {
     let how = match scoring {

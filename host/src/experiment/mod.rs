@@ -218,8 +218,8 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
         if truths.is_some() {
             common_arms.extend(learned_common);
         }
-        for (name, mut baseline) in [("cv", Baseline::ConstantVelocity), ("cv-fit", Baseline::ConstantVelocityFit), ("ctra", Baseline::Ctra)] {
-            let mut own = ArmScores { label: format!("{name} on {source}"), per_sequence: Vec::new() };
+        for mut baseline in Baseline::ALL {
+            let mut own = ArmScores { label: format!("{} on {source}", baseline.name()), per_sequence: Vec::new() };
             let mut common = own.clone();
             for ((r, sc), rf) in runs.iter().zip(&scenes).zip(&references) {
                 score_both(r, sc, &mut baseline, config.dt, *rf, &mut own, &mut common);

@@ -56,9 +56,7 @@ impl Sample {
     pub fn constant_velocity_ade(&self) -> f32 {
         let prev = self.own.get(self.steps.saturating_sub(2)).copied().unwrap_or([0.0; FEATURES]);
         // The current position is the agent frame's origin; the step is minus the previous one.
-        let (dx, dy) = (-prev[0] * POS_SCALE, -prev[1] * POS_SCALE);
-        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * dx - p.x).hypot((k + 1) as f32 * dy - p.y)).sum();
-        sum / HORIZON as f32
+        self.straight_line_ade(Point2::new(-prev[0] * POS_SCALE, -prev[1] * POS_SCALE))
     }
 
     /// ADE (metres) of the forecast at zero controls: constant speed along the agent frame's x
@@ -66,8 +64,12 @@ impl Sample {
     /// `dt`.
     #[must_use]
     pub fn start_ade(&self, dt: f32) -> f32 {
-        let step = self.speed * dt;
-        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * step - p.x).hypot(p.y)).sum();
+        self.straight_line_ade(Point2::new(self.speed * dt, 0.0))
+    }
+
+    /// ADE (metres) of the forecast that moves by `step` (agent frame) every frame.
+    fn straight_line_ade(&self, step: Point2) -> f32 {
+        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * step.x - p.x).hypot((k + 1) as f32 * step.y - p.y)).sum();
         sum / HORIZON as f32
     }
 
