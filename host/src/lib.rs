@@ -3,6 +3,7 @@
 pub mod estimate;
 pub mod evaluate;
 pub mod frontend;
+pub mod jobs;
 pub mod image_sim_files;
 pub mod experiment;
 pub mod model_file;

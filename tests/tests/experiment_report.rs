@@ -19,7 +19,7 @@ fn the_report_folder_and_a_cached_rerun() {
     }
     let out = dir.path().join("report");
     let args = [
-        "dynotraj", "experiment", "--kitti", root.to_str().unwrap(), "--sequences", "0000", "--arms", "estimated,gt", "--dims", "8,8,2,16", "--epochs", "1",
+        "dynotraj", "experiment", "--kitti", root.to_str().unwrap(), "--tests", "0000", "--arms", "estimated,gt", "--dims", "8,8,2,16", "--epochs", "1",
         "--batch", "16", "--rate", "10", "--ours-input", "tracks", "--out", out.to_str().unwrap(),
     ];
     let Command::Experiment(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the experiment command") };
@@ -30,11 +30,11 @@ fn the_report_folder_and_a_cached_rerun() {
     // The captions and notes name what the Estimated arm ran on (here the track-level simulator).
     assert!(md.contains("against the truth of the track-level simulator"), "Table III caption");
     assert!(md.contains("`--ours-input tracks`") && !md.contains("image simulator's rendering"), "input note");
-    for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Table IV against one common reference", "## Folds", "## Findings"] {
+    for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Table IV against one common reference", "## Deployment", "## Folds", "## Findings"] {
         assert!(md.contains(heading), "{heading} missing");
     }
     assert!(md.contains("learned int8 on estimated") && md.contains("eligible objects (estimated)"));
-    for stem in ["table_i", "table_iii_causal", "table_iii_smoothed", "table_iv", "table_iv_truth"] {
+    for stem in ["table_i", "table_iii_causal", "table_iii_smoothed", "table_iv", "table_iv_truth", "deployment"] {
         let csv = fs::read_to_string(out.join(format!("{stem}.csv"))).unwrap();
         assert!(csv.lines().count() > 2, "{stem}.csv: {csv}");
         assert!(out.join(format!("{stem}.md")).is_file());

@@ -8,6 +8,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::jobs::{default_jobs, map_jobs, parse_jobs};
 use crate::kitti::TrackingDir;
 use crate::estimate::evaluate::EvalOptions;
 use crate::sequence::{load_sequence, EstimateSettings, SequenceTracks};
@@ -54,6 +55,10 @@ pub struct DataArgs {
     /// same inputs reads them back. `dynotraj experiment` uses its report's cache/ unless given.
     #[arg(long, value_name = "DIR")]
     pub estimate_cache: Option<PathBuf>,
+    /// Sequences estimated (rendered, tracked) and folds trained at the same time (default:
+    /// the number of cores). Results do not depend on it.
+    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
+    pub jobs: usize,
 }
 
 impl DataArgs {
@@ -110,17 +115,14 @@ impl DataArgs {
             ..EstimateSettings::tracks(EvalOptions::kitti(dt))
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
-        let out = ids
-            .iter()
-            .map(|id| {
-                bar.set_message(id.clone());
-                let s = load_sequence(&dir, id, dt, estimate.as_ref());
-                bar.inc(1);
-                s
-            })
-            .collect();
+        let out = map_jobs(&ids, self.jobs, |id| {
+            let s = load_sequence(&dir, id, dt, estimate.as_ref());
+            bar.set_message(id.clone());
+            bar.inc(1);
+            s
+        })?;
         bar.finish_and_clear();
-        out
+        out.into_iter().collect()
     }
 }
 

@@ -7,6 +7,7 @@ use clap::Args;
 use super::bench::parse_dims;
 use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
 use super::train::HyperArgs;
+use super::train_progress::TrainBars;
 use super::estimate::table_iii_of;
 use crate::estimate::{Kind, RunScores};
 use crate::experiment::figures::write_figures;
@@ -15,7 +16,6 @@ use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
 use crate::report::{instances_table, Format, Table};
 use crate::sequence::SequenceTracks;
-use crate::train::Event;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
 /// Options of `dynotraj experiment`.
@@ -28,9 +28,14 @@ pub struct ExperimentArgs {
     /// estimated-smoothed are the labelled non-causal variants), comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "gt,gt-ekf", value_name = "LIST")]
     pub arms: Vec<Source>,
-    /// Test sequences, each held out in turn (training uses every other sequence in --kitti).
+    /// Sequences to load (default: every sequence in --kitti); every loaded sequence that is
+    /// not the fold's test sequence is trained on. The paper's setting is
+    /// `--sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020`.
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
+    /// Test sequences, each held out in turn (default: the paper's 0000, 0003, 0005, 0018, 0020).
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub tests: Vec<String>,
     /// Model widths enc,edge,k,dec.
     #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
     pub dims: String,
@@ -68,12 +73,12 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
     // --no-cache recomputes the estimates too; without --estimate-cache they live in the report's cache.
     let estimate_cache = args.data.estimate_cache.clone().filter(|_| !args.no_cache).or_else(|| cache.clone());
-    let sequences = args.data.load_cached(&[], &args.arms, estimate_cache)?;
-    let test_sequences =
-        if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
+    let sequences = args.data.load_cached(&args.sequences, &args.arms, estimate_cache)?;
+    let test_sequences: Vec<String> =
+        if args.tests.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.tests.clone() };
     let config = ExperimentConfig {
         arms: args.arms.clone(),
-        test_sequences,
+        folds: ExperimentConfig::one_sequence_folds(&test_sequences),
         dims: parse_dims(&args.dims)?,
         hyper: args.hyper.hyper()?,
         validation_fraction: args.hyper.val_fraction,
@@ -83,24 +88,12 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
         rule: args.data.rule()?,
         out: args.out.as_ref().map(|d| d.join("models")),
         cache,
+        jobs: args.data.jobs,
     };
-    let bar = super::common::progress(0, "training");
-    let mut current = String::new();
-    let mut result = run_experiment(&sequences, &config, &mut |label, e| {
-        if label != current {
-            current = label.to_string();
-            bar.set_position(0);
-        }
-        match e {
-            Event::Step { step, total, loss } => {
-                bar.set_length(total as u64);
-                bar.set_position(step as u64);
-                bar.set_message(format!("{label} loss {loss:.2}"));
-            }
-            Event::Epoch(_) => {}
-        }
-    })?;
-    bar.finish_and_clear();
+    let bars = TrainBars::new(config.arms.len() * config.folds.len());
+    let result = run_experiment(&sequences, &config, &bars);
+    bars.finish();
+    let mut result = result?;
     // The whole command: loading and estimating the sequences too.
     result.seconds = start.elapsed().as_secs_f64();
     let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
@@ -159,6 +152,9 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
             table: table.clone(),
         });
     }
+    if let Some((table, _)) = &result.deployment {
+        sections.push(deployment_section(table.clone()));
+    }
     let mut command = String::from("dynotraj experiment");
     for a in std::env::args().skip(2) {
         command.push(' ');
@@ -171,7 +167,18 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
     if args.arms.iter().any(Source::is_estimated) {
         notes.extend(input_notes(&inputs));
     }
-    Report { command, sections, folds: result.folds.clone(), seconds: result.seconds, notes, figures: Vec::new() }
+    Report { title: "dynotraj experiment report".into(), command, sections, folds: result.folds.clone(), seconds: result.seconds, notes, figures: Vec::new() }
+}
+
+/// The deployment comparison as a report section.
+#[must_use]
+pub fn deployment_section(table: Table) -> Section {
+    Section {
+        stem: "deployment".into(),
+        title: "Deployment: every training source's model on what the vehicle sees".into(),
+        caption: "A vehicle has only its own estimates at run time. Each arm's models (trained on that source, test sequences held out) run on the estimated arm's inputs (the estimator's causal tracks from the rendered images) and are scored against the simulator's true future on the instances every arm has; the baselines run on the same inputs. Lower is better; the rows share their instances and their reference.".into(),
+        table,
+    }
 }
 
 /// Table III's caption for estimates made from `inputs` (one per sequence).

@@ -12,6 +12,8 @@ pub mod soak;
 pub mod track;
 pub mod stream;
 pub mod train;
+pub mod train_progress;
+pub mod benchmark;
 
 use clap::{Parser, Subcommand};
 
@@ -42,6 +44,9 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Leave-one-sequence-out training and testing per arm: the paper's Table IV.
     Experiment(experiment::ExperimentArgs),
+    /// Generalisation benchmark: every sequence held out once in folds of whole sequences,
+    /// several seeds, all arms; weighted and per-sequence tables, the deployment comparison.
+    Benchmark(benchmark::BenchmarkArgs),
     /// Renders an image sequence (stereo, depth, masks, truth) from KITTI labels and ego poses.
     Simulate(simulate::SimulateArgs),
     /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
@@ -71,6 +76,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(a) => train::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Experiment(a) => experiment::run(&a),
+        Command::Benchmark(a) => benchmark::run(&a),
         Command::Simulate(a) => simulate::run(&a),
         Command::Track(a) => track::run(&a),
         Command::Stream(a) => stream::run(&a),

@@ -81,7 +81,8 @@ pub struct HyperArgs {
     /// Samples per optimiser step.
     #[arg(long, default_value_t = Hyper::default().batch, value_name = "N")]
     pub batch: usize,
-    /// Seed of the initial weights, the validation split and the shuffling.
+    /// Seed of the initial weights and the shuffling (the validation split has a fixed seed of
+    /// its own, so every seed is judged on the same sequences).
     #[arg(long, default_value_t = Hyper::default().seed, value_name = "N")]
     pub seed: u64,
     /// Adam's initial learning rate (decays by 0.9999 per step).
@@ -104,6 +105,14 @@ pub struct HyperArgs {
     /// with the best validation ADE: true or false.
     #[arg(long, default_value_t = Hyper::default().shrink, value_name = "BOOL", action = clap::ArgAction::Set)]
     pub shrink: bool,
+    /// Decay per step of the moving average of the weights that is validated and kept (0: the
+    /// last step's weights).
+    #[arg(long, default_value_t = Hyper::default().ema_decay, value_name = "DECAY")]
+    pub ema_decay: f64,
+    /// Independent trainings from different seeds; the one with the best validation ADE is
+    /// kept.
+    #[arg(long, default_value_t = Hyper::default().restarts, value_name = "N")]
+    pub restarts: usize,
     /// Share of the training runs held out for early stopping and model selection.
     #[arg(long, default_value_t = DEFAULT_VALIDATION_FRACTION, value_name = "SHARE")]
     pub val_fraction: f32,
@@ -127,6 +136,8 @@ impl HyperArgs {
         anyhow::ensure!(self.likelihood_weight > 0.0 || self.ade_weight > 0.0, "--likelihood-weight and --ade-weight are both 0: nothing to train on");
         anyhow::ensure!(self.weight_decay >= 0.0, "--weight-decay: expected >= 0, found {}", self.weight_decay);
         anyhow::ensure!((0.0..1.0).contains(&self.val_fraction), "--val-fraction: expected a share in [0, 1), found {}", self.val_fraction);
+        anyhow::ensure!((0.0..1.0).contains(&self.ema_decay), "--ema-decay: expected a decay in [0, 1), found {}", self.ema_decay);
+        anyhow::ensure!(self.restarts >= 1, "--restarts: expected at least 1, found {}", self.restarts);
         anyhow::ensure!(self.batch > 0 && self.epochs > 0, "--batch and --epochs must be at least 1");
         let loss = LossConfig { position_floor_m: self.position_floor, likelihood_weight: self.likelihood_weight, ade_weight: self.ade_weight, ..LossConfig::default() };
         Ok(Hyper {
@@ -137,6 +148,8 @@ impl HyperArgs {
             learning_rate: self.lr,
             weight_decay: self.weight_decay,
             shrink: self.shrink,
+            ema_decay: self.ema_decay,
+            restarts: self.restarts,
             loss,
             ..Hyper::default()
         })
@@ -209,5 +222,8 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         files.int8_blob.display(),
         files.checkpoint.display()
     );
+    // The same data, settings and seed give the same bytes: these identify the model.
+    let crc = |p: &std::path::Path| std::fs::read(p).map(|b| dynotraj_core::wire::crc32(&b)).with_context(|| format!("reading {}", p.display()));
+    println!("model CRC-32: {:08x} ({}), int8 {:08x} ({})", crc(&files.f32_blob)?, files.f32_blob.display(), crc(&files.int8_blob)?, files.int8_blob.display());
     Ok(())
 }

@@ -22,7 +22,7 @@ use super::FoldReport;
 use crate::train::TrainConfig;
 
 /// Version of what training computes; part of every key.
-pub const CACHE_VERSION: u32 = 2;
+pub const CACHE_VERSION: u32 = 3;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,8 +47,8 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     let settings = format!(
-        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {}",
-        train.source, train.exclude, train.dt, train.rule, train.dims, train.hyper, train.validation_fraction, train.validate_on_sequences, train.mirror
+        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {}",
+        train.source, train.exclude, train.dt, train.rule, train.dims, train.hyper, train.validation_fraction, train.validate_on_sequences, train.mirror, train.split_seed
     );
     d.update(settings.as_bytes());
     for seq in train.sequences.iter().filter(|s| !train.exclude.contains(&s.id)) {
@@ -151,7 +151,7 @@ mod tests {
     fn a_stored_fold_reads_back_and_a_damaged_one_is_a_miss() {
         let dir = tempfile::tempdir().unwrap();
         let cache = FoldCache::open(dir.path()).unwrap();
-        let report = FoldReport { arm: Source::Gt, sequence: "0003".into(), train_instances: 10, val_ade: 1.5, val_cv_ade: 1.75, best_epoch: 3, shrink: 0.75, seconds: 2.5, cached: false };
+        let report = FoldReport { arm: Source::Gt, sequence: "0003".into(), seed: 1, train_instances: 10, val_ade: 1.5, val_cv_ade: 1.75, best_epoch: 3, shrink: 0.75, seconds: 2.5, cached: false };
         let fold = CachedFold { f32_blob: vec![1, 2, 3], int8_blob: vec![4, 5], report: report.clone() };
         cache.store("gt-0003", 7, &fold).unwrap();
         let template = FoldReport { train_instances: 0, cached: true, ..report.clone() };

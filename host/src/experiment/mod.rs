@@ -1,39 +1,45 @@
-//! Leave-one-sequence-out experiments: for each arm (trajectory source) and each test sequence,
-//! train on every other sequence, then score the float and the int8 model on the held-out one
-//! beside the baselines and the paper's rows.
+//! Experiments over folds of held-out sequences: for each arm (trajectory source) and each fold,
+//! train on every other sequence, then score the float and the int8 model on the held-out ones
+//! beside the baselines and the paper's rows. The paper's experiment holds one sequence out
+//! per fold; [`benchmark`] holds out groups of sequences, with several seeds.
+//!
+//! Two stages: [`folds::train_folds`] trains every (arm, fold, seed) on `--jobs` threads;
+//! [`score_seed`] scores one seed's models, sequence by sequence.
 
+pub mod benchmark;
 pub mod cache;
 pub mod figures;
 pub mod findings;
+pub mod folds;
 pub mod paper;
 pub mod report;
 
+use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use dynotraj_core::model::blob::Precision;
 use dynotraj_core::model::Dims;
 use dynotraj_core::predict::Baseline;
-
-use std::collections::BTreeSet;
 
 use crate::evaluate::{instance_keys, score_sequence, score_sequence_against, Forecaster, Reference};
 use crate::model_file::ModelFile;
 use crate::report::{forecast_table, ArmScores, Table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
-use crate::train::{train_fold_with, Event, Hyper, TrainConfig};
+use crate::train::Hyper;
 use crate::trajectory::{eligible_runs, EligibilityRule, EligibleRun, Source};
-use cache::{fold_key, CachedFold, FoldCache};
+use cache::CachedFold;
+use folds::{train_folds, FoldSpec, TrainProgress};
 
 /// What to run.
 #[derive(Debug, Clone)]
 pub struct ExperimentConfig {
     /// Arms (sources) to train and test.
     pub arms: Vec<Source>,
-    /// Test sequences; each is held out in turn.
-    pub test_sequences: Vec<String>,
+    /// Folds: the test sequences each one holds out together (the paper's experiment: one
+    /// sequence a fold). Every loaded sequence outside a fold trains it.
+    pub folds: Vec<Vec<String>>,
     /// Model widths.
     pub dims: Dims,
     /// Optimisation and loss settings of every fold (`hyper.seed` seeds weights, shuffling
@@ -53,6 +59,28 @@ pub struct ExperimentConfig {
     pub out: Option<PathBuf>,
     /// A fold cache folder ([`cache`]): folds found there are not trained again.
     pub cache: Option<PathBuf>,
+    /// Folds trained at the same time ([`crate::jobs`]).
+    pub jobs: usize,
+}
+
+impl ExperimentConfig {
+    /// Every test sequence, fold by fold.
+    #[must_use]
+    pub fn test_sequences(&self) -> Vec<String> {
+        self.folds.iter().flatten().cloned().collect()
+    }
+
+    /// The folds of the paper's protocol: each of `tests` held out alone.
+    #[must_use]
+    pub fn one_sequence_folds(tests: &[String]) -> Vec<Vec<String>> {
+        tests.iter().map(|t| vec![t.clone()]).collect()
+    }
+
+    /// The index of the fold holding out `id`.
+    #[must_use]
+    pub fn fold_of(&self, id: &str) -> Option<usize> {
+        self.folds.iter().position(|f| f.iter().any(|s| s == id))
+    }
 }
 
 /// What one fold took.
@@ -60,8 +88,10 @@ pub struct ExperimentConfig {
 pub struct FoldReport {
     /// Arm.
     pub arm: Source,
-    /// Held-out sequence.
+    /// Held-out sequences, joined by `+`.
     pub sequence: String,
+    /// The seed it was trained with.
+    pub seed: u64,
     /// Training instances.
     pub train_instances: usize,
     /// Best validation ADE, metres.
@@ -89,6 +119,10 @@ pub struct ExperimentResult {
     /// The same forecasts scored against the simulator's truth on the instances every arm
     /// has (when an estimated arm brought the truth): the table and its rows.
     pub common: Option<(Table, Vec<ArmScores>)>,
+    /// The deployment comparison (when an estimated arm brought the truth): every arm's models
+    /// and the baselines run on the estimated arm's inputs, all scored against the simulator's
+    /// truth on the instances every arm has: the table and its rows.
+    pub deployment: Option<(Table, Vec<ArmScores>)>,
     /// Per-fold training reports.
     pub folds: Vec<FoldReport>,
     /// Wall-clock seconds of the whole run.
@@ -104,28 +138,85 @@ fn score_both(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecast
     }
 }
 
-/// Runs the experiment on `sequences` (every loaded sequence is a training candidate).
+/// Runs the experiment on `sequences` (every loaded sequence is a training candidate) with
+/// the seed of `config.hyper`.
 ///
 /// # Errors
 /// A test sequence that is not loaded; a fold with no training data; I/O errors for --out.
-pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, progress: &mut dyn FnMut(&str, Event)) -> anyhow::Result<ExperimentResult> {
+pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, progress: &dyn TrainProgress) -> anyhow::Result<ExperimentResult> {
     let start = Instant::now();
-    let tests: Vec<&SequenceTracks> = config
-        .test_sequences
-        .iter()
-        .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| format!("test sequence {id} is not in the data folder")))
-        .collect::<anyhow::Result<_>>()?;
-    if let Some(dir) = &config.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    check_inputs(sequences, config)?;
+    let specs = fold_specs(config, &[config.hyper.seed]);
+    let trained = train_folds(sequences, config, &specs, progress)?;
+    let mut result = score_seed(sequences, config, &specs, &trained, config.hyper.seed)?;
+    result.seconds = start.elapsed().as_secs_f64();
+    Ok(result)
+}
+
+/// Every (arm, fold, seed) of `config` for `seeds`, arm by arm, seed by seed, fold by fold.
+#[must_use]
+pub fn fold_specs(config: &ExperimentConfig, seeds: &[u64]) -> Vec<FoldSpec> {
+    let mut out = Vec::new();
+    for &arm in &config.arms {
+        for &seed in seeds {
+            out.extend((0..config.folds.len()).map(|fold| FoldSpec { arm, fold, seed }));
+        }
     }
-    let cache = config.cache.as_deref().map(FoldCache::open).transpose()?;
+    out
+}
+
+/// Fails unless every test sequence is loaded, no sequence is in two folds, and every arm's
+/// tracks are there.
+///
+/// # Errors
+/// As above, naming the sequence.
+pub fn check_inputs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> anyhow::Result<()> {
+    let mut seen = BTreeSet::new();
+    for id in config.test_sequences() {
+        anyhow::ensure!(sequences.iter().any(|s| s.id == id), "test sequence {id} is not in the data folder");
+        anyhow::ensure!(seen.insert(id.clone()), "test sequence {id} is in two folds");
+    }
     for &source in &config.arms {
         if let Some(s) = sequences.iter().find(|s| !s.has(source)) {
             anyhow::bail!("arm {source}: the estimator's tracks of sequence {} were not loaded", s.id);
         }
     }
-    let mut arms = Vec::new();
-    let mut folds = Vec::new();
+    if let Some(dir) = &config.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    Ok(())
+}
+
+/// The two blobs of the model that `trained` holds for (arm, fold of `id`, seed), as model files.
+fn models_for(config: &ExperimentConfig, specs: &[FoldSpec], trained: &[CachedFold], arm: Source, id: &str, seed: u64) -> anyhow::Result<[ModelFile; 2]> {
+    let fold = config.fold_of(id).with_context(|| format!("sequence {id} is in no fold"))?;
+    let spec = FoldSpec { arm, fold, seed };
+    let k = specs.iter().position(|s| *s == spec).with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
+    let t = trained.get(k).with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
+    let name = spec.name(config, config.hyper.seed);
+    Ok([ModelFile::from_bytes(t.f32_blob.clone(), &name)?, ModelFile::from_bytes(t.int8_blob.clone(), &format!("{name} (int8)"))?])
+}
+
+/// Scores the models of `seed` (trained for `specs`, in `trained`) on every test sequence:
+/// Table IV for the arms' own futures, and, when the estimated arm brought the simulator's
+/// truth, the same against that truth and the deployment comparison.
+///
+/// # Errors
+/// A missing model; a blob that does not load; I/O errors for --out.
+pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs: &[FoldSpec], trained: &[CachedFold], seed: u64) -> anyhow::Result<ExperimentResult> {
+    let ids = config.test_sequences();
+    let tests: Vec<&SequenceTracks> =
+        ids.iter().map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| format!("test sequence {id} is not in the data folder"))).collect::<anyhow::Result<_>>()?;
+    if let Some(dir) = &config.out {
+        for (spec, fold) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
+            let name = spec.name(config, config.hyper.seed);
+            for (ext, bytes) in [("blob", &fold.f32_blob), ("blob.int8", &fold.int8_blob)] {
+                let path = dir.join(format!("{name}.{ext}"));
+                std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+            }
+        }
+    }
+    let folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
     // The common reference: the simulator's truth of each test sequence, and the instances
     // that every arm has; only when every test sequence has a truth (none from real images).
     let truths: Option<Vec<Scene>> =
@@ -140,77 +231,26 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
         })
         .collect();
-    let mut common_arms = Vec::new();
-    for (&source, runs) in config.arms.iter().zip(&runs_by_arm) {
-        let scenes: Vec<Scene> = tests.iter().map(|s| Scene::new(s.tracks_for(source), source, config.dt)).collect();
-        let references: Vec<Option<Reference<'_>>> = (0..tests.len())
+    let scenes_by_arm: Vec<Vec<Scene>> = config.arms.iter().map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect()).collect();
+    let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
+        (0..tests.len())
             .map(|i| {
                 let world_yaw = tests[i].estimated.as_ref().filter(|_| source.is_estimated()).map(|e| &e.world_yaw);
                 truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common { truth, only: &common_keys[i], world_yaw })
             })
-            .collect();
+            .collect()
+    };
+    let (mut arms, mut common_arms) = (Vec::new(), Vec::new());
+    for ((&source, runs), scenes) in config.arms.iter().zip(&runs_by_arm).zip(&scenes_by_arm) {
+        let references = references_for(source);
         let mut learned = [
             ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },
             ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },
         ];
         let mut learned_common = learned.clone();
-        for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(&scenes).zip(&references) {
-            let mut train = TrainConfig::new(sequences, vec![test.id.clone()], source);
-            train.dt = config.dt;
-            train.rule = config.rule.clone();
-            train.dims = config.dims;
-            train.hyper = config.hyper;
-            train.validation_fraction = config.validation_fraction;
-            train.mirror = config.mirror;
-            train.validate_on_sequences = config.validate_on_sequences;
-            let label = format!("{source} / {}", test.id);
-            let name = format!("{source}-{}", test.id);
-            let key = fold_key(&train);
-            let template = FoldReport {
-                arm: source,
-                sequence: test.id.clone(),
-                train_instances: 0,
-                val_ade: f32::NAN,
-                val_cv_ade: f32::NAN,
-                best_epoch: 0,
-                shrink: 1.0,
-                seconds: 0.0,
-                cached: true,
-            };
-            let fold = match cache.as_ref().and_then(|c| c.load(&name, key, &template)) {
-                Some(fold) => {
-                    log::info!("{label}: trained fold {key:016x} read from the cache");
-                    fold
-                }
-                None => {
-                    let model = train_fold_with(&train, &mut |e| progress(&label, e)).with_context(|| format!("training fold {label}"))?;
-                    let r = &model.report;
-                    let report = FoldReport {
-                        train_instances: r.train_instances,
-                        val_ade: r.best_val_ade,
-                        val_cv_ade: r.val_cv_ade,
-                        best_epoch: r.best_epoch,
-                        shrink: r.shrink,
-                        seconds: r.seconds,
-                        cached: false,
-                        ..template
-                    };
-                    let fold = CachedFold { f32_blob: model.blob(Precision::F32)?, int8_blob: model.blob(Precision::Int8)?, report };
-                    if let Some(c) = &cache {
-                        c.store(&name, key, &fold)?;
-                    }
-                    fold
-                }
-            };
-            folds.push(fold.report.clone());
-            let blobs = [(Precision::F32, fold.f32_blob), (Precision::Int8, fold.int8_blob)];
-            for ((arm, common), (precision, bytes)) in learned.iter_mut().zip(learned_common.iter_mut()).zip(blobs) {
-                if let Some(dir) = &config.out {
-                    let ext = if precision == Precision::F32 { "blob" } else { "blob.int8" };
-                    let path = dir.join(format!("{name}.{ext}"));
-                    std::fs::write(&path, &bytes).with_context(|| format!("writing {}", path.display()))?;
-                }
-                let file = ModelFile::from_bytes(bytes, &label)?;
+        for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
+            let models = models_for(config, specs, trained, source, &test.id, seed)?;
+            for ((arm, common), file) in learned.iter_mut().zip(learned_common.iter_mut()).zip(&models) {
                 score_both(seq_runs, scene, &mut file.predictor(), config.dt, *reference, arm, common);
             }
         }
@@ -221,7 +261,7 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
         for mut baseline in Baseline::ALL {
             let mut own = ArmScores { label: format!("{} on {source}", baseline.name()), per_sequence: Vec::new() };
             let mut common = own.clone();
-            for ((r, sc), rf) in runs.iter().zip(&scenes).zip(&references) {
+            for ((r, sc), rf) in runs.iter().zip(scenes).zip(&references) {
                 score_both(r, sc, &mut baseline, config.dt, *rf, &mut own, &mut common);
             }
             arms.push(own);
@@ -230,9 +270,40 @@ pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, p
             }
         }
     }
+    // Deployment: what a vehicle sees at run time is its own estimates; every arm's model runs
+    // on the estimated arm's inputs, scored against the truth on the common instances.
+    let deployment = match (config.arms.iter().position(|a| *a == Source::Estimated), truths.is_some()) {
+        (Some(e), true) => {
+            let references = references_for(Source::Estimated);
+            let mut rows = Vec::new();
+            for &source in &config.arms {
+                let mut row = [
+                    ArmScores { label: format!("learned f32 trained on {source}"), per_sequence: Vec::new() },
+                    ArmScores { label: format!("learned int8 trained on {source}"), per_sequence: Vec::new() },
+                ];
+                for (((test, r), sc), rf) in tests.iter().zip(&runs_by_arm[e]).zip(&scenes_by_arm[e]).zip(&references) {
+                    let models = models_for(config, specs, trained, source, &test.id, seed)?;
+                    for (arm, file) in row.iter_mut().zip(&models) {
+                        let reference = rf.context("deployment needs the simulator's truth")?;
+                        arm.per_sequence.push(score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference).scores);
+                    }
+                }
+                rows.extend(row);
+            }
+            for mut baseline in Baseline::ALL {
+                let mut row = ArmScores { label: format!("{} (no training)", baseline.name()), per_sequence: Vec::new() };
+                for ((r, sc), rf) in runs_by_arm[e].iter().zip(&scenes_by_arm[e]).zip(&references) {
+                    let reference = rf.context("deployment needs the simulator's truth")?;
+                    row.per_sequence.push(score_sequence_against(r, sc, &mut baseline, config.dt, reference).scores);
+                }
+                rows.push(row);
+            }
+            Some((forecast_table(&ids, &rows, &[]), rows))
+        }
+        _ => None,
+    };
     let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
-    let ids: Vec<String> = tests.iter().map(|s| s.id.clone()).collect();
     let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
     let common = truths.is_some().then(|| (forecast_table(&ids, &common_arms, &[]), common_arms));
-    Ok(ExperimentResult { table, arms, common, folds, seconds: start.elapsed().as_secs_f64() })
+    Ok(ExperimentResult { table, arms, common, deployment, folds, seconds: 0.0 })
 }

@@ -31,6 +31,8 @@ pub struct Section {
 /// Everything REPORT.md shows.
 #[derive(Debug, Clone)]
 pub struct Report {
+    /// The heading of REPORT.md.
+    pub title: String,
     /// The command line that made it.
     pub command: String,
     /// The tables, in order.
@@ -48,11 +50,12 @@ pub struct Report {
 /// The fold summary as a table.
 #[must_use]
 pub fn folds_table(folds: &[FoldReport]) -> Table {
-    let mut t = Table::new(["arm", "held-out sequence", "training instances", "epoch kept", "shrink", "val ADE (m)", "val cv ADE (m)", "training s", "cached"]);
+    let mut t = Table::new(["arm", "held-out sequences", "seed", "training instances", "epoch kept", "shrink", "val ADE (m)", "val cv ADE (m)", "training s", "cached"]);
     for f in folds {
         t.push([
             f.arm.to_string(),
             f.sequence.clone(),
+            f.seed.to_string(),
             f.train_instances.to_string(),
             f.best_epoch.to_string(),
             f.shrink.to_string(),
@@ -75,7 +78,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
         let path = dir.join(name);
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
     };
-    let mut md = String::from("# dynotraj experiment report\n\n");
+    let mut md = format!("# {}\n\n", report.title);
     let _ = write!(md, "Made by `{}` in {:.0} s ({:.1} min).", report.command, report.seconds, report.seconds / 60.0);
     let cached: Vec<&FoldReport> = report.folds.iter().filter(|f| f.cached).collect();
     if !cached.is_empty() {
@@ -123,8 +126,9 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut table = Table::new(["metric", "avg"]);
         table.push(["ADE", "1.25"]);
-        let fold = FoldReport { arm: Source::Estimated, sequence: "0003".into(), train_instances: 9, val_ade: 1.0, val_cv_ade: 1.1, best_epoch: 2, shrink: 1.0, seconds: 3.0, cached: true };
+        let fold = FoldReport { arm: Source::Estimated, sequence: "0003".into(), seed: 1, train_instances: 9, val_ade: 1.0, val_cv_ade: 1.1, best_epoch: 2, shrink: 1.0, seconds: 3.0, cached: true };
         let report = Report {
+            title: "dynotraj experiment report".into(),
             command: "dynotraj experiment".into(),
             sections: vec![Section { stem: "table_iv".into(), title: "Table IV".into(), caption: "scored against own future".into(), table }],
             folds: vec![fold],

@@ -48,10 +48,27 @@ pub struct Hyper {
     /// Keep the untrained model (zero controls: the cv-fit forecast) when no
     /// epoch beats it on the held-out runs. Off only to study trained weights as they are.
     pub keep_untrained_if_better: bool,
+    /// Decay of the exponential moving average of the weights, per step (0: off). The
+    /// average, not the last step's weights, is validated, kept and exported: it smooths the
+    /// step-to-step noise of small batches, so which epoch wins and what it forecasts depend
+    /// less on the seed.
+    pub ema_decay: f64,
+    /// Independent trainings of a fold from different seeds ([`super::restart_seed`]); the one
+    /// with the best validation ADE is kept. Why: with a fold's few validation sequences,
+    /// whether a seed's first epochs improve on them before the patience runs out is a coin
+    /// toss; the best of several is not.
+    pub restarts: usize,
     /// After training, scale the mean-control outputs by the factor of [`SHRINK_FACTORS`]
     /// with the best held-out ADE ([`shrink_towards_cv`]).
     pub shrink: bool,
 }
+
+/// [`Hyper::ema_decay`] by default: off (tried on a training fold's validation sequences, no
+/// gain: docs/decisions.md).
+pub const DEFAULT_EMA_DECAY: f64 = 0.0;
+
+/// [`Hyper::restarts`] by default.
+pub const DEFAULT_RESTARTS: usize = 1;
 
 /// Factors tried by [`shrink_towards_cv`] (1: the trained weights; 0 would be the
 /// cv-fit forecast, which the untrained epoch 0 already is).
@@ -71,6 +88,8 @@ impl Default for Hyper {
             weight_decay: 0.05,
             seed: 1,
             keep_untrained_if_better: true,
+            ema_decay: DEFAULT_EMA_DECAY,
+            restarts: DEFAULT_RESTARTS,
             shrink: true,
         }
     }
@@ -160,6 +179,42 @@ fn restore(vars: &VarMap, saved: &HashMap<String, Tensor>) -> Result<()> {
     Ok(())
 }
 
+/// The exponential moving average of a set of variables.
+struct Average {
+    decay: f64,
+    values: Vec<Tensor>,
+}
+
+impl Average {
+    fn new(decay: f64, params: &[Var]) -> Result<Self> {
+        Ok(Self { decay, values: params.iter().map(|p| p.as_tensor().copy()).collect::<Result<_>>()? })
+    }
+
+    fn update(&mut self, params: &[Var]) -> Result<()> {
+        for (avg, p) in self.values.iter_mut().zip(params) {
+            *avg = ((&*avg * self.decay)? + (p.as_tensor() * (1.0 - self.decay))?)?;
+        }
+        Ok(())
+    }
+
+    /// Puts the average into `params` and returns the weights it replaced.
+    fn swap_in(&self, params: &[Var]) -> Result<Vec<Tensor>> {
+        let mut old = Vec::with_capacity(params.len());
+        for (avg, p) in self.values.iter().zip(params) {
+            old.push(p.as_tensor().copy()?);
+            p.set(avg)?;
+        }
+        Ok(old)
+    }
+}
+
+fn put_back(params: &[Var], old: &[Tensor]) -> Result<()> {
+    for (p, t) in params.iter().zip(old) {
+        p.set(t)?;
+    }
+    Ok(())
+}
+
 /// Trains `net` (whose variables are `vars`) on `train`, early-stopping on the ADE over
 /// `validation` (over `train` when `validation` is empty), reporting to `observer`.
 ///
@@ -186,6 +241,7 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
     let untrained = if hyper.keep_untrained_if_better { mean_ade(net, held_out, dt)? } else { f32::INFINITY };
     let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0, shrink: 1.0 };
     let mut best = snapshot(vars)?;
+    let mut average = if hyper.ema_decay > 0.0 { Some(Average::new(hyper.ema_decay, &params)?) } else { None };
     for epoch in 1..=hyper.epochs {
         order.shuffle(&mut rng);
         let (mut sum_loss, mut sum_ll, mut sum_kl, mut b_now) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
@@ -207,13 +263,22 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
             }
             opt.step(&grads)?;
             opt.set_learning_rate(opt.learning_rate() * hyper.lr_decay);
+            if let Some(a) = average.as_mut() {
+                a.update(&params)?;
+            }
             out.steps += 1;
             sum_loss += value;
             sum_ll += l.log_likelihood;
             sum_kl += l.kl;
             observer(Event::Step { step: out.steps, total, loss: value });
         }
+        // With the average on, the averaged weights are what is validated and kept.
+        let trained = average.as_ref().map(|a| a.swap_in(&params)).transpose()?;
         let val_ade = mean_ade(net, held_out, dt)?;
+        let candidate = if val_ade < out.best_val_ade { Some(snapshot(vars)?) } else { None };
+        if let Some(old) = &trained {
+            put_back(&params, old)?;
+        }
         let n = per_epoch as f32;
         let report = EpochReport {
             epoch,
@@ -227,10 +292,10 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
         };
         out.history.push(report);
         observer(Event::Epoch(report));
-        if val_ade < out.best_val_ade {
+        if let Some(weights) = candidate {
             out.best_val_ade = val_ade;
             out.best_epoch = epoch;
-            best = snapshot(vars)?;
+            best = weights;
         } else if epoch - out.best_epoch >= hyper.patience {
             break;
         }

@@ -31,7 +31,7 @@ pub mod loss;
 pub mod model;
 pub mod params;
 #[cfg(test)]
-mod synthetic;
+pub(crate) mod synthetic;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -55,6 +55,9 @@ pub const DEFAULT_VALIDATION_FRACTION: f32 = 0.3;
 /// Whether validation holds out whole training sequences (see
 /// [`TrainConfig::validate_on_sequences`]).
 pub const DEFAULT_VALIDATE_ON_SEQUENCES: bool = true;
+
+/// Seed of the validation split by default ([`TrainConfig::split_seed`]).
+pub const DEFAULT_SPLIT_SEED: u64 = 1;
 
 /// Whether reflected copies of the training instances are trained on by default.
 pub const DEFAULT_MIRROR: bool = true;
@@ -80,6 +83,10 @@ pub struct TrainConfig<'a> {
     pub validation_fraction: f32,
     /// Hold out whole sequences for validation instead of runs drawn from every sequence.
     pub validate_on_sequences: bool,
+    /// Seed of the validation split, apart from `hyper.seed`: the seed of a model is its
+    /// weights and shuffling, the split is part of the fold (the same sequences judge every
+    /// seed).
+    pub split_seed: u64,
     /// Add every training sample's reflection ([`Sample::mirrored`]) to the training set (never
     /// to validation).
     pub mirror: bool,
@@ -101,6 +108,7 @@ impl<'a> TrainConfig<'a> {
             validation_fraction: DEFAULT_VALIDATION_FRACTION,
             mirror: DEFAULT_MIRROR,
             validate_on_sequences: DEFAULT_VALIDATE_ON_SEQUENCES,
+            split_seed: DEFAULT_SPLIT_SEED,
         }
     }
 
@@ -118,15 +126,17 @@ impl<'a> TrainConfig<'a> {
             used.push(seq.id.clone());
         }
         if self.validate_on_sequences {
-            return (split_by_sequence(per_sequence, self.validation_fraction, self.hyper.seed), used);
+            return (split_by_sequence(per_sequence, self.validation_fraction, self.split_seed), used);
         }
-        (split_by_run(per_sequence.into_iter().flatten().collect(), groups, self.validation_fraction, self.hyper.seed), used)
+        (split_by_run(per_sequence.into_iter().flatten().collect(), groups, self.validation_fraction, self.split_seed), used)
     }
 }
 
 /// What a fold's training did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrainReport {
+    /// The seed of the restart kept ([`restart_seed`]).
+    pub kept_seed: u64,
     /// Sequences trained on.
     pub sequences: Vec<String>,
     /// Training instances.
@@ -207,6 +217,13 @@ impl TrainedModel {
     }
 }
 
+/// The seed of restart `restart` of a fold trained with `seed`: the seed itself for restart 0,
+/// else a value no small seed takes.
+#[must_use]
+pub fn restart_seed(seed: u64, restart: usize) -> u64 {
+    if restart == 0 { seed } else { seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(restart as u64) }
+}
+
 /// Mean constant-velocity ADE of `samples` (NaN when empty).
 fn mean_cv_ade(samples: &[Sample]) -> f32 {
     samples.iter().map(Sample::constant_velocity_ade).sum::<f32>() / samples.len() as f32
@@ -233,9 +250,21 @@ pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)
         split.train.extend(reflected);
     }
     anyhow::ensure!(!split.train.is_empty(), "no training instances in sequences {sequences:?} (source {})", config.source);
-    let (network, vars) = Network::new(config.dims, config.hyper.seed)?;
-    let outcome = fit::fit(&network, &vars, &split.train, &split.validation, config.dt, &config.hyper, observer)?;
+    // Restarts: independent trainings from other seeds, the one with the best validation ADE
+    // kept (restart 0 is the seed itself, so one restart is plain training).
+    let mut best: Option<(Network, VarMap, fit::FitOutcome, u64)> = None;
+    for restart in 0..config.hyper.restarts.max(1) {
+        let seed = restart_seed(config.hyper.seed, restart);
+        let (network, vars) = Network::new(config.dims, seed)?;
+        let hyper = Hyper { seed, ..config.hyper };
+        let outcome = fit::fit(&network, &vars, &split.train, &split.validation, config.dt, &hyper, observer)?;
+        if best.as_ref().is_none_or(|b| outcome.best_val_ade < b.2.best_val_ade) {
+            best = Some((network, vars, outcome, seed));
+        }
+    }
+    let Some((network, vars, outcome, kept_seed)) = best else { anyhow::bail!("no restart ran") };
     let report = TrainReport {
+        kept_seed,
         sequences,
         train_instances: split.train.len(),
         val_instances: split.validation.len(),

@@ -1,0 +1,203 @@
+//! `dynotraj benchmark`: the generalisation benchmark (every sequence held out once, in folds of
+//! whole sequences, several seeds) with its report folder.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use clap::Args;
+
+use super::bench::parse_dims;
+use super::common::{DataArgs, DEFAULT_DIMS};
+use super::experiment::deployment_section;
+use super::train::HyperArgs;
+use super::train_progress::TrainBars;
+use crate::experiment::benchmark::{goal_table, run_benchmark, seeds_table, sequence_groups, BenchmarkResult, DEFAULT_GROUPS, GOAL_GAIN};
+use crate::experiment::figures::Figure;
+use crate::experiment::report::{write_report, Report, Section};
+use crate::experiment::ExperimentConfig;
+use crate::report::chart::{write_chart, Chart, Series};
+use crate::report::{instances_table, Format};
+use crate::trajectory::Source;
+
+/// Options of `dynotraj benchmark`.
+#[derive(Debug, Args)]
+pub struct BenchmarkArgs {
+    /// Data options.
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// Arms: the sources trained and tested, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "gt,gt-ekf,estimated", value_name = "LIST")]
+    pub arms: Vec<Source>,
+    /// Sequences to load (default: every sequence in --kitti); each is held out once.
+    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    pub sequences: Vec<String>,
+    /// Number of folds: the sorted sequences are dealt out in turn (fold k holds the k-th,
+    /// (k + N)-th, ... sequence).
+    #[arg(long, default_value_t = DEFAULT_GROUPS, value_name = "N")]
+    pub folds: usize,
+    /// Seeds each fold is trained with (weights and shuffling; the validation sequences do not
+    /// depend on it).
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3", value_name = "LIST")]
+    pub seeds: Vec<u64>,
+    /// Model widths enc,edge,k,dec.
+    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
+    pub dims: String,
+    /// Training settings of every fold.
+    #[command(flatten)]
+    pub hyper: HyperArgs,
+    /// Report folder, e.g. reports/benchmark: REPORT.md, every table as Markdown and CSV,
+    /// figures, models/ and the fold and estimate cache in cache/.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Estimate and train everything again even when the cache holds it.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Output format of the tables printed.
+    #[arg(long, value_enum, default_value_t = Format::Md)]
+    pub format: Format,
+}
+
+/// Runs the benchmark, prints its summary tables and writes the report.
+///
+/// # Errors
+/// Loading, training or writing errors, named.
+pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
+    let start = std::time::Instant::now();
+    let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
+    let estimate_cache = args.data.estimate_cache.clone().filter(|_| !args.no_cache).or_else(|| cache.clone());
+    let sequences = args.data.load_cached(&args.sequences, &args.arms, estimate_cache)?;
+    let loaded_s = start.elapsed().as_secs_f64();
+    let ids: Vec<String> = sequences.iter().map(|s| s.id.clone()).collect();
+    let folds = sequence_groups(&ids, args.folds);
+    anyhow::ensure!(folds.len() >= 2, "--folds: the benchmark needs at least two folds, found {} sequence(s) for {} fold(s)", ids.len(), args.folds);
+    let config = ExperimentConfig {
+        arms: args.arms.clone(),
+        folds,
+        dims: parse_dims(&args.dims)?,
+        hyper: args.hyper.hyper()?,
+        validation_fraction: args.hyper.val_fraction,
+        mirror: args.hyper.mirror,
+        validate_on_sequences: args.hyper.val_sequences,
+        dt: args.data.dt()?,
+        rule: args.data.rule()?,
+        out: args.out.as_ref().map(|d| d.join("models")),
+        cache,
+        jobs: args.data.jobs,
+    };
+    let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
+    let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
+    bars.finish();
+    let result = result?;
+    let seconds = start.elapsed().as_secs_f64();
+    let sections = sections(&result, &config, &sequences, args)?;
+    for s in sections.iter().take(2) {
+        println!("{}\n", s.title);
+        print!("{}", s.table.render(args.format));
+        println!();
+    }
+    eprintln!("loading and estimating {loaded_s:.0} s, training and scoring {:.0} s, total {seconds:.0} s", result.seconds);
+    if let Some(dir) = &args.out {
+        let mut command = String::from("dynotraj benchmark");
+        for a in std::env::args().skip(2) {
+            command.push(' ');
+            command.push_str(&a);
+        }
+        let notes = vec![
+            format!("Stages: loading and estimating the sequences {loaded_s:.0} s (rendering and tracking, or the estimate cache), training and scoring {:.0} s on {} job(s).", result.seconds, config.jobs),
+            format!("Folds (held out together): {}.", config.folds.iter().map(|f| f.join(", ")).collect::<Vec<_>>().join(" | ")),
+            "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on these held-out sequences.".to_string(),
+        ];
+        let figures = write_figures(&dir.join("figures"), &result, &config)?;
+        let report = Report { title: "dynotraj generalisation benchmark".into(), command, sections, folds: result.folds.clone(), seconds, notes, figures };
+        let path = write_report(dir, &report)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// The report's tables: the weighted scores per seed, the goal, the deployment comparison, the
+/// truth-scored rows, Table I and the per-sequence tables of every seed.
+fn sections(result: &BenchmarkResult, config: &ExperimentConfig, sequences: &[crate::sequence::SequenceTracks], args: &BenchmarkArgs) -> anyhow::Result<Vec<Section>> {
+    let seeds = args.seeds.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
+    let mut out = vec![
+        Section {
+            stem: "weighted".into(),
+            title: "Weighted over every held-out instance, per seed".into(),
+            caption: format!("ADE, FDE (m) and ACE per forecast over all held-out sequences; each arm scored against its own source's future (the paper's protocol); seeds {seeds}; spread = largest minus smallest over the seeds. cv, cv-fit and ctra do not depend on the seed."),
+            table: seeds_table(result, |r| Some(&r.arms)),
+        },
+        Section {
+            stem: "goal".into(),
+            title: "The goal per arm and seed".into(),
+            caption: format!("The learned int8 model against cv and cv-fit on weighted ADE and FDE (change; the goal is at least {:.0} % better than both) and its ACE against cv-fit's (the goal: no worse).", 100.0 * GOAL_GAIN),
+            table: goal_table(result, &config.arms),
+        },
+    ];
+    if result.per_seed.iter().all(|r| r.deployment.is_some()) {
+        let mut d = deployment_section(seeds_table(result, |r| r.deployment.as_ref().map(|(_, rows)| &rows[..])));
+        d.stem = "deployment_weighted".into();
+        d.caption.push_str(" Weighted over every held-out instance, per seed.");
+        out.push(d);
+        out.push(Section {
+            stem: "truth_weighted".into(),
+            title: "Each arm on its own inputs against the simulator's truth, per seed".into(),
+            caption: "The same models, each on its own source's inputs, every arm scored against the simulator's true future on the instances every arm has.".into(),
+            table: seeds_table(result, |r| r.common.as_ref().map(|(_, rows)| &rows[..])),
+        });
+    }
+    let rule = args.data.rule()?;
+    let mut sources: Vec<Source> = Vec::new();
+    if config.arms.iter().any(|a| !a.is_estimated()) {
+        sources.push(Source::Gt);
+    }
+    sources.extend(config.arms.iter().copied().filter(Source::is_estimated));
+    out.push(Section {
+        stem: "table_i".into(),
+        title: "Eligible objects and test instances".into(),
+        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arm, the estimator's own tracks.".into(),
+        table: instances_table(sequences, &sources, &rule),
+    });
+    for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
+        out.push(Section {
+            stem: format!("per_sequence_seed{seed}"),
+            title: format!("Per held-out sequence, seed {seed}"),
+            caption: "ADE, FDE (m), ACE per held-out sequence and weighted; each arm against its own source's future.".into(),
+            table: r.table.clone(),
+        });
+        if let Some((t, _)) = &r.deployment {
+            let mut d = deployment_section(t.clone());
+            d.stem = format!("deployment_seed{seed}");
+            d.title = format!("Deployment per held-out sequence, seed {seed}");
+            out.push(d);
+        }
+    }
+    Ok(out)
+}
+
+/// Weighted ADE per held-out sequence of the learned int8 model and cv, per arm, averaged over
+/// the seeds; x is the sequence number.
+fn write_figures(dir: &Path, result: &BenchmarkResult, config: &ExperimentConfig) -> anyhow::Result<Vec<Figure>> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let ids = config.test_sequences();
+    let mut series = Vec::new();
+    for arm in &config.arms {
+        for label in [format!("learned int8 on {arm}"), format!("cv on {arm}")] {
+            let mut points = Vec::new();
+            for (i, id) in ids.iter().enumerate() {
+                let values: Vec<f64> = result
+                    .per_seed
+                    .iter()
+                    .filter_map(|r| r.arms.iter().find(|a| a.label == label).and_then(|a| a.per_sequence.get(i)).and_then(|s| s.ade.value()))
+                    .collect();
+                if let (Ok(x), false) = (id.parse::<f64>(), values.is_empty()) {
+                    points.push((x, values.iter().sum::<f64>() / values.len() as f64));
+                }
+            }
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            series.push(Series { label, points });
+        }
+    }
+    let chart = Chart { title: "ADE per held-out sequence (mean over seeds)".into(), x_label: "KITTI sequence".into(), y_label: "ADE (m)".into(), series };
+    let [png, _] = write_chart(&chart, &dir.join("ade_per_sequence"))?;
+    Ok(vec![Figure { png, caption: "ADE of the learned int8 model and of constant velocity per held-out sequence and arm, each point the mean over the seeds.".into() }])
+}
