@@ -169,4 +169,26 @@ mod tests {
         let seed = |s: u64| one.iter().zip(&specs).filter(move |(_, p)| p.seed == s && p.arm == Source::Gt).map(|(f, _)| f.f32_blob.clone()).collect::<Vec<_>>();
         assert_ne!(seed(1), seed(2), "the seed changes the weights");
     }
+
+    /// A second restart can only keep a model at least as good on validation as the first,
+    /// which is plain training with the fold's seed.
+    #[test]
+    fn restarts_keep_the_best_validation_model() {
+        let sequences: Vec<SequenceTracks> = ["a", "b", "c", "d"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
+        let mut one = config(1);
+        one.folds = vec![vec!["a".into()]];
+        let mut two = one.clone();
+        two.hyper.restarts = 2;
+        let spec = FoldSpec { arm: Source::Gt, fold: 0, seed: 1 };
+        let plain = crate::train::train_fold(&spec.train_config(&sequences, &one)).unwrap();
+        let best = crate::train::train_fold(&spec.train_config(&sequences, &two)).unwrap();
+        assert_eq!(plain.report.kept_seed, 1);
+        assert!(best.report.best_val_ade <= plain.report.best_val_ade, "{} > {}", best.report.best_val_ade, plain.report.best_val_ade);
+        if best.report.kept_seed == 1 {
+            assert_eq!(best.blob(Precision::F32).unwrap(), plain.blob(Precision::F32).unwrap());
+        } else {
+            assert_eq!(best.report.kept_seed, crate::train::restart_seed(1, 1));
+            assert!(best.report.best_val_ade < plain.report.best_val_ade);
+        }
+    }
 }
