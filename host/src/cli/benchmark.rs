@@ -1,22 +1,21 @@
 //! `dynotraj benchmark`: the generalisation benchmark (every sequence held out once, in folds of
 //! whole sequences, several seeds) with its report folder.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context as _;
 use clap::Args;
 
-use super::bench::parse_dims;
-use super::common::{DataArgs, DEFAULT_DIMS};
+use super::common::DataArgs;
+use super::fold_run::FoldRunArgs;
 use super::experiment::deployment_section;
-use super::train::HyperArgs;
 use super::train_progress::TrainBars;
 use crate::experiment::benchmark::{goal_table, run_benchmark, seeds_table, sequence_groups, BenchmarkResult, DEFAULT_GROUPS, GOAL_GAIN};
 use crate::experiment::figures::Figure;
 use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::ExperimentConfig;
 use crate::report::chart::{write_chart, Chart, Series};
-use crate::report::{instances_table, Format};
+use crate::report::instances_table;
 use crate::trajectory::Source;
 
 /// Options of `dynotraj benchmark`.
@@ -39,22 +38,9 @@ pub struct BenchmarkArgs {
     /// depend on it).
     #[arg(long, value_delimiter = ',', default_value = "1,2,3", value_name = "LIST")]
     pub seeds: Vec<u64>,
-    /// Model widths enc,edge,k,dec.
-    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
-    pub dims: String,
-    /// Training settings of every fold.
+    /// Widths, training settings, report folder and format.
     #[command(flatten)]
-    pub hyper: HyperArgs,
-    /// Report folder, e.g. reports/benchmark: REPORT.md, every table as Markdown and CSV,
-    /// figures, models/ and the fold and estimate cache in cache/.
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Estimate and train everything again even when the cache holds it.
-    #[arg(long)]
-    pub no_cache: bool,
-    /// Output format of the tables printed.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
-    pub format: Format,
+    pub run: FoldRunArgs,
 }
 
 /// Runs the benchmark, prints its summary tables and writes the report.
@@ -63,27 +49,12 @@ pub struct BenchmarkArgs {
 /// Loading, training or writing errors, named.
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
-    let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
-    let estimate_cache = args.data.estimate_cache.clone().filter(|_| !args.no_cache).or_else(|| cache.clone());
-    let sequences = args.data.load_cached(&args.sequences, &args.arms, estimate_cache)?;
+    let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let loaded_s = start.elapsed().as_secs_f64();
     let ids: Vec<String> = sequences.iter().map(|s| s.id.clone()).collect();
     let folds = sequence_groups(&ids, args.folds);
     anyhow::ensure!(folds.len() >= 2, "--folds: the benchmark needs at least two folds, found {} sequence(s) for {} fold(s)", ids.len(), args.folds);
-    let config = ExperimentConfig {
-        arms: args.arms.clone(),
-        folds,
-        dims: parse_dims(&args.dims)?,
-        hyper: args.hyper.hyper()?,
-        validation_fraction: args.hyper.val_fraction,
-        mirror: args.hyper.mirror,
-        validate_on_sequences: args.hyper.val_sequences,
-        dt: args.data.dt()?,
-        rule: args.data.rule()?,
-        out: args.out.as_ref().map(|d| d.join("models")),
-        cache,
-        jobs: args.data.jobs,
-    };
+    let config = args.run.config(&args.data, &args.arms, folds)?;
     let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
     let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
     bars.finish();
@@ -92,11 +63,11 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     let sections = sections(&result, &config, &sequences, args)?;
     for s in sections.iter().take(2) {
         println!("{}\n", s.title);
-        print!("{}", s.table.render(args.format));
+        print!("{}", s.table.render(args.run.format));
         println!();
     }
     eprintln!("loading and estimating {loaded_s:.0} s, training and scoring {:.0} s, total {seconds:.0} s", result.seconds);
-    if let Some(dir) = &args.out {
+    if let Some(dir) = &args.run.out {
         let mut command = String::from("dynotraj benchmark");
         for a in std::env::args().skip(2) {
             command.push(' ');

@@ -1,12 +1,9 @@
 //! `dynotraj experiment`: the paper's leave-one-sequence-out experiment for the chosen arms.
 
-use std::path::PathBuf;
-
 use clap::Args;
 
-use super::bench::parse_dims;
-use super::common::{DataArgs, DEFAULT_DIMS, PAPER_TEST_SEQUENCES};
-use super::train::HyperArgs;
+use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use super::estimate::table_iii_of;
 use crate::estimate::{Kind, RunScores};
@@ -14,7 +11,7 @@ use crate::experiment::figures::write_figures;
 use crate::experiment::findings::{findings, Scoring};
 use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
-use crate::report::{instances_table, Format, Table};
+use crate::report::{instances_table, Table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
@@ -36,23 +33,9 @@ pub struct ExperimentArgs {
     /// Test sequences, each held out in turn (default: the paper's 0000, 0003, 0005, 0018, 0020).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub tests: Vec<String>,
-    /// Model widths enc,edge,k,dec.
-    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
-    pub dims: String,
-    /// Training settings of every fold.
+    /// Widths, training settings, report folder and format.
     #[command(flatten)]
-    pub hyper: HyperArgs,
-    /// Report folder, e.g. reports/kitti: REPORT.md, every table as Markdown and CSV, each
-    /// fold's model blobs in models/ (`<arm>-<seq>.blob`, `.blob.int8`) and the fold cache in
-    /// cache/ (a rerun trains only folds whose inputs changed).
-    #[arg(long, value_name = "DIR")]
-    pub out: Option<PathBuf>,
-    /// Estimate and train everything again even when the cache holds it.
-    #[arg(long)]
-    pub no_cache: bool,
-    /// Output format of the table.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
-    pub format: Format,
+    pub run: FoldRunArgs,
 }
 
 /// Runs the experiment and returns its table and a summary of the folds.
@@ -70,26 +53,10 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 /// Loading, training or writing errors, named.
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
-    let cache = args.out.as_ref().filter(|_| !args.no_cache).map(|d| d.join("cache"));
-    // --no-cache recomputes the estimates too; without --estimate-cache they live in the report's cache.
-    let estimate_cache = args.data.estimate_cache.clone().filter(|_| !args.no_cache).or_else(|| cache.clone());
-    let sequences = args.data.load_cached(&args.sequences, &args.arms, estimate_cache)?;
+    let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let test_sequences: Vec<String> =
         if args.tests.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.tests.clone() };
-    let config = ExperimentConfig {
-        arms: args.arms.clone(),
-        folds: ExperimentConfig::one_sequence_folds(&test_sequences),
-        dims: parse_dims(&args.dims)?,
-        hyper: args.hyper.hyper()?,
-        validation_fraction: args.hyper.val_fraction,
-        mirror: args.hyper.mirror,
-        validate_on_sequences: args.hyper.val_sequences,
-        dt: args.data.dt()?,
-        rule: args.data.rule()?,
-        out: args.out.as_ref().map(|d| d.join("models")),
-        cache,
-        jobs: args.data.jobs,
-    };
+    let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
     let bars = TrainBars::new(config.arms.len() * config.folds.len());
     let result = run_experiment(&sequences, &config, &bars);
     bars.finish();
@@ -227,13 +194,13 @@ fn table_i_sources(arms: &[Source]) -> Vec<Source> {
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     let (result, summary, sequences) = experiment(args)?;
-    print!("{}", result.table.render(args.format));
+    print!("{}", result.table.render(args.run.format));
     if let Some((table, _)) = &result.common {
         println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
-        print!("{}", table.render(args.format));
+        print!("{}", table.render(args.run.format));
     }
     eprint!("{summary}");
-    if let Some(dir) = &args.out {
+    if let Some(dir) = &args.run.out {
         let rule = args.data.rule()?;
         let mut r = report(args, &result, &sequences, &rule);
         r.figures = write_figures(&dir.join("figures"), &sequences, &args.arms, &rule, args.data.dt()?, &dir.join("models"))?;

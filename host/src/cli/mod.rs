@@ -6,6 +6,7 @@ pub mod dataset;
 pub mod estimate;
 pub mod eval;
 pub mod experiment;
+pub mod fold_run;
 pub mod sign;
 pub mod simulate;
 pub mod soak;

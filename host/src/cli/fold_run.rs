@@ -1,0 +1,72 @@
+//! Options shared by the commands that train folds and write a report (`experiment`,
+//! `benchmark`): widths, training settings, the report folder with its caches, the format.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::bench::parse_dims;
+use super::common::{DataArgs, DEFAULT_DIMS};
+use super::train::HyperArgs;
+use crate::experiment::ExperimentConfig;
+use crate::report::Format;
+use crate::trajectory::Source;
+
+/// Training and report options of a run of folds.
+#[derive(Debug, Args)]
+pub struct FoldRunArgs {
+    /// Model widths enc,edge,k,dec.
+    #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
+    pub dims: String,
+    /// Training settings of every fold.
+    #[command(flatten)]
+    pub hyper: HyperArgs,
+    /// Report folder, e.g. reports/kitti: REPORT.md, every table as Markdown and CSV,
+    /// figures/, each fold's model blobs in models/ (`<arm>-<held-out ids>.blob`, `.blob.int8`)
+    /// and the fold and estimate cache in cache/ (a rerun trains only folds whose inputs
+    /// changed).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Estimate and train everything again even when the cache holds it.
+    #[arg(long)]
+    pub no_cache: bool,
+    /// Output format of the tables printed.
+    #[arg(long, value_enum, default_value_t = Format::Md)]
+    pub format: Format,
+}
+
+impl FoldRunArgs {
+    /// The fold cache: the report's cache/, none with `--no-cache` or without `--out`.
+    #[must_use]
+    pub fn fold_cache(&self) -> Option<PathBuf> {
+        self.out.as_ref().filter(|_| !self.no_cache).map(|d| d.join("cache"))
+    }
+
+    /// Where estimates are kept: `--estimate-cache`, else the report's cache; none with
+    /// `--no-cache` (which recomputes the estimates too).
+    #[must_use]
+    pub fn estimate_cache(&self, data: &DataArgs) -> Option<PathBuf> {
+        data.estimate_cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
+    }
+
+    /// The run's configuration for `arms` and `folds`.
+    ///
+    /// # Errors
+    /// A flag out of range, named.
+    pub fn config(&self, data: &DataArgs, arms: &[Source], folds: Vec<Vec<String>>) -> anyhow::Result<ExperimentConfig> {
+        Ok(ExperimentConfig {
+            arms: arms.to_vec(),
+            folds,
+            dims: parse_dims(&self.dims)?,
+            hyper: self.hyper.hyper()?,
+            validation_fraction: self.hyper.val_fraction,
+            mirror: self.hyper.mirror,
+            validate_on_sequences: self.hyper.val_sequences,
+            dt: data.dt()?,
+            rule: data.rule()?,
+            out: self.out.as_ref().map(|d| d.join("models")),
+            cache: self.fold_cache(),
+            jobs: data.jobs,
+        })
+    }
+}
