@@ -1,5 +1,6 @@
 //! Options and loading shared by the commands.
 
+use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
@@ -115,10 +116,15 @@ impl DataArgs {
             ..EstimateSettings::tracks(EvalOptions::kitti(dt))
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
+        let (start, terminal) = (std::time::Instant::now(), std::io::stderr().is_terminal());
         let out = map_jobs(&ids, self.jobs, |id| {
             let s = load_sequence(&dir, id, dt, estimate.as_ref());
             bar.set_message(id.clone());
             bar.inc(1);
+            if !terminal {
+                // A log (no bar off a terminal) shows where a long load is.
+                eprintln!("[{:>6.0} s] sequence {id} loaded ({}/{})", start.elapsed().as_secs_f64(), bar.position(), ids.len());
+            }
             s
         })?;
         bar.finish_and_clear();

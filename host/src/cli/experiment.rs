@@ -57,12 +57,14 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     let test_sequences: Vec<String> =
         if args.tests.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.tests.clone() };
     let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
+    let loading_seconds = start.elapsed().as_secs_f64();
     let bars = TrainBars::new(config.arms.len() * config.folds.len());
     let result = run_experiment(&sequences, &config, &bars);
     bars.finish();
     let mut result = result?;
     // The whole command: loading and estimating the sequences too.
     result.seconds = start.elapsed().as_secs_f64();
+    result.loading_seconds = loading_seconds;
     let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
     for f in &result.folds {
         summary.push_str(&format!(
@@ -127,7 +129,13 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         command.push(' ');
         command.push_str(&a);
     }
-    let mut notes = findings(&result.arms, &args.arms, Scoring::OwnFuture);
+    let mut notes = vec![format!(
+        "Stages: loading and estimating the sequences {:.0} s (rendering and tracking them, or reading the estimate cache), training and scoring {:.0} s, on {} job(s).",
+        result.loading_seconds,
+        result.seconds - result.loading_seconds,
+        args.data.jobs
+    )];
+    notes.extend(findings(&result.arms, &args.arms, Scoring::OwnFuture));
     if let Some((_, arms)) = &result.common {
         notes.extend(findings(arms, &args.arms, Scoring::CommonTruth));
     }

@@ -222,8 +222,10 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         files.int8_blob.display(),
         files.checkpoint.display()
     );
-    // The same data, settings and seed give the same bytes: these identify the model.
-    let crc = |p: &std::path::Path| std::fs::read(p).map(|b| dynotraj_core::wire::crc32(&b)).with_context(|| format!("reading {}", p.display()));
-    println!("model CRC-32: {:08x} ({}), int8 {:08x} ({})", crc(&files.f32_blob)?, files.f32_blob.display(), crc(&files.int8_blob)?, files.int8_blob.display());
+    // The same data, settings and seed give the same bytes: these identify the model. (Not
+    // CRC-32: a blob ends in its own CRC-32, and the CRC-32 of any such file is one constant.)
+    let crc64 = crc::Crc::<u64>::new(&crc::CRC_64_ECMA_182);
+    let crc = |p: &std::path::Path| std::fs::read(p).map(|b| crc64.checksum(&b)).with_context(|| format!("reading {}", p.display()));
+    println!("model CRC-64: {:016x} ({}), int8 {:016x} ({})", crc(&files.f32_blob)?, files.f32_blob.display(), crc(&files.int8_blob)?, files.int8_blob.display());
     Ok(())
 }

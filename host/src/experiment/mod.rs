@@ -127,6 +127,9 @@ pub struct ExperimentResult {
     pub folds: Vec<FoldReport>,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
+    /// Of those, seconds of loading and estimating the sequences (set by the command that
+    /// loaded them; 0 when not measured).
+    pub loading_seconds: f64,
 }
 
 /// Scores `forecaster` on one sequence against the source's own future into `own` and, when
@@ -305,5 +308,5 @@ pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs
     let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
     let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
     let common = truths.is_some().then(|| (forecast_table(&ids, &common_arms, &[]), common_arms));
-    Ok(ExperimentResult { table, arms, common, deployment, folds, seconds: 0.0 })
+    Ok(ExperimentResult { table, arms, common, deployment, folds, seconds: 0.0, loading_seconds: 0.0 })
 }
