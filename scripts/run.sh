@@ -7,8 +7,8 @@
 # and SVG, the run's time); then the paper's Table I and its Table IV for the baselines from
 # the same estimates. Sequences are rendered and folds trained on every core (--jobs); estimates
 # and trained folds are cached in reports/kitti/cache, so a rerun takes seconds. The paper's
-# nine-sequence setting: bash scripts/run.sh --sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020
-# (with DYNOTRAJ_OUT=reports/kitti-paper9).
+# nine-sequence setting is the experiment with --sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020
+# (reports/kitti-paper9, README).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

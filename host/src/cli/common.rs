@@ -43,8 +43,9 @@ pub struct DataArgs {
     /// Where the estimated sources take their feature tracks for sequences without real stereo
     /// images in the folder: rendered (the image simulator renders each sequence and the
     /// OpenCV front-end tracks it: images -> front-end -> estimator, as Ours is defined;
-    /// about 15 minutes for the nine sequences at scale 1, kept in --estimate-cache) or tracks
-    /// (the track-level simulator: tracks of points on the labelled boxes, seconds).
+    /// about 13 minutes for the sixteen sequences at scale 1 on two cores, kept in
+    /// --estimate-cache) or tracks (the track-level simulator: tracks of points on the
+    /// labelled boxes, seconds).
     #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
     pub ours_input: OursInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
