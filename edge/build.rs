@@ -13,10 +13,14 @@ fn main() {
         _ => (dev, true),
     };
     println!("cargo:rerun-if-changed={}", path.display());
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| fail(&format!("DYNOTRAJ_MODEL_PUBKEY {}: {e}", path.display())));
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| fail(&format!("DYNOTRAJ_MODEL_PUBKEY {}: {e}", path.display())));
     let t = text.trim();
     if t.len() != 64 || !t.bytes().all(|c| c.is_ascii_hexdigit()) {
-        fail(&format!("{}: expected one line of 64 hex digits (an Ed25519 public key from `dynotraj keygen`)", path.display()));
+        fail(&format!(
+            "{}: expected one line of 64 hex digits (an Ed25519 public key from `dynotraj keygen`)",
+            path.display()
+        ));
     }
     let bytes: Vec<String> = (0..32).map(|i| format!("0x{}", &t[2 * i..2 * i + 2])).collect();
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap_or_default()).join("model_key.rs");

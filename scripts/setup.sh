@@ -23,5 +23,6 @@ if command -v rustup >/dev/null 2>&1; then
   rustup target list --installed | grep -qx thumbv7em-none-eabihf || rustup target add thumbv7em-none-eabihf
   rustup component list --installed | grep -q '^llvm-tools' || rustup component add llvm-tools
   rustup component list --installed | grep -q '^clippy' || rustup component add clippy
+  rustup component list --installed | grep -q '^rustfmt' || rustup component add rustfmt
 fi
 echo "setup: ok"

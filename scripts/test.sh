@@ -7,6 +7,10 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 source scripts/env.sh
 
+echo "== rustfmt (workspace, firmware, fuzz)"
+cargo fmt --all --check
+(cd edge/firmware && cargo fmt --all --check)
+(cd fuzz && cargo fmt --all --check)
 echo "== core for thumbv7em-none-eabihf"
 cargo build -p dynotraj-core -p dynotraj-edge --lib --target thumbv7em-none-eabihf --release
 echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"

@@ -13,7 +13,9 @@ fn main() {
     println!("cargo:rustc-link-arg=-Tlink.x");
     println!("cargo:rustc-link-arg=--nmagic");
     let model = std::env::var_os("DYNOTRAJ_FW_MODEL").map(PathBuf::from);
-    let bytes = model.as_ref().map_or_else(Vec::new, |p| std::fs::read(p).unwrap_or_else(|e| panic!("DYNOTRAJ_FW_MODEL {}: {e}", p.display())));
+    let bytes = model.as_ref().map_or_else(Vec::new, |p| {
+        std::fs::read(p).unwrap_or_else(|e| panic!("DYNOTRAJ_FW_MODEL {}: {e}", p.display()))
+    });
     std::fs::write(out.join("model.bin"), bytes).unwrap();
     println!("cargo:rerun-if-env-changed=DYNOTRAJ_FW_MODEL");
     if let Some(p) = model {

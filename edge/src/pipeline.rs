@@ -6,9 +6,7 @@ use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
 use dynotraj_core::model::LearnedPredictor;
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::predict::{Forecast, constant_velocity};
-use dynotraj_core::wire::{
-    CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction,
-};
+use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
 use heapless::Vec;
 
 use crate::history::Histories;
@@ -258,7 +256,8 @@ impl<'m, const W: usize> Edge<'m, W> {
             }
         }
         let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
-        let learned = self.predictor.as_mut().map(|p| p.predict_with_neighbours(history, &neighbours, self.dt, &mut points));
+        let learned =
+            self.predictor.as_mut().map(|p| p.predict_with_neighbours(history, &neighbours, self.dt, &mut points));
         let ok = match learned {
             Some(Ok(())) => true,
             Some(Err(_)) => {

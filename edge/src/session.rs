@@ -1,9 +1,9 @@
 //! One session of the edge over a transport: the model load, then the stream of frames.
 
 use dynotraj_core::model::blob::{BlobError, ModelBlob};
+use dynotraj_core::model::signed::SignatureError;
 #[cfg(feature = "model-over-link")]
 use dynotraj_core::model::signed::{self, PublicKey};
-use dynotraj_core::model::signed::SignatureError;
 use dynotraj_core::wire::{FrameBuf, LinkStats, MAX_FRAME_LEN, Message, WireError, encode};
 
 use crate::link::EdgeLoop;
@@ -188,7 +188,12 @@ impl<'m, const W: usize> Session<'m, W> {
     ///
     /// # Errors
     /// A transport failure, or a message that cannot be encoded.
-    pub fn on_bytes<T: Transport, C: Clock>(&mut self, chunk: &[u8], io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
+    pub fn on_bytes<T: Transport, C: Clock>(
+        &mut self,
+        chunk: &[u8],
+        io: &mut T,
+        clock: &mut C,
+    ) -> Result<(), RunError<T::Error>> {
         let Self {
             link,
             edge,
@@ -268,7 +273,12 @@ impl<'m, const W: usize> Session<'m, W> {
 /// the frame that also runs every camera frame.
 #[cfg(feature = "model-over-link")]
 #[inline(never)]
-fn accept_signed<'m, const W: usize>(bytes: &'m [u8], key: &PublicKey, load: &mut LoadStats, edge: &mut Edge<'m, W>) -> ModelStatus {
+fn accept_signed<'m, const W: usize>(
+    bytes: &'m [u8],
+    key: &PublicKey,
+    load: &mut LoadStats,
+    edge: &mut Edge<'m, W>,
+) -> ModelStatus {
     let blob = match signed::verify(bytes, key) {
         Ok(blob) => blob,
         Err(e) => {

@@ -13,7 +13,7 @@
 //! the yaw between its camera and the true camera at the forecast's frame.
 
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::metrics::{ace, ade, fde, ForecastScores};
+use dynotraj_core::metrics::{ForecastScores, ace, ade, fde};
 use dynotraj_core::model::LearnedPredictor;
 use dynotraj_core::predict::{Baseline, Forecast, PredictError, Predictor};
 use dynotraj_core::{BevState, Point2};
@@ -27,17 +27,35 @@ pub trait Forecaster {
     ///
     /// # Errors
     /// See [`PredictError`].
-    fn forecast(&mut self, history: &[BevState], neighbours: &[&[BevState]], dt: f32, out: &mut Forecast) -> Result<(), PredictError>;
+    fn forecast(
+        &mut self,
+        history: &[BevState],
+        neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError>;
 }
 
 impl Forecaster for Baseline {
-    fn forecast(&mut self, history: &[BevState], _neighbours: &[&[BevState]], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    fn forecast(
+        &mut self,
+        history: &[BevState],
+        _neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
         self.predict(history, dt, out)
     }
 }
 
 impl Forecaster for LearnedPredictor<'_> {
-    fn forecast(&mut self, history: &[BevState], neighbours: &[&[BevState]], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    fn forecast(
+        &mut self,
+        history: &[BevState],
+        neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
         self.predict_with_neighbours(history, neighbours, dt, out)
     }
 }
@@ -123,13 +141,26 @@ impl Reference<'_> {
 /// source's future. The history of instance s is `run.states[..=s]` (the predictor keeps the
 /// newest frames it uses); neighbours are the other runs of `scene` present at the frame. ACE
 /// pairs the forecasts of consecutive instances.
-pub fn score_run(run: &SourcedRun, instances: std::ops::Range<usize>, scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32) -> RunScores {
+pub fn score_run(
+    run: &SourcedRun,
+    instances: std::ops::Range<usize>,
+    scene: &Scene,
+    forecaster: &mut dyn Forecaster,
+    dt: f32,
+) -> RunScores {
     score_run_against(run, instances, scene, forecaster, dt, Reference::OwnFuture)
 }
 
 /// As [`score_run`], against `reference`; instances it does not score are skipped (and end the
 /// ACE pairing, as a refused forecast does).
-pub fn score_run_against(run: &SourcedRun, instances: std::ops::Range<usize>, scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32, reference: Reference<'_>) -> RunScores {
+pub fn score_run_against(
+    run: &SourcedRun,
+    instances: std::ops::Range<usize>,
+    scene: &Scene,
+    forecaster: &mut dyn Forecaster,
+    dt: f32,
+    reference: Reference<'_>,
+) -> RunScores {
     let mut out = RunScores::default();
     let mut previous: Option<Forecast> = None;
     for s in instances {
@@ -177,7 +208,13 @@ pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn 
 }
 
 /// As [`score_sequence`], against `reference`.
-pub fn score_sequence_against(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32, reference: Reference<'_>) -> RunScores {
+pub fn score_sequence_against(
+    runs: &[EligibleRun],
+    scene: &Scene,
+    forecaster: &mut dyn Forecaster,
+    dt: f32,
+    reference: Reference<'_>,
+) -> RunScores {
     let mut total = RunScores::default();
     for run in runs {
         let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
@@ -198,7 +235,10 @@ mod tests {
     #[test]
     fn cv_is_exact_on_constant_velocity_and_counts_pairs() {
         let frames: Vec<u32> = (0..40).collect();
-        let states: Vec<BevState> = frames.iter().map(|&k| BevState { x: 0.5 * k as f32, y: 0.1 * k as f32, heading: 0.0, speed: 0.0 }).collect();
+        let states: Vec<BevState> = frames
+            .iter()
+            .map(|&k| BevState { x: 0.5 * k as f32, y: 0.1 * k as f32, heading: 0.0, speed: 0.0 })
+            .collect();
         let scene = Scene::new(&[Track { track_id: 1, class: ObjectClass::Car, frames, states }], Source::Gt, 0.1);
         let r = score_run(&scene.runs[0], 1..10, &scene, &mut Baseline::ConstantVelocity, 0.1);
         assert_eq!(r.scores.ade.count(), 9);
@@ -212,7 +252,10 @@ mod tests {
     fn the_common_reference_ignores_a_fixed_offset_and_scores_only_shared_instances() {
         let frames: Vec<u32> = (0..40).collect();
         let line = |dx: f32, bend: f32| -> Vec<BevState> {
-            frames.iter().map(|&k| BevState { x: dx + 0.5 * k as f32, y: bend * (k as f32).powi(2), heading: 0.0, speed: 0.0 }).collect()
+            frames
+                .iter()
+                .map(|&k| BevState { x: dx + 0.5 * k as f32, y: bend * (k as f32).powi(2), heading: 0.0, speed: 0.0 })
+                .collect()
         };
         let track = |states| Track { track_id: 1, class: ObjectClass::Car, frames: frames.clone(), states };
         // The source refers to a point 5 m ahead of the truth's; the truth bends away.
@@ -241,15 +284,26 @@ mod tests {
             track_id: 1,
             class: ObjectClass::Car,
             frames: frames.clone(),
-            states: frames.iter().map(|&k| BevState { x: dx * k as f32, y: dy * k as f32, heading: 0.0, speed: 0.0 }).collect(),
+            states: frames
+                .iter()
+                .map(|&k| BevState { x: dx * k as f32, y: dy * k as f32, heading: 0.0, speed: 0.0 })
+                .collect(),
         };
         // The source's world is the truth's turned by a quarter turn: the truth's +x is its +y.
         let source = Scene::new(&[track(0.0, 0.5)], Source::Gt, 0.1);
         let truth = Scene::new(&[track(0.5, 0.0)], Source::Gt, 0.1);
         let only: std::collections::BTreeSet<(i32, u32)> = (1..10).map(|f| (1, f)).collect();
-        let yaw: std::collections::BTreeMap<u32, f32> = frames.iter().map(|&f| (f, -std::f32::consts::FRAC_PI_2)).collect();
+        let yaw: std::collections::BTreeMap<u32, f32> =
+            frames.iter().map(|&f| (f, -std::f32::consts::FRAC_PI_2)).collect();
         let score = |world_yaw| {
-            let r = score_run_against(&source.runs[0], 1..10, &source, &mut Baseline::ConstantVelocity, 0.1, Reference::Common { truth: &truth, only: &only, world_yaw });
+            let r = score_run_against(
+                &source.runs[0],
+                1..10,
+                &source,
+                &mut Baseline::ConstantVelocity,
+                0.1,
+                Reference::Common { truth: &truth, only: &only, world_yaw },
+            );
             r.scores.ade.value().unwrap_or(f64::NAN)
         };
         assert!(score(Some(&yaw)) < 1e-4, "{}", score(Some(&yaw)));

@@ -27,7 +27,7 @@ use opencv::core::{Mat, Vector};
 use opencv::imgcodecs::imwrite;
 
 use crate::frontend::image_io::{bgr_from_rgb, u16_from_buffer};
-use crate::kitti::{write_labels, write_poses, LabelRow};
+use crate::kitti::{LabelRow, write_labels, write_poses};
 
 /// Writes a `Mat` as PNG, naming the file on failure.
 fn write_png(path: &Path, m: &Mat) -> anyhow::Result<()> {
@@ -129,7 +129,11 @@ pub fn write_sequence(dir: &Path, seq: &str, sim: &ImageSim, frames: usize) -> a
     let mut truth = String::from("frame,object_id,class,tx,ty,tz,qx,qy,qz,qw,h,w,l\n");
     let row = |s: &mut String, k: usize, id: u16, class: &str, p: &Isometry3<f64>, size: [f64; 3]| {
         let (t, q) = (p.translation.vector, p.rotation.coords);
-        let _ = writeln!(s, "{k},{id},{class},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9},{:.3},{:.3},{:.3}", t.x, t.y, t.z, q.x, q.y, q.z, q.w, size[0], size[1], size[2]);
+        let _ = writeln!(
+            s,
+            "{k},{id},{class},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9},{:.3},{:.3},{:.3}",
+            t.x, t.y, t.z, q.x, q.y, q.z, q.w, size[0], size[1], size[2]
+        );
     };
     for k in 0..n {
         let f = sim.frame(k).with_context(|| format!("frame {k} is past the sequence"))?;

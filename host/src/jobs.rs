@@ -19,7 +19,11 @@ pub fn default_jobs() -> usize {
 ///
 /// # Errors
 /// The pool's threads cannot be started.
-pub fn map_jobs<T: Sync, R: Send>(items: &[T], jobs: usize, f: impl Fn(&T) -> R + Sync + Send) -> anyhow::Result<Vec<R>> {
+pub fn map_jobs<T: Sync, R: Send>(
+    items: &[T],
+    jobs: usize,
+    f: impl Fn(&T) -> R + Sync + Send,
+) -> anyhow::Result<Vec<R>> {
     if jobs <= 1 || items.len() <= 1 {
         return Ok(items.iter().map(f).collect());
     }

@@ -92,7 +92,11 @@ pub fn read_some(rx: &mut LinkReader, buf: &mut [u8]) -> Option<usize> {
         match rx.read(buf) {
             Ok(0) => return None,
             Ok(n) => return Some(n),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted | std::io::ErrorKind::WouldBlock) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::TimedOut | std::io::ErrorKind::Interrupted | std::io::ErrorKind::WouldBlock
+                ) => {}
             Err(e) => {
                 log::debug!("link read: {e}");
                 return None;

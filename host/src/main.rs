@@ -1,7 +1,7 @@
 //! The `dynotraj` command.
 
 use clap::Parser as _;
-use dynotraj_host::cli::{run, Cli};
+use dynotraj_host::cli::{Cli, run};
 
 /// candle's CPU kernels run this small network fastest on one thread (measured: a training
 /// fold is about 3x slower with the default pool on 2 cores), and its pools read
@@ -12,7 +12,11 @@ fn with_one_compute_thread() -> Option<std::process::ExitCode> {
         return None;
     }
     let exe = std::env::current_exe().ok()?;
-    let status = std::process::Command::new(exe).args(std::env::args_os().skip(1)).env("RAYON_NUM_THREADS", "1").status().ok()?;
+    let status = std::process::Command::new(exe)
+        .args(std::env::args_os().skip(1))
+        .env("RAYON_NUM_THREADS", "1")
+        .status()
+        .ok()?;
     Some(std::process::ExitCode::from(u8::try_from(status.code().unwrap_or(1)).unwrap_or(1)))
 }
 

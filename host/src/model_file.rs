@@ -3,8 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::model::LearnedPredictor;
+use dynotraj_core::model::blob::ModelBlob;
 
 /// A model blob read from a file and validated.
 #[derive(Debug, Clone)]
@@ -64,7 +64,7 @@ impl ModelFile {
 /// re-quantising or inspecting a model.
 #[must_use]
 pub fn float_tensors(blob: &ModelBlob<'_>) -> Vec<Vec<f32>> {
-    use dynotraj_core::model::blob::{f32_at, TensorView};
+    use dynotraj_core::model::blob::{TensorView, f32_at};
     (0..dynotraj_core::model::arch::TENSORS)
         .filter_map(|i| blob.tensor(i))
         .map(|t| match t {

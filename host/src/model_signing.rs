@@ -7,8 +7,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context as _};
-use dynotraj_core::model::signed::{self, key_id, PublicKey, SignatureError, SIGNATURE_MAGIC};
+use anyhow::{Context as _, bail};
+use dynotraj_core::model::signed::{self, PublicKey, SIGNATURE_MAGIC, SignatureError, key_id};
 use ed25519_dalek::{Signer as _, SigningKey};
 
 /// The development key pair in the repository (`keys/dev-model-signing.{key,pub}`), compiled in:
@@ -33,7 +33,8 @@ pub fn keygen(dir: &Path, name: &str) -> anyhow::Result<(PathBuf, PathBuf)> {
         bail!("{}: a secret key is already there; not overwriting it", secret.display());
     }
     write_secret(&secret, &format!("{}\n", hex(&seed)))?;
-    std::fs::write(&public, format!("{}\n", hex(key.verifying_key().as_bytes()))).with_context(|| format!("writing {}", public.display()))?;
+    std::fs::write(&public, format!("{}\n", hex(key.verifying_key().as_bytes())))
+        .with_context(|| format!("writing {}", public.display()))?;
     Ok((secret, public))
 }
 
@@ -41,7 +42,12 @@ pub fn keygen(dir: &Path, name: &str) -> anyhow::Result<(PathBuf, PathBuf)> {
 fn write_secret(path: &Path, text: &str) -> anyhow::Result<()> {
     use std::io::Write as _;
     use std::os::unix::fs::OpenOptionsExt as _;
-    let mut f = std::fs::OpenOptions::new().write(true).create_new(true).mode(0o600).open(path).with_context(|| format!("creating {}", path.display()))?;
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .open(path)
+        .with_context(|| format!("creating {}", path.display()))?;
     f.write_all(text.as_bytes()).with_context(|| format!("writing {}", path.display()))
 }
 
@@ -68,7 +74,8 @@ pub fn parse_hex32(text: &str, what: &str) -> anyhow::Result<[u8; 32]> {
     let mut out = [0u8; 32];
     for (i, o) in out.iter_mut().enumerate() {
         let pair = t.get(2 * i..2 * i + 2).unwrap_or("");
-        *o = u8::from_str_radix(pair, 16).map_err(|_| anyhow::anyhow!("{what}: '{pair}' at character {} is not hex", 2 * i + 1))?;
+        *o = u8::from_str_radix(pair, 16)
+            .map_err(|_| anyhow::anyhow!("{what}: '{pair}' at character {} is not hex", 2 * i + 1))?;
     }
     Ok(out)
 }

@@ -1,8 +1,8 @@
 //! A sequence's tracks as one source sees them, indexed by frame: what a forecast at frame s
 //! may use of its own history and of its neighbours'.
 
-use dynotraj_core::limits::MAX_HISTORY;
 use dynotraj_core::BevState;
+use dynotraj_core::limits::MAX_HISTORY;
 
 use crate::trajectory::{Source, Track};
 
@@ -45,7 +45,11 @@ impl Scene {
         let runs = tracks
             .iter()
             .flat_map(|t| {
-                t.runs().map(move |r| SourcedRun { track_id: t.track_id, first_frame: t.frames[r.start], states: source.apply(&t.states[r], dt) })
+                t.runs().map(move |r| SourcedRun {
+                    track_id: t.track_id,
+                    first_frame: t.frames[r.start],
+                    states: source.apply(&t.states[r], dt),
+                })
             })
             .collect();
         Self { runs }
@@ -77,7 +81,8 @@ mod tests {
 
     #[test]
     fn histories_stop_at_gaps_and_neighbours_exclude_self() {
-        let scene = Scene::new(&[track(1, (0..10).collect()), track(2, (3..5).chain(7..12).collect())], Source::Gt, 0.1);
+        let scene =
+            Scene::new(&[track(1, (0..10).collect()), track(2, (3..5).chain(7..12).collect())], Source::Gt, 0.1);
         assert_eq!(scene.runs.len(), 3);
         assert_eq!(scene.run_at(1, 9).and_then(|r| r.history_at(9, 6)).map(<[_]>::len), Some(7));
         assert_eq!(scene.run_at(1, 2).and_then(|r| r.history_at(2, 6)).map(<[_]>::len), Some(3));

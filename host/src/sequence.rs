@@ -10,7 +10,8 @@ use crate::estimate::evaluate::EvalOptions;
 use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
 use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{
-    estimated_tracks, ground_truth_tracks, image_estimated_tracks, rendered_estimated_tracks, EstimatedTracks, LabelledObservation, OursInput, Source, Track,
+    EstimatedTracks, LabelledObservation, OursInput, Source, Track, estimated_tracks, ground_truth_tracks,
+    image_estimated_tracks, rendered_estimated_tracks,
 };
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
@@ -85,7 +86,12 @@ impl EstimateSettings {
 ///
 /// # Errors
 /// Any loading error of the sequence's files, with the file named.
-pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&EstimateSettings>) -> anyhow::Result<SequenceTracks> {
+pub fn load_sequence(
+    dir: &TrackingDir,
+    id: &str,
+    dt: f32,
+    estimate: Option<&EstimateSettings>,
+) -> anyhow::Result<SequenceTracks> {
     let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let mut seq = ground_truth_of(id, &data, dt);
     seq.estimated = match estimate {
@@ -98,10 +104,17 @@ pub fn load_sequence(dir: &TrackingDir, id: &str, dt: f32, estimate: Option<&Est
 /// The estimator's tracks of sequence `id` with settings `e`: from the cache when a file there
 /// has the key of these inputs, else computed (from the sequence's images where it has them all,
 /// else from the simulator or its rendering) and stored.
-fn estimated_cached(dir: &TrackingDir, id: &str, data: &SequenceData, e: &EstimateSettings) -> anyhow::Result<EstimatedTracks> {
+fn estimated_cached(
+    dir: &TrackingDir,
+    id: &str,
+    data: &SequenceData,
+    e: &EstimateSettings,
+) -> anyhow::Result<EstimatedTracks> {
     let images = has_images(dir.root(), id, data.frame_count);
     let key = match &e.cache {
-        Some(_) if images => Some(cache::image_estimate_key(id, data, e, &image_files(dir.root(), id, data.frame_count))?),
+        Some(_) if images => {
+            Some(cache::image_estimate_key(id, data, e, &image_files(dir.root(), id, data.frame_count))?)
+        }
         Some(_) => Some(cache::estimate_key(id, data, e)?),
         None => None,
     };
@@ -113,7 +126,8 @@ fn estimated_cached(dir: &TrackingDir, id: &str, data: &SequenceData, e: &Estima
         log::info!("sequence {id}: estimating from its stereo images");
         image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?)
     } else if e.input == OursInput::Rendered {
-        let r = estimate_rendered(data, &e.options, e.render_scale).with_context(|| format!("sequence {id}: rendered front-end"))?;
+        let r = estimate_rendered(data, &e.options, e.render_scale)
+            .with_context(|| format!("sequence {id}: rendered front-end"))?;
         rendered_estimated_tracks(&r)
     } else {
         estimated_tracks(id, data, &e.options)
@@ -141,5 +155,10 @@ pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> SequenceTracks
             })
         })
         .collect();
-    SequenceTracks { id: id.to_string(), frame_count: data.frame_count, tracks: ground_truth_tracks(&observations, &data.poses, dt), estimated: None }
+    SequenceTracks {
+        id: id.to_string(),
+        frame_count: data.frame_count,
+        tracks: ground_truth_tracks(&observations, &data.poses, dt),
+        estimated: None,
+    }
 }

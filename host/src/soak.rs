@@ -10,17 +10,17 @@
 //! resident memory is read from /proc at the start and the end when its process id is known.
 
 use std::io::Write;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use dynotraj_core::wire::{encode, DecoderStats, FrameBuf, FrameDecoder, LinkStats, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{DecoderStats, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-use crate::link::{read_some, LinkReader, LinkWriter};
+use crate::link::{LinkReader, LinkWriter, read_some};
 use crate::tracks_file::Tracks;
 
 /// How to soak.
@@ -41,7 +41,13 @@ pub struct SoakOptions {
 
 impl Default for SoakOptions {
     fn default() -> Self {
-        Self { frames: 100_000, fault_probability: 0.01, seed: 1, reply_timeout: Duration::from_secs(30), max_in_flight: 8 }
+        Self {
+            frames: 100_000,
+            fault_probability: 0.01,
+            seed: 1,
+            reply_timeout: Duration::from_secs(30),
+            max_in_flight: 8,
+        }
     }
 }
 
@@ -192,7 +198,13 @@ impl FaultySender<'_> {
 ///
 /// # Errors
 /// The base has no frames, or a write to the link fails.
-pub fn soak(base: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &SoakOptions, edge_pid: Option<u32>) -> anyhow::Result<SoakReport> {
+pub fn soak(
+    base: &Tracks,
+    rx: LinkReader,
+    mut tx: LinkWriter,
+    opt: &SoakOptions,
+    edge_pid: Option<u32>,
+) -> anyhow::Result<SoakReport> {
     anyhow::ensure!(!base.frames.is_empty(), "the base recording has no frames");
     let start = Instant::now();
     let last_answered = Arc::new(AtomicU64::new(0));
@@ -202,9 +214,18 @@ pub fn soak(base: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &SoakOptions
     std::thread::spawn(move || read_answers(rx, &reader_mark, &seen_tx));
     let mut report = SoakReport::default();
     let mut damaged = vec![false; usize::try_from(opt.frames).context("--frames")?];
-    let mut sender = FaultySender { tx: &mut tx, buf: [0; MAX_FRAME_LEN], rng: SmallRng::seed_from_u64(opt.seed), probability: opt.fault_probability.clamp(0.0, 1.0) };
+    let mut sender = FaultySender {
+        tx: &mut tx,
+        buf: [0; MAX_FRAME_LEN],
+        rng: SmallRng::seed_from_u64(opt.seed),
+        probability: opt.fault_probability.clamp(0.0, 1.0),
+    };
     sender.send(&Message::CameraInfo(base.camera), false, &mut report)?;
-    let period_us = base.frames.get(1).zip(base.frames.first()).map_or(50_000, |(b, a)| b.timestamp_us.saturating_sub(a.timestamp_us).max(1));
+    let period_us = base
+        .frames
+        .get(1)
+        .zip(base.frames.first())
+        .map_or(50_000, |(b, a)| b.timestamp_us.saturating_sub(a.timestamp_us).max(1));
     let mut edge_start = None;
     for k in 0..opt.frames {
         // Bounded backlog: wait (with a deadline, since a damaged frame is never answered)
@@ -232,7 +253,10 @@ pub fn soak(base: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &SoakOptions
         }
     }
     let edge_end = edge_pid.and_then(memory_of);
-    let goodbye = LinkStats { frames_sent: u32::try_from(report.wire_frames_sent + 1).unwrap_or(u32::MAX), received: DecoderStats::default() };
+    let goodbye = LinkStats {
+        frames_sent: u32::try_from(report.wire_frames_sent + 1).unwrap_or(u32::MAX),
+        received: DecoderStats::default(),
+    };
     sender.send(&Message::LinkStats(goodbye), false, &mut report)?;
     sender.tx.flush().context("writing to the link")?;
     let seen = seen_rx.recv_timeout(opt.reply_timeout).unwrap_or_default();

@@ -16,7 +16,7 @@ use dynotraj_core::wire::{
     DecoderStats, FrameBuf, FrameDecoder, FrameStats, LinkStats, MAX_FRAME_LEN, Message, encode, model_chunks,
 };
 
-use crate::link::{read_some, LinkReader, LinkWriter};
+use crate::link::{LinkReader, LinkWriter, read_some};
 use crate::tracks_file::Tracks;
 
 /// How to stream.
@@ -87,7 +87,12 @@ enum Event {
 ///
 /// # Errors
 /// A write to the link fails, or a frame cannot be encoded.
-pub fn stream(tracks: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &StreamOptions) -> anyhow::Result<StreamResult> {
+pub fn stream(
+    tracks: &Tracks,
+    rx: LinkReader,
+    mut tx: LinkWriter,
+    opt: &StreamOptions,
+) -> anyhow::Result<StreamResult> {
     let (events_tx, events) = mpsc::channel();
     std::thread::spawn(move || read_replies(rx, &events_tx));
     let start = Instant::now();

@@ -20,9 +20,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use dynotraj_core::wire::{
-    self, CameraInfo, FrameBuf, FrameDecoder, FrameTracks, MAX_FRAME_LEN, Message, Track,
-};
+use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, FrameTracks, MAX_FRAME_LEN, Message, Track};
 
 /// File name extension of tracks files.
 pub const EXTENSION: &str = "dtt";
@@ -112,12 +110,7 @@ impl TracksWriter {
     ///
     /// # Errors
     /// More tracks than [`wire::MAX_FRAME_TRACKS`], or a write failure.
-    pub fn write_frame(
-        &mut self,
-        frame: u32,
-        timestamp_us: u64,
-        tracks: &[Track],
-    ) -> Result<(), TracksFileError> {
+    pub fn write_frame(&mut self, frame: u32, timestamp_us: u64, tracks: &[Track]) -> Result<(), TracksFileError> {
         let wire_err = |source| TracksFileError::Wire { path: self.path.clone(), frame, source };
         for part in wire::frame_parts(frame, timestamp_us, tracks).map_err(wire_err)? {
             self.write_message(&Message::FrameTracks(part))?;
@@ -132,9 +125,7 @@ impl TracksWriter {
             source,
         })?;
         let bytes = self.buf.get(..n).unwrap_or_default();
-        self.out
-            .write_all(bytes)
-            .map_err(|source| TracksFileError::Io { path: self.path.clone(), source })
+        self.out.write_all(bytes).map_err(|source| TracksFileError::Io { path: self.path.clone(), source })
     }
 
     /// Flushes and closes the file.
@@ -151,8 +142,7 @@ impl TracksWriter {
 /// # Errors
 /// An unreadable file, or content that is not a tracks file (see the module docs).
 pub fn read(path: &Path) -> Result<Tracks, TracksFileError> {
-    let bytes =
-        std::fs::read(path).map_err(|source| TracksFileError::Io { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|source| TracksFileError::Io { path: path.to_path_buf(), source })?;
     parse(path, &bytes)
 }
 
@@ -161,11 +151,7 @@ pub fn read(path: &Path) -> Result<Tracks, TracksFileError> {
 /// # Errors
 /// Content that is not a tracks file (see the module docs).
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
-    let fail = |offset: usize, what: String| TracksFileError::Format {
-        path: path.to_path_buf(),
-        offset,
-        what,
-    };
+    let fail = |offset: usize, what: String| TracksFileError::Format { path: path.to_path_buf(), offset, what };
     let mut decoder = FrameDecoder::new();
     let mut camera = None;
     let mut frames: Vec<TracksFrame> = Vec::new();
@@ -323,7 +309,9 @@ mod tests {
         let err = read(&path).unwrap_err().to_string();
         assert!(err.contains("frame 2 after frame 3"), "{err}");
         let mut buf = [0; MAX_FRAME_LEN];
-        let n = wire::encode(&Message::FrameTracks(wire::frame_parts(0, 0, &tracks(3)).unwrap().next().unwrap()), &mut buf).unwrap();
+        let n =
+            wire::encode(&Message::FrameTracks(wire::frame_parts(0, 0, &tracks(3)).unwrap().next().unwrap()), &mut buf)
+                .unwrap();
         let err = parse(&path, &buf[..n]).unwrap_err().to_string();
         assert!(err.contains("before the camera model"), "{err}");
         let err = parse(&path, &[]).unwrap_err().to_string();

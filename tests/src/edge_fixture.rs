@@ -6,7 +6,9 @@ use std::path::PathBuf;
 
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks};
+use dynotraj_core::wire::{
+    CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks,
+};
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_host::estimate::bench::scene;
@@ -32,7 +34,11 @@ pub fn scene_tracks(frames: usize) -> Tracks {
     };
     let frames = sim
         .iter()
-        .map(|f| TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: frame_parts(f.frame, f.timestamp_us, &f.tracks).unwrap().collect() })
+        .map(|f| TracksFrame {
+            frame: f.frame,
+            timestamp_us: f.timestamp_us,
+            parts: frame_parts(f.frame, f.timestamp_us, &f.tracks).unwrap().collect(),
+        })
         .collect();
     Tracks { camera, frames }
 }
@@ -146,7 +152,11 @@ pub fn outputs(replies: &[Message]) -> Vec<Vec<u8>> {
 pub fn edge_binary() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
     let path = exe.parent().unwrap().parent().unwrap().join("dynotraj-edge");
-    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-edge` (cargo test --workspace builds it)", path.display());
+    assert!(
+        path.exists(),
+        "{} is missing: run `cargo build -p dynotraj-edge` (cargo test --workspace builds it)",
+        path.display()
+    );
     path
 }
 
@@ -157,11 +167,21 @@ pub fn firmware_elf() -> PathBuf {
     let path = std::env::var_os("DYNOTRAJ_FIRMWARE").map_or_else(
         || {
             let exe = std::env::current_exe().unwrap();
-            exe.parent().unwrap().parent().unwrap().parent().unwrap().join("thumbv7em-none-eabihf/release/dynotraj-firmware")
+            exe.parent()
+                .unwrap()
+                .parent()
+                .unwrap()
+                .parent()
+                .unwrap()
+                .join("thumbv7em-none-eabihf/release/dynotraj-firmware")
         },
         PathBuf::from,
     );
-    assert!(path.exists(), "{} is missing: run `bash scripts/build-firmware.sh` (scripts/test.sh does)", path.display());
+    assert!(
+        path.exists(),
+        "{} is missing: run `bash scripts/build-firmware.sh` (scripts/test.sh does)",
+        path.display()
+    );
     path
 }
 

@@ -20,10 +20,8 @@ pub fn manifest_dir() -> PathBuf {
 /// need real data skip clearly instead of failing on a machine without it.
 #[must_use]
 pub fn kitti_training_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("DYNOTRAJ_KITTI").map_or_else(
-        || manifest_dir().join("../../shared/kitti/tracking/training"),
-        PathBuf::from,
-    );
+    let dir = std::env::var_os("DYNOTRAJ_KITTI")
+        .map_or_else(|| manifest_dir().join("../../shared/kitti/tracking/training"), PathBuf::from);
     if dir.join("label_02").is_dir() {
         Some(dir)
     } else {
@@ -39,15 +37,16 @@ pub fn kitti_training_dir() -> Option<PathBuf> {
 #[must_use]
 pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
     let root = std::env::var_os("DYNOTRAJ_KITTI_ROOT").map(PathBuf::from).unwrap_or_else(|| {
-        std::env::var_os("DYNOTRAJ_KITTI").map_or_else(
-            || manifest_dir().join("../../shared/kitti"),
-            |t| PathBuf::from(t).join("../.."),
-        )
+        std::env::var_os("DYNOTRAJ_KITTI")
+            .map_or_else(|| manifest_dir().join("../../shared/kitti"), |t| PathBuf::from(t).join("../.."))
     });
     if root.join(sub).is_dir() {
         Some(root)
     } else {
-        eprintln!("SKIPPED {what}: {} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)", root.join(sub).display());
+        eprintln!(
+            "SKIPPED {what}: {} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)",
+            root.join(sub).display()
+        );
         None
     }
 }

@@ -4,8 +4,8 @@
 use std::fs;
 use std::path::Path;
 
-use dynotraj_fixtures::drive::{Drive, ObjectLabel, INTRINSICS};
-use dynotraj_host::kitti::{write_labels, write_poses, LabelRow};
+use dynotraj_fixtures::drive::{Drive, INTRINSICS, ObjectLabel};
+use dynotraj_host::kitti::{LabelRow, write_labels, write_poses};
 
 fn label_row(l: &ObjectLabel) -> LabelRow {
     LabelRow {

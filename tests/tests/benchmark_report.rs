@@ -6,14 +6,36 @@
 use std::fs;
 
 use clap::Parser as _;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::{benchmark, Cli, Command};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::{Cli, Command, benchmark};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn args(root: &str, out: &str, jobs: &str) -> benchmark::BenchmarkArgs {
     let args = [
-        "dynotraj", "benchmark", "--kitti", root, "--arms", "gt,estimated", "--folds", "2", "--seeds", "1,2", "--dims", "8,8,2,8", "--epochs", "1", "--batch", "16",
-        "--rate", "10", "--ours-input", "tracks", "--jobs", jobs, "--out", out,
+        "dynotraj",
+        "benchmark",
+        "--kitti",
+        root,
+        "--arms",
+        "gt,estimated",
+        "--folds",
+        "2",
+        "--seeds",
+        "1,2",
+        "--dims",
+        "8,8,2,8",
+        "--epochs",
+        "1",
+        "--batch",
+        "16",
+        "--rate",
+        "10",
+        "--ours-input",
+        "tracks",
+        "--jobs",
+        jobs,
+        "--out",
+        out,
     ];
     let Command::Benchmark(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the benchmark command") };
     a
@@ -32,7 +54,14 @@ fn the_benchmark_report_and_its_independence_of_the_jobs() {
 
     let md = fs::read_to_string(one.join("REPORT.md")).unwrap();
     println!("{md}");
-    for heading in ["# dynotraj generalisation benchmark", "## Weighted over every held-out instance, per seed", "## The goal per arm and seed", "## Deployment", "## Per held-out sequence, seed 2", "## Folds"] {
+    for heading in [
+        "# dynotraj generalisation benchmark",
+        "## Weighted over every held-out instance, per seed",
+        "## The goal per arm and seed",
+        "## Deployment",
+        "## Per held-out sequence, seed 2",
+        "## Folds",
+    ] {
         assert!(md.contains(heading), "{heading} missing");
     }
     assert!(md.contains("Folds (held out together): 0000, 0002 | 0001, 0003."), "{md}");
@@ -48,8 +77,20 @@ fn the_benchmark_report_and_its_independence_of_the_jobs() {
     assert_eq!(folds.lines().count(), 1 + 2 * 2 * 2, "{folds}");
     assert!(one.join("figures/ade_per_sequence.png").is_file() && one.join("figures/ade_per_sequence.svg").is_file());
     assert!(one.join("models/gt-0000+0002.blob.int8").is_file() && one.join("models/gt-0000+0002-s2.blob").is_file());
-    for stem in ["weighted", "goal", "deployment_weighted", "truth_weighted", "per_sequence_seed1", "deployment_seed2", "table_i"] {
-        assert_eq!(fs::read_to_string(one.join(format!("{stem}.csv"))).unwrap(), fs::read_to_string(two.join(format!("{stem}.csv"))).unwrap(), "{stem}: one job and two differ");
+    for stem in [
+        "weighted",
+        "goal",
+        "deployment_weighted",
+        "truth_weighted",
+        "per_sequence_seed1",
+        "deployment_seed2",
+        "table_i",
+    ] {
+        assert_eq!(
+            fs::read_to_string(one.join(format!("{stem}.csv"))).unwrap(),
+            fs::read_to_string(two.join(format!("{stem}.csv"))).unwrap(),
+            "{stem}: one job and two differ"
+        );
     }
     for seed in ["1", "2"] {
         let goal = fs::read_to_string(one.join("goal.csv")).unwrap();

@@ -5,10 +5,10 @@
 use std::fs;
 
 use clap::Parser as _;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::{dataset, eval, Cli, Command};
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::{Cli, Command, dataset, eval};
 use dynotraj_host::report::Table;
+use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {
     Cli::try_parse_from(std::iter::once("dynotraj").chain(args.iter().copied())).unwrap().command
@@ -35,8 +35,17 @@ fn dataset_and_eval_on_a_synthetic_drive() {
     assert_eq!(cell(&t, 0, "0001"), "-");
     assert_eq!(cell(&t, 1, "sum"), "38");
 
-    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,gt-ekf", "--predictor", "cv,cv-fit,ctra"])
-    else {
+    let Command::Eval(args) = cli(&[
+        "eval",
+        "--kitti",
+        root,
+        "--sequences",
+        "0000",
+        "--source",
+        "gt,gt-ekf",
+        "--predictor",
+        "cv,cv-fit,ctra",
+    ]) else {
         panic!()
     };
     let t = eval::table(&args).unwrap();

@@ -97,10 +97,10 @@ fn edge_survives_corrupted_dropped_and_duplicated_bytes_and_resynchronises() {
     let index = |k: usize, p: usize| 1 + parts_per_frame[..k].iter().sum::<usize>() + p;
 
     let faults = vec![
-        (span[index(3, 5)].start + 40, Fault::Flip(0x24)),                 // frame 3: a part corrupted
+        (span[index(3, 5)].start + 40, Fault::Flip(0x24)), // frame 3: a part corrupted
         (span[index(6, 0)].start + 10, Fault::Drop(span[index(6, 0)].len())), // frame 6: bytes lost across two parts
         (span[index(8, 2)].start, Fault::Duplicate(span[index(8, 2)].len())), // frame 8: a part twice
-        (span[index(9, 7)].start + 3, Fault::Duplicate(57)),                // frame 9: a burst repeated inside a part
+        (span[index(9, 7)].start + 3, Fault::Duplicate(57)), // frame 9: a burst repeated inside a part
     ];
     let mut link = FaultyLink::new(&clean, faults, 7);
     let session = run(&mut link);
@@ -113,7 +113,11 @@ fn edge_survives_corrupted_dropped_and_duplicated_bytes_and_resynchronises() {
     let mut clean_link = FaultyLink::new(&encode_all(&host_messages(&kept, None)), vec![], 7);
     run(&mut clean_link);
     let reference = decode_all(&clean_link.written);
-    assert_eq!(outputs(&replies), outputs(&reference), "after each loss the edge is back in step with the next good frame");
+    assert_eq!(
+        outputs(&replies),
+        outputs(&reference),
+        "after each loss the edge is back in step with the next good frame"
+    );
 
     let stats = frame_stats(&replies);
     let answered: Vec<u32> = stats.iter().map(|s| s.frame).collect();
@@ -159,5 +163,10 @@ fn edge_counts_every_frame_under_random_faults() {
     assert!(session.link_stats().received.frames_rejected() > 0);
     assert!(last.bytes_dropped > 0);
     assert!(session.ended());
-    println!("random faults: {} of 12 frames answered, {} lost, {} bytes dropped", stats.len(), last.frames_lost, last.bytes_dropped);
+    println!(
+        "random faults: {} of 12 frames answered, {} lost, {} bytes dropped",
+        stats.len(),
+        last.frames_lost,
+        last.bytes_dropped
+    );
 }

@@ -12,13 +12,17 @@ use std::time::Duration;
 use dynotraj_core::wire::{ComputeUnit, Message};
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, stream};
-use dynotraj_tests::edge_fixture::{elf_sections, encode_all, firmware_elf, free_port, host_messages, outputs, reference_replies, scene_tracks, spawn_qemu, wait_for_firmware};
+use dynotraj_tests::edge_fixture::{
+    elf_sections, encode_all, firmware_elf, free_port, host_messages, outputs, reference_replies, scene_tracks,
+    spawn_qemu, wait_for_firmware,
+};
 
 #[test]
 fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
     // 24 frames: the compute figure is taken from frame STEADY_FROM on, once the windows have
     // filled. DYNOTRAJ_QEMU_FRAMES streams more.
-    let frames = std::env::var("DYNOTRAJ_QEMU_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(24).max(STEADY_FROM + 2);
+    let frames =
+        std::env::var("DYNOTRAJ_QEMU_FRAMES").ok().and_then(|v| v.parse().ok()).unwrap_or(24).max(STEADY_FROM + 2);
     let tracks = scene_tracks(frames);
     // A firmware built with DYNOTRAJ_FW_MODEL=BLOB is compared with the host edge running BLOB:
     // name the same file in DYNOTRAJ_FIRMWARE_MODEL (and the image in DYNOTRAJ_FIRMWARE).
@@ -99,7 +103,11 @@ fn check_memory(log: &str, golden: bool) {
     let golden_path = dynotraj_tests::manifest_dir().join("../edge/firmware/memory.golden");
     let now: String = figures.iter().map(|(n, v)| format!("{n} {v}\n")).collect();
     if std::env::var_os("DYNOTRAJ_BLESS").is_some() {
-        std::fs::write(&golden_path, format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}")).unwrap();
+        std::fs::write(
+            &golden_path,
+            format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}"),
+        )
+        .unwrap();
         return;
     }
     let golden = std::fs::read_to_string(&golden_path).unwrap();
@@ -109,6 +117,9 @@ fn check_memory(log: &str, golden: bool) {
         let got = f64::from(figures.iter().find(|(n, _)| *n == name).unwrap().1);
         // 10% either way: the figures move with every change to core; beyond that the change
         // must be looked at, and blessed.
-        assert!((got - want).abs() <= 0.1 * want.max(1024.0), "{name}: {got} B, golden {want} B (DYNOTRAJ_BLESS=1 after a deliberate change)");
+        assert!(
+            (got - want).abs() <= 0.1 * want.max(1024.0),
+            "{name}: {got} B, golden {want} B (DYNOTRAJ_BLESS=1 after a deliberate change)"
+        );
     }
 }

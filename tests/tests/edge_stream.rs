@@ -2,9 +2,9 @@
 //! garbage and a corrupted frame on the link, reach the edge loop; it counts every whole frame,
 //! the one it lost and every byte it dropped.
 
-use dynotraj_core::wire::{encode, frame_parts, FrameBuf, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_edge::EdgeLoop;
-use dynotraj_fixtures::drive::{feature_tracks, generate, DriveSpec};
+use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 

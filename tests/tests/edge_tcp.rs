@@ -23,7 +23,8 @@ fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> Vec<String> {
     let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
     assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
 
-    let mut edge = Command::new(edge_binary()).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().unwrap();
+    let mut edge =
+        Command::new(edge_binary()).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().unwrap();
     let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
     let first = lines.next().unwrap().unwrap();
     let addr = first.rsplit("tcp://").next().unwrap().to_string();
@@ -34,7 +35,10 @@ fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> Vec<String> {
     assert!(edge.wait().unwrap().success(), "edge failed: {rest:?}");
 
     assert_eq!(outputs(&result.replies), outputs(&reference), "TCP edge answers differ from the in-process edge");
-    assert!(result.frames.iter().all(|f| f.stats.is_some_and(|s| s.frames_lost == 0)), "every frame answered, none lost");
+    assert!(
+        result.frames.iter().all(|f| f.stats.is_some_and(|s| s.frames_lost == 0)),
+        "every frame answered, none lost"
+    );
     let link = result.edge_link.expect("edge goodbye");
     assert_eq!((link.received.frames_ok, link.received.frames_rejected()), (result.frames_sent, 0));
     rest
@@ -59,8 +63,14 @@ fn run_over_tcp(model: Option<Vec<u8>>) {
 fn tcp_edge_refuses_an_unsigned_model_counts_it_and_forecasts_with_constant_velocity() {
     let rest = over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)), None);
     let id: String = dynotraj_edge::provisioned::MODEL_KEY[..8].iter().map(|b| format!("{b:02x}")).collect();
-    assert!(rest.iter().any(|l| l.contains(&format!("must be signed by key {id}"))), "edge names the key it trusts: {rest:?}");
-    assert!(rest.iter().any(|l| l.contains("model refused, signature: Unsigned (unsigned 1 bad signature 0)")), "{rest:?}");
+    assert!(
+        rest.iter().any(|l| l.contains(&format!("must be signed by key {id}"))),
+        "edge names the key it trusts: {rest:?}"
+    );
+    assert!(
+        rest.iter().any(|l| l.contains("model refused, signature: Unsigned (unsigned 1 bad signature 0)")),
+        "{rest:?}"
+    );
 }
 
 #[test]

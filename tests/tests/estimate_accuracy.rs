@@ -5,11 +5,11 @@
 
 use std::collections::BTreeSet;
 
-use dynotraj_core::estimate::{EstimatorParams, Intrinsics, DEFAULT_WINDOW};
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_fixtures::track_sim::{simulate, LabelBox, SimFrame, SimSpec};
-use dynotraj_host::estimate::runner::{run_estimator, EstimatorRun, Kind};
-use dynotraj_host::estimate::score::{moving_objects, score_run, RunScores};
+use dynotraj_core::estimate::{DEFAULT_WINDOW, EstimatorParams, Intrinsics};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
+use dynotraj_host::estimate::runner::{EstimatorRun, Kind, run_estimator};
+use dynotraj_host::estimate::score::{RunScores, moving_objects, score_run};
 
 fn run(frames: &[SimFrame], spec: &SimSpec) -> (EstimatorRun, RunScores, BTreeSet<u16>) {
     let mut params = EstimatorParams::kitti(spec.intrinsics, spec.dt as f32);
@@ -87,5 +87,8 @@ fn real_kitti_labels_and_ego_poses_first_frames() {
     assert!(cam.translation < 0.01, "{cam:?}");
     let f2f = s.kinds[0].object.expect("objects");
     let smoothed = s.kinds[2].object.expect("objects");
-    assert!(smoothed.translation < 0.3 && smoothed.translation < f2f.translation, "smoothed {smoothed:?} vs f2f {f2f:?}");
+    assert!(
+        smoothed.translation < 0.3 && smoothed.translation < f2f.translation,
+        "smoothed {smoothed:?} vs f2f {f2f:?}"
+    );
 }

@@ -1,11 +1,13 @@
 //! Every bad-input rule of the estimator (see `dynotraj_core::estimate`): each is counted, has
 //! its documented effect, and nothing panics or turns non-finite.
 
-use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, Intrinsics, PoseEstimate, Pushed, MAX_HELD_FRAMES};
+use dynotraj_core::estimate::{
+    Estimator, EstimatorParams, EstimatorStats, Intrinsics, MAX_HELD_FRAMES, PoseEstimate, Pushed,
+};
 use dynotraj_core::limits::MAX_OBJECTS;
-use dynotraj_core::wire::{frame_parts, FrameTracks, ObjectClass, Track};
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_fixtures::track_sim::{simulate, LabelBox, SimFrame, SimSpec};
+use dynotraj_core::wire::{FrameTracks, ObjectClass, Track, frame_parts};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
@@ -80,7 +82,13 @@ fn fewer_points_than_a_minimal_set_hold_or_skip() {
     let z = |k: usize| run.causal[k].camera.translation.vector.z;
     assert!((z(6) - z(5) - 0.8).abs() < 0.01, "{} {}", z(5), z(6));
     // A brand-new object with two points is not initialised.
-    let lone = feed((0..3).map(|k| (k, u64::from(k) * 100_000, frames[k as usize].tracks.iter().filter(|t| t.is_static()).copied().chain(two_point_object()).collect())));
+    let lone = feed((0..3).map(|k| {
+        (
+            k,
+            u64::from(k) * 100_000,
+            frames[k as usize].tracks.iter().filter(|t| t.is_static()).copied().chain(two_point_object()).collect(),
+        )
+    }));
     assert_eq!(lone.stats.objects_not_initialised, 3);
     assert!(lone.causal.iter().all(|e| e.objects.is_empty()));
 }
@@ -134,7 +142,8 @@ fn duplicate_track_ids_are_counted_and_one_copy_kept() {
 fn an_object_that_vanishes_and_comes_back_is_reinitialised() {
     let frames = sim(40);
     let run = feed(sim_frames(&frames).map(|(k, t, tracks)| {
-        let tracks = if (15..18).contains(&k) { tracks.into_iter().filter(|tr| tr.object_id != 1).collect() } else { tracks };
+        let tracks =
+            if (15..18).contains(&k) { tracks.into_iter().filter(|tr| tr.object_id != 1).collect() } else { tracks };
         (k, t, tracks)
     }));
     assert_eq!(run.stats.objects_returned, 1, "{:?}", run.stats);
@@ -154,7 +163,12 @@ fn more_objects_than_capacity_are_dropped_and_counted() {
         // Twenty extra fake objects, each a copy of the static tracks under a new id.
         let statics: Vec<Track> = tracks.iter().filter(|t| t.is_static()).take(20).copied().collect();
         for extra in 0..20u16 {
-            tracks.extend(statics.iter().map(|t| Track { track_id: t.track_id, object_id: 100 + extra, class: ObjectClass::Car, ..*t }));
+            tracks.extend(statics.iter().map(|t| Track {
+                track_id: t.track_id,
+                object_id: 100 + extra,
+                class: ObjectClass::Car,
+                ..*t
+            }));
         }
         (k, t, tracks)
     }));

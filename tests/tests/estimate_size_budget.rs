@@ -7,7 +7,9 @@ use core::mem::size_of;
 
 use dynotraj_core::estimate::frame::FrameBuffer;
 use dynotraj_core::estimate::joint::JointScratch;
-use dynotraj_core::estimate::{ChainScratch, ChainSmoother, Estimator, Landmarks, ObjectRun, PoseEstimate, DEFAULT_WINDOW, ECU_WINDOW};
+use dynotraj_core::estimate::{
+    ChainScratch, ChainSmoother, DEFAULT_WINDOW, ECU_WINDOW, Estimator, Landmarks, ObjectRun, PoseEstimate,
+};
 use dynotraj_core::model::LearnedPredictor;
 use dynotraj_edge::EdgeLoop;
 

@@ -3,8 +3,8 @@
 //! writes the estimate files without any truth.
 
 use clap::Parser as _;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::estimate::{estimate_tracks, evaluate, run, EstimateArgs};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::estimate::{EstimateArgs, estimate_tracks, evaluate, run};
 use dynotraj_host::cli::{Cli, Command};
 use dynotraj_host::estimate::Kind;
 use dynotraj_tests::synthetic_kitti::write_sequence;
@@ -26,7 +26,18 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
     let replay_out = dir.path().join("replay");
 
     // The command itself: writes the tracks file and the direct run's files.
-    let direct_args = args(&["--kitti", root_s, "--sequence", "0000", "--seed", "3", "--write-tracks", tracks_s, "--out", direct_out.to_str().unwrap()]);
+    let direct_args = args(&[
+        "--kitti",
+        root_s,
+        "--sequence",
+        "0000",
+        "--seed",
+        "3",
+        "--write-tracks",
+        tracks_s,
+        "--out",
+        direct_out.to_str().unwrap(),
+    ]);
     run(&direct_args).unwrap();
     assert!(tracks.is_file());
     let replay_args = args(&["--tracks", tracks_s, "--seed", "3", "--out", replay_out.to_str().unwrap()]);

@@ -1,11 +1,11 @@
 //! The estimator touches no heap: decoding a whole simulated sequence from the wire, assembling
 //! frames, fitting, smoothing, reading every output and flushing allocate nothing.
 
-use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed, DEFAULT_WINDOW};
-use dynotraj_core::wire::{encode, frame_parts, FrameBuf, FrameDecoder, Message, MAX_FRAME_LEN};
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_fixtures::track_sim::{simulate, LabelBox, SimSpec};
-use dynotraj_tests::alloc_counter::{count_allocations, CountingAllocator};
+use dynotraj_core::estimate::{DEFAULT_WINDOW, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_fixtures::track_sim::{LabelBox, SimSpec, simulate};
+use dynotraj_tests::alloc_counter::{CountingAllocator, count_allocations};
 
 #[global_allocator]
 static ALLOC: CountingAllocator = CountingAllocator;

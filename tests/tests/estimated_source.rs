@@ -3,13 +3,13 @@
 //! its causality on a real KITTI sequence (skipped without ../shared/kitti).
 
 use clap::Parser as _;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::{dataset, eval, Cli, Command};
-use dynotraj_host::estimate::evaluate::{evaluate_sequence, params_for, sim_max_depth, EvalOptions};
-use dynotraj_host::estimate::{run_estimator, Kind};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::{Cli, Command, dataset, eval};
+use dynotraj_host::estimate::evaluate::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
+use dynotraj_host::estimate::{Kind, run_estimator};
 use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::report::Table;
-use dynotraj_host::trajectory::{tracks_of_estimates, Track};
+use dynotraj_host::trajectory::{Track, tracks_of_estimates};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {
@@ -17,7 +17,10 @@ fn cli(args: &[&str]) -> Command {
 }
 
 fn row<'a>(t: &'a Table, first: &str, second: Option<&str>) -> &'a [String] {
-    t.rows.iter().find(|r| r[0] == first && second.is_none_or(|s| r[1] == s)).unwrap_or_else(|| panic!("no row {first} {second:?} in {t:?}"))
+    t.rows
+        .iter()
+        .find(|r| r[0] == first && second.is_none_or(|s| r[1] == s))
+        .unwrap_or_else(|| panic!("no row {first} {second:?} in {t:?}"))
 }
 
 fn column(t: &Table, name: &str) -> usize {
@@ -30,7 +33,11 @@ fn estimated_source_on_a_synthetic_drive() {
     let root = dir.path().to_str().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
 
-    let Command::Dataset(args) = cli(&["dataset", "--kitti", root, "--source", "gt,estimated", "--ours-input", "tracks"]) else { panic!() };
+    let Command::Dataset(args) =
+        cli(&["dataset", "--kitti", root, "--source", "gt,estimated", "--ours-input", "tracks"])
+    else {
+        panic!()
+    };
     let t = dataset::table(&args).unwrap();
     println!("{}", t.render(dynotraj_host::report::Format::Md));
     let c = column(&t, "0000");
@@ -44,8 +51,19 @@ fn estimated_source_on_a_synthetic_drive() {
     let estimated: usize = row(&t, "test instances (estimated)", None)[c].parse().unwrap();
     assert!((20..29).contains(&estimated), "{estimated}");
 
-    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "gt,estimated,estimated-smoothed", "--predictor", "cv", "--ours-input", "tracks"])
-    else {
+    let Command::Eval(args) = cli(&[
+        "eval",
+        "--kitti",
+        root,
+        "--sequences",
+        "0000",
+        "--source",
+        "gt,estimated,estimated-smoothed",
+        "--predictor",
+        "cv",
+        "--ours-input",
+        "tracks",
+    ]) else {
         panic!()
     };
     let t = eval::table(&args).unwrap();
@@ -58,7 +76,10 @@ fn estimated_source_on_a_synthetic_drive() {
     // The drive's labels are exact, the estimator's tracks are not (pixel and depth noise,
     // outliers): its cv forecasts are somewhat worse here, and on fewer instances.
     assert!(ade("cv on estimated") < 1.5 * ade("cv on gt"), "{t:?}");
-    assert!(t.rows.iter().any(|r| r[0] == "instances" && r[1].ends_with("cv on estimated")), "per-arm instance counts: {t:?}");
+    assert!(
+        t.rows.iter().any(|r| r[0] == "instances" && r[1].ends_with("cv on estimated")),
+        "per-arm instance counts: {t:?}"
+    );
     assert!(ade("cv on estimated-smoothed (inputs saw later frames)").is_finite());
 }
 
@@ -67,15 +88,30 @@ fn the_estimated_source_from_a_rendering() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().to_str().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
-    let Command::Eval(args) =
-        cli(&["eval", "--kitti", root, "--sequences", "0000", "--source", "estimated", "--predictor", "cv", "--ours-input", "rendered", "--render-scale", "0.5"])
-    else {
+    let Command::Eval(args) = cli(&[
+        "eval",
+        "--kitti",
+        root,
+        "--sequences",
+        "0000",
+        "--source",
+        "estimated",
+        "--predictor",
+        "cv",
+        "--ours-input",
+        "rendered",
+        "--render-scale",
+        "0.5",
+    ]) else {
         panic!()
     };
     let t = eval::table(&args).unwrap();
     println!("{}", t.render(dynotraj_host::report::Format::Md));
     let tracking = TrackingDir::open(dir.path()).unwrap();
-    let settings = dynotraj_host::sequence::EstimateSettings { input: dynotraj_host::trajectory::OursInput::Rendered, ..dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.05)) };
+    let settings = dynotraj_host::sequence::EstimateSettings {
+        input: dynotraj_host::trajectory::OursInput::Rendered,
+        ..dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.05))
+    };
     let seq = dynotraj_host::sequence::load_sequence(&tracking, "0000", 0.05, Some(&settings)).unwrap();
     let e = seq.estimated.unwrap();
     assert_eq!(e.input, dynotraj_host::trajectory::EstimateInput::Rendered);
@@ -95,7 +131,13 @@ fn the_estimated_source_from_a_rendering() {
 fn states_before(tracks: &[Track], end: u32) -> Vec<(i32, u32, [f32; 4])> {
     tracks
         .iter()
-        .flat_map(|t| t.frames.iter().zip(&t.states).filter(|(f, _)| **f < end).map(|(f, s)| (t.track_id, *f, [s.x, s.y, s.heading, s.speed])))
+        .flat_map(|t| {
+            t.frames
+                .iter()
+                .zip(&t.states)
+                .filter(|(f, _)| **f < end)
+                .map(|(f, s)| (t.track_id, *f, [s.x, s.y, s.heading, s.speed]))
+        })
         .collect()
 }
 
@@ -114,7 +156,8 @@ fn the_causal_estimate_never_sees_later_frames() {
     // The first 60 frames of the causal tracks are the same whether or not 30 more frames follow.
     assert_eq!(causal, states_before(&tracks_of_estimates(full.run.of(Kind::Causal)), 60));
     // The smoothed ones of the last window before frame 60 differ: they had seen later frames.
-    let smoothed = |run: &dynotraj_host::estimate::EstimatorRun| states_before(&tracks_of_estimates(run.of(Kind::Smoothed)), 60);
+    let smoothed =
+        |run: &dynotraj_host::estimate::EstimatorRun| states_before(&tracks_of_estimates(run.of(Kind::Smoothed)), 60);
     assert_ne!(smoothed(&cut), smoothed(&full.run));
 }
 

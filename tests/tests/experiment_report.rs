@@ -6,8 +6,8 @@
 use std::fs;
 
 use clap::Parser as _;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::{experiment, Cli, Command};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::{Cli, Command, experiment};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]
@@ -19,10 +19,30 @@ fn the_report_folder_and_a_cached_rerun() {
     }
     let out = dir.path().join("report");
     let args = [
-        "dynotraj", "experiment", "--kitti", root.to_str().unwrap(), "--tests", "0000", "--arms", "estimated,gt", "--dims", "8,8,2,16", "--epochs", "1",
-        "--batch", "16", "--rate", "10", "--ours-input", "tracks", "--out", out.to_str().unwrap(),
+        "dynotraj",
+        "experiment",
+        "--kitti",
+        root.to_str().unwrap(),
+        "--tests",
+        "0000",
+        "--arms",
+        "estimated,gt",
+        "--dims",
+        "8,8,2,16",
+        "--epochs",
+        "1",
+        "--batch",
+        "16",
+        "--rate",
+        "10",
+        "--ours-input",
+        "tracks",
+        "--out",
+        out.to_str().unwrap(),
     ];
-    let Command::Experiment(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the experiment command") };
+    let Command::Experiment(a) = Cli::try_parse_from(args).unwrap().command else {
+        panic!("not the experiment command")
+    };
     experiment::run(&a).unwrap();
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
@@ -30,7 +50,15 @@ fn the_report_folder_and_a_cached_rerun() {
     // The captions and notes name what the Estimated arm ran on (here the track-level simulator).
     assert!(md.contains("against the truth of the track-level simulator"), "Table III caption");
     assert!(md.contains("`--ours-input tracks`") && !md.contains("image simulator's rendering"), "input note");
-    for heading in ["## Table I", "## Table III: the estimator behind the Estimated arm, causal", "## Table IV", "## Table IV against one common reference", "## Deployment", "## Folds", "## Findings"] {
+    for heading in [
+        "## Table I",
+        "## Table III: the estimator behind the Estimated arm, causal",
+        "## Table IV",
+        "## Table IV against one common reference",
+        "## Deployment",
+        "## Folds",
+        "## Findings",
+    ] {
         assert!(md.contains(heading), "{heading} missing");
     }
     assert!(md.contains("learned int8 on estimated") && md.contains("eligible objects (estimated)"));
@@ -41,7 +69,10 @@ fn the_report_folder_and_a_cached_rerun() {
     }
     // The paper's figures 2-5 for the drive's longest-seen mover (no sequence 0018 here).
     for fig in ["fig2_distance_0000", "fig3_speed_0000", "fig4_heading_0000", "fig5_ace_0000"] {
-        assert!(out.join(format!("figures/{fig}.png")).is_file() && out.join(format!("figures/{fig}.svg")).is_file(), "{fig}");
+        assert!(
+            out.join(format!("figures/{fig}.png")).is_file() && out.join(format!("figures/{fig}.svg")).is_file(),
+            "{fig}"
+        );
         assert!(md.contains(&format!("figures/{fig}.png")), "{fig} not embedded");
     }
     for arm in ["estimated", "gt"] {
@@ -59,5 +90,9 @@ fn the_report_folder_and_a_cached_rerun() {
     let (again, _, _) = experiment::experiment(&a).unwrap();
     assert!(again.folds.iter().all(|f| f.cached), "{:?}", again.folds);
     let first = fs::read_to_string(out.join("table_iv.csv")).unwrap();
-    assert_eq!(again.table.render(dynotraj_host::report::Format::Csv), first, "the cached rerun scores the same models");
+    assert_eq!(
+        again.table.render(dynotraj_host::report::Format::Csv),
+        first,
+        "the cached rerun scores the same models"
+    );
 }

@@ -12,8 +12,8 @@ use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::model_file::ModelFile;
 use dynotraj_host::scene::Scene;
 use dynotraj_host::sequence::load_ground_truth;
-use dynotraj_host::train::{train_fold, TrainConfig};
-use dynotraj_host::trajectory::{eligible_runs, EligibilityRule, Source};
+use dynotraj_host::train::{TrainConfig, train_fold};
+use dynotraj_host::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;
 
 #[test]
@@ -56,7 +56,10 @@ fn int8_forecasts_stay_within_two_centimetres_of_float() {
         }
     }
     let mean = sum_diff / n as f64;
-    println!("{n} instances: mean |ADE f32 - ADE int8| = {:.4} m, largest per-step deviation {:.4} m", mean, worst_step);
+    println!(
+        "{n} instances: mean |ADE f32 - ADE int8| = {:.4} m, largest per-step deviation {:.4} m",
+        mean, worst_step
+    );
     assert!(n > 300);
     assert!(mean <= 0.02, "int8 strays {mean} m from float on average");
 }

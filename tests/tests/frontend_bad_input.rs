@@ -4,13 +4,13 @@
 
 use std::path::Path;
 
-use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_host::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_host::frontend::{DepthInput, Detection, FrameInput, FrontEnd, MaskInput, StereoParams, TrackerParams};
 use dynotraj_host::image_sim_files::write_sequence;
-use opencv::core::{Mat, Scalar, CV_8UC1};
+use opencv::core::{CV_8UC1, Mat, Scalar};
 use opencv::prelude::*;
 
 /// A three-frame rendered sequence "0000" at a fifth of KITTI's size in a temporary folder.
@@ -29,7 +29,12 @@ fn png(dir: &Path, folder: &str, frame: u32) -> std::path::PathBuf {
 #[test]
 fn written_layout_loads_in_every_mode() {
     let dir = layout();
-    for (depth, masks) in [(DepthMode::Stereo, MaskMode::Auto), (DepthMode::Given, MaskMode::Png), (DepthMode::Stereo, MaskMode::Boxes), (DepthMode::Given, MaskMode::Detections)] {
+    for (depth, masks) in [
+        (DepthMode::Stereo, MaskMode::Auto),
+        (DepthMode::Given, MaskMode::Png),
+        (DepthMode::Stereo, MaskMode::Boxes),
+        (DepthMode::Given, MaskMode::Detections),
+    ] {
         let s = ImageSequence::open(dir.path(), "0000", depth, masks).unwrap();
         assert_eq!((s.frames.clone(), s.size), (vec![0, 1, 2], (248, 75)));
         assert!((s.fb - 0.2 * 721.5377 * 0.537).abs() < 1e-3, "fb {}", s.fb);
@@ -58,7 +63,8 @@ fn a_missing_right_image_is_an_error_naming_the_file() {
 fn stereo_images_of_different_sizes_are_an_error_naming_the_file() {
     let dir = layout();
     let small = Mat::new_rows_cols_with_default(10, 20, CV_8UC1, Scalar::all(9.0)).unwrap();
-    opencv::imgcodecs::imwrite(png(dir.path(), "image_03", 0).to_str().unwrap(), &small, &opencv::core::Vector::new()).unwrap();
+    opencv::imgcodecs::imwrite(png(dir.path(), "image_03", 0).to_str().unwrap(), &small, &opencv::core::Vector::new())
+        .unwrap();
     let s = ImageSequence::open(dir.path(), "0000", DepthMode::Stereo, MaskMode::Auto).unwrap();
     let e = s.load(0).unwrap_err().to_string();
     assert!(e.contains("image_03/0000/000000.png") && e.contains("20x10") && e.contains("248x75"), "{e}");
@@ -80,10 +86,20 @@ fn an_unreadable_png_is_an_error_naming_the_file() {
 #[test]
 fn a_textureless_frame_and_boxes_without_depth_are_counted_not_fatal() {
     let grey = Mat::new_rows_cols_with_default(120, 400, CV_8UC1, Scalar::all(128.0)).unwrap();
-    let mut fe = FrontEnd::new(StereoParams { num_disparities: 32, ..StereoParams::kitti() }, TrackerParams::default(), 100.0).unwrap();
-    let boxes = vec![Detection { bbox: [50.0, 20.0, 150.0, 90.0], class: dynotraj_core::wire::ObjectClass::Car, object_id: None }];
+    let mut fe =
+        FrontEnd::new(StereoParams { num_disparities: 32, ..StereoParams::kitti() }, TrackerParams::default(), 100.0)
+            .unwrap();
+    let boxes = vec![Detection {
+        bbox: [50.0, 20.0, 150.0, 90.0],
+        class: dynotraj_core::wire::ObjectClass::Car,
+        object_id: None,
+    }];
     for _ in 0..3 {
-        let input = FrameInput { left: grey.clone(), depth: DepthInput::Right(grey.clone()), masks: MaskInput::Boxes(boxes.clone()) };
+        let input = FrameInput {
+            left: grey.clone(),
+            depth: DepthInput::Right(grey.clone()),
+            masks: MaskInput::Boxes(boxes.clone()),
+        };
         let tracks = fe.process(input).unwrap();
         assert!(tracks.is_empty());
     }
@@ -100,7 +116,12 @@ fn a_textureless_frame_and_boxes_without_depth_are_counted_not_fatal() {
     }
     let depth = Mat::new_rows_cols_with_default(120, 400, opencv::core::CV_32F, Scalar::all(10.0)).unwrap();
     let classes = [(5u16, dynotraj_core::wire::ObjectClass::Car)].into_iter().collect();
-    fe.process(FrameInput { left: grey.clone(), depth: DepthInput::Depth(depth), masks: MaskInput::Labels(labels, classes) }).unwrap();
+    fe.process(FrameInput {
+        left: grey.clone(),
+        depth: DepthInput::Depth(depth),
+        masks: MaskInput::Labels(labels, classes),
+    })
+    .unwrap();
     assert_eq!(fe.tracker.stats.textureless_objects, 1);
 }
 
@@ -114,7 +135,8 @@ fn objects_beyond_the_capacity_are_dropped_and_counted() {
     let mut depth = Mat::new_rows_cols_with_default(h, w, opencv::core::CV_32F, Scalar::all(30.0)).unwrap();
     for v in 0..h {
         for u in 0..w {
-            *grey.at_2d_mut::<u8>(v, u).unwrap() = (dynotraj_fixtures::image_sim::texture::hash((u / 3 * 7919 + v / 3 * 104_729) as u32) & 0xff) as u8;
+            *grey.at_2d_mut::<u8>(v, u).unwrap() =
+                (dynotraj_fixtures::image_sim::texture::hash((u / 3 * 7919 + v / 3 * 104_729) as u32) & 0xff) as u8;
             let (col, row) = (u / 45, v / 100);
             if u % 45 < 40 && v % 100 < 40 && row == 0 && col < 20 {
                 *labels.at_2d_mut::<u16>(v, u).unwrap() = (col + 1) as u16;
@@ -124,8 +146,11 @@ fn objects_beyond_the_capacity_are_dropped_and_counted() {
     }
     let classes = (1..=20u16).map(|id| (id, dynotraj_core::wire::ObjectClass::Car)).collect();
     let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), 100.0).unwrap();
-    let tracks = fe.process(FrameInput { left: grey, depth: DepthInput::Depth(depth), masks: MaskInput::Labels(labels, classes) }).unwrap();
-    let objects: std::collections::BTreeSet<u16> = tracks.iter().filter(|t| !t.is_static()).map(|t| t.object_id).collect();
+    let tracks = fe
+        .process(FrameInput { left: grey, depth: DepthInput::Depth(depth), masks: MaskInput::Labels(labels, classes) })
+        .unwrap();
+    let objects: std::collections::BTreeSet<u16> =
+        tracks.iter().filter(|t| !t.is_static()).map(|t| t.object_id).collect();
     assert_eq!(objects.len(), MAX_OBJECTS);
     // Nearest first: the four farthest (ids 17-20) are the ones dropped.
     assert!(objects.iter().all(|&id| id <= 16), "{objects:?}");

@@ -9,21 +9,29 @@ use std::path::{Path, PathBuf};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
-use dynotraj_core::model::signed;
-use dynotraj_edge::provisioned::MODEL_KEY;
-use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_core::model::infer::LearnedPredictor;
+use dynotraj_core::model::signed;
 use dynotraj_core::predict::Predictor;
 use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message};
 use dynotraj_core::{BevState, Point2};
+use dynotraj_edge::provisioned::MODEL_KEY;
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_host::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses, parse_tum};
+use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_host::tracks_file::{self, TracksWriter};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.
-const TARGETS: [&str; 8] =
-    ["wire_decoder", "model_blob", "model_signature", "kitti_labels", "kitti_calib", "kitti_poses", "kitti_oxts", "tracks_file"];
+const TARGETS: [&str; 8] = [
+    "wire_decoder",
+    "model_blob",
+    "model_signature",
+    "kitti_labels",
+    "kitti_calib",
+    "kitti_poses",
+    "kitti_oxts",
+    "tracks_file",
+];
 
 fn fuzz_dir() -> PathBuf {
     dynotraj_tests::manifest_dir().join("../fuzz")

@@ -4,13 +4,13 @@
 
 use std::path::PathBuf;
 
-use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_host::frontend::image_io::read_u16;
 use dynotraj_host::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_host::frontend::{FrontEnd, StereoParams, TrackerParams};
-use opencv::imgcodecs::{imread, IMREAD_COLOR};
+use opencv::imgcodecs::{IMREAD_COLOR, imread};
 use opencv::prelude::*;
 
 fn fixture() -> PathBuf {
@@ -27,11 +27,15 @@ fn fixture_matches_a_fresh_rendering() {
         let left = imread(png("image_02").to_str().unwrap(), IMREAD_COLOR).unwrap();
         let bgr = left.data_bytes().unwrap();
         assert_eq!(bgr.len(), f.left.len());
-        assert!(bgr.chunks_exact(3).zip(f.left.chunks_exact(3)).all(|(a, b)| a[0] == b[2] && a[1] == b[1] && a[2] == b[0]), "frame {k}: left pixels differ");
+        assert!(
+            bgr.chunks_exact(3).zip(f.left.chunks_exact(3)).all(|(a, b)| a[0] == b[2] && a[1] == b[1] && a[2] == b[0]),
+            "frame {k}: left pixels differ"
+        );
         let ids = read_u16(&png("instance_02"), "ids").unwrap();
         assert_eq!(ids.data_typed::<u16>().unwrap(), &f.ids[..], "frame {k}: instance ids differ");
         let depth = read_u16(&png("depth_02"), "depth").unwrap();
-        let want: Vec<u16> = f.depth.iter().map(|&z| (f64::from(z) * 256.0).round().clamp(0.0, 65535.0) as u16).collect();
+        let want: Vec<u16> =
+            f.depth.iter().map(|&z| (f64::from(z) * 256.0).round().clamp(0.0, 65535.0) as u16).collect();
         assert_eq!(depth.data_typed::<u16>().unwrap(), &want[..], "frame {k}: depth differs");
     }
 }
@@ -40,7 +44,12 @@ fn fixture_matches_a_fresh_rendering() {
 fn fixture_loads_and_the_front_end_tracks_it() {
     let s = ImageSequence::open(&fixture(), "0000", DepthMode::Stereo, MaskMode::Auto).unwrap();
     assert_eq!((s.frames.len(), s.size, s.masks()), (24, (497, 150), MaskMode::Png));
-    let mut fe = FrontEnd::new(StereoParams { num_disparities: 64, ..StereoParams::kitti() }, TrackerParams::default(), s.fb as f32).unwrap();
+    let mut fe = FrontEnd::new(
+        StereoParams { num_disparities: 64, ..StereoParams::kitti() },
+        TrackerParams::default(),
+        s.fb as f32,
+    )
+    .unwrap();
     for &k in &s.frames {
         let tracks = fe.process(s.load(k).unwrap()).unwrap();
         assert!(tracks.iter().filter(|t| t.is_static()).count() > 100, "frame {k}: few static tracks");
@@ -76,7 +85,14 @@ fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
     assert!((t.camera.stereo_fb - (0.4 * 721.5377 * 0.537) as f32).abs() < 1e-2, "{:?}", t.camera);
     assert!(t.frames.iter().all(|f| f.tracks().count() > 100));
     // Object 1's track ids persist from frame to frame (KLT keeps most of them).
-    let ids = |k: usize| -> std::collections::BTreeSet<u32> { t.frames[k].tracks().filter(|x| x.object_id == 1).map(|x| x.track_id).collect() };
+    let ids = |k: usize| -> std::collections::BTreeSet<u32> {
+        t.frames[k].tracks().filter(|x| x.object_id == 1).map(|x| x.track_id).collect()
+    };
     let (a, b) = (ids(4), ids(5));
-    assert!(a.intersection(&b).count() * 2 > b.len(), "object 1 lost most ids: {} of {}", a.intersection(&b).count(), b.len());
+    assert!(
+        a.intersection(&b).count() * 2 > b.len(),
+        "object 1 lost most ids: {} of {}",
+        a.intersection(&b).count(),
+        b.len()
+    );
 }

@@ -4,11 +4,11 @@
 //! The first frame of a run is left out of both: a causal filter has no speed there yet (it has
 //! seen one position), while the labels' speed at that frame peeks at the next frame.
 
-use dynotraj_core::geometry::angle_diff;
 use dynotraj_core::BevState;
+use dynotraj_core::geometry::angle_diff;
 use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::sequence::load_ground_truth;
-use dynotraj_host::trajectory::{eligible_runs, EligibilityRule, Source};
+use dynotraj_host::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;
 
 /// Mean |delta heading| (rad) and |delta speed| (m/s) between consecutive states.

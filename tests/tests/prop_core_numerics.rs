@@ -6,12 +6,12 @@
 
 use core::f32::consts::PI;
 
+use dynotraj_core::estimate::rigid_from_three;
 use dynotraj_core::geometry::{angle_diff, se3_exp, se3_log, wrap_angle};
 use dynotraj_core::limits::{HORIZON, MAX_ACCEL, MAX_TURN_RATE};
 use dynotraj_core::metrics::{ace, ade, fde};
-use dynotraj_core::predict::{constant_velocity, ctra, unicycle_step, Forecast};
+use dynotraj_core::predict::{Forecast, constant_velocity, ctra, unicycle_step};
 use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
-use dynotraj_core::estimate::rigid_from_three;
 use dynotraj_core::{BevState, Point2};
 use nalgebra::{Vector3, Vector6};
 use proptest::prelude::*;
@@ -34,8 +34,7 @@ fn finite_f32(range: f32) -> impl Strategy<Value = f32> {
 }
 
 fn any_state() -> impl Strategy<Value = BevState> {
-    (any_f32(), any_f32(), any_f32(), any_f32())
-        .prop_map(|(x, y, heading, speed)| BevState { x, y, heading, speed })
+    (any_f32(), any_f32(), any_f32(), any_f32()).prop_map(|(x, y, heading, speed)| BevState { x, y, heading, speed })
 }
 
 fn any_measurement() -> impl Strategy<Value = Measurement> {
@@ -205,7 +204,9 @@ fn identical_and_huge_points_are_refused() {
     let z = Vector3::zeros();
     assert!(rigid_from_three(&[z; 3], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
     let nan = Vector3::new(f32::NAN, 0.0, 0.0);
-    assert!(rigid_from_three(&[nan, Vector3::y(), Vector3::z()], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none());
+    assert!(
+        rigid_from_three(&[nan, Vector3::y(), Vector3::z()], &[Vector3::x(), Vector3::y(), Vector3::z()]).is_none()
+    );
 }
 
 /// The input the property test shrank the EKF failure to: a 3.4e38 position, then 0. The filter

@@ -43,7 +43,11 @@ fn development_build() -> bool {
 #[test]
 fn the_test_build_trusts_the_repository_development_key() {
     if development_build() {
-        assert_eq!(MODEL_KEY, development_public_key().unwrap(), "edge/build.rs provisions keys/dev-model-signing.pub unless told otherwise");
+        assert_eq!(
+            MODEL_KEY,
+            development_public_key().unwrap(),
+            "edge/build.rs provisions keys/dev-model-signing.pub unless told otherwise"
+        );
     }
 }
 
@@ -60,7 +64,11 @@ fn a_model_signed_by_the_provisioned_key_is_loaded_and_used() {
     let tracks = scene_tracks(6);
     let linked = run_in_process(&encode_all(&host_messages(&tracks, None)), Some(&blob));
     assert!(forecasts(&got) >= 16 * 3);
-    assert_eq!(outputs(&got.replies), outputs(&linked.replies), "the loaded model forecasts as the same model linked in");
+    assert_eq!(
+        outputs(&got.replies),
+        outputs(&linked.replies),
+        "the loaded model forecasts as the same model linked in"
+    );
     let cv = streamed(None);
     assert_ne!(outputs(&got.replies), outputs(&cv.replies), "the model changes the forecasts");
 }
@@ -85,7 +93,10 @@ fn an_unsigned_model_is_refused_and_counted() {
 fn a_model_signed_by_another_key_is_refused_and_counted() {
     let other = SigningKey::from_bytes(&[9u8; 32]);
     let signed = sign(&blob(), &other);
-    assert_refused(&signed, SignatureError::OtherKey { found: key_id(other.verifying_key().as_bytes()), expected: key_id(&MODEL_KEY) });
+    assert_refused(
+        &signed,
+        SignatureError::OtherKey { found: key_id(other.verifying_key().as_bytes()), expected: key_id(&MODEL_KEY) },
+    );
 }
 
 #[test]

@@ -8,7 +8,7 @@ use dynotraj_core::metrics::{ForecastScores, RpeAccumulator};
 use dynotraj_core::model::{LearnedPredictor, Scratch};
 use dynotraj_core::predict::Forecast;
 use dynotraj_core::smooth::{FixedLagRts, UnicycleEkf};
-use dynotraj_core::wire::{FrameDecoder, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{FrameDecoder, MAX_FRAME_LEN, Message};
 use dynotraj_edge::EdgeLoop;
 
 fn report(name: &str, size: usize, budget: usize) {

@@ -5,14 +5,14 @@
 use std::fs;
 
 use clap::Parser as _;
+use dynotraj_core::Point2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
-use dynotraj_core::Point2;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
-use dynotraj_host::cli::{train, Cli, Command};
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_host::cli::{Cli, Command, train};
 use dynotraj_host::train::export::load_checkpoint;
+use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]
 fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
@@ -22,8 +22,24 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     write_sequence(&root, "0001", &generate(&DriveSpec { seed: 8, label_noise_m: 0.05, ..DriveSpec::default() }));
     let out = dir.path().join("model.blob");
     let args = [
-        "dynotraj", "train", "--kitti", root.to_str().unwrap(), "--source", "gt-ekf", "--exclude", "0001", "--out", out.to_str().unwrap(), "--dims",
-        "8,8,2,16", "--epochs", "2", "--batch", "16", "--rate", "10",
+        "dynotraj",
+        "train",
+        "--kitti",
+        root.to_str().unwrap(),
+        "--source",
+        "gt-ekf",
+        "--exclude",
+        "0001",
+        "--out",
+        out.to_str().unwrap(),
+        "--dims",
+        "8,8,2,16",
+        "--epochs",
+        "2",
+        "--batch",
+        "16",
+        "--rate",
+        "10",
     ];
     let Command::Train(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the train command") };
     train::run(&a).unwrap();
@@ -38,14 +54,27 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     assert_eq!((net.dims, dt), (dims, 0.1));
 
     // The trained model forecasts a straight drive at 10 m/s as something finite and moving.
-    let history: Vec<_> = (0..7).map(|k| dynotraj_core::BevState { x: k as f32, y: 0.0, heading: 0.0, speed: 10.0 }).collect();
+    let history: Vec<_> =
+        (0..7).map(|k| dynotraj_core::BevState { x: k as f32, y: 0.0, heading: 0.0, speed: 10.0 }).collect();
     let mut forecast = [Point2::default(); HORIZON];
     LearnedPredictor::new(blob).predict_with_neighbours(&history, &[], 0.1, &mut forecast).unwrap();
     assert!(forecast.iter().all(|p| p.x.is_finite() && p.y.is_finite()));
 
     // Every flag is documented.
     let help = Cli::try_parse_from(["dynotraj", "train", "--help"]).unwrap_err().to_string();
-    for flag in ["--kitti", "--source", "--exclude", "--sequences", "--out", "--dims", "--rate", "--epochs", "--batch", "--seed", "--precision"] {
+    for flag in [
+        "--kitti",
+        "--source",
+        "--exclude",
+        "--sequences",
+        "--out",
+        "--dims",
+        "--rate",
+        "--epochs",
+        "--batch",
+        "--seed",
+        "--precision",
+    ] {
         assert!(help.contains(flag), "{flag} missing from --help");
     }
 }

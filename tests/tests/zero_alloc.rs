@@ -2,13 +2,13 @@
 //! smoother, forecasting and scoring all happen with zero allocations.
 
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::metrics::{ace, ade, fde, ForecastScores, RpeAccumulator};
+use dynotraj_core::metrics::{ForecastScores, RpeAccumulator, ace, ade, fde};
 use dynotraj_core::predict::{Baseline, Predictor};
 use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement};
-use dynotraj_core::wire::{encode, frame_parts, FrameBuf, FrameDecoder, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_core::{BevState, Point2};
-use dynotraj_fixtures::drive::{feature_tracks, generate, DriveSpec};
-use dynotraj_tests::alloc_counter::{count_allocations, CountingAllocator};
+use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
+use dynotraj_tests::alloc_counter::{CountingAllocator, count_allocations};
 use nalgebra::Isometry3;
 
 #[global_allocator]
@@ -37,7 +37,11 @@ fn core_decodes_filters_predicts_and_scores_without_allocating() {
         .filter(|l| l.track_id == 1)
         .map(|l| {
             let w = drive.camera_poses[l.frame as usize] * l.location_cam;
-            Measurement { position: Some(Point2::new(w.x as f32, w.z as f32)), heading: Some(-l.rotation_y as f32), speed: None }
+            Measurement {
+                position: Some(Point2::new(w.x as f32, w.z as f32)),
+                heading: Some(-l.rotation_y as f32),
+                speed: None,
+            }
         })
         .collect();
     let poses: Vec<Isometry3<f32>> = drive.camera_poses.iter().map(|p| p.cast::<f32>()).collect();
@@ -109,8 +113,10 @@ fn learned_inference_does_not_allocate() {
     use dynotraj_core::model::{Dims, LearnedPredictor};
     use dynotraj_host::cli::bench::random_blob;
 
-    let history: Vec<BevState> = (0..7).map(|i| BevState { x: 0.5 * i as f32, y: 0.1, heading: 0.02 * i as f32, speed: 10.0 }).collect();
-    let other: Vec<BevState> = (0..7).map(|i| BevState { x: 0.4 * i as f32, y: 5.0, heading: 0.0, speed: 8.0 }).collect();
+    let history: Vec<BevState> =
+        (0..7).map(|i| BevState { x: 0.5 * i as f32, y: 0.1, heading: 0.02 * i as f32, speed: 10.0 }).collect();
+    let other: Vec<BevState> =
+        (0..7).map(|i| BevState { x: 0.4 * i as f32, y: 5.0, heading: 0.0, speed: 8.0 }).collect();
     for precision in [Precision::Int8, Precision::F32] {
         let bytes = random_blob(&Dims::DEFAULT, precision, 0.05);
         let blob = ModelBlob::parse(&bytes).expect("valid blob");

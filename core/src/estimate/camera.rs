@@ -1,16 +1,18 @@
 //! The camera's track: ego-motion from static tracks, frame to frame and smoothed.
 
 use super::chain::{ChainScratch, Smoothness};
+use super::fit::fit_pose;
 use super::frame::Obs;
-use super::measure::{correspondences, inverse_information, plausible, twist_measurement, Correspondences, MotionMeasurement};
+use super::lie::Vec6;
 use super::lie::normalised;
+use super::measure::{
+    Correspondences, MotionMeasurement, correspondences, inverse_information, plausible, twist_measurement,
+};
 use super::model::PointModel;
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
 use super::rng::Pcg32;
-use super::fit::fit_pose;
-use super::lie::Vec6;
-use crate::geometry::{se3_log, Pose3};
+use crate::geometry::{Pose3, se3_log};
 
 /// What one camera step produced.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -18,7 +18,7 @@
 
 use heapless::Deque;
 
-use super::lie::{lin_to_pose, map_information, pose_to_lin, Mat6, PackedSym6, Vec6};
+use super::lie::{Mat6, PackedSym6, Vec6, lin_to_pose, map_information, pose_to_lin};
 use super::params::SmootherParams;
 
 /// Information added to every diagonal block: keeps a window without any measurement solvable
@@ -246,7 +246,12 @@ impl<const W: usize> ChainSmoother<W> {
     /// [`ChainSmoother::solve`] with `extra(i)` (information, right-hand side) added to slot
     /// `i`'s diagonal block and right-hand side: the other chains' factors on this chain's
     /// variables in the joint solve, with those chains held at their current estimates.
-    pub fn solve_with(&self, s: &Smoothness, scratch: &mut ChainScratch<W>, mut extra: impl FnMut(usize) -> Option<(Mat6, Vec6)>) -> Option<usize> {
+    pub fn solve_with(
+        &self,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        mut extra: impl FnMut(usize) -> Option<(Mat6, Vec6)>,
+    ) -> Option<usize> {
         let n = self.slots.len();
         let sm = s.matrix();
         let prior_info = self.prior_info.unpack();

@@ -9,15 +9,15 @@ use super::chain::{ChainScratch, Smoothness};
 use heapless::Vec;
 
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
-use super::joint::{solve_joint, JointScratch};
-use super::output::ObjectEstimate;
+use super::joint::{JointScratch, solve_joint};
 use super::measure::Correspondences;
 use super::model::PointModel;
 use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
+use super::output::ObjectEstimate;
 use super::output::PoseEstimate;
 use super::params::EstimatorParams;
 use super::rng::Pcg32;
-use super::stats::{add, bump, EstimatorStats};
+use super::stats::{EstimatorStats, add, bump};
 use crate::limits::{MAX_OBJECTS, MAX_STATIC_TRACKS};
 use crate::wire::FrameTracks;
 
@@ -212,7 +212,15 @@ impl<const W: usize> Estimator<W> {
                 self.smoothed.camera = e.pose;
             }
             for run in self.runs.iter_mut().filter(|r| r.state == RunState::Tracking || r.state == RunState::Draining) {
-                if let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, info.step, info.dt, &mut self.stats.numerical_failures) {
+                if let Some(e) = drain_run(
+                    run,
+                    &self.joint,
+                    &self.object_smoothness,
+                    &mut self.scratch,
+                    info.step,
+                    info.dt,
+                    &mut self.stats.numerical_failures,
+                ) {
                     let _ = self.smoothed.objects.push(e);
                 }
             }
@@ -289,7 +297,8 @@ impl<const W: usize> Estimator<W> {
         // an object's measured motion and the camera motion it is coupled to share one frame
         // (with the never-revised frame-to-frame pose instead, each camera correction would move
         // an object only until its next measurement pulled it back). Uncoupled: frame-to-frame.
-        let camera_now = if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
+        let camera_now =
+            if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
 
         // Runs whose object is missing from this frame end.
         for run in &mut self.runs {
@@ -305,7 +314,15 @@ impl<const W: usize> Estimator<W> {
         // Ended runs emit their leaving frame.
         if let Some(s) = leaving {
             for run in self.runs.iter_mut().filter(|r| r.state == RunState::Draining) {
-                if let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, s, dt_leaving, &mut self.stats.numerical_failures) {
+                if let Some(e) = drain_run(
+                    run,
+                    &self.joint,
+                    &self.object_smoothness,
+                    &mut self.scratch,
+                    s,
+                    dt_leaving,
+                    &mut self.stats.numerical_failures,
+                ) {
                     let _ = self.smoothed.objects.push(e);
                 }
             }
@@ -318,7 +335,15 @@ impl<const W: usize> Estimator<W> {
             if let (Some(i), true) = (live, has_previous) {
                 let cx = PairContext { current: &obj.points, camera: &camera_now, leaving };
                 let Some(run) = self.runs.get_mut(i) else { continue };
-                let outcome = run.measure(&cx, &self.params, &self.model, &mut self.rng, &mut self.corrs, &self.object_smoothness, &mut self.scratch);
+                let outcome = run.measure(
+                    &cx,
+                    &self.params,
+                    &self.model,
+                    &mut self.rng,
+                    &mut self.corrs,
+                    &self.object_smoothness,
+                    &mut self.scratch,
+                );
                 match outcome {
                     StepOutcome::Measured => {}
                     StepOutcome::Held => bump(&mut self.stats.object_motion_held),
@@ -330,7 +355,15 @@ impl<const W: usize> Estimator<W> {
                         } else {
                             run.state = RunState::Draining;
                             if let Some(s) = leaving
-                                && let Some(e) = drain_run(run, &self.joint, &self.object_smoothness, &mut self.scratch, s, dt_leaving, &mut self.stats.numerical_failures)
+                                && let Some(e) = drain_run(
+                                    run,
+                                    &self.joint,
+                                    &self.object_smoothness,
+                                    &mut self.scratch,
+                                    s,
+                                    dt_leaving,
+                                    &mut self.stats.numerical_failures,
+                                )
                             {
                                 let _ = self.smoothed.objects.push(e);
                             }
@@ -348,11 +381,20 @@ impl<const W: usize> Estimator<W> {
             if !restart {
                 continue;
             }
-            if live.is_none() && self.runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id) {
+            if live.is_none() && self.runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id)
+            {
                 bump(&mut self.stats.objects_returned);
             }
             let Some(slot) = free_slot(&mut self.runs, &mut self.stats) else { continue };
-            if slot.initialise(obj.object_id, obj.class, &obj.points, &camera_now, &self.model, step, self.params.object_min_points) {
+            if slot.initialise(
+                obj.object_id,
+                obj.class,
+                &obj.points,
+                &camera_now,
+                &self.model,
+                step,
+                self.params.object_min_points,
+            ) {
                 bump(&mut self.stats.objects_initialised);
             } else {
                 bump(&mut self.stats.objects_not_initialised);
@@ -421,7 +463,16 @@ impl<const W: usize> Estimator<W> {
                 .map(|r| (r.path().chain(), r.path().first_slot_step()))
         };
         let path = camera.path();
-        solve_joint(joint, path.chain(), path.first_slot_step(), camera_smoothness, object_smoothness, scratch, params.joint_sweeps, objects);
+        solve_joint(
+            joint,
+            path.chain(),
+            path.first_slot_step(),
+            camera_smoothness,
+            object_smoothness,
+            scratch,
+            params.joint_sweeps,
+            objects,
+        );
     }
 }
 
@@ -462,7 +513,10 @@ fn drain_run<const W: usize>(
 
 /// A slot for a new run: a free one, else the draining run with the fewest frames still to
 /// emit (its pending frames are lost and counted).
-fn free_slot<'a, const W: usize>(runs: &'a mut [ObjectRun<W>; MAX_OBJECTS], stats: &mut EstimatorStats) -> Option<&'a mut ObjectRun<W>> {
+fn free_slot<'a, const W: usize>(
+    runs: &'a mut [ObjectRun<W>; MAX_OBJECTS],
+    stats: &mut EstimatorStats,
+) -> Option<&'a mut ObjectRun<W>> {
     let i = match runs.iter().position(|r| r.state == RunState::Free) {
         Some(i) => i,
         None => {

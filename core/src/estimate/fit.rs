@@ -14,12 +14,12 @@
 
 use nalgebra::{Matrix6, Vector6};
 
-use super::triad::rigid_from_three;
-use super::lie::{pose_is_finite, Mat6};
+use super::lie::{Mat6, pose_is_finite};
 use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
 use super::rng::Pcg32;
-use crate::geometry::{se3_exp, Pose3};
+use super::triad::rigid_from_three;
+use crate::geometry::{Pose3, se3_exp};
 
 /// A successful fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -289,8 +289,12 @@ fn information(m: &Pose3, n: &Normal, fp: &FitParams) -> Option<Fit> {
     let dof = (3 * usize::from(n.inliers)).saturating_sub(6).max(1) as f32;
     let sigma = libm::sqrtf(n.sq / dof).max(fp.min_sigma_px);
     let information = n.h / (sigma * sigma);
-    (pose_is_finite(m) && information.iter().all(|v| v.is_finite()) && sigma.is_finite())
-        .then_some(Fit { pose: *m, information, inliers: n.inliers, sigma_px: sigma })
+    (pose_is_finite(m) && information.iter().all(|v| v.is_finite()) && sigma.is_finite()).then_some(Fit {
+        pose: *m,
+        information,
+        inliers: n.inliers,
+        sigma_px: sigma,
+    })
 }
 
 #[cfg(test)]
@@ -372,7 +376,11 @@ mod tests {
         let mut rng = Pcg32::new(1);
         assert_eq!(fit_pose(&corrs[..2], None, &params.object_fit, &model, &mut rng), Err(FitFailure::TooFewPoints));
         // All outliers: nothing agrees.
-        let bad: Vec<Correspondence> = corrs.iter().enumerate().map(|(i, c)| Correspondence { u: c.u + 40.0 * (i % 7) as f32, v: c.v - 30.0 * (i % 5) as f32, ..*c }).collect();
+        let bad: Vec<Correspondence> = corrs
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Correspondence { u: c.u + 40.0 * (i % 7) as f32, v: c.v - 30.0 * (i % 5) as f32, ..*c })
+            .collect();
         assert!(fit_pose(&bad[..8], None, &params.object_fit, &model, &mut rng).is_err());
         let nan = [Correspondence { src: Vector3::new(f32::NAN, 0.0, 1.0), u: 1.0, v: 1.0, depth: 1.0 }; 10];
         assert!(fit_pose(&nan, None, &params.object_fit, &model, &mut rng).is_err());

@@ -8,9 +8,9 @@
 
 use heapless::Vec;
 
-use super::stats::{add, bump, EstimatorStats};
+use super::stats::{EstimatorStats, add, bump};
 use crate::limits::{MAX_OBJECTS, MAX_POINTS_PER_OBJECT, MAX_STATIC_TRACKS};
-use crate::wire::{FrameTracks, ObjectClass, Track, MAX_FRAME_PARTS};
+use crate::wire::{FrameTracks, MAX_FRAME_PARTS, ObjectClass, Track};
 
 /// Sub-pixel steps per pixel of a stored pixel coordinate.
 pub const PIXEL_STEPS: f32 = 16.0;
@@ -296,7 +296,7 @@ impl FrameAssembler {
 mod tests {
     extern crate std;
     use super::*;
-    use crate::wire::{frame_parts, STATIC_OBJECT_ID};
+    use crate::wire::{STATIC_OBJECT_ID, frame_parts};
 
     const RANGE: DepthRange = DepthRange { min: 0.5, max: 40.0 };
 
@@ -345,7 +345,8 @@ mod tests {
     fn the_frame_is_the_same_whatever_order_its_tracks_arrive_in() {
         // Static tracks (object 0) and two objects, ids interleaved, with
         // a repeated id in each list whose copies differ in depth.
-        let mut tracks: std::vec::Vec<Track> = (0..60u32).map(|i| track(i * 7 % 61, (i % 3) as u16, 5.0 + (i % 5) as f32)).collect();
+        let mut tracks: std::vec::Vec<Track> =
+            (0..60u32).map(|i| track(i * 7 % 61, (i % 3) as u16, 5.0 + (i % 5) as f32)).collect();
         tracks.push(track(7, 1, 9.0));
         tracks.push(track(14, 2, 3.0));
         let assemble = |tracks: &[Track]| {
@@ -365,7 +366,9 @@ mod tests {
             assert!(o.points.windows(2).all(|w| w[0].track_id < w[1].track_id), "sorted, unique");
         }
         // The repeated ids keep their smaller depth.
-        let depth_of = |object: u16, id: u32| forward.object(object).unwrap().points.iter().find(|p| p.track_id == id).unwrap().depth;
+        let depth_of = |object: u16, id: u32| {
+            forward.object(object).unwrap().points.iter().find(|p| p.track_id == id).unwrap().depth
+        };
         assert_eq!(depth_of(1, 7), 6.0);
         assert_eq!(depth_of(2, 14), 3.0);
     }

@@ -44,7 +44,7 @@
 //! couple all chains' priors.
 
 use super::chain::{ChainScratch, ChainSmoother, SlotView, Smoothness};
-use super::lie::{ad_matrix, adjoint, lin_to_pose, Mat6, PackedSym6, Vec6};
+use super::lie::{Mat6, PackedSym6, Vec6, ad_matrix, adjoint, lin_to_pose};
 
 /// Default Gauss-Seidel sweeps per frame (objects then camera), before the final object solve
 /// ([`super::EstimatorParams::joint_sweeps`]; docs/results.md has the figures per setting).
@@ -54,7 +54,9 @@ pub const JOINT_SWEEPS: usize = 6;
 #[must_use]
 pub fn coupling(object: &SlotView, c_bar: &Vec6) -> Mat6 {
     let m = lin_to_pose(&object.lin);
-    (Mat6::identity() + ad_matrix(&object.z) * 0.5) * adjoint(&m.inverse()) * (Mat6::identity() - ad_matrix(c_bar) * 0.5)
+    (Mat6::identity() + ad_matrix(&object.z) * 0.5)
+        * adjoint(&m.inverse())
+        * (Mat6::identity() - ad_matrix(c_bar) * 0.5)
 }
 
 /// Scratch and state of one joint solve: the camera's current solution over the window, the
@@ -268,7 +270,8 @@ mod tests {
         let info_o = Mat6::from_diagonal(&Vec6::new(400.0, 400.0, 100.0, 1e4, 1e4, 1e4));
         let mut cam = ChainSmoother::<N>::new();
         let mut objs = [ChainSmoother::<N>::new(), ChainSmoother::<N>::new()];
-        let ms = [se3_exp(&Vec6::new(3.0, 1.0, 15.0, 0.0, 0.3, 0.0)), se3_exp(&Vec6::new(-4.0, 1.2, 25.0, 0.01, -0.2, 0.0))];
+        let ms =
+            [se3_exp(&Vec6::new(3.0, 1.0, 15.0, 0.0, 0.3, 0.0)), se3_exp(&Vec6::new(-4.0, 1.2, 25.0, 0.01, -0.2, 0.0))];
         for k in 0..N {
             let kf = k as f32;
             let c = v(1.0 + 0.05 * kf, kf);
@@ -299,16 +302,22 @@ mod tests {
             let d = f(&s.matrix());
             for k in 1..N {
                 let (i, j) = (base + 6 * k, base + 6 * (k - 1));
-                let mut blk = a.fixed_view_mut::<6, 6>(i, i); blk += &d;
-                let mut blk = a.fixed_view_mut::<6, 6>(j, j); blk += &d;
-                let mut blk = a.fixed_view_mut::<6, 6>(i, j); blk -= &d;
-                let mut blk = a.fixed_view_mut::<6, 6>(j, i); blk -= &d;
+                let mut blk = a.fixed_view_mut::<6, 6>(i, i);
+                blk += &d;
+                let mut blk = a.fixed_view_mut::<6, 6>(j, j);
+                blk += &d;
+                let mut blk = a.fixed_view_mut::<6, 6>(i, j);
+                blk -= &d;
+                let mut blk = a.fixed_view_mut::<6, 6>(j, i);
+                blk -= &d;
             }
         };
         for j in 0..N {
             let s = cam.slot(j).unwrap();
-            let mut blk = a.fixed_view_mut::<6, 6>(6 * j, 6 * j); blk += &(f(&s.info) + nalgebra::Matrix6::identity() * REG);
-            let mut blk = b.fixed_rows_mut::<6>(6 * j); blk += &(f(&s.info) * fv(&s.z));
+            let mut blk = a.fixed_view_mut::<6, 6>(6 * j, 6 * j);
+            blk += &(f(&s.info) + nalgebra::Matrix6::identity() * REG);
+            let mut blk = b.fixed_rows_mut::<6>(6 * j);
+            blk += &(f(&s.info) * fv(&s.z));
         }
         add_prior(&mut a, 0, &cam_s);
         for (o, chain) in objs.iter().enumerate() {
@@ -322,12 +331,18 @@ mod tests {
                 // r = xi - B c - (z - B c_bar); J = [-B, I] on (c, xi).
                 let y = fv(&s.z) - bm * fv(&c_bar);
                 let (ci, xi) = (6 * k, base + 6 * k);
-                let mut blk = a.fixed_view_mut::<6, 6>(ci, ci); blk += &(bm.transpose() * l * bm);
-                let mut blk = a.fixed_view_mut::<6, 6>(xi, xi); blk += &(l + nalgebra::Matrix6::identity() * REG);
-                let mut blk = a.fixed_view_mut::<6, 6>(ci, xi); blk -= &(bm.transpose() * l);
-                let mut blk = a.fixed_view_mut::<6, 6>(xi, ci); blk -= &(l * bm);
-                let mut blk = b.fixed_rows_mut::<6>(ci); blk -= &(bm.transpose() * l * y);
-                let mut blk = b.fixed_rows_mut::<6>(xi); blk += &(l * y);
+                let mut blk = a.fixed_view_mut::<6, 6>(ci, ci);
+                blk += &(bm.transpose() * l * bm);
+                let mut blk = a.fixed_view_mut::<6, 6>(xi, xi);
+                blk += &(l + nalgebra::Matrix6::identity() * REG);
+                let mut blk = a.fixed_view_mut::<6, 6>(ci, xi);
+                blk -= &(bm.transpose() * l);
+                let mut blk = a.fixed_view_mut::<6, 6>(xi, ci);
+                blk -= &(l * bm);
+                let mut blk = b.fixed_rows_mut::<6>(ci);
+                blk -= &(bm.transpose() * l * y);
+                let mut blk = b.fixed_rows_mut::<6>(xi);
+                blk += &(l * y);
             }
         }
         let x = a.lu().solve(&b).unwrap();

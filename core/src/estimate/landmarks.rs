@@ -16,9 +16,9 @@ use heapless::Vec;
 use nalgebra::{Point3, Vector3};
 
 use super::frame::Obs;
+use super::matching::for_each_match;
 use super::measure::Correspondences;
 use super::model::{Correspondence, PointModel};
-use super::matching::for_each_match;
 use crate::geometry::{NormBound, Pose3};
 use crate::limits::MAX_POINTS_PER_OBJECT;
 
@@ -95,7 +95,8 @@ pub fn fuse(landmarks: &mut Landmarks, current: &[Obs], object_from_camera: &Pos
     let gate = NormBound::new(gate_px);
     let measured = |o: &Obs| object_from_camera.transform_point(&model.back_project(o.u(), o.v(), o.depth)).coords;
     landmarks.retain_mut(|l| {
-        let Some(o) = current.binary_search_by_key(&l.track_id, |o| o.track_id).ok().and_then(|i| current.get(i)) else {
+        let Some(o) = current.binary_search_by_key(&l.track_id, |o| o.track_id).ok().and_then(|i| current.get(i))
+        else {
             return false;
         };
         let c = Correspondence { src: l.point(), u: o.u(), v: o.v(), depth: o.depth };

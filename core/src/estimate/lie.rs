@@ -104,7 +104,10 @@ pub fn pose_to_lin(p: &Pose3) -> [f32; 6] {
 #[must_use]
 pub fn lin_to_pose(l: &[f32; 6]) -> Pose3 {
     let [tx, ty, tz, wx, wy, wz] = *l;
-    Pose3::from_parts(nalgebra::Translation3::new(tx, ty, tz), crate::geometry::rotation_of_scaled_axis(&Vector3::new(wx, wy, wz)))
+    Pose3::from_parts(
+        nalgebra::Translation3::new(tx, ty, tz),
+        crate::geometry::rotation_of_scaled_axis(&Vector3::new(wx, wy, wz)),
+    )
 }
 
 /// The information of `b = a_map * a` given the information `info_a` of `a`, for an invertible

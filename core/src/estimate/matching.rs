@@ -49,7 +49,9 @@ mod tests {
 
     #[test]
     fn merges_common_ids() {
-        let obs = |ids: &[u32]| -> heapless::Vec<Obs, 8> { ids.iter().map(|&i| Obs::new(i, 1.0, 1.0, 1.0).unwrap()).collect() };
+        let obs = |ids: &[u32]| -> heapless::Vec<Obs, 8> {
+            ids.iter().map(|&i| Obs::new(i, 1.0, 1.0, 1.0).unwrap()).collect()
+        };
         let (a, b) = (obs(&[1, 3, 4, 9, 12]), obs(&[0, 3, 9, 10, 12, 13]));
         let mut got = heapless::Vec::<u32, 8>::new();
         for_each_match(&a, &b, |x, y| {

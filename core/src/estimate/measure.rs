@@ -4,14 +4,14 @@
 use heapless::Vec;
 use nalgebra::Point3;
 
-use super::fit::{fit_pose, Fit};
+use super::fit::{Fit, fit_pose};
 use super::frame::Obs;
-use super::lie::{ad_matrix, adjoint, map_information, Mat6, Vec6};
+use super::lie::{Mat6, Vec6, ad_matrix, adjoint, map_information};
 use super::matching::for_each_match;
 use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
 use super::rng::Pcg32;
-use crate::geometry::{se3_log, Pose3};
+use crate::geometry::{Pose3, se3_log};
 use crate::limits::MAX_STATIC_TRACKS;
 
 /// Most correspondences of one fit: the larger of the static and the per-object capacity.
@@ -23,7 +23,13 @@ pub type Correspondences = Vec<Correspondence, MAX_CORRESPONDENCES>;
 
 /// Fills `out` with the tracks of `previous` (frame k-1) matched by id in `current` (frame k),
 /// each previous point back-projected and mapped by `to_source` (camera k-1 -> source frame).
-pub fn correspondences(previous: &[Obs], current: &[Obs], to_source: &Pose3, model: &PointModel, out: &mut Correspondences) {
+pub fn correspondences(
+    previous: &[Obs],
+    current: &[Obs],
+    to_source: &Pose3,
+    model: &PointModel,
+    out: &mut Correspondences,
+) {
     out.clear();
     for_each_match(previous, current, |p, c| {
         let src = to_source.transform_point(&model.back_project(p.u(), p.v(), p.depth)).coords;
@@ -77,8 +83,12 @@ pub fn twist_measurement(delta: &Pose3, info: &Mat6, inliers: u16) -> Option<Mot
     let xi = se3_log(delta);
     let jac = Mat6::identity() + ad_matrix(&xi) * 0.5;
     let information = map_information(info, &jac)?;
-    (xi.iter().all(|v| v.is_finite()) && information.iter().all(|v| v.is_finite()))
-        .then_some(MotionMeasurement { delta: *delta, xi, information, inliers })
+    (xi.iter().all(|v| v.is_finite()) && information.iter().all(|v| v.is_finite())).then_some(MotionMeasurement {
+        delta: *delta,
+        xi,
+        information,
+        inliers,
+    })
 }
 
 /// The information of `n = m^-1` given the information of a right perturbation of `m`:

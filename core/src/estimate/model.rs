@@ -3,9 +3,9 @@
 //! residual is scaled by `pixel_sigma / disparity_sigma` so that one threshold and one robust
 //! kernel serve all three components (as ORB-SLAM's stereo reprojection error does with u_right).
 
-use nalgebra::{Matrix3, Matrix3x6, Point3, Vector3, Vector6};
 use super::params::EstimatorParams;
 use crate::geometry::Pose3;
+use nalgebra::{Matrix3, Matrix3x6, Point3, Vector3, Vector6};
 
 /// Nearest depth at which a predicted point still counts as in front of the camera, metres.
 const MIN_PREDICTED_DEPTH: f32 = 0.05;
@@ -91,7 +91,12 @@ impl PointModel {
     /// [D R | -D R [s]x]; row i of the second block is s x a_i for a_i row i of D R. That is
     /// about a third of the multiplications of forming [R | -R [s]x] and multiplying by D.
     #[must_use]
-    pub fn linearise(&self, rot: &Matrix3<f32>, t: &Vector3<f32>, c: &Correspondence) -> Option<(Vector3<f32>, [Vector6<f32>; 3])> {
+    pub fn linearise(
+        &self,
+        rot: &Matrix3<f32>,
+        t: &Vector3<f32>,
+        c: &Correspondence,
+    ) -> Option<(Vector3<f32>, [Vector6<f32>; 3])> {
         let p = Point3::from(rot * c.src + t);
         let (u, v) = self.project(&p)?;
         let iz = 1.0 / p.z;
@@ -115,7 +120,7 @@ impl PointModel {
 mod tests {
     use super::*;
     use crate::estimate::params::{EstimatorParams, Intrinsics};
-    use crate::geometry::{se3_exp, Pose3};
+    use crate::geometry::{Pose3, se3_exp};
 
     #[test]
     fn jacobian_matches_finite_differences() {

@@ -10,15 +10,15 @@
 
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
-use super::lie::{normalised, pose_to_lin, Vec6};
-use super::landmarks::{self, fuse, initial_landmarks, landmark_correspondences, Landmarks};
-use super::measure::{measure_motion, robust_centroid, Correspondences, MotionMeasurement};
+use super::landmarks::{self, Landmarks, fuse, initial_landmarks, landmark_correspondences};
+use super::lie::{Vec6, normalised, pose_to_lin};
+use super::measure::{Correspondences, MotionMeasurement, measure_motion, robust_centroid};
 use super::model::PointModel;
-use super::output::{object_estimate, ObjectEstimate};
+use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};
 use super::rng::Pcg32;
-use crate::geometry::{se3_log, Point2, Pose3};
+use crate::geometry::{Point2, Pose3, se3_log};
 use crate::wire::ObjectClass;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 
@@ -149,7 +149,16 @@ impl<const W: usize> ObjectRun<W> {
     /// Starts a run for `object_id` from its points at step `step`, seen by `camera`. `false`
     /// (and the slot stays free) when there are fewer than `min_points` points.
     #[allow(clippy::too_many_arguments)]
-    pub fn initialise(&mut self, object_id: u16, class: ObjectClass, points: &[Obs], camera: &Pose3, model: &PointModel, step: u32, min_points: u16) -> bool {
+    pub fn initialise(
+        &mut self,
+        object_id: u16,
+        class: ObjectClass,
+        points: &[Obs],
+        camera: &Pose3,
+        model: &PointModel,
+        step: u32,
+        min_points: u16,
+    ) -> bool {
         if points.len() < usize::from(min_points) {
             return false;
         }
@@ -310,7 +319,13 @@ impl<const W: usize> ObjectRun<W> {
     }
 
     /// Emits the leaving step for a draining run; frees the run once nothing is pending.
-    pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32, dt_leaving: f32) -> Option<ObjectEstimate> {
+    pub fn drain(
+        &mut self,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        leaving: u32,
+        dt_leaving: f32,
+    ) -> Option<ObjectEstimate> {
         let e = self.path.drain(s, scratch, leaving).ok().flatten();
         let out = e.map(|e| self.estimate(&e, dt_leaving));
         if self.path.pending() == 0 {
@@ -326,12 +341,32 @@ impl<const W: usize> ObjectRun<W> {
     /// The causal estimate of the newest frame (tracking runs only).
     #[must_use]
     pub fn causal(&self, dt: f32) -> Option<ObjectEstimate> {
-        (self.state == RunState::Tracking).then(|| object_estimate(self.object_id, self.class, self.path.causal(), self.path.causal_xi(), dt, self.segment, self.heading_known))
+        (self.state == RunState::Tracking).then(|| {
+            object_estimate(
+                self.object_id,
+                self.class,
+                self.path.causal(),
+                self.path.causal_xi(),
+                dt,
+                self.segment,
+                self.heading_known,
+            )
+        })
     }
 
     /// The frame-to-frame estimate of the newest frame (tracking runs only).
     #[must_use]
     pub fn frame_to_frame(&self, dt: f32) -> Option<ObjectEstimate> {
-        (self.state == RunState::Tracking).then(|| object_estimate(self.object_id, self.class, &self.f2f, &se3_log(&self.last_delta), dt, self.segment, self.heading_known))
+        (self.state == RunState::Tracking).then(|| {
+            object_estimate(
+                self.object_id,
+                self.class,
+                &self.f2f,
+                &se3_log(&self.last_delta),
+                dt,
+                self.segment,
+                self.heading_known,
+            )
+        })
     }
 }

@@ -8,8 +8,8 @@
 use heapless::Vec;
 use nalgebra::Vector3;
 
-use super::lie::{omega, Vec6};
-use crate::geometry::{se3_exp, wrap_angle, BevState, Pose3};
+use super::lie::{Vec6, omega};
+use crate::geometry::{BevState, Pose3, se3_exp, wrap_angle};
 use crate::limits::MAX_OBJECTS;
 use crate::wire::{CameraPose, EstimateKind, ObjectClass, ObjectState, ObjectStates};
 
@@ -106,7 +106,15 @@ pub fn bev_heading(pose: &Pose3) -> f32 {
 /// An object estimate from its pose and the body-frame twist of its motion into this frame over
 /// `dt` seconds.
 #[must_use]
-pub fn object_estimate(object_id: u16, class: ObjectClass, pose: &Pose3, xi: &Vec6, dt: f32, segment: u16, heading_known: bool) -> ObjectEstimate {
+pub fn object_estimate(
+    object_id: u16,
+    class: ObjectClass,
+    pose: &Pose3,
+    xi: &Vec6,
+    dt: f32,
+    segment: u16,
+    heading_known: bool,
+) -> ObjectEstimate {
     let delta = se3_exp(xi);
     let motion = pose * delta * pose.inverse();
     let t = delta.translation.vector;

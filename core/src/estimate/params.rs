@@ -28,8 +28,7 @@ impl From<&crate::wire::CameraInfo> for Intrinsics {
 
 impl Intrinsics {
     /// KITTI 2011_09_26 rectified camera 0 (the calibration of tracking sequences 0000-0013).
-    pub const KITTI_0926: Self =
-        Self { fx: 721.5377, fy: 721.5377, cx: 609.5593, cy: 172.854, stereo_fb: 387.5744 };
+    pub const KITTI_0926: Self = Self { fx: 721.5377, fy: 721.5377, cx: 609.5593, cy: 172.854, stereo_fb: 387.5744 };
 }
 
 /// Budget and thresholds of one robust fit (minimal-set RANSAC, then Gauss-Newton/LM).

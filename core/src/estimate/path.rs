@@ -12,8 +12,8 @@
 //! estimate is revised with every frame, and pairs of it would carry those revisions).
 
 use super::chain::{ChainScratch, ChainSmoother, Smoothness};
-use super::lie::{adjoint, normalised, Mat6, Vec6};
-use crate::geometry::{se3_exp, Pose3};
+use super::lie::{Mat6, Vec6, adjoint, normalised};
+use crate::geometry::{Pose3, se3_exp};
 
 /// A pose leaving the window.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,7 +111,13 @@ impl<const W: usize> SmoothedPath<W> {
 
     /// Appends the next step's measured body twist and information (`None`: no fit) with its
     /// coupling data `lin`, without solving ([`SmoothedPath::apply`] follows the solve).
-    pub fn push(&mut self, measurement: Option<(&Vec6, &Mat6)>, lin: &[f32; 6], s: &Smoothness, scratch: &mut ChainScratch<W>) {
+    pub fn push(
+        &mut self,
+        measurement: Option<(&Vec6, &Mat6)>,
+        lin: &[f32; 6],
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+    ) {
         if self.chain.is_full() {
             // Never happens while steps are emitted in order; keeps memory fixed if they are not.
             self.pop(s, scratch);
@@ -144,7 +150,12 @@ impl<const W: usize> SmoothedPath<W> {
     ///
     /// # Errors
     /// [`SolveFailed`] when the solve broke down.
-    pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32) -> Result<Option<Emitted>, SolveFailed> {
+    pub fn drain(
+        &mut self,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        leaving: u32,
+    ) -> Result<Option<Emitted>, SolveFailed> {
         let n = self.chain.solve(s, scratch);
         self.apply(n.map(|n| scratch.solution(n)), s, Some(leaving), false, None)
     }
@@ -156,7 +167,14 @@ impl<const W: usize> SmoothedPath<W> {
     ///
     /// # Errors
     /// [`SolveFailed`] when `xs` is `None` (the causal pose then advances by the previous motion).
-    pub fn apply(&mut self, xs: Option<&[Vec6]>, s: &Smoothness, leaving: Option<u32>, new_step: bool, front_shift: Option<Vec6>) -> Result<Option<Emitted>, SolveFailed> {
+    pub fn apply(
+        &mut self,
+        xs: Option<&[Vec6]>,
+        s: &Smoothness,
+        leaving: Option<u32>,
+        new_step: bool,
+        front_shift: Option<Vec6>,
+    ) -> Result<Option<Emitted>, SolveFailed> {
         let Some(xs) = xs else {
             if new_step {
                 let step = se3_exp(&self.causal_xi);

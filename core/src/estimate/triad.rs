@@ -41,7 +41,8 @@ fn triad(a: &Vector3<f32>, b: &Vector3<f32>, c: &Vector3<f32>) -> Option<Matrix3
     let longest = ab.norm_squared().max(ac.norm_squared()).max(bc.norm_squared());
     let normal = ab.cross(&ac);
     let twice_area = normal.norm();
-    let well_shaped = longest.is_finite() && twice_area.is_finite() && longest > 0.0 && twice_area > MIN_TRIANGLE_SHAPE * longest;
+    let well_shaped =
+        longest.is_finite() && twice_area.is_finite() && longest > 0.0 && twice_area > MIN_TRIANGLE_SHAPE * longest;
     if !well_shaped {
         return None;
     }

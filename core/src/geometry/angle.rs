@@ -63,7 +63,10 @@ mod tests {
     fn the_short_path_has_the_bits_of_the_remainder() {
         let check = |a: f32| {
             let (fast, general) = (wrap_angle(a), wrap_by_remainder(a));
-            assert!(fast.to_bits() == general.to_bits() || (fast.is_nan() && general.is_nan()), "{a}: {fast} vs {general}");
+            assert!(
+                fast.to_bits() == general.to_bits() || (fast.is_nan() && general.is_nan()),
+                "{a}: {fast} vs {general}"
+            );
         };
         for edge in [0.0, PI, TAU, 1.5 * TAU, 2.0 * TAU, 3.0 * TAU, 100.0] {
             for sign in [1.0f32, -1.0] {

@@ -92,7 +92,9 @@ mod tests {
 
     #[test]
     fn rotation_of_scaled_axis_matches_nalgebra() {
-        for w in [Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.0, 0.0, 1e-6), Vector3::new(2.5, 1.0, -0.5), Vector3::zeros()] {
+        for w in
+            [Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.0, 0.0, 1e-6), Vector3::new(2.5, 1.0, -0.5), Vector3::zeros()]
+        {
             let (a, b) = (rotation_of_scaled_axis(&w), UnitQuaternion::from_scaled_axis(w));
             assert!(a.angle_to(&b) < 1e-6, "{w:?}: {a:?} vs {b:?}");
         }

@@ -2,7 +2,7 @@
 //! it: E_i = (Q_i^-1 Q_(i+1))^-1 (P_i^-1 P_(i+1)), Q the reference and P the estimate;
 //! RPE_t = sqrt(mean |trans(E_i)|^2), RPE_r = sqrt(mean angle(E_i)^2).
 
-use crate::geometry::{rotation_angle, Pose3};
+use crate::geometry::{Pose3, rotation_angle};
 
 /// RMSE of the relative pose error.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -66,7 +66,11 @@ impl RpeAccumulator {
     pub fn result(&self) -> Option<RpeResult> {
         (self.pairs > 0).then(|| {
             let n = f64::from(self.pairs);
-            RpeResult { translation: libm::sqrt(self.sum_t2 / n), rotation: libm::sqrt(self.sum_r2 / n), pairs: self.pairs }
+            RpeResult {
+                translation: libm::sqrt(self.sum_t2 / n),
+                rotation: libm::sqrt(self.sum_r2 / n),
+                pairs: self.pairs,
+            }
         })
     }
 }

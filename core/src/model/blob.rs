@@ -280,7 +280,13 @@ impl<'a> ModelBlob<'a> {
         if !(frame_period_s.is_finite() && frame_period_s > 0.0) {
             return Err(BlobError::NonFinite);
         }
-        let blob = Self { dims, precision, frame_period_s, payload: body.get(HEADER_LEN..).unwrap_or(&[]), layout: layout(&dims, precision) };
+        let blob = Self {
+            dims,
+            precision,
+            frame_period_s,
+            payload: body.get(HEADER_LEN..).unwrap_or(&[]),
+            layout: layout(&dims, precision),
+        };
         if !blob.floats_are_finite() {
             return Err(BlobError::NonFinite);
         }
@@ -289,8 +295,12 @@ impl<'a> ModelBlob<'a> {
 
     fn floats_are_finite(&self) -> bool {
         (0..TENSORS).all(|i| match self.tensor(i) {
-            Some(TensorView::F32 { data, .. }) => data.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite())),
-            Some(TensorView::Int8 { scales, .. }) => scales.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite())),
+            Some(TensorView::F32 { data, .. }) => {
+                data.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite()))
+            }
+            Some(TensorView::Int8 { scales, .. }) => {
+                scales.chunks_exact(4).all(|c| c.try_into().is_ok_and(|b| f32::from_le_bytes(b).is_finite()))
+            }
             None => false,
         })
     }
@@ -334,7 +344,13 @@ impl<'a> ModelBlob<'a> {
 /// # Errors
 /// [`BlobError::TensorShape`] for a missing or mis-sized tensor, [`BlobError::NonFinite`] for a
 /// non-finite value, [`BlobError::UnsupportedDims`], [`BlobError::BufferTooSmall`].
-pub fn write_blob(dims: &Dims, precision: Precision, frame_period_s: f32, tensors: &[&[f32]], out: &mut [u8]) -> Result<usize, BlobError> {
+pub fn write_blob(
+    dims: &Dims,
+    precision: Precision,
+    frame_period_s: f32,
+    tensors: &[&[f32]],
+    out: &mut [u8],
+) -> Result<usize, BlobError> {
     if !dims.is_supported() {
         return Err(BlobError::UnsupportedDims);
     }
@@ -356,7 +372,10 @@ pub fn write_blob(dims: &Dims, precision: Precision, frame_period_s: f32, tensor
         *p = precision.code();
     }
     header.get_mut(24..28).unwrap_or(&mut []).copy_from_slice(&frame_period_s.to_le_bytes());
-    header.get_mut(28..32).unwrap_or(&mut []).copy_from_slice(&u32::try_from(payload).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
+    header
+        .get_mut(28..32)
+        .unwrap_or(&mut [])
+        .copy_from_slice(&u32::try_from(payload).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
     out.get_mut(..HEADER_LEN).ok_or(BlobError::BufferTooSmall)?.copy_from_slice(&header);
 
     let mut at = HEADER_LEN;
@@ -373,7 +392,9 @@ pub fn write_blob(dims: &Dims, precision: Precision, frame_period_s: f32, tensor
         match precision {
             Precision::Int8 if cols > 1 => {
                 let (scales, data) = dst.split_at_mut(rows * 4);
-                for ((row, scale), q) in values.chunks_exact(cols).zip(scales.chunks_exact_mut(4)).zip(data.chunks_mut(cols)) {
+                for ((row, scale), q) in
+                    values.chunks_exact(cols).zip(scales.chunks_exact_mut(4)).zip(data.chunks_mut(cols))
+                {
                     let max = row.iter().fold(0.0f32, |m, v| m.max(v.abs()));
                     let s = if max > 0.0 { max / 127.0 } else { 1.0 };
                     scale.copy_from_slice(&s.to_le_bytes());
@@ -498,7 +519,10 @@ mod tests {
     fn writer_refuses_bad_tensors() {
         let mut buf = [0u8; 8192];
         let too_few: [&[f32]; 1] = [&[0.0; 3]];
-        assert_eq!(write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut buf), Err(BlobError::TensorShape { index: 0 }));
+        assert_eq!(
+            write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut buf),
+            Err(BlobError::TensorShape { index: 0 })
+        );
         let mut small = [0u8; 16];
         assert_eq!(write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut small), Err(BlobError::BufferTooSmall));
     }

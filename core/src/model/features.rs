@@ -2,10 +2,10 @@
 //! implementation, used by host training and by ECU inference alike.
 
 use super::arch::{
-    ACCEL_SCALE, ACC_SCALE, FEATURES, FEATURE_CLAMP, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS,
-    NEIGHBOUR_RADIUS_M, POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
+    ACC_SCALE, ACCEL_SCALE, FEATURE_CLAMP, FEATURES, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS, NEIGHBOUR_RADIUS_M,
+    POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
 };
-use crate::geometry::{angle_diff, BevState, Point2};
+use crate::geometry::{BevState, Point2, angle_diff};
 
 /// Standardised features of up to [`MAX_STEPS`] states, oldest first.
 pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
@@ -149,7 +149,13 @@ pub fn initial_control(current_row: &[f32; FEATURES]) -> [f32; 2] {
 /// featurised in the agent's frame and added row by row, aligned at the newest row. Only
 /// neighbours within [`NEIGHBOUR_RADIUS_M`] of the agent at the current frame count, the
 /// closest [`MAX_NEIGHBOURS`] of them. Returns how many were summed.
-pub fn neighbour_sum(neighbours: &[&[BevState]], frame: &AgentFrame, n: usize, dt: f32, out: &mut StepFeatures) -> usize {
+pub fn neighbour_sum(
+    neighbours: &[&[BevState]],
+    frame: &AgentFrame,
+    n: usize,
+    dt: f32,
+    out: &mut StepFeatures,
+) -> usize {
     *out = [[0.0; FEATURES]; MAX_STEPS];
     // The closest neighbours in one pass, without allocating: `chosen[..count]` stays sorted by
     // squared distance (earlier index first among equals), each distance computed once.
@@ -180,7 +186,9 @@ pub fn neighbour_sum(neighbours: &[&[BevState]], frame: &AgentFrame, n: usize, d
         let Some(h) = neighbours.get(*j) else { continue };
         let m = state_features(h, frame, dt, &mut rows);
         // Align the newest rows: neighbour row m-1 adds to agent row n-1.
-        for (dst, src) in out.get_mut(..n).unwrap_or(&mut []).iter_mut().rev().zip(rows.get(..m).unwrap_or(&[]).iter().rev()) {
+        for (dst, src) in
+            out.get_mut(..n).unwrap_or(&mut []).iter_mut().rev().zip(rows.get(..m).unwrap_or(&[]).iter().rev())
+        {
             for (d, s) in dst.iter_mut().zip(src) {
                 *d += s;
             }
@@ -203,8 +211,9 @@ mod tests {
         let dt = 0.1;
         let base: [BevState; 4] = core::array::from_fn(|i| st(i as f32, 0.05 * (i * i) as f32, 0.1 * i as f32));
         let (c, s) = (libm::cosf(1.0), libm::sinf(1.0));
-        let moved: [BevState; 4] =
-            core::array::from_fn(|i| st(5.0 + c * base[i].x - s * base[i].y, -3.0 + s * base[i].x + c * base[i].y, base[i].heading + 1.0));
+        let moved: [BevState; 4] = core::array::from_fn(|i| {
+            st(5.0 + c * base[i].x - s * base[i].y, -3.0 + s * base[i].x + c * base[i].y, base[i].heading + 1.0)
+        });
         let (mut a, mut b) = ([[0.0; FEATURES]; MAX_STEPS], [[0.0; FEATURES]; MAX_STEPS]);
         assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, &mut a), 4);
         state_features(&moved, &AgentFrame::of(&moved[3]), dt, &mut b);

@@ -1,14 +1,16 @@
 //! Inference: the forward pass of [`super::arch`] over a [`ModelBlob`], in f32 or int8 by the
 //! blob's precision, in fixed caller-owned scratch memory.
 
-use super::arch::{tensor as t, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, ACCEL_SCALE};
+use super::arch::{
+    ACCEL_SCALE, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, tensor as t,
+};
 use super::blob::ModelBlob;
-use super::features::{initial_control, neighbour_sum, rollout_start, state_features, StepFeatures};
 use super::blob::Precision;
-use super::kernel::{Activation, Exact, Kernel, ShapeError, Table, MAX_AFFINE_IN};
+use super::features::{StepFeatures, initial_control, neighbour_sum, rollout_start, state_features};
+use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
 use crate::geometry::{BevState, Point2};
 use crate::limits::HORIZON;
-use crate::predict::{checked_history, unicycle_step, Forecast, PredictError, Predictor};
+use crate::predict::{Forecast, PredictError, Predictor, checked_history, unicycle_step};
 
 /// Largest gate vector: four LSTM gates of the widest encoder, or three GRU gates.
 const MAX_GATES: usize = if 4 * MAX_ENC > 3 * MAX_DEC { 4 * MAX_ENC } else { 3 * MAX_DEC };
@@ -79,7 +81,13 @@ impl<'a> LearnedPredictor<'a> {
     ///
     /// # Errors
     /// See [`PredictError`]; a frame period that differs from the model's is `BadFramePeriod`.
-    pub fn predict_with_neighbours(&mut self, history: &[BevState], neighbours: &[&[BevState]], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+    pub fn predict_with_neighbours(
+        &mut self,
+        history: &[BevState],
+        neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
         let history = checked_history(history, dt)?;
         let trained = self.kernel.blob().frame_period_s();
         if (dt - trained).abs() > 1e-4 * trained {
@@ -107,7 +115,13 @@ impl Predictor for LearnedPredictor<'_> {
 }
 
 /// One LSTM step (PyTorch gates i, f, g, o) over `input`, updating `h[..w]` and `c[..w]`.
-fn lstm_step(k: &Kernel<'_>, tensors: [usize; 4], input: &[f32], w: usize, s: &mut LstmState<'_>) -> Result<(), ShapeError> {
+fn lstm_step(
+    k: &Kernel<'_>,
+    tensors: [usize; 4],
+    input: &[f32],
+    w: usize,
+    s: &mut LstmState<'_>,
+) -> Result<(), ShapeError> {
     let [w_ih, w_hh, b_ih, b_hh] = tensors;
     let gx = s.gates_x.get_mut(..4 * w).ok_or(ShapeError)?;
     k.affine(w_ih, Some(b_ih), input, gx)?;
@@ -128,7 +142,8 @@ fn lstm_gates<A: Activation>(s: &mut LstmState<'_>, w: usize) -> Result<(), Shap
     let (hi, hf, hg, ho) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?, gates(gh, 3)?);
     for (j, (hj, cj)) in h.iter_mut().zip(c.iter_mut()).enumerate() {
         let at = |a: &[f32], b: &[f32]| a.get(j).copied().unwrap_or(0.0) + b.get(j).copied().unwrap_or(0.0);
-        let (i, f, gg, o) = (A::sigmoid(at(xi, hi)), A::sigmoid(at(xf, hf)), A::tanh(at(xg, hg)), A::sigmoid(at(xo, ho)));
+        let (i, f, gg, o) =
+            (A::sigmoid(at(xi, hi)), A::sigmoid(at(xf, hf)), A::tanh(at(xg, hg)), A::sigmoid(at(xo, ho)));
         *cj = f * *cj + i * gg;
         *hj = o * A::tanh(*cj);
     }
@@ -149,7 +164,15 @@ struct LstmState<'s> {
 }
 
 /// The forward pass: encoders, latent, decoder rollout. Emits each agent-frame position.
-fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, dt: f32, mut emit: impl FnMut(usize, Point2)) -> Result<(), ShapeError> {
+fn forward(
+    k: &Kernel<'_>,
+    s: &mut Scratch,
+    n: usize,
+    u0: [f32; 2],
+    speed: f32,
+    dt: f32,
+    mut emit: impl FnMut(usize, Point2),
+) -> Result<(), ShapeError> {
     let Dims { enc, edge, k: modes, dec } = k.blob().dims();
     let cond = enc + edge;
 
@@ -185,7 +208,11 @@ fn forward(k: &Kernel<'_>, s: &mut Scratch, n: usize, u0: [f32; 2], speed: f32, 
     }
     let logits = s.logits.get_mut(..modes).ok_or(ShapeError)?;
     k.affine(t::PZ2_W, Some(t::PZ2_B), &s.pz, logits)?;
-    let z = logits.iter().enumerate().fold((0, f32::NEG_INFINITY), |best, (i, &l)| if l > best.1 { (i, l) } else { best }).0;
+    let z = logits
+        .iter()
+        .enumerate()
+        .fold((0, f32::NEG_INFINITY), |best, (i, &l)| if l > best.1 { (i, l) } else { best })
+        .0;
 
     // Decoder initial state from [z, x].
     let init_in = s.input.get_mut(..modes + cond).ok_or(ShapeError)?;
@@ -257,7 +284,7 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
-    use crate::model::blob::{blob_len, write_blob, Precision};
+    use crate::model::blob::{Precision, blob_len, write_blob};
 
     /// A blob of `dims` with small pseudo-random weights (a stand-in for a trained model).
     pub(crate) fn random_blob(dims: &Dims, precision: Precision, seed: u32) -> Vec<u8> {
@@ -266,7 +293,8 @@ mod tests {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
             (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
         };
-        let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| (0..r * c).map(|_| 0.4 * next()).collect()).collect();
+        let tensors: Vec<Vec<f32>> =
+            dims.tensors().iter().map(|(r, c)| (0..r * c).map(|_| 0.4 * next()).collect()).collect();
         let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
         let mut buf = vec![0u8; blob_len(dims, precision)];
         write_blob(dims, precision, 0.05, &slices, &mut buf).unwrap();
@@ -274,12 +302,19 @@ mod tests {
     }
 
     fn history() -> [BevState; 7] {
-        core::array::from_fn(|i| BevState { x: 3.0 + 0.6 * i as f32, y: -2.0 + 0.05 * (i * i) as f32, heading: 0.1 + 0.02 * i as f32, speed: 12.0 })
+        core::array::from_fn(|i| BevState {
+            x: 3.0 + 0.6 * i as f32,
+            y: -2.0 + 0.05 * (i * i) as f32,
+            heading: 0.1 + 0.02 * i as f32,
+            speed: 12.0,
+        })
     }
 
     #[test]
     fn int8_follows_float_and_outputs_are_finite() {
-        for dims in [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }, Dims { enc: 64, edge: 64, k: 25, dec: 128 }] {
+        for dims in
+            [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }, Dims { enc: 64, edge: 64, k: 25, dec: 128 }]
+        {
             let f = random_blob(&dims, Precision::F32, 3);
             let q = random_blob(&dims, Precision::Int8, 3);
             let mut pf = LearnedPredictor::new(ModelBlob::parse(&f).unwrap());

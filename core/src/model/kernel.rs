@@ -3,7 +3,7 @@
 //! sigmoid and tanh). The network code above it is shared by both.
 
 use super::arch::{MAX_DEC, MAX_K};
-use super::blob::{le_f32, ModelBlob, TensorView};
+use super::blob::{ModelBlob, TensorView, le_f32};
 use super::lut::{sigmoid_lut, tanh_lut};
 
 /// Longest input of any affine map: the decoder GRU's [u_prev (2), z (k), x (cond)].
@@ -60,7 +60,15 @@ impl<'a> Kernel<'a> {
     ///
     /// # Errors
     /// [`ShapeError`] when the columns or `out` do not fit the tensor.
-    pub fn affine_columns(&self, w: usize, first: usize, b: Option<usize>, x: &[f32], out: &mut [f32], overwrite: bool) -> Result<(), ShapeError> {
+    pub fn affine_columns(
+        &self,
+        w: usize,
+        first: usize,
+        b: Option<usize>,
+        x: &[f32],
+        out: &mut [f32],
+        overwrite: bool,
+    ) -> Result<(), ShapeError> {
         let cols_used = first..first + x.len();
         match self.blob.tensor(w).ok_or(ShapeError)? {
             TensorView::F32 { rows, cols, data } => {
@@ -138,7 +146,13 @@ struct Int8Rows<'a> {
 /// Rows go four at a time through [`dot4_i8`]; rows and scales are walked by iterators so that
 /// the MCU computes no checked index products per row (with the firmware's overflow checks,
 /// the per-row setup had cost more than the products of a 16-wide row).
-fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], out: &mut [f32], overwrite: bool) -> Result<(), ShapeError> {
+fn affine_int8<'a>(
+    t: Int8Rows<'a>,
+    used: core::ops::Range<usize>,
+    x: &[f32],
+    out: &mut [f32],
+    overwrite: bool,
+) -> Result<(), ShapeError> {
     let Int8Rows { cols, scales, data } = t;
     if cols == 0 {
         return Err(ShapeError);
@@ -187,7 +201,10 @@ fn affine_int8<'a>(t: Int8Rows<'a>, used: core::ops::Range<usize>, x: &[f32], ou
     let (out_blocked, out_rest) = out.split_at_mut(blocked);
     let (rows_blocked, rows_rest) = data.split_at_checked(blocked * cols).ok_or(ShapeError)?;
     let (scales_blocked, scales_rest) = scales.split_at_checked(4 * blocked).ok_or(ShapeError)?;
-    let blocks = rows_blocked.chunks_exact(ROW_BLOCK * cols).zip(scales_blocked.chunks_exact(4 * ROW_BLOCK)).zip(out_blocked.chunks_exact_mut(ROW_BLOCK));
+    let blocks = rows_blocked
+        .chunks_exact(ROW_BLOCK * cols)
+        .zip(scales_blocked.chunks_exact(4 * ROW_BLOCK))
+        .zip(out_blocked.chunks_exact_mut(ROW_BLOCK));
     for ((w, scale), o) in blocks {
         let mut rows = w.chunks_exact(cols);
         let mut row = || rows.next().and_then(|r| r.get(first..end)).ok_or(ShapeError);

@@ -11,8 +11,8 @@ pub mod blob;
 pub mod features;
 pub mod infer;
 pub mod kernel;
-pub mod signed;
 mod lut;
+pub mod signed;
 
 pub use arch::Dims;
 pub use infer::{LearnedPredictor, Scratch};

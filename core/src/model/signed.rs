@@ -101,7 +101,8 @@ pub fn verify<'a>(signed: &'a [u8], key: &PublicKey) -> Result<&'a [u8], Signatu
         return Err(SignatureError::OtherKey { found: parts.key_id, expected });
     }
     let key = VerifyingKey::from_bytes(key).map_err(|_| SignatureError::BadKey)?;
-    key.verify_strict(parts.message, &Signature::from_bytes(&parts.signature)).map_err(|_| SignatureError::BadSignature)?;
+    key.verify_strict(parts.message, &Signature::from_bytes(&parts.signature))
+        .map_err(|_| SignatureError::BadSignature)?;
     Ok(parts.blob)
 }
 

@@ -2,8 +2,8 @@
 //! turn rate and acceleration (CTRA).
 
 use super::fit::fitted_velocity;
-use super::{checked_forecast, checked_history, unicycle_step, Forecast, PredictError, Predictor};
-use crate::geometry::{angle_diff, BevState, Point2};
+use super::{Forecast, PredictError, Predictor, checked_forecast, checked_history, unicycle_step};
+use crate::geometry::{BevState, Point2, angle_diff};
 
 /// Constant velocity: the velocity of the last two positions, held for the whole horizon.
 ///

@@ -84,7 +84,8 @@ mod tests {
     #[test]
     fn alternating_jitter_moves_the_fit_less_than_the_last_displacement() {
         // A 10 m/s track whose positions jitter by +-5 cm frame to frame.
-        let jittered: [BevState; MAX_STEPS] = core::array::from_fn(|k| at(0.5 * k as f32, if k % 2 == 0 { 0.05 } else { -0.05 }));
+        let jittered: [BevState; MAX_STEPS] =
+            core::array::from_fn(|k| at(0.5 * k as f32, if k % 2 == 0 { 0.05 } else { -0.05 }));
         let v = fitted_velocity(&jittered, 0.05).unwrap();
         let last = (jittered[MAX_STEPS - 1].y - jittered[MAX_STEPS - 2].y) / 0.05;
         assert!((v.x - 10.0).abs() < 1e-3);

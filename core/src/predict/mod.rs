@@ -7,7 +7,7 @@ mod baseline;
 mod fit;
 mod unicycle;
 
-pub use baseline::{constant_velocity, constant_velocity_fit, ctra, Baseline};
+pub use baseline::{Baseline, constant_velocity, constant_velocity_fit, ctra};
 pub use fit::fitted_velocity;
 pub use unicycle::{clamp_controls, unicycle_step};
 

@@ -4,7 +4,7 @@
 //! and |acceleration| <= 4 m/s^2, so every step here clamps its controls first.
 
 use crate::geometry::trig::sin_cos;
-use crate::geometry::{wrap_angle, BevState};
+use crate::geometry::{BevState, wrap_angle};
 use crate::limits::{MAX_ACCEL, MAX_TURN_RATE};
 
 /// Below this turn rate (rad/s) the straight-line form is used (Trajectron++'s threshold).

@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix4, Vector4};
 
-use crate::geometry::{angle_diff, wrap_angle, BevState, Point2};
+use crate::geometry::{BevState, Point2, angle_diff, wrap_angle};
 use crate::limits::{MAX_ABS_POSITION, MAX_ABS_SPEED};
 
 /// Noise parameters of the EKF, as standard deviations in SI units.
@@ -88,9 +88,7 @@ impl Measurement {
     pub fn sanitised(self) -> Self {
         let plausible = |v: f32, max: f32| v.is_finite() && v.abs() <= max;
         Self {
-            position: self
-                .position
-                .filter(|p| plausible(p.x, MAX_ABS_POSITION) && plausible(p.y, MAX_ABS_POSITION)),
+            position: self.position.filter(|p| plausible(p.x, MAX_ABS_POSITION) && plausible(p.y, MAX_ABS_POSITION)),
             heading: self.heading.filter(|h| h.is_finite()),
             speed: self.speed.filter(|&v| plausible(v, MAX_ABS_SPEED)),
         }

@@ -7,7 +7,7 @@
 use heapless::Deque;
 use nalgebra::Vector4;
 
-use super::ekf::{state_diff, state_of, FilterStep};
+use super::ekf::{FilterStep, state_diff, state_of};
 use super::{EkfParams, Measurement, UnicycleEkf};
 use crate::geometry::BevState;
 

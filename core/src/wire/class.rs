@@ -88,10 +88,7 @@ mod tests {
         assert_eq!(ObjectClass::from_kitti_name("Background"), None);
         assert_eq!(ObjectClass::from_kitti_name("DontCare"), None);
         assert_eq!(ObjectClass::from_kitti_name("car"), None);
-        assert_eq!(
-            ObjectClass::from_kitti_name("Person_sitting"),
-            Some(ObjectClass::PersonSitting)
-        );
+        assert_eq!(ObjectClass::from_kitti_name("Person_sitting"), Some(ObjectClass::PersonSitting));
         let vehicles = ObjectClass::ALL.into_iter().filter(ObjectClass::is_vehicle).count();
         assert_eq!(vehicles, 4);
         assert!(!ObjectClass::Cyclist.is_vehicle());

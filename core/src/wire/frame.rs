@@ -51,10 +51,7 @@ pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, WireError> {
     let body_len = postcard::to_slice(msg, body).map_err(|_| WireError::Encode)?.len();
     let crc_at = VERSION_LEN + body_len;
     let crc = crc32(payload.get(..crc_at).ok_or(WireError::Encode)?);
-    payload
-        .get_mut(crc_at..crc_at + CRC_LEN)
-        .ok_or(WireError::Encode)?
-        .copy_from_slice(&crc.to_le_bytes());
+    payload.get_mut(crc_at..crc_at + CRC_LEN).ok_or(WireError::Encode)?.copy_from_slice(&crc.to_le_bytes());
     let payload = payload.get(..crc_at + CRC_LEN).ok_or(WireError::Encode)?;
     let (lead, rest) = out.split_first_mut().ok_or(WireError::BufferTooSmall)?;
     *lead = DELIMITER;

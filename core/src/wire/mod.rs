@@ -47,16 +47,12 @@ mod tests;
 pub use class::ObjectClass;
 pub use decoder::{Feed, FrameDecoder};
 pub use error::WireError;
-pub use frame::{
-    DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode,
-};
+pub use frame::{DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode};
 pub use messages::{
-    CameraInfo, CameraPose, ComputeUnit, EstimateKind, FrameStats, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message, ModelChunk,
-    ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,
+    CameraInfo, CameraPose, ComputeUnit, EstimateKind, FrameStats, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message,
+    ModelChunk, ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,
 };
-pub use parts::{
-    FrameParts, MAX_FRAME_PARTS, MAX_FRAME_TRACKS, ModelChunks, frame_parts, model_chunks,
-};
+pub use parts::{FrameParts, MAX_FRAME_PARTS, MAX_FRAME_TRACKS, ModelChunks, frame_parts, model_chunks};
 pub use stats::DecoderStats;
 
 /// Version of the wire protocol, the first byte of every payload. History: 1 first release;

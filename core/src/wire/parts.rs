@@ -2,9 +2,7 @@
 
 use heapless::Vec;
 
-use super::{
-    FrameTracks, MODEL_CHUNK_LEN, ModelChunk, TRACKS_PER_MESSAGE, Track, WireError, crc32,
-};
+use super::{FrameTracks, MODEL_CHUNK_LEN, ModelChunk, TRACKS_PER_MESSAGE, Track, WireError, crc32};
 use crate::limits::{MAX_OBJECTS, MAX_POINTS_PER_OBJECT, MAX_STATIC_TRACKS};
 
 /// Most tracks of one camera frame: every static track and every point of every object.
@@ -20,11 +18,7 @@ const _: () = assert!(MAX_FRAME_PARTS <= u16::MAX as usize);
 ///
 /// # Errors
 /// [`WireError::TooManyTracks`] for more than [`MAX_FRAME_TRACKS`] tracks.
-pub fn frame_parts(
-    frame: u32,
-    timestamp_us: u64,
-    tracks: &[Track],
-) -> Result<FrameParts<'_>, WireError> {
+pub fn frame_parts(frame: u32, timestamp_us: u64, tracks: &[Track]) -> Result<FrameParts<'_>, WireError> {
     if tracks.len() > MAX_FRAME_TRACKS {
         return Err(WireError::TooManyTracks);
     }
@@ -84,12 +78,7 @@ impl ExactSizeIterator for FrameParts<'_> {}
 /// [`WireError::BlobTooLarge`] for a blob longer than `u32::MAX` bytes.
 pub fn model_chunks(blob: &[u8]) -> Result<ModelChunks<'_>, WireError> {
     let blob_len = u32::try_from(blob.len()).map_err(|_| WireError::BlobTooLarge)?;
-    Ok(ModelChunks {
-        blob_len,
-        blob_crc: crc32(blob),
-        chunks: blob.chunks(MODEL_CHUNK_LEN),
-        offset: 0,
-    })
+    Ok(ModelChunks { blob_len, blob_crc: crc32(blob), chunks: blob.chunks(MODEL_CHUNK_LEN), offset: 0 })
 }
 
 /// The chunks of one model blob, in order; see [`model_chunks`].

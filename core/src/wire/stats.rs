@@ -47,10 +47,9 @@ impl DecoderStats {
             WireError::Cobs => &mut self.cobs_errors,
             WireError::Version { .. } => &mut self.version_errors,
             WireError::Decode => &mut self.decode_errors,
-            WireError::BufferTooSmall
-            | WireError::Encode
-            | WireError::TooManyTracks
-            | WireError::BlobTooLarge => return,
+            WireError::BufferTooSmall | WireError::Encode | WireError::TooManyTracks | WireError::BlobTooLarge => {
+                return;
+            }
         };
         bump(counter, 1);
     }

@@ -20,8 +20,7 @@ struct Lcg(u64);
 
 impl Lcg {
     fn next(&mut self) -> u32 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         (self.0 >> 33) as u32
     }
     fn below(&mut self, n: usize) -> usize {
@@ -30,14 +29,7 @@ impl Lcg {
 }
 
 fn full_frame_tracks() -> Message {
-    let track = Track {
-        track_id: u32::MAX,
-        object_id: u16::MAX,
-        class: ObjectClass::Misc,
-        u: F,
-        v: F,
-        depth: F,
-    };
+    let track = Track { track_id: u32::MAX, object_id: u16::MAX, class: ObjectClass::Misc, u: F, v: F, depth: F };
     Message::FrameTracks(FrameTracks {
         frame: u32::MAX,
         timestamp_us: u64::MAX,
@@ -252,10 +244,8 @@ fn frames_reassemble_across_every_split() {
         assert_eq!(decoder.pending_len(), 0);
     }
     let mut decoder = FrameDecoder::new();
-    let got: Vec<Message> = stream
-        .iter()
-        .flat_map(|b| decoder.feed(core::slice::from_ref(b)).collect::<Vec<_>>())
-        .collect();
+    let got: Vec<Message> =
+        stream.iter().flat_map(|b| decoder.feed(core::slice::from_ref(b)).collect::<Vec<_>>()).collect();
     assert_eq!(got, msgs, "byte by byte");
 }
 
@@ -281,16 +271,11 @@ fn garbage_between_frames_loses_no_frame_and_is_counted() {
         stream.extend(encoded(&msg));
         sent.push(msg);
         // Garbage with stray zeros, ended by a delimiter (as a transmitter's sync byte would).
-        let mut garbage: Vec<u8> = (0..rng.below(40))
-            .map(|_| if rng.below(8) == 0 { 0 } else { rng.next() as u8 })
-            .collect();
+        let mut garbage: Vec<u8> =
+            (0..rng.below(40)).map(|_| if rng.below(8) == 0 { 0 } else { rng.next() as u8 }).collect();
         garbage.push(0);
         // Each non-empty run is a rejected frame with its delimiter; empty runs are sync.
-        garbage_discarded += garbage
-            .split(|&b| b == 0)
-            .filter(|s| !s.is_empty())
-            .map(|s| s.len() + 1)
-            .sum::<usize>();
+        garbage_discarded += garbage.split(|&b| b == 0).filter(|s| !s.is_empty()).map(|s| s.len() + 1).sum::<usize>();
         stream.extend(garbage);
     }
     let mut decoder = FrameDecoder::new();
@@ -368,10 +353,7 @@ fn foreign_version_and_bad_bodies_are_rejected_and_counted() {
     let trailing = frame_of(PROTOCOL_VERSION, &[&body[..], &[1]].concat());
     let too_short = [0x05, 1, 2, 3, 4, 0]; // four payload bytes: no room for version and CRC
 
-    assert_eq!(
-        decode(&mut foreign.clone()),
-        Err(WireError::Version { found: PROTOCOL_VERSION + 1 })
-    );
+    assert_eq!(decode(&mut foreign.clone()), Err(WireError::Version { found: PROTOCOL_VERSION + 1 }));
     assert_eq!(decode(&mut unknown_variant.clone()), Err(WireError::Decode));
     assert_eq!(decode(&mut trailing.clone()), Err(WireError::Decode));
     assert_eq!(decode(&mut too_short.clone()), Err(WireError::Crc));
@@ -379,9 +361,7 @@ fn foreign_version_and_bad_bodies_are_rejected_and_counted() {
     assert_eq!(decode(&mut [0x02, 0x00, 0x01][..]), Err(WireError::Cobs), "zero inside");
 
     let good = encoded(&msg);
-    let bad =
-        [&foreign[..], &good, &unknown_variant, &trailing, &too_short, &[0x05, 0x01, 0x00], &good]
-            .concat();
+    let bad = [&foreign[..], &good, &unknown_variant, &trailing, &too_short, &[0x05, 0x01, 0x00], &good].concat();
     let mut decoder = FrameDecoder::new();
     assert_eq!(decode_all(&mut decoder, &bad), [msg.clone(), msg]);
     let stats = decoder.stats();

@@ -105,8 +105,10 @@ fn serve(args: &Args) -> Result<ExitCode, String> {
     // read), and only when a model may come over the link.
     let key_note = || {
         if model.is_none() {
-            let id: String = dynotraj_core::model::signed::key_id(&MODEL_KEY).iter().map(|b| format!("{b:02x}")).collect();
-            let dev = if MODEL_KEY_IS_DEVELOPMENT { " (the repository's development key: its secret is public)" } else { "" };
+            let id: String =
+                dynotraj_core::model::signed::key_id(&MODEL_KEY).iter().map(|b| format!("{b:02x}")).collect();
+            let dev =
+                if MODEL_KEY_IS_DEVELOPMENT { " (the repository's development key: its secret is public)" } else { "" };
             eprintln!("dynotraj-edge: a model sent over the link must be signed by key {id}{dev}");
         }
     };

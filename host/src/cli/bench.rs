@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::model::blob::{blob_len, write_blob, Precision};
+use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
 use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
 use dynotraj_core::predict::{Baseline, Forecast};
 use dynotraj_core::{BevState, Point2};
@@ -45,7 +45,11 @@ pub struct BenchArgs {
 /// # Errors
 /// A malformed or unsupported set of widths, named.
 pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
-    let v: Vec<usize> = s.split(',').map(|p| p.trim().parse::<usize>()).collect::<Result<_, _>>().map_err(|e| anyhow::anyhow!("--dims `{s}`: {e}; expected enc,edge,k,dec"))?;
+    let v: Vec<usize> = s
+        .split(',')
+        .map(|p| p.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| anyhow::anyhow!("--dims `{s}`: {e}; expected enc,edge,k,dec"))?;
     let [enc, edge, k, dec] = v[..] else { anyhow::bail!("--dims `{s}`: expected four widths enc,edge,k,dec") };
     let d = Dims { enc, edge, k, dec };
     anyhow::ensure!(d.is_supported(), "--dims `{s}`: widths must be 1..=64 (enc, edge), 1..=25 (k), 1..=128 (dec)");
@@ -78,8 +82,14 @@ pub fn random_blob(dims: &Dims, precision: Precision, dt: f32) -> Vec<u8> {
 }
 
 fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
-    let history: [BevState; 7] = std::array::from_fn(|i| BevState { x: 0.5 * i as f32, y: 0.02 * (i * i) as f32, heading: 0.05 * i as f32, speed: 10.0 });
-    let other: [BevState; 7] = std::array::from_fn(|i| BevState { x: 0.4 * i as f32, y: 4.0, heading: 0.0, speed: 8.0 });
+    let history: [BevState; 7] = std::array::from_fn(|i| BevState {
+        x: 0.5 * i as f32,
+        y: 0.02 * (i * i) as f32,
+        heading: 0.05 * i as f32,
+        speed: 10.0,
+    });
+    let other: [BevState; 7] =
+        std::array::from_fn(|i| BevState { x: 0.4 * i as f32, y: 4.0, heading: 0.0, speed: 8.0 });
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out: Forecast = [Point2::default(); HORIZON];
     let _ = f.forecast(&history, &neighbours, dt, &mut out);
@@ -97,7 +107,8 @@ fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
 /// A bad --dims or an unreadable model.
 pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
     let dt = 0.05;
-    let mut t = Table::new(["predictor", "dims enc,edge,k,dec", "parameters", "blob bytes", "scratch bytes", "us per object"]);
+    let mut t =
+        Table::new(["predictor", "dims enc,edge,k,dec", "parameters", "blob bytes", "scratch bytes", "us per object"]);
     let mut configs: Vec<(String, Dims, Vec<u8>, Vec<u8>)> = Vec::new();
     if let Some(path) = &args.model {
         let f = ModelFile::load(path)?;
@@ -109,7 +120,8 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
             let tensors = crate::model_file::float_tensors(&f.blob());
             let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), &slices, &mut buf).map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
+            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), &slices, &mut buf)
+                .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
             buf
         };
         configs.push((path.display().to_string(), dims, f.bytes().to_vec(), q));
@@ -119,9 +131,15 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             if let Some(dir) = &args.write_blobs {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
                 let path = dir.join(format!("random-{},{},{},{}.int8", dims.enc, dims.edge, dims.k, dims.dec));
-                std::fs::write(&path, random_blob(&dims, Precision::Int8, dt)).with_context(|| format!("writing {}", path.display()))?;
+                std::fs::write(&path, random_blob(&dims, Precision::Int8, dt))
+                    .with_context(|| format!("writing {}", path.display()))?;
             }
-            configs.push(("random weights".into(), dims, random_blob(&dims, Precision::F32, dt), random_blob(&dims, Precision::Int8, dt)));
+            configs.push((
+                "random weights".into(),
+                dims,
+                random_blob(&dims, Precision::F32, dt),
+                random_blob(&dims, Precision::Int8, dt),
+            ));
         }
     }
     let fmt_dims = |d: &Dims| format!("{},{},{},{}", d.enc, d.edge, d.k, d.dec);

@@ -7,14 +7,16 @@ use anyhow::Context as _;
 use clap::Args;
 
 use super::common::DataArgs;
-use super::fold_run::FoldRunArgs;
 use super::experiment::deployment_section;
+use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use crate::experiment::benchmark::{goal_table, run_benchmark, seeds_table, sequence_groups, BenchmarkResult, DEFAULT_GROUPS, GOAL_GAIN};
-use crate::experiment::figures::Figure;
-use crate::experiment::report::{write_report, Report, Section};
 use crate::experiment::ExperimentConfig;
-use crate::report::chart::{write_chart, Chart, Series};
+use crate::experiment::benchmark::{
+    BenchmarkResult, DEFAULT_GROUPS, GOAL_GAIN, goal_table, run_benchmark, seeds_table, sequence_groups,
+};
+use crate::experiment::figures::Figure;
+use crate::experiment::report::{Report, Section, write_report};
+use crate::report::chart::{Chart, Series, write_chart};
 use crate::report::instances_table;
 use crate::trajectory::Source;
 
@@ -53,7 +55,12 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     let loaded_s = start.elapsed().as_secs_f64();
     let ids: Vec<String> = sequences.iter().map(|s| s.id.clone()).collect();
     let folds = sequence_groups(&ids, args.folds);
-    anyhow::ensure!(folds.len() >= 2, "--folds: the benchmark needs at least two folds, found {} sequence(s) for {} fold(s)", ids.len(), args.folds);
+    anyhow::ensure!(
+        folds.len() >= 2,
+        "--folds: the benchmark needs at least two folds, found {} sequence(s) for {} fold(s)",
+        ids.len(),
+        args.folds
+    );
     let config = args.run.config(&args.data, &args.arms, folds)?;
     let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
     let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
@@ -66,7 +73,10 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
         print!("{}", s.table.render(args.run.format));
         println!();
     }
-    eprintln!("loading and estimating {loaded_s:.0} s, training and scoring {:.0} s, total {seconds:.0} s", result.seconds);
+    eprintln!(
+        "loading and estimating {loaded_s:.0} s, training and scoring {:.0} s, total {seconds:.0} s",
+        result.seconds
+    );
     if let Some(dir) = &args.run.out {
         let mut command = String::from("dynotraj benchmark");
         for a in std::env::args().skip(2) {
@@ -79,7 +89,15 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
             "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on these held-out sequences.".to_string(),
         ];
         let figures = write_figures(&dir.join("figures"), &result, &config)?;
-        let report = Report { title: "dynotraj generalisation benchmark".into(), command, sections, folds: result.folds.clone(), seconds, notes, figures };
+        let report = Report {
+            title: "dynotraj generalisation benchmark".into(),
+            command,
+            sections,
+            folds: result.folds.clone(),
+            seconds,
+            notes,
+            figures,
+        };
         let path = write_report(dir, &report)?;
         eprintln!("wrote {}", path.display());
     }
@@ -88,19 +106,29 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
 
 /// The report's tables: the weighted scores per seed, the goal, the deployment comparison, the
 /// truth-scored rows, Table I and the per-sequence tables of every seed.
-fn sections(result: &BenchmarkResult, config: &ExperimentConfig, sequences: &[crate::sequence::SequenceTracks], args: &BenchmarkArgs) -> anyhow::Result<Vec<Section>> {
+fn sections(
+    result: &BenchmarkResult,
+    config: &ExperimentConfig,
+    sequences: &[crate::sequence::SequenceTracks],
+    args: &BenchmarkArgs,
+) -> anyhow::Result<Vec<Section>> {
     let seeds = args.seeds.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
     let mut out = vec![
         Section {
             stem: "weighted".into(),
             title: "Weighted over every held-out instance, per seed".into(),
-            caption: format!("ADE, FDE (m) and ACE per forecast over all held-out sequences; each arm scored against its own source's future (the paper's protocol); seeds {seeds}; spread = largest minus smallest over the seeds. cv, cv-fit and ctra do not depend on the seed."),
+            caption: format!(
+                "ADE, FDE (m) and ACE per forecast over all held-out sequences; each arm scored against its own source's future (the paper's protocol); seeds {seeds}; spread = largest minus smallest over the seeds. cv, cv-fit and ctra do not depend on the seed."
+            ),
             table: seeds_table(result, |r| Some(&r.arms)),
         },
         Section {
             stem: "goal".into(),
             title: "The goal per arm and seed".into(),
-            caption: format!("The learned int8 model against cv and cv-fit on weighted ADE and FDE (change; the goal is at least {:.0} % better than both) and its ACE against cv-fit's (the goal: no worse).", 100.0 * GOAL_GAIN),
+            caption: format!(
+                "The learned int8 model against cv and cv-fit on weighted ADE and FDE (change; the goal is at least {:.0} % better than both) and its ACE against cv-fit's (the goal: no worse).",
+                100.0 * GOAL_GAIN
+            ),
             table: goal_table(result, &config.arms),
         },
     ];
@@ -125,14 +153,17 @@ fn sections(result: &BenchmarkResult, config: &ExperimentConfig, sequences: &[cr
     out.push(Section {
         stem: "table_i".into(),
         title: "Eligible objects and test instances".into(),
-        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arm, the estimator's own tracks.".into(),
+        caption:
+            "Per source: the labels (GT and GT+EKF share them) and, for the estimated arm, the estimator's own tracks."
+                .into(),
         table: instances_table(sequences, &sources, &rule),
     });
     for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
         out.push(Section {
             stem: format!("per_sequence_seed{seed}"),
             title: format!("Per held-out sequence, seed {seed}"),
-            caption: "ADE, FDE (m), ACE per held-out sequence and weighted; each arm against its own source's future.".into(),
+            caption: "ADE, FDE (m), ACE per held-out sequence and weighted; each arm against its own source's future."
+                .into(),
             table: r.table.clone(),
         });
         if let Some((t, _)) = &r.deployment {
@@ -158,7 +189,13 @@ fn write_figures(dir: &Path, result: &BenchmarkResult, config: &ExperimentConfig
                 let values: Vec<f64> = result
                     .per_seed
                     .iter()
-                    .filter_map(|r| r.arms.iter().find(|a| a.label == label).and_then(|a| a.per_sequence.get(i)).and_then(|s| s.ade.value()))
+                    .filter_map(|r| {
+                        r.arms
+                            .iter()
+                            .find(|a| a.label == label)
+                            .and_then(|a| a.per_sequence.get(i))
+                            .and_then(|s| s.ade.value())
+                    })
                     .collect();
                 if let (Ok(x), false) = (id.parse::<f64>(), values.is_empty()) {
                     points.push((x, values.iter().sum::<f64>() / values.len() as f64));
@@ -168,7 +205,12 @@ fn write_figures(dir: &Path, result: &BenchmarkResult, config: &ExperimentConfig
             series.push(Series { label, points });
         }
     }
-    let chart = Chart { title: "ADE per held-out sequence (mean over seeds)".into(), x_label: "KITTI sequence".into(), y_label: "ADE (m)".into(), series };
+    let chart = Chart {
+        title: "ADE per held-out sequence (mean over seeds)".into(),
+        x_label: "KITTI sequence".into(),
+        y_label: "ADE (m)".into(),
+        series,
+    };
     let [png, _] = write_chart(&chart, &dir.join("ade_per_sequence"))?;
     Ok(vec![Figure { png, caption: "ADE of the learned int8 model and of constant velocity per held-out sequence and arm, each point the mean over the seeds.".into() }])
 }

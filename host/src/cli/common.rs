@@ -9,10 +9,10 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use crate::estimate::evaluate::EvalOptions;
 use crate::jobs::{default_jobs, map_jobs, parse_jobs};
 use crate::kitti::TrackingDir;
-use crate::estimate::evaluate::EvalOptions;
-use crate::sequence::{load_sequence, EstimateSettings, SequenceTracks};
+use crate::sequence::{EstimateSettings, SequenceTracks, load_sequence};
 use crate::trajectory::{EligibilityRule, MovingRule, OursInput, Source};
 
 /// The paper's test sequences (Table IV).
@@ -69,7 +69,11 @@ impl DataArgs {
     /// # Errors
     /// When the rate is not a positive finite number.
     pub fn dt(&self) -> anyhow::Result<f32> {
-        anyhow::ensure!(self.rate.is_finite() && self.rate > 0.0, "--rate: expected a positive frame rate in Hz, found {}", self.rate);
+        anyhow::ensure!(
+            self.rate.is_finite() && self.rate > 0.0,
+            "--rate: expected a positive frame rate in Hz, found {}",
+            self.rate
+        );
         Ok(1.0 / self.rate)
     }
 
@@ -106,7 +110,12 @@ impl DataArgs {
     ///
     /// # Errors
     /// A missing folder, a missing sequence or a bad file, named.
-    pub fn load_cached(&self, sequences: &[String], sources: &[Source], cache: Option<std::path::PathBuf>) -> anyhow::Result<Vec<SequenceTracks>> {
+    pub fn load_cached(
+        &self,
+        sequences: &[String],
+        sources: &[Source],
+        cache: Option<std::path::PathBuf>,
+    ) -> anyhow::Result<Vec<SequenceTracks>> {
         let dir = TrackingDir::open(&self.kitti)?;
         let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
         let dt = self.dt()?;
@@ -124,7 +133,12 @@ impl DataArgs {
             bar.inc(1);
             if !terminal {
                 // A log (no bar off a terminal) shows where a long load is.
-                eprintln!("[{:>6.0} s] sequence {id} loaded ({}/{})", start.elapsed().as_secs_f64(), bar.position(), ids.len());
+                eprintln!(
+                    "[{:>6.0} s] sequence {id} loaded ({}/{})",
+                    start.elapsed().as_secs_f64(),
+                    bar.position(),
+                    ids.len()
+                );
             }
             s
         })?;

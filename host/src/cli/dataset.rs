@@ -3,7 +3,7 @@
 use clap::Args;
 
 use super::common::DataArgs;
-use crate::report::{instances_table, Format, Table};
+use crate::report::{Format, Table, instances_table};
 use crate::trajectory::Source;
 
 /// Options of `dynotraj dataset`.

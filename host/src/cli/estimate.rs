@@ -14,13 +14,16 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::progress;
-use crate::estimate::evaluate::{camera_info, evaluate_sequence, params_for, run_with_window, sim_max_depth, write_tracks, EvalOptions, SequenceResult, ECU_WINDOW, WINDOW};
+use crate::estimate::evaluate::{
+    ECU_WINDOW, EvalOptions, SequenceResult, WINDOW, camera_info, evaluate_sequence, params_for, run_with_window,
+    sim_max_depth, write_tracks,
+};
 use crate::estimate::files::{write_estimates, write_run};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::{Kind, RunScores};
 use crate::kitti::TrackingDir;
-use crate::report::{fmt_opt, Format, Table};
+use crate::report::{Format, Table, fmt_opt};
 
 /// The paper's Table III: DynoSAM's averages on real KITTI.
 pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
@@ -118,7 +121,11 @@ impl EstimateArgs {
     /// # Errors
     /// A bad class name or rate.
     pub fn options(&self) -> anyhow::Result<EvalOptions> {
-        anyhow::ensure!(self.rate.is_finite() && self.rate > 0.0, "--rate: expected a positive frame rate in Hz, found {}", self.rate);
+        anyhow::ensure!(
+            self.rate.is_finite() && self.rate > 0.0,
+            "--rate: expected a positive frame rate in Hz, found {}",
+            self.rate
+        );
         anyhow::ensure!(
             self.window == WINDOW || self.window == ECU_WINDOW,
             "--window: expected {WINDOW} or {ECU_WINDOW} frames, found {}",
@@ -127,10 +134,13 @@ impl EstimateArgs {
         let classes = self
             .classes
             .iter()
-            .map(|c| ObjectClass::from_kitti_name(c.trim()).with_context(|| format!("--classes: `{c}` is not a KITTI type")))
+            .map(|c| {
+                ObjectClass::from_kitti_name(c.trim()).with_context(|| format!("--classes: `{c}` is not a KITTI type"))
+            })
             .collect::<anyhow::Result<Vec<_>>>()?;
         let noise = |v: f64| if self.noise_free { 0.0 } else { v };
-        let defaults = dynotraj_core::estimate::EstimatorParams::kitti(dynotraj_core::estimate::Intrinsics::KITTI_0926, 0.1);
+        let defaults =
+            dynotraj_core::estimate::EstimatorParams::kitti(dynotraj_core::estimate::Intrinsics::KITTI_0926, 0.1);
         Ok(EvalOptions {
             dt: 1.0 / self.rate,
             classes,
@@ -140,7 +150,10 @@ impl EstimateArgs {
             disparity_sigma: noise(self.disparity_sigma),
             outlier_fraction: noise(self.outliers),
             track_lifetime: if self.noise_free { 0 } else { self.track_lifetime },
-            object_smoother: SmootherParams { sigma_translation: self.object_sigma_t, sigma_rotation: self.object_sigma_r },
+            object_smoother: SmootherParams {
+                sigma_translation: self.object_sigma_t,
+                sigma_rotation: self.object_sigma_r,
+            },
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
             joint_sweeps: self.joint_sweeps,
@@ -167,11 +180,16 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     if args.write_tracks.is_some() {
-        anyhow::ensure!(args.sequences.len() == 1, "--write-tracks: give exactly one --sequence (found {})", args.sequences.len());
+        anyhow::ensure!(
+            args.sequences.len() == 1,
+            "--write-tracks: give exactly one --sequence (found {})",
+            args.sequences.len()
+        );
     }
     let results = evaluate(args)?;
     if let (Some(path), Some(r)) = (&args.write_tracks, results.first()) {
-        write_tracks(path, &camera_info(&r.intrinsics, args.rate), &r.sim).with_context(|| format!("--write-tracks {}", path.display()))?;
+        write_tracks(path, &camera_info(&r.intrinsics, args.rate), &r.sim)
+            .with_context(|| format!("--write-tracks {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
     for t in tables(&results) {
@@ -224,8 +242,12 @@ pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::R
     opt.dt = 1.0 / cam.frame_rate_hz;
     let params = params_for(Intrinsics::from(&cam), sim_max_depth(), opt.pixel_sigma, opt.disparity_sigma, &opt);
     let n = args.frames.unwrap_or(usize::MAX);
-    let frames: Vec<PartsFrame> =
-        tracks.frames.into_iter().take(n).map(|f| PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: f.parts }).collect();
+    let frames: Vec<PartsFrame> = tracks
+        .frames
+        .into_iter()
+        .take(n)
+        .map(|f| PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: f.parts })
+        .collect();
     let t0 = std::time::Instant::now();
     let run = run_with_window(&frames, params, &opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();
@@ -240,8 +262,17 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
         write_estimates(out, &r.frames, &r.run)?;
         eprintln!("wrote {}", out.display());
     }
-    let objects = |k: Kind| r.run.of(k).iter().flatten().flat_map(|e| e.objects.iter().map(|o| o.object_id)).collect::<std::collections::BTreeSet<_>>().len();
-    let mut t = Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
+    let objects = |k: Kind| {
+        r.run
+            .of(k)
+            .iter()
+            .flatten()
+            .flat_map(|e| e.objects.iter().map(|o| o.object_id))
+            .collect::<std::collections::BTreeSet<_>>()
+            .len()
+    };
+    let mut t =
+        Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
     t.push([
         path.display().to_string(),
         r.frames.len().to_string(),
@@ -306,7 +337,11 @@ pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
 /// The paper's Table III layout for one kind of estimate (`k`: its index in [`Kind::ALL`]) from
 /// (sequence id, frames, scores) rows.
 #[must_use]
-pub fn table_iii_of<'a>(rows: impl IntoIterator<Item = (&'a str, usize, &'a RunScores)>, k: usize, kind: Kind) -> Table {
+pub fn table_iii_of<'a>(
+    rows: impl IntoIterator<Item = (&'a str, usize, &'a RunScores)>,
+    k: usize,
+    kind: Kind,
+) -> Table {
     let label = match kind {
         Kind::FrameToFrame => "frame-to-frame",
         Kind::Causal => "causal (smoother, newest frame)",
@@ -348,7 +383,15 @@ pub fn table_iii_of<'a>(rows: impl IntoIterator<Item = (&'a str, usize, &'a RunS
         ]);
     }
     let mean = |i: usize| (counts[i] > 0).then(|| sums[i] / counts[i] as f64);
-    t.push(["average".to_string(), String::new(), fmt_opt(mean(0), 3), fmt_opt(mean(1), 3), String::new(), fmt_opt(mean(2), 3), fmt_opt(mean(3), 3)]);
+    t.push([
+        "average".to_string(),
+        String::new(),
+        fmt_opt(mean(0), 3),
+        fmt_opt(mean(1), 3),
+        String::new(),
+        fmt_opt(mean(2), 3),
+        fmt_opt(mean(3), 3),
+    ]);
     let d = DYNOSAM_TABLE_III;
     t.push([
         "DynoSAM on real KITTI (paper)".to_string(),
@@ -411,10 +454,24 @@ pub fn counters_table(results: &[SequenceResult]) -> Table {
 /// RPE per moving object, smoothed and frame-to-frame, with its class and pairs scored.
 #[must_use]
 pub fn per_object_table(results: &[SequenceResult]) -> Table {
-    let mut t = Table::new(["sequence", "object", "class", "pairs", "f2f RPE_t (m)", "f2f RPE_r (deg)", "smoothed RPE_t (m)", "smoothed RPE_r (deg)"]);
+    let mut t = Table::new([
+        "sequence",
+        "object",
+        "class",
+        "pairs",
+        "f2f RPE_t (m)",
+        "f2f RPE_r (deg)",
+        "smoothed RPE_t (m)",
+        "smoothed RPE_r (deg)",
+    ]);
     for r in results {
         for id in moving_objects(&r.sim, r.min_step_m) {
-            let class = r.sim.iter().flat_map(|f| f.objects.iter()).find(|o| o.object_id == id).map_or("?", |o| o.class.kitti_name());
+            let class = r
+                .sim
+                .iter()
+                .flat_map(|f| f.objects.iter())
+                .find(|o| o.object_id == id)
+                .map_or("?", |o| o.class.kitti_name());
             let f = object_rpe(&r.sim, r.run.of(Kind::FrameToFrame), id).result();
             let s = object_rpe(&r.sim, r.run.of(Kind::Smoothed), id).result();
             t.push([

@@ -5,12 +5,12 @@ use std::path::PathBuf;
 use clap::Args;
 use dynotraj_core::predict::Baseline;
 
-use super::common::{progress, DataArgs, PAPER_TEST_SEQUENCES};
-use crate::evaluate::{score_sequence, Forecaster};
+use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
+use crate::evaluate::{Forecaster, score_sequence};
 use crate::model_file::ModelFile;
+use crate::report::{ArmScores, Format, Table, forecast_table};
 use crate::scene::Scene;
-use crate::report::{forecast_table, ArmScores, Format, Table};
-use crate::trajectory::{eligible_runs, Source};
+use crate::trajectory::{Source, eligible_runs};
 
 /// A predictor `eval` can run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -42,7 +42,10 @@ impl PredictorSpec {
     pub fn label(&self) -> String {
         match self {
             Self::Baseline(b) => b.name().into(),
-            Self::Model(p) => format!("model {}", p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())),
+            Self::Model(p) => format!(
+                "model {}",
+                p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+            ),
         }
     }
 }
@@ -90,8 +93,11 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
 pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
     let dt = args.data.dt()?;
-    let ids: Vec<String> =
-        if args.sequences.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.sequences.clone() };
+    let ids: Vec<String> = if args.sequences.is_empty() {
+        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
+    } else {
+        args.sequences.clone()
+    };
     let seqs = args.data.load_for(&ids, &args.source)?;
 
     let mut arms = Vec::new();

@@ -3,15 +3,15 @@
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::estimate::table_iii_of;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use super::estimate::table_iii_of;
 use crate::estimate::{Kind, RunScores};
 use crate::experiment::figures::write_figures;
-use crate::experiment::findings::{findings, Scoring};
-use crate::experiment::report::{write_report, Report, Section};
-use crate::experiment::{run_experiment, ExperimentConfig, ExperimentResult};
-use crate::report::{instances_table, Table};
+use crate::experiment::findings::{Scoring, findings};
+use crate::experiment::report::{Report, Section, write_report};
+use crate::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
+use crate::report::{Table, instances_table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
@@ -54,8 +54,11 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
-    let test_sequences: Vec<String> =
-        if args.tests.is_empty() { PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect() } else { args.tests.clone() };
+    let test_sequences: Vec<String> = if args.tests.is_empty() {
+        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
+    } else {
+        args.tests.clone()
+    };
     let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
     let loading_seconds = start.elapsed().as_secs_f64();
     let bars = TrainBars::new(config.arms.len() * config.folds.len());
@@ -65,7 +68,9 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     // The whole command: loading and estimating the sequences too.
     result.seconds = start.elapsed().as_secs_f64();
     result.loading_seconds = loading_seconds;
-    let mut summary = String::from("folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n");
+    let mut summary = String::from(
+        "folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n",
+    );
     for f in &result.folds {
         summary.push_str(&format!(
             "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s{}\n",
@@ -87,7 +92,12 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// The report of a finished run: Table I for every arm's source, Table III of the estimator
 /// behind the estimated arms, Table IV, the folds and the findings.
 #[must_use]
-pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[SequenceTracks], rule: &EligibilityRule) -> Report {
+pub fn report(
+    args: &ExperimentArgs,
+    result: &ExperimentResult,
+    sequences: &[SequenceTracks],
+    rule: &EligibilityRule,
+) -> Report {
     let mut sections = vec![Section {
         stem: "table_i".into(),
         title: "Table I: eligible objects and test instances".into(),
@@ -95,8 +105,10 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
         table: instances_table(sequences, &table_i_sources(&args.arms), rule),
     }];
     let inputs: Vec<EstimateInput> = sequences.iter().filter_map(|s| s.estimated.as_ref().map(|e| e.input)).collect();
-    let estimated: Vec<(&str, usize, &RunScores)> =
-        sequences.iter().filter_map(|s| s.estimated.as_ref().and_then(|e| e.rpe.as_ref().map(|rpe| (s.id.as_str(), e.frames, rpe)))).collect();
+    let estimated: Vec<(&str, usize, &RunScores)> = sequences
+        .iter()
+        .filter_map(|s| s.estimated.as_ref().and_then(|e| e.rpe.as_ref().map(|rpe| (s.id.as_str(), e.frames, rpe))))
+        .collect();
     if !estimated.is_empty() {
         for (k, kind, stem) in [(1, Kind::Causal, "table_iii_causal"), (2, Kind::Smoothed, "table_iii_smoothed")] {
             sections.push(Section {
@@ -142,7 +154,15 @@ pub fn report(args: &ExperimentArgs, result: &ExperimentResult, sequences: &[Seq
     if args.arms.iter().any(Source::is_estimated) {
         notes.extend(input_notes(&inputs));
     }
-    Report { title: "dynotraj experiment report".into(), command, sections, folds: result.folds.clone(), seconds: result.seconds, notes, figures: Vec::new() }
+    Report {
+        title: "dynotraj experiment report".into(),
+        command,
+        sections,
+        folds: result.folds.clone(),
+        seconds: result.seconds,
+        notes,
+        figures: Vec::new(),
+    }
 }
 
 /// The deployment comparison as a report section.
@@ -211,7 +231,8 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.run.out {
         let rule = args.data.rule()?;
         let mut r = report(args, &result, &sequences, &rule);
-        r.figures = write_figures(&dir.join("figures"), &sequences, &args.arms, &rule, args.data.dt()?, &dir.join("models"))?;
+        r.figures =
+            write_figures(&dir.join("figures"), &sequences, &args.arms, &rule, args.data.dt()?, &dir.join("models"))?;
         let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
     }

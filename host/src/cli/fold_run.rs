@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::bench::parse_dims;
-use super::common::{DataArgs, DEFAULT_DIMS};
+use super::common::{DEFAULT_DIMS, DataArgs};
 use super::train::HyperArgs;
 use crate::experiment::ExperimentConfig;
 use crate::report::Format;
@@ -53,7 +53,12 @@ impl FoldRunArgs {
     ///
     /// # Errors
     /// A flag out of range, named.
-    pub fn config(&self, data: &DataArgs, arms: &[Source], folds: Vec<Vec<String>>) -> anyhow::Result<ExperimentConfig> {
+    pub fn config(
+        &self,
+        data: &DataArgs,
+        arms: &[Source],
+        folds: Vec<Vec<String>>,
+    ) -> anyhow::Result<ExperimentConfig> {
         Ok(ExperimentConfig {
             arms: arms.to_vec(),
             folds,

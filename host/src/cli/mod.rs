@@ -1,6 +1,7 @@
 //! The `dynotraj` command line.
 
 pub mod bench;
+pub mod benchmark;
 pub mod common;
 pub mod dataset;
 pub mod estimate;
@@ -10,11 +11,10 @@ pub mod fold_run;
 pub mod sign;
 pub mod simulate;
 pub mod soak;
-pub mod track;
 pub mod stream;
+pub mod track;
 pub mod train;
 pub mod train_progress;
-pub mod benchmark;
 
 use clap::{Parser, Subcommand};
 

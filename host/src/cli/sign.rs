@@ -65,9 +65,15 @@ pub fn keygen(args: &KeygenArgs) -> anyhow::Result<()> {
 /// # Errors
 /// An unreadable key or model, a model the core refuses, an unwritable output.
 pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
-    let key = if args.key == "dev" { model_signing::development_signing_key()? } else { model_signing::read_signing_key(&PathBuf::from(&args.key))? };
+    let key = if args.key == "dev" {
+        model_signing::development_signing_key()?
+    } else {
+        model_signing::read_signing_key(&PathBuf::from(&args.key))?
+    };
     let blob = std::fs::read(&args.model).with_context(|| format!("reading model blob {}", args.model.display()))?;
-    ModelBlob::parse(&blob).map_err(|e| anyhow::anyhow!("model blob {}: {e} (sign the blob `dynotraj train` wrote)", args.model.display()))?;
+    ModelBlob::parse(&blob).map_err(|e| {
+        anyhow::anyhow!("model blob {}: {e} (sign the blob `dynotraj train` wrote)", args.model.display())
+    })?;
     let out = args.out.clone().unwrap_or_else(|| {
         let mut p = args.model.clone().into_os_string();
         p.push(".signed");
@@ -75,7 +81,13 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
     });
     let signed = model_signing::sign(&blob, &key);
     std::fs::write(&out, &signed).with_context(|| format!("writing {}", out.display()))?;
-    println!("{}: {} B blob + {} B signature by key {}", out.display(), blob.len(), signed.len() - blob.len(), hex(&key.verifying_key().as_bytes()[..8]));
+    println!(
+        "{}: {} B blob + {} B signature by key {}",
+        out.display(),
+        blob.len(),
+        signed.len() - blob.len(),
+        hex(&key.verifying_key().as_bytes()[..8])
+    );
     Ok(())
 }
 
@@ -84,10 +96,15 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
 /// # Errors
 /// An unreadable key or file, or a signature that does not verify (said in words).
 pub fn verify(args: &VerifyArgs) -> anyhow::Result<()> {
-    let key = if args.key == "dev" { model_signing::development_public_key()? } else { model_signing::read_public_key(&PathBuf::from(&args.key))? };
+    let key = if args.key == "dev" {
+        model_signing::development_public_key()?
+    } else {
+        model_signing::read_public_key(&PathBuf::from(&args.key))?
+    };
     let bytes = std::fs::read(&args.model).with_context(|| format!("reading {}", args.model.display()))?;
     let blob = model_signing::verify(&bytes, &key, &args.model.display().to_string())?;
-    ModelBlob::parse(blob).map_err(|e| anyhow::anyhow!("model blob {}: signature good, blob refused: {e}", args.model.display()))?;
+    ModelBlob::parse(blob)
+        .map_err(|e| anyhow::anyhow!("model blob {}: signature good, blob refused: {e}", args.model.display()))?;
     println!("{}: signature good (key {}), {} B model blob valid", args.model.display(), hex(&key[..8]), blob.len());
     Ok(())
 }

@@ -7,12 +7,12 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::wire::ObjectClass;
-use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
-use crate::estimate::{sim_input, Kind};
-use crate::frontend::{e2e, StereoParams};
+use crate::estimate::{Kind, sim_input};
+use crate::frontend::{StereoParams, e2e};
 use crate::image_sim_files::write_sequence;
 use crate::kitti::TrackingDir;
 
@@ -62,7 +62,11 @@ pub struct SimulateArgs {
 /// # Errors
 /// Loading errors, named; a bad scale or class.
 pub fn build(args: &SimulateArgs) -> anyhow::Result<ImageSim> {
-    anyhow::ensure!(args.scale.is_finite() && (0.05..=2.0).contains(&args.scale), "--scale: expected 0.05..=2, found {}", args.scale);
+    anyhow::ensure!(
+        args.scale.is_finite() && (0.05..=2.0).contains(&args.scale),
+        "--scale: expected 0.05..=2, found {}",
+        args.scale
+    );
     anyhow::ensure!((0..=50).contains(&args.noise), "--noise: expected 0..=50 grey levels, found {}", args.noise);
     let camera = Camera { noise: args.noise, ..Camera::kitti(args.scale) };
     match (&args.kitti, args.drive) {
@@ -70,9 +74,14 @@ pub fn build(args: &SimulateArgs) -> anyhow::Result<ImageSim> {
             let classes = args
                 .classes
                 .iter()
-                .map(|c| ObjectClass::from_kitti_name(c.trim()).with_context(|| format!("--classes: `{c}` is not a KITTI type")))
+                .map(|c| {
+                    ObjectClass::from_kitti_name(c.trim())
+                        .with_context(|| format!("--classes: `{c}` is not a KITTI type"))
+                })
                 .collect::<anyhow::Result<Vec<_>>>()?;
-            let data = TrackingDir::open(dir)?.load_sequence(&args.sequence).with_context(|| format!("loading KITTI tracking sequence {}", args.sequence))?;
+            let data = TrackingDir::open(dir)?
+                .load_sequence(&args.sequence)
+                .with_context(|| format!("loading KITTI tracking sequence {}", args.sequence))?;
             let input = sim_input(&data, &classes);
             let n = args.frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
             let boxes: Vec<LabelBox> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
@@ -117,9 +126,13 @@ fn end_to_end(args: &SimulateArgs, sim: &ImageSim, n: usize) -> anyhow::Result<(
         100.0 * s.object_survival(),
         r.scores.moving_objects
     );
-    println!("| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r (deg) |\n|---|---|---|---|---|---|");
+    println!(
+        "| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r (deg) |\n|---|---|---|---|---|---|"
+    );
     for (kind, k) in Kind::ALL.iter().zip(&r.scores.kinds) {
-        let f = |x: Option<f64>, deg: bool| x.map_or("-".to_string(), |v| format!("{:.3}", if deg { v.to_degrees() } else { v }));
+        let f = |x: Option<f64>, deg: bool| {
+            x.map_or("-".to_string(), |v| format!("{:.3}", if deg { v.to_degrees() } else { v }))
+        };
         println!(
             "| {} | {} | {} | {} | {} | {} |",
             kind.name(),

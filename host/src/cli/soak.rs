@@ -10,8 +10,8 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 
-use crate::link::{connect, Endpoint};
-use crate::soak::{soak, SoakOptions, SoakReport};
+use crate::link::{Endpoint, connect};
+use crate::soak::{SoakOptions, SoakReport, soak};
 use crate::tracks_file::{self, Tracks};
 
 /// Options of `dynotraj soak`.
@@ -58,25 +58,42 @@ pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
 /// # Errors
 /// See [`run`].
 pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
-    anyhow::ensure!((0.0..=1.0).contains(&args.fault_probability), "--fault-probability: expected 0..=1, found {}", args.fault_probability);
+    anyhow::ensure!(
+        (0.0..=1.0).contains(&args.fault_probability),
+        "--fault-probability: expected 0..=1, found {}",
+        args.fault_probability
+    );
     let base: Tracks = match &args.tracks {
         Some(p) => tracks_file::read(p)?,
-        None => super::stream::simulated(args.kitti.as_ref().context("--tracks or --kitti is needed")?, &args.sequence, None)?,
+        None => super::stream::simulated(
+            args.kitti.as_ref().context("--tracks or --kitti is needed")?,
+            &args.sequence,
+            None,
+        )?,
     };
     let edge = match &args.edge {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),
     };
-    let mut child = Command::new(&edge)
-        .args(["--listen", "tcp://127.0.0.1:0"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .with_context(|| format!("starting the edge {} (build it with `cargo build --release --bins`, or give --edge)", edge.display()))?;
+    let mut child =
+        Command::new(&edge).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().with_context(
+            || {
+                format!(
+                    "starting the edge {} (build it with `cargo build --release --bins`, or give --edge)",
+                    edge.display()
+                )
+            },
+        )?;
     let mut lines = BufReader::new(child.stderr.take().context("edge stderr")?).lines();
     let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
     let addr = first.rsplit("tcp://").next().unwrap_or_default().trim().to_string();
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10))?;
-    let opt = SoakOptions { frames: args.frames, fault_probability: args.fault_probability, seed: args.seed, ..SoakOptions::default() };
+    let opt = SoakOptions {
+        frames: args.frames,
+        fault_probability: args.fault_probability,
+        seed: args.seed,
+        ..SoakOptions::default()
+    };
     let report = soak(&base, rx, tx, &opt, Some(child.id()))?;
     // The edge's last words (its session summary) go to our stderr.
     for l in lines.map_while(Result::ok) {
@@ -92,11 +109,23 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
 pub fn summary(r: &SoakReport) -> String {
     let mem = r.edge_memory.map_or_else(
         || "edge memory: not read".to_string(),
-        |(a, b)| format!("edge memory: resident {} KiB after the first frames, {} KiB at the end (peak {} KiB)", a.rss_kib, b.rss_kib, b.peak_kib),
+        |(a, b)| {
+            format!(
+                "edge memory: resident {} KiB after the first frames, {} KiB at the end (peak {} KiB)",
+                a.rss_kib, b.rss_kib, b.peak_kib
+            )
+        },
     );
     let link = r.edge_link.map_or_else(
         || "edge goodbye: none".to_string(),
-        |l| format!("edge decoder: {} wire frames accepted, {} rejected, {} bytes discarded", l.received.frames_ok, l.received.frames_rejected(), l.received.bytes_discarded),
+        |l| {
+            format!(
+                "edge decoder: {} wire frames accepted, {} rejected, {} bytes discarded",
+                l.received.frames_ok,
+                l.received.frames_rejected(),
+                l.received.bytes_discarded
+            )
+        },
     );
     format!(
         "soak: {} camera frames ({} wire frames) in {:.1} s\nfaults injected: {} ({} flipped bytes, {} dropped tails, {} duplicated frames) in {} damaged camera frames\nanswered: {} frames; clean frames unanswered: {}; edge's frames lost: {}\n{link}\n{mem}\n",

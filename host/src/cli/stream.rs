@@ -67,7 +67,11 @@ pub struct StreamArgs {
 /// Input, link or output errors, named.
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let tracks = load(args)?;
-    let model = args.model.as_ref().map(|p| std::fs::read(p).with_context(|| format!("--model {}", p.display()))).transpose()?;
+    let model = args
+        .model
+        .as_ref()
+        .map(|p| std::fs::read(p).with_context(|| format!("--model {}", p.display())))
+        .transpose()?;
     if let (Some(bytes), Some(p)) = (&model, &args.model)
         && let Err(e) = dynotraj_core::model::signed::split(bytes)
     {
@@ -75,7 +79,8 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     }
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
     let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
-    let opt = StreamOptions { rate_hz: (rate > 0.0).then_some(rate), lockstep: args.lockstep, reply_timeout: timeout, model };
+    let opt =
+        StreamOptions { rate_hz: (rate > 0.0).then_some(rate), lockstep: args.lockstep, reply_timeout: timeout, model };
     let (rx, tx) = connect(&args.to, timeout)?;
     let result = stream(&tracks, rx, tx, &opt)?;
     if let Some(p) = &args.out {
@@ -111,8 +116,16 @@ pub(crate) fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
 /// # Errors
 /// Loading errors, named.
 pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
-    let data = TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    let classes = [ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist, ObjectClass::Pedestrian];
+    let data =
+        TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
+    let classes = [
+        ObjectClass::Car,
+        ObjectClass::Van,
+        ObjectClass::Truck,
+        ObjectClass::Tram,
+        ObjectClass::Cyclist,
+        ObjectClass::Pedestrian,
+    ];
     let input = sim_input(&data, &classes);
     let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
@@ -133,7 +146,9 @@ pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyh
     let frames = sim
         .iter()
         .map(|f| {
-            let parts = frame_parts(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame))?.collect();
+            let parts = frame_parts(f.frame, f.timestamp_us, &f.tracks)
+                .with_context(|| format!("frame {}", f.frame))?
+                .collect();
             Ok(TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts })
         })
         .collect::<anyhow::Result<_>>()?;
@@ -157,7 +172,9 @@ pub fn predictions_csv(result: &StreamResult) -> String {
 /// Per-frame latency, compute and losses as CSV.
 #[must_use]
 pub fn frames_csv(result: &StreamResult) -> String {
-    let mut s = String::from("frame,sent_ms,latency_ms,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n");
+    let mut s = String::from(
+        "frame,sent_ms,latency_ms,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n",
+    );
     for f in &result.frames {
         let lat = f.latency().map_or(String::new(), |l| format!("{:.3}", l.as_secs_f64() * 1e3));
         let _ = write!(s, "{},{:.3},{lat},", f.frame, f.sent.as_secs_f64() * 1e3);
@@ -202,7 +219,13 @@ pub fn summary(result: &StreamResult, to: &Endpoint) -> String {
     compute.sort_unstable();
     let mut s = String::new();
     let _ = writeln!(s, "edge {to}: {} frames sent, {answered} answered, {forecasts} forecasts", result.frames.len());
-    let _ = writeln!(s, "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}", q(0.5), q(0.95), q(1.0));
+    let _ = writeln!(
+        s,
+        "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}",
+        q(0.5),
+        q(0.95),
+        q(1.0)
+    );
     if let Some(l) = last {
         let med = compute.get(compute.len() / 2).copied().unwrap_or(0);
         let max = compute.last().copied().unwrap_or(0);

@@ -63,7 +63,11 @@ pub struct TrackArgs {
 /// # Errors
 /// Reading, tracking or writing errors, named.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(args.rate.is_finite() && args.rate > 0.0, "--rate: expected a positive frame rate, found {}", args.rate);
+    anyhow::ensure!(
+        args.rate.is_finite() && args.rate > 0.0,
+        "--rate: expected a positive frame rate, found {}",
+        args.rate
+    );
     let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti() };
     if let Some(root) = &args.check {
         return check(root, stereo);
@@ -92,7 +96,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
 ///
 /// # Errors
 /// Reading, tracking or writing errors, named.
-pub fn track_sequence(dir: &Path, seq: &str, out: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow::Result<(StageTimes, FrontEndStats, usize)> {
+pub fn track_sequence(
+    dir: &Path,
+    seq: &str,
+    out: &Path,
+    args: &TrackArgs,
+    stereo: StereoParams,
+) -> anyhow::Result<(StageTimes, FrontEndStats, usize)> {
     let s = ImageSequence::open(dir, seq, args.depth, args.masks)?;
     let [fx, fy, cx, cy] = s.intrinsics;
     let camera = CameraInfo {
@@ -107,7 +117,9 @@ pub fn track_sequence(dir: &Path, seq: &str, out: &Path, args: &TrackArgs, stere
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
-    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate), |frame, t_us, tracks| Ok(w.write_frame(frame, t_us, tracks)?))?;
+    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate), |frame, t_us, tracks| {
+        Ok(w.write_frame(frame, t_us, tracks)?)
+    })?;
     w.finish()?;
     Ok((fe.times, fe.tracker.stats, n))
 }
@@ -116,7 +128,13 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
     let ms = |s: f64| 1e3 * s / t.frames.max(1) as f64;
     let [cs, cm, ct] = t.cpu;
     println!("| stage | wall ms/frame | CPU ms/frame (all threads) |\n|---|---|---|");
-    println!("| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} | {:.1} |", stereo.num_disparities, stereo.downscale, ms(t.stereo), ms(cs));
+    println!(
+        "| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} | {:.1} |",
+        stereo.num_disparities,
+        stereo.downscale,
+        ms(t.stereo),
+        ms(cs)
+    );
     println!("| masks | {:.1} | {:.1} |", ms(t.masks), ms(cm));
     println!("| KLT + detection + sampling | {:.1} | {:.1} |", ms(t.tracking), ms(ct));
     let cpu = ms(cs + cm + ct);
@@ -132,9 +150,19 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
 
 fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
     let d1 = stereo2015_d1(root, "000046_10.png", stereo)?;
-    println!("stereo2015 000046_10: D1-all {:.2}% over {} ground-truth pixels ({:.1}% without a match, counted as bad)", 100.0 * d1.share(), d1.pixels, 100.0 * (1.0 - d1.density()));
+    println!(
+        "stereo2015 000046_10: D1-all {:.2}% over {} ground-truth pixels ({:.1}% without a match, counted as bad)",
+        100.0 * d1.share(),
+        d1.pixels,
+        100.0 * (1.0 - d1.density())
+    );
     let c = odometry06(root, stereo, TrackerParams::default())?;
-    println!("odometry 06: {} static tracks with depth at frame 12; KLT survival 12->13 {:.1}%, 13->14 {:.1}%", c.corners, 100.0 * c.survival[0], 100.0 * c.survival[1]);
+    println!(
+        "odometry 06: {} static tracks with depth at frame 12; KLT survival 12->13 {:.1}%, 13->14 {:.1}%",
+        c.corners,
+        100.0 * c.survival[0],
+        100.0 * c.survival[1]
+    );
     for (pair, m) in ["12->13", "12->14"].iter().zip(c.motion) {
         match m {
             Some(m) => println!(

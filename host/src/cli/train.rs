@@ -9,9 +9,12 @@ use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 
 use super::bench::parse_dims;
-use super::common::{progress, DataArgs, DEFAULT_DIMS};
+use super::common::{DEFAULT_DIMS, DataArgs, progress};
 use crate::train::loss::LossConfig;
-use crate::train::{train_fold_with, Event, Hyper, TrainConfig, DEFAULT_MIRROR, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION};
+use crate::train::{
+    DEFAULT_MIRROR, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper, TrainConfig,
+    train_fold_with,
+};
 use crate::trajectory::Source;
 
 /// Blob precisions.
@@ -34,7 +37,9 @@ impl From<PrecisionArg> for Precision {
 
 /// Options of `dynotraj train`.
 #[derive(Debug, Args)]
-#[command(after_help = "Run with RAYON_NUM_THREADS=1: candle's thread pools make this small network train about 3 times slower on 2 cores.")]
+#[command(
+    after_help = "Run with RAYON_NUM_THREADS=1: candle's thread pools make this small network train about 3 times slower on 2 cores."
+)]
 pub struct TrainArgs {
     /// Data options.
     #[command(flatten)]
@@ -131,15 +136,38 @@ impl HyperArgs {
     /// # Errors
     /// A value out of range, naming its flag.
     pub fn hyper(&self) -> anyhow::Result<Hyper> {
-        anyhow::ensure!(self.position_floor > 0.0, "--position-floor: expected metres > 0, found {}", self.position_floor);
-        anyhow::ensure!(self.likelihood_weight >= 0.0 && self.ade_weight >= 0.0, "--likelihood-weight, --ade-weight: expected >= 0");
-        anyhow::ensure!(self.likelihood_weight > 0.0 || self.ade_weight > 0.0, "--likelihood-weight and --ade-weight are both 0: nothing to train on");
+        anyhow::ensure!(
+            self.position_floor > 0.0,
+            "--position-floor: expected metres > 0, found {}",
+            self.position_floor
+        );
+        anyhow::ensure!(
+            self.likelihood_weight >= 0.0 && self.ade_weight >= 0.0,
+            "--likelihood-weight, --ade-weight: expected >= 0"
+        );
+        anyhow::ensure!(
+            self.likelihood_weight > 0.0 || self.ade_weight > 0.0,
+            "--likelihood-weight and --ade-weight are both 0: nothing to train on"
+        );
         anyhow::ensure!(self.weight_decay >= 0.0, "--weight-decay: expected >= 0, found {}", self.weight_decay);
-        anyhow::ensure!((0.0..1.0).contains(&self.val_fraction), "--val-fraction: expected a share in [0, 1), found {}", self.val_fraction);
-        anyhow::ensure!((0.0..1.0).contains(&self.ema_decay), "--ema-decay: expected a decay in [0, 1), found {}", self.ema_decay);
+        anyhow::ensure!(
+            (0.0..1.0).contains(&self.val_fraction),
+            "--val-fraction: expected a share in [0, 1), found {}",
+            self.val_fraction
+        );
+        anyhow::ensure!(
+            (0.0..1.0).contains(&self.ema_decay),
+            "--ema-decay: expected a decay in [0, 1), found {}",
+            self.ema_decay
+        );
         anyhow::ensure!(self.restarts >= 1, "--restarts: expected at least 1, found {}", self.restarts);
         anyhow::ensure!(self.batch > 0 && self.epochs > 0, "--batch and --epochs must be at least 1");
-        let loss = LossConfig { position_floor_m: self.position_floor, likelihood_weight: self.likelihood_weight, ade_weight: self.ade_weight, ..LossConfig::default() };
+        let loss = LossConfig {
+            position_floor_m: self.position_floor,
+            likelihood_weight: self.likelihood_weight,
+            ade_weight: self.ade_weight,
+            ..LossConfig::default()
+        };
         Ok(Hyper {
             epochs: self.epochs,
             batch: self.batch,
@@ -174,7 +202,9 @@ impl HyperArgs {
 /// Loading errors, no training instances, I/O errors.
 pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     if std::env::var_os("RAYON_NUM_THREADS").is_none() && std::env::var_os("CANDLE_NUM_THREADS").is_none() {
-        log::warn!("RAYON_NUM_THREADS is unset: candle will use every core, which trains about 3 times slower on small machines; set RAYON_NUM_THREADS=1");
+        log::warn!(
+            "RAYON_NUM_THREADS is unset: candle will use every core, which trains about 3 times slower on small machines; set RAYON_NUM_THREADS=1"
+        );
     }
     let dt = args.data.dt()?;
     let rule = args.data.rule()?;
@@ -184,7 +214,8 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
             log::warn!("--exclude {ex}: no such sequence was loaded");
         }
     }
-    let mut config = TrainConfig { dt, rule, dims: args.dims, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
+    let mut config =
+        TrainConfig { dt, rule, dims: args.dims, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
     args.hyper.apply(&mut config)?;
     let bar = progress(0, "training");
     let mut val = f32::NAN;
@@ -196,14 +227,24 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         }
         Event::Epoch(r) => {
             val = r.val_ade;
-            log::info!("epoch {}: loss {:.3} log-lik {:.3} KL {:.3} beta {:.1} val ADE {:.3} ({:.1} s)", r.epoch, r.loss, r.log_likelihood, r.kl, r.beta, r.val_ade, r.seconds);
+            log::info!(
+                "epoch {}: loss {:.3} log-lik {:.3} KL {:.3} beta {:.1} val ADE {:.3} ({:.1} s)",
+                r.epoch,
+                r.loss,
+                r.log_likelihood,
+                r.kl,
+                r.beta,
+                r.val_ade,
+                r.seconds
+            );
         }
     })?;
     bar.finish_and_clear();
     let files = model.save(&args.out)?;
     if args.precision != PrecisionArg::F32 {
         let path = &files.f32_blob;
-        std::fs::write(path, model.blob(args.precision.into())?).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(path, model.blob(args.precision.into())?)
+            .with_context(|| format!("writing {}", path.display()))?;
     }
     let r = &model.report;
     println!(
@@ -225,7 +266,15 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     // The same data, settings and seed give the same bytes: these identify the model. (Not
     // CRC-32: a blob ends in its own CRC-32, and the CRC-32 of any such file is one constant.)
     let crc64 = crc::Crc::<u64>::new(&crc::CRC_64_ECMA_182);
-    let crc = |p: &std::path::Path| std::fs::read(p).map(|b| crc64.checksum(&b)).with_context(|| format!("reading {}", p.display()));
-    println!("model CRC-64: {:016x} ({}), int8 {:016x} ({})", crc(&files.f32_blob)?, files.f32_blob.display(), crc(&files.int8_blob)?, files.int8_blob.display());
+    let crc = |p: &std::path::Path| {
+        std::fs::read(p).map(|b| crc64.checksum(&b)).with_context(|| format!("reading {}", p.display()))
+    };
+    println!(
+        "model CRC-64: {:016x} ({}), int8 {:016x} ({})",
+        crc(&files.f32_blob)?,
+        files.f32_blob.display(),
+        crc(&files.int8_blob)?,
+        files.int8_blob.display()
+    );
     Ok(())
 }

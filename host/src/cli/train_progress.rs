@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::experiment::folds::TrainProgress;
 use crate::experiment::FoldReport;
+use crate::experiment::folds::TrainProgress;
 use crate::train::Event;
 
 /// The bars of one training stage.
@@ -27,9 +27,16 @@ impl TrainBars {
     #[must_use]
     pub fn new(folds: usize) -> Self {
         let terminal = std::io::stderr().is_terminal();
-        let multi = MultiProgress::with_draw_target(if terminal { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() });
+        let multi = MultiProgress::with_draw_target(if terminal {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        });
         let overall = multi.add(ProgressBar::new(folds as u64));
-        overall.set_style(ProgressStyle::with_template("folds {bar:30} {pos}/{len} [{elapsed}] {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+        overall.set_style(
+            ProgressStyle::with_template("folds {bar:30} {pos}/{len} [{elapsed}] {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
         Self { multi, overall, running: Mutex::new(BTreeMap::new()), start: Instant::now(), terminal }
     }
 
@@ -46,7 +53,10 @@ impl TrainProgress for TrainBars {
         let Ok(mut running) = self.running.lock() else { return };
         let bar = running.entry(label.to_string()).or_insert_with(|| {
             let b = self.multi.add(ProgressBar::new(total as u64));
-            b.set_style(ProgressStyle::with_template("  {msg:32} {bar:30} {pos}/{len}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+            b.set_style(
+                ProgressStyle::with_template("  {msg:32} {bar:30} {pos}/{len}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
             b
         });
         bar.set_length(total as u64);
@@ -73,7 +83,12 @@ impl TrainProgress for TrainBars {
         if self.terminal {
             self.overall.set_message(line);
         } else {
-            eprintln!("[{:>6.0} s] fold {}/{} {line}", self.start.elapsed().as_secs_f64(), self.overall.position(), self.overall.length().unwrap_or(0));
+            eprintln!(
+                "[{:>6.0} s] fold {}/{} {line}",
+                self.start.elapsed().as_secs_f64(),
+                self.overall.position(),
+                self.overall.length().unwrap_or(0)
+            );
         }
     }
 }

@@ -8,8 +8,8 @@
 use std::time::Instant;
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
-use dynotraj_core::wire::{frame_parts, FrameTracks, ObjectClass};
-use dynotraj_fixtures::track_sim::{simulate, LabelBox, SimSpec};
+use dynotraj_core::wire::{FrameTracks, ObjectClass, frame_parts};
+use dynotraj_fixtures::track_sim::{LabelBox, SimSpec, simulate};
 use nalgebra::{Isometry3, Point3};
 
 use super::evaluate::WINDOW;
@@ -79,8 +79,10 @@ pub fn bench(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> Bench
     let intrinsics = Intrinsics::KITTI_0926;
     let spec = SimSpec::kitti(intrinsics, KITTI_IMAGE_SIZE, 0.1, seed);
     let sim = simulate(&cams, &boxes, &spec);
-    let parts: Vec<Vec<FrameTracks>> =
-        sim.iter().map(|f| frame_parts(f.frame, f.timestamp_us, &f.tracks).map(Iterator::collect).unwrap_or_default()).collect();
+    let parts: Vec<Vec<FrameTracks>> = sim
+        .iter()
+        .map(|f| frame_parts(f.frame, f.timestamp_us, &f.tracks).map(Iterator::collect).unwrap_or_default())
+        .collect();
     let mut params = EstimatorParams::kitti(intrinsics, 0.1);
     params.joint_sweeps = joint_sweeps;
     let mut est: Box<Estimator<WINDOW>> = Box::new(Estimator::new(params, seed));

@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use crc::{Crc, CRC_64_ECMA_182};
+use crc::{CRC_64_ECMA_182, Crc};
 
 use crate::kitti::SequenceData;
 use crate::sequence::EstimateSettings;
@@ -32,7 +32,8 @@ pub const ESTIMATE_CACHE_VERSION: u32 = 4;
 pub fn estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings) -> anyhow::Result<u64> {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
-    let what = format!("v{ESTIMATE_CACHE_VERSION} {id} {:?} {:?} {}", settings.options, settings.input, settings.render_scale);
+    let what =
+        format!("v{ESTIMATE_CACHE_VERSION} {id} {:?} {:?} {}", settings.options, settings.input, settings.render_scale);
     d.update(what.as_bytes());
     for path in [&data.labels_path, &data.calib_path, &data.poses_path] {
         d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);
@@ -46,7 +47,12 @@ pub fn estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings) 
 ///
 /// # Errors
 /// A file that cannot be read, named.
-pub fn image_estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings, files: &[PathBuf]) -> anyhow::Result<u64> {
+pub fn image_estimate_key(
+    id: &str,
+    data: &SequenceData,
+    settings: &EstimateSettings,
+    files: &[PathBuf],
+) -> anyhow::Result<u64> {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     d.update(&estimate_key(id, data, settings)?.to_le_bytes());
@@ -83,13 +89,18 @@ pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow
 mod tests {
     use super::*;
     use crate::trajectory::{EstimateInput, Track};
-    use dynotraj_core::wire::ObjectClass;
     use dynotraj_core::BevState;
+    use dynotraj_core::wire::ObjectClass;
 
     #[test]
     fn tracks_round_trip_and_garbage_is_a_miss() {
         let dir = tempfile::tempdir().unwrap();
-        let track = Track { track_id: 3, class: ObjectClass::Cyclist, frames: vec![4, 5], states: vec![BevState { x: 1.5, y: -2.0, heading: 0.25, speed: 3.0 }; 2] };
+        let track = Track {
+            track_id: 3,
+            class: ObjectClass::Cyclist,
+            frames: vec![4, 5],
+            states: vec![BevState { x: 1.5, y: -2.0, heading: 0.25, speed: 3.0 }; 2],
+        };
         let tracks = EstimatedTracks {
             input: EstimateInput::Rendered,
             causal: vec![track.clone()],

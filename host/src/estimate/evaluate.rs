@@ -5,11 +5,11 @@ use std::time::Instant;
 
 use dynotraj_core::estimate::{EstimatorParams, EstimatorStats, Intrinsics, SmootherParams};
 use dynotraj_core::wire::{CameraInfo, ObjectClass};
-use dynotraj_fixtures::track_sim::{simulate, SimFrame, SimSpec};
+use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
 
-use super::input::{sim_input, KITTI_IMAGE_SIZE};
-use super::runner::{run_estimator, run_parts, EstimatorRun, Kind, PartsFrame};
-use super::score::{moving_objects, score_run, smoothness, RunScores, Smoothness, SmoothnessSum};
+use super::input::{KITTI_IMAGE_SIZE, sim_input};
+use super::runner::{EstimatorRun, Kind, PartsFrame, run_estimator, run_parts};
+use super::score::{RunScores, Smoothness, SmoothnessSum, moving_objects, score_run, smoothness};
 use crate::kitti::SequenceData;
 use crate::sequence::ground_truth_of;
 use crate::tracks_file::TracksWriter;
@@ -58,7 +58,14 @@ impl EvalOptions {
         let defaults = EstimatorParams::kitti(Intrinsics::KITTI_0926, dt);
         Self {
             dt,
-            classes: vec![ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist, ObjectClass::Pedestrian],
+            classes: vec![
+                ObjectClass::Car,
+                ObjectClass::Van,
+                ObjectClass::Truck,
+                ObjectClass::Tram,
+                ObjectClass::Cyclist,
+                ObjectClass::Pedestrian,
+            ],
             min_step_m: 0.1,
             seed: 1,
             pixel_sigma: 0.5,
@@ -138,7 +145,13 @@ pub fn estimator_params(spec: &SimSpec, opt: &EvalOptions) -> EstimatorParams {
 /// frame period and priors (what a replayed tracks file needs: the same values give the same
 /// parameters as the simulated run that wrote it).
 #[must_use]
-pub fn params_for(intrinsics: Intrinsics, max_depth: f64, pixel_sigma: f64, disparity_sigma: f64, opt: &EvalOptions) -> EstimatorParams {
+pub fn params_for(
+    intrinsics: Intrinsics,
+    max_depth: f64,
+    pixel_sigma: f64,
+    disparity_sigma: f64,
+    opt: &EvalOptions,
+) -> EstimatorParams {
     let mut p = EstimatorParams::kitti(intrinsics, opt.dt);
     // The noise model never goes below 0.1 px: a noise-free simulation would otherwise give
     // infinite information.
@@ -212,11 +225,29 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
     let smoothness = smoothness_table(id, data, opt, &sim, &run, &moving);
-    SequenceResult { id: id.to_string(), frames: n, min_step_m: opt.min_step_m, scores, smoothness, stats: run.stats, estimate_seconds, sim, run, intrinsics: input.intrinsics }
+    SequenceResult {
+        id: id.to_string(),
+        frames: n,
+        min_step_m: opt.min_step_m,
+        scores,
+        smoothness,
+        stats: run.stats,
+        estimate_seconds,
+        sim,
+        run,
+        intrinsics: input.intrinsics,
+    }
 }
 
 /// Smoothness of labels, truth and each kind, on the frame pairs of the smoothed estimate.
-fn smoothness_table(id: &str, data: &SequenceData, opt: &EvalOptions, sim: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>) -> [Smoothness; 5] {
+fn smoothness_table(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    sim: &[SimFrame],
+    run: &EstimatorRun,
+    moving: &BTreeSet<u16>,
+) -> [Smoothness; 5] {
     let (_, pairs) = smoothness(run.of(Kind::Smoothed), moving);
     let gt = ground_truth_of(id, data, opt.dt);
     let mut labels = SmoothnessSum::default();
@@ -242,7 +273,12 @@ fn smoothness_table(id: &str, data: &SequenceData, opt: &EvalOptions, sim: &[Sim
                 let d = q.pose.translation.vector - p;
                 d.x.hypot(d.z) / dt
             });
-            Some(dynotraj_core::BevState { x: p.x as f32, y: p.z as f32, heading: f.z.atan2(f.x) as f32, speed: speed as f32 })
+            Some(dynotraj_core::BevState {
+                x: p.x as f32,
+                y: p.z as f32,
+                heading: f.z.atan2(f.x) as f32,
+                speed: speed as f32,
+            })
         };
         if let (Some(a), Some(b)) = (state(i), state(i + 1)) {
             truth.push(&a, &b);

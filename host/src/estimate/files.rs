@@ -92,7 +92,10 @@ fn write_estimate_poses(dir: &Path, run: &EstimatorRun) -> anyhow::Result<()> {
         write_tum(dir.join(format!("camera_{}.tum", kind.name())), &est)?;
         write_poses(dir.join(format!("camera_{}.kitti", kind.name())), &est.iter().map(|p| p.1).collect::<Vec<_>>())?;
     }
-    let ids: BTreeSet<u16> = Kind::ALL.iter().flat_map(|k| run.of(*k).iter().flatten().flat_map(|e| e.objects.iter().map(|o| o.object_id))).collect();
+    let ids: BTreeSet<u16> = Kind::ALL
+        .iter()
+        .flat_map(|k| run.of(*k).iter().flatten().flat_map(|e| e.objects.iter().map(|o| o.object_id)))
+        .collect();
     for id in ids {
         for kind in Kind::ALL {
             let est: Vec<(f64, Isometry3<f64>)> = object_poses(run.of(kind), id).map(|(_, t, p)| (t, p)).collect();
@@ -106,9 +109,9 @@ fn write_estimate_poses(dir: &Path, run: &EstimatorRun) -> anyhow::Result<()> {
 
 /// (frame, seconds, pose) of object `id` in a kind's estimates.
 fn object_poses(est: &[Option<PoseEstimate>], id: u16) -> impl Iterator<Item = (u32, f64, Isometry3<f64>)> + '_ {
-    est.iter()
-        .flatten()
-        .filter_map(move |e| e.objects.iter().find(|o| o.object_id == id).map(|o| (e.frame, seconds(e.timestamp_us), f64_pose(&o.pose))))
+    est.iter().flatten().filter_map(move |e| {
+        e.objects.iter().find(|o| o.object_id == id).map(|o| (e.frame, seconds(e.timestamp_us), f64_pose(&o.pose)))
+    })
 }
 
 /// Formats a pose as `tx,ty,tz,qx,qy,qz,qw`.
@@ -131,12 +134,22 @@ fn write_log(path: &Path, frames: &[(u32, u64)], truth: Option<&[SimFrame]>, run
         if let Some(f) = truth.and_then(|tr| tr.get(i)) {
             let _ = writeln!(s, "{frame},{t:.6},truth,camera,,{},{empty_motion},{empty_bev}", pose_cols(&f.camera));
             for o in &f.objects {
-                let _ = writeln!(s, "{frame},{t:.6},truth,{},,{},{empty_motion},{empty_bev}", o.object_id, pose_cols(&o.pose));
+                let _ = writeln!(
+                    s,
+                    "{frame},{t:.6},truth,{},,{},{empty_motion},{empty_bev}",
+                    o.object_id,
+                    pose_cols(&o.pose)
+                );
             }
         }
         for kind in Kind::ALL {
             let Some(Some(e)) = run.of(kind).get(i) else { continue };
-            let _ = writeln!(s, "{frame},{t:.6},{},camera,,{},{empty_motion},{empty_bev}", kind.name(), pose_cols(&f64_pose(&e.camera)));
+            let _ = writeln!(
+                s,
+                "{frame},{t:.6},{},camera,,{},{empty_motion},{empty_bev}",
+                kind.name(),
+                pose_cols(&f64_pose(&e.camera))
+            );
             for o in &e.objects {
                 let b = o.bev;
                 let _ = writeln!(

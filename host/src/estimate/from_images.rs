@@ -16,13 +16,13 @@ use dynotraj_core::wire::frame_parts;
 
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
-use super::evaluate::{params_for, run_with_window, sim_max_depth, EvalOptions};
+use super::evaluate::{EvalOptions, params_for, run_with_window, sim_max_depth};
 use super::input::sim_input;
 use super::runner::{EstimatorRun, PartsFrame};
 use crate::frontend::e2e::{self, EndToEnd};
-use crate::kitti::SequenceData;
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
+use crate::kitti::SequenceData;
 
 /// True when `dir` holds a left and a right image of every frame `0..frames` of `seq`.
 #[must_use]
@@ -61,7 +61,8 @@ pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow:
     let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), s.fb as f32)?;
     let mut frames = Vec::new();
     s.track(&mut fe, opt.max_frames.unwrap_or(usize::MAX), 1.0 / f64::from(opt.dt), |frame, timestamp_us, tracks| {
-        let parts = frame_parts(frame, timestamp_us, tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
+        let parts =
+            frame_parts(frame, timestamp_us, tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
         frames.push(PartsFrame { frame, timestamp_us, parts });
         Ok(())
     })?;
@@ -76,7 +77,10 @@ pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow:
 /// # Errors
 /// A front-end failure, named.
 pub fn estimate_rendered(data: &SequenceData, opt: &EvalOptions, scale: f64) -> anyhow::Result<EndToEnd> {
-    anyhow::ensure!(scale.is_finite() && (0.05..=2.0).contains(&scale), "--render-scale: expected 0.05..=2, found {scale}");
+    anyhow::ensure!(
+        scale.is_finite() && (0.05..=2.0).contains(&scale),
+        "--render-scale: expected 0.05..=2, found {scale}"
+    );
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();

@@ -21,6 +21,6 @@ pub mod input;
 pub mod runner;
 pub mod score;
 
-pub use input::{sim_input, SimInput};
-pub use runner::{run_estimator, EstimatorRun, Kind};
-pub use score::{score_run, smoothness, RunScores, Smoothness};
+pub use input::{SimInput, sim_input};
+pub use runner::{EstimatorRun, Kind, run_estimator};
+pub use score::{RunScores, Smoothness, score_run, smoothness};

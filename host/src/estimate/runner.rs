@@ -1,7 +1,7 @@
 //! Streams simulated frames through the wire into the core estimator and collects its outputs.
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, PoseEstimate, Pushed};
-use dynotraj_core::wire::{encode, frame_parts, FrameBuf, FrameDecoder, FrameTracks, Message, MAX_FRAME_LEN};
+use dynotraj_core::wire::{FrameBuf, FrameDecoder, FrameTracks, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_fixtures::track_sim::SimFrame;
 
 /// Which of the estimator's outputs.
@@ -83,12 +83,15 @@ pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParam
     let mut received = Vec::with_capacity(frames.len());
     for f in frames {
         bytes.clear();
-        for part in frame_parts(f.frame, f.timestamp_us, &f.tracks).expect("the simulator stays within the wire's track budget") {
+        for part in
+            frame_parts(f.frame, f.timestamp_us, &f.tracks).expect("the simulator stays within the wire's track budget")
+        {
             let len = encode(&Message::FrameTracks(part), &mut buf).expect("a frame buffer holds any message");
             bytes.extend_from_slice(&buf[..len]);
         }
         wire_bytes += bytes.len();
-        let parts = decoder.feed(&bytes).filter_map(|m| if let Message::FrameTracks(p) = m { Some(p) } else { None }).collect();
+        let parts =
+            decoder.feed(&bytes).filter_map(|m| if let Message::FrameTracks(p) = m { Some(p) } else { None }).collect();
         received.push(PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts });
     }
     let mut run = run_parts::<W>(&received, params, seed);
@@ -102,7 +105,13 @@ pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParam
 pub fn run_parts<const W: usize>(frames: &[PartsFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
     let mut est: Box<Estimator<W>> = Box::new(Estimator::new(params, seed));
     let n = frames.len();
-    let mut run = EstimatorRun { frame_to_frame: vec![None; n], causal: vec![None; n], smoothed: vec![None; n], stats: EstimatorStats::default(), wire_bytes: 0 };
+    let mut run = EstimatorRun {
+        frame_to_frame: vec![None; n],
+        causal: vec![None; n],
+        smoothed: vec![None; n],
+        stats: EstimatorStats::default(),
+        wire_bytes: 0,
+    };
     let index_of = |frame: u32| frames.iter().position(|f| f.frame == frame);
     for (i, f) in frames.iter().enumerate() {
         for part in &f.parts {

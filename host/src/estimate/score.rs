@@ -10,10 +10,10 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use dynotraj_core::BevState;
 use dynotraj_core::estimate::PoseEstimate;
 use dynotraj_core::geometry::angle_diff;
 use dynotraj_core::metrics::{RpeAccumulator, RpeResult};
-use dynotraj_core::BevState;
 use dynotraj_fixtures::track_sim::SimFrame;
 
 use super::runner::{EstimatorRun, Kind};
@@ -57,7 +57,10 @@ pub fn moving_objects(frames: &[SimFrame], min_step_m: f64) -> BTreeSet<u16> {
             e.2 = Some((i, p));
         }
     }
-    path.into_iter().filter(|(_, (len, steps, _))| *steps > 0 && len / *steps as f64 >= min_step_m).map(|(id, _)| id).collect()
+    path.into_iter()
+        .filter(|(_, (len, steps, _))| *steps > 0 && len / *steps as f64 >= min_step_m)
+        .map(|(id, _)| id)
+        .collect()
 }
 
 /// RPE of every kind of `run` against the truth in `frames`, objects restricted to `moving`.
@@ -170,7 +173,9 @@ pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (Smoo
     for (i, w) in est.windows(2).enumerate() {
         let (Some(a), Some(b)) = (&w[0], &w[1]) else { continue };
         for oa in a.objects.iter().filter(|o| moving.contains(&o.object_id) && o.heading_known) {
-            if let Some(ob) = b.objects.iter().find(|o| o.object_id == oa.object_id && o.segment == oa.segment && o.heading_known) {
+            if let Some(ob) =
+                b.objects.iter().find(|o| o.object_id == oa.object_id && o.segment == oa.segment && o.heading_known)
+            {
                 sum.push(&oa.bev, &ob.bev);
                 pairs.push((oa.object_id, i));
             }

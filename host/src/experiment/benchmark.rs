@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use dynotraj_core::metrics::ForecastScores;
 
-use super::folds::{train_folds, TrainProgress};
-use super::{check_inputs, fold_specs, score_seed, ExperimentConfig, ExperimentResult, FoldReport};
-use crate::report::{fmt_opt, forecast_table, ArmScores, Table};
+use super::folds::{TrainProgress, train_folds};
+use super::{ExperimentConfig, ExperimentResult, FoldReport, check_inputs, fold_specs, score_seed};
+use crate::report::{ArmScores, Table, fmt_opt, forecast_table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::Source;
 
@@ -60,7 +60,12 @@ pub struct BenchmarkResult {
 ///
 /// # Errors
 /// See [`super::run_experiment`].
-pub fn run_benchmark(sequences: &[SequenceTracks], config: &ExperimentConfig, seeds: &[u64], progress: &dyn TrainProgress) -> anyhow::Result<BenchmarkResult> {
+pub fn run_benchmark(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    seeds: &[u64],
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<BenchmarkResult> {
     let start = Instant::now();
     check_inputs(sequences, config)?;
     anyhow::ensure!(!seeds.is_empty(), "--seeds: expected at least one seed");
@@ -94,11 +99,16 @@ pub fn seeds_table(result: &BenchmarkResult, rows_of: impl Fn(&ExperimentResult)
     let Some(first) = result.per_seed.first().and_then(&rows_of) else { return t };
     for (m, metric) in ["ADE", "FDE", "ACE"].into_iter().enumerate() {
         for arm in first {
-            let values: Vec<Option<f64>> =
-                result.per_seed.iter().map(|r| rows_of(r).and_then(|rows| weighted(rows, &arm.label)).map(|v| v[m])).collect();
+            let values: Vec<Option<f64>> = result
+                .per_seed
+                .iter()
+                .map(|r| rows_of(r).and_then(|rows| weighted(rows, &arm.label)).map(|v| v[m]))
+                .collect();
             let known: Vec<f64> = values.iter().flatten().copied().collect();
             let mean = (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64);
-            let spread = (!known.is_empty()).then(|| known.iter().copied().fold(f64::MIN, f64::max) - known.iter().copied().fold(f64::MAX, f64::min));
+            let spread = (!known.is_empty()).then(|| {
+                known.iter().copied().fold(f64::MIN, f64::max) - known.iter().copied().fold(f64::MAX, f64::min)
+            });
             let mut row = vec![metric.to_string(), arm.label.clone()];
             row.extend(values.iter().map(|v| fmt_opt(*v, 3)));
             row.push(fmt_opt(mean, 3));
@@ -167,7 +177,10 @@ mod tests {
 
     #[test]
     fn every_sequence_is_in_exactly_one_group() {
-        let all = ids(&["0013", "0000", "0001", "0002", "0003", "0004", "0005", "0006", "0007", "0008", "0009", "0010", "0011", "0012", "0018", "0020"]);
+        let all = ids(&[
+            "0013", "0000", "0001", "0002", "0003", "0004", "0005", "0006", "0007", "0008", "0009", "0010", "0011",
+            "0012", "0018", "0020",
+        ]);
         let g = sequence_groups(&all, 4);
         assert_eq!(g.len(), 4);
         assert_eq!(g[0], ids(&["0000", "0004", "0008", "0012"]));

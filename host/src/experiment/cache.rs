@@ -16,7 +16,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use crc::{Crc, CRC_64_ECMA_182};
+use crc::{CRC_64_ECMA_182, Crc};
 
 use super::FoldReport;
 use crate::train::TrainConfig;
@@ -48,7 +48,16 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
     let mut d = crc.digest();
     let settings = format!(
         "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {}",
-        train.source, train.exclude, train.dt, train.rule, train.dims, train.hyper, train.validation_fraction, train.validate_on_sequences, train.mirror, train.split_seed
+        train.source,
+        train.exclude,
+        train.dt,
+        train.rule,
+        train.dims,
+        train.hyper,
+        train.validation_fraction,
+        train.validate_on_sequences,
+        train.mirror,
+        train.split_seed
     );
     d.update(settings.as_bytes());
     for seq in train.sequences.iter().filter(|s| !train.exclude.contains(&s.id)) {
@@ -109,8 +118,14 @@ impl FoldCache {
     pub fn store(&self, name: &str, key: u64, fold: &CachedFold) -> anyhow::Result<()> {
         let r = &fold.report;
         let mut line = String::new();
-        let _ = writeln!(line, "{} {} {} {} {} {}", r.train_instances, r.best_epoch, r.shrink, r.val_ade, r.val_cv_ade, r.seconds);
-        for (ext, bytes) in [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())] {
+        let _ = writeln!(
+            line,
+            "{} {} {} {} {} {}",
+            r.train_instances, r.best_epoch, r.shrink, r.val_ade, r.val_cv_ade, r.seconds
+        );
+        for (ext, bytes) in
+            [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
+        {
             let path = self.path(name, key, ext);
             std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
         }
@@ -123,11 +138,16 @@ mod tests {
     use super::*;
     use crate::sequence::SequenceTracks;
     use crate::trajectory::{Source, Track};
-    use dynotraj_core::wire::ObjectClass;
     use dynotraj_core::BevState;
+    use dynotraj_core::wire::ObjectClass;
 
     fn seq(id: &str, x: f32) -> SequenceTracks {
-        let track = Track { track_id: 1, class: ObjectClass::Car, frames: vec![0, 1], states: vec![BevState::default(), BevState { x, ..BevState::default() }] };
+        let track = Track {
+            track_id: 1,
+            class: ObjectClass::Car,
+            frames: vec![0, 1],
+            states: vec![BevState::default(), BevState { x, ..BevState::default() }],
+        };
         SequenceTracks { id: id.into(), frame_count: 2, tracks: vec![track], estimated: None }
     }
 
@@ -151,7 +171,18 @@ mod tests {
     fn a_stored_fold_reads_back_and_a_damaged_one_is_a_miss() {
         let dir = tempfile::tempdir().unwrap();
         let cache = FoldCache::open(dir.path()).unwrap();
-        let report = FoldReport { arm: Source::Gt, sequence: "0003".into(), seed: 1, train_instances: 10, val_ade: 1.5, val_cv_ade: 1.75, best_epoch: 3, shrink: 0.75, seconds: 2.5, cached: false };
+        let report = FoldReport {
+            arm: Source::Gt,
+            sequence: "0003".into(),
+            seed: 1,
+            train_instances: 10,
+            val_ade: 1.5,
+            val_cv_ade: 1.75,
+            best_epoch: 3,
+            shrink: 0.75,
+            seconds: 2.5,
+            cached: false,
+        };
         let fold = CachedFold { f32_blob: vec![1, 2, 3], int8_blob: vec![4, 5], report: report.clone() };
         cache.store("gt-0003", 7, &fold).unwrap();
         let template = FoldReport { train_instances: 0, cached: true, ..report.clone() };

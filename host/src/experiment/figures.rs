@@ -5,15 +5,15 @@
 
 use std::path::{Path, PathBuf};
 
-use dynotraj_core::geometry::angle_diff;
 use dynotraj_core::BevState;
+use dynotraj_core::geometry::angle_diff;
 
 use crate::evaluate::score_sequence;
 use crate::model_file::ModelFile;
-use crate::report::chart::{write_chart, Chart, Series};
+use crate::report::chart::{Chart, Series, write_chart};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
-use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+use crate::trajectory::{EligibilityRule, Source, eligible_runs};
 
 /// A figure written: its file stem's paths and its caption.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,7 +33,12 @@ pub fn longest_moving_object(seq: &SequenceTracks, rule: &EligibilityRule) -> Op
 /// The states of `track_id` through `source`, as (frame, state) in frame order.
 fn states_of(seq: &SequenceTracks, source: Source, track_id: i32, dt: f32) -> Vec<(u32, BevState)> {
     let scene = Scene::new(seq.tracks_for(source), source, dt);
-    scene.runs.iter().filter(|r| r.track_id == track_id).flat_map(|r| r.states.iter().enumerate().map(move |(i, s)| (r.first_frame + i as u32, *s))).collect()
+    scene
+        .runs
+        .iter()
+        .filter(|r| r.track_id == track_id)
+        .flat_map(|r| r.states.iter().enumerate().map(move |(i, s)| (r.first_frame + i as u32, *s)))
+        .collect()
 }
 
 /// What a figure plots per frame: from the previous state (when the frame before is there),
@@ -62,7 +67,8 @@ fn per_source(seq: &SequenceTracks, sources: &[Source], track_id: i32, dt: f32, 
             let mut points = Vec::new();
             let mut unwrapped = 0.0;
             for (i, (frame, s)) in states.iter().enumerate() {
-                let prev = i.checked_sub(1).and_then(|j| states.get(j)).filter(|(pf, _)| pf + 1 == *frame).map(|(_, p)| p);
+                let prev =
+                    i.checked_sub(1).and_then(|j| states.get(j)).filter(|(pf, _)| pf + 1 == *frame).map(|(_, p)| p);
                 unwrapped = match prev {
                     Some(p) => unwrapped + f64::from(angle_diff(s.heading, p.heading)),
                     None => f64::from(s.heading),
@@ -82,7 +88,14 @@ fn per_source(seq: &SequenceTracks, sources: &[Source], track_id: i32, dt: f32, 
 ///
 /// # Errors
 /// A figure that cannot be drawn or written, named.
-pub fn write_figures(dir: &Path, sequences: &[SequenceTracks], arms: &[Source], rule: &EligibilityRule, dt: f32, models: &Path) -> anyhow::Result<Vec<Figure>> {
+pub fn write_figures(
+    dir: &Path,
+    sequences: &[SequenceTracks],
+    arms: &[Source],
+    rule: &EligibilityRule,
+    dt: f32,
+    models: &Path,
+) -> anyhow::Result<Vec<Figure>> {
     std::fs::create_dir_all(dir)?;
     let mut sources = vec![Source::Gt, Source::GtEkf];
     sources.extend(arms.iter().copied().filter(|a| a.is_estimated() && a.is_causal()));
@@ -99,9 +112,17 @@ pub fn write_figures(dir: &Path, sequences: &[SequenceTracks], arms: &[Source], 
             ("fig4_heading_0000", "heading", "degrees", heading_deg),
         ];
         for (stem, name, unit, f) in charts {
-            let chart = Chart { title: format!("{name}: {what}"), x_label: "frame".into(), y_label: unit.into(), series: per_source(seq, &sources, track, dt, f) };
+            let chart = Chart {
+                title: format!("{name}: {what}"),
+                x_label: "frame".into(),
+                y_label: unit.into(),
+                series: per_source(seq, &sources, track, dt, f),
+            };
             let [png, _] = write_chart(&chart, &dir.join(stem))?;
-            out.push(Figure { png, caption: format!("The {name} of {what}, per source (the paper's figure {}).", &stem[3..4]) });
+            out.push(Figure {
+                png,
+                caption: format!("The {name} of {what}, per source (the paper's figure {}).", &stem[3..4]),
+            });
         }
         let mut series = Vec::new();
         for &arm in arms.iter().filter(|a| seq.has(**a)) {
@@ -112,10 +133,22 @@ pub fn write_figures(dir: &Path, sequences: &[SequenceTracks], arms: &[Source], 
             let runs: Vec<_> = eligible_runs(tracks, rule).into_iter().filter(|r| r.track_id == track).collect();
             let scene = Scene::new(tracks, arm, dt);
             let scores = score_sequence(&runs, &scene, &mut predictor, dt);
-            series.push(Series { label: format!("learned int8 on {arm}"), points: scores.instances.iter().filter_map(|i| i.ace.map(|a| (f64::from(i.frame), f64::from(a)))).collect() });
+            series.push(Series {
+                label: format!("learned int8 on {arm}"),
+                points: scores
+                    .instances
+                    .iter()
+                    .filter_map(|i| i.ace.map(|a| (f64::from(i.frame), f64::from(a))))
+                    .collect(),
+            });
         }
         if series.iter().any(|s| !s.points.is_empty()) {
-            let chart = Chart { title: format!("ACE per forecast: {what}"), x_label: "frame".into(), y_label: "ACE (m)".into(), series };
+            let chart = Chart {
+                title: format!("ACE per forecast: {what}"),
+                x_label: "frame".into(),
+                y_label: "ACE (m)".into(),
+                series,
+            };
             let [png, _] = write_chart(&chart, &dir.join("fig5_ace_0000"))?;
             out.push(Figure { png, caption: format!("ACE of consecutive int8 forecasts of {what}, per arm, each model trained without sequence 0000 (the paper's figure 5).") });
         }
@@ -125,7 +158,12 @@ pub fn write_figures(dir: &Path, sequences: &[SequenceTracks], arms: &[Source], 
     {
         let sources: Vec<Source> = sources.iter().copied().filter(|s| seq.has(*s)).collect();
         let what = format!("sequence 0018, object {track} ({len} frames)");
-        let chart = Chart { title: format!("heading: {what}"), x_label: "frame".into(), y_label: "degrees".into(), series: per_source(seq, &sources, track, dt, heading_deg) };
+        let chart = Chart {
+            title: format!("heading: {what}"),
+            x_label: "frame".into(),
+            y_label: "degrees".into(),
+            series: per_source(seq, &sources, track, dt, heading_deg),
+        };
         let [png, _] = write_chart(&chart, &dir.join("fig6_heading_0018"))?;
         out.push(Figure { png, caption: format!("The heading of {what}, per source (the paper's figure 6).") });
     }

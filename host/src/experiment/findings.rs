@@ -15,7 +15,15 @@ fn total_of(arms: &[ArmScores], label: &str) -> Option<[f64; 3]> {
 }
 
 fn compare(a: [f64; 3], b: [f64; 3]) -> String {
-    let word = |x: f64, y: f64| if x < y { "lower" } else if x > y { "higher" } else { "equal" };
+    let word = |x: f64, y: f64| {
+        if x < y {
+            "lower"
+        } else if x > y {
+            "higher"
+        } else {
+            "equal"
+        }
+    };
     format!(
         "ADE {:.2} vs {:.2} ({}), FDE {:.2} vs {:.2} ({}), ACE {:.2} vs {:.2} ({})",
         a[0],
@@ -54,7 +62,9 @@ pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec
     };
     let mut out = Vec::new();
     for s in sources {
-        if let (Some(l), Some(cv)) = (total_of(arms, &format!("learned int8 on {s}")), total_of(arms, &format!("cv on {s}"))) {
+        if let (Some(l), Some(cv)) =
+            (total_of(arms, &format!("learned int8 on {s}")), total_of(arms, &format!("cv on {s}")))
+        {
             let beats = l[0] < cv[0];
             out.push(format!(
                 "{prefix}{s}: the learned int8 model {} constant velocity on the weighted ADE: {}.",
@@ -72,7 +82,10 @@ pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec
     }
     for ours in sources.iter().filter(|s| s.is_estimated()) {
         for other in sources.iter().filter(|s| !s.is_estimated()) {
-            if let (Some(a), Some(b)) = (total_of(arms, &format!("learned int8 on {ours}")), total_of(arms, &format!("learned int8 on {other}"))) {
+            if let (Some(a), Some(b)) = (
+                total_of(arms, &format!("learned int8 on {ours}")),
+                total_of(arms, &format!("learned int8 on {other}")),
+            ) {
                 out.push(format!("{prefix}{ours} against {other} (learned int8, {how}): {}.", compare(a, b)));
             }
         }
@@ -94,7 +107,12 @@ mod tests {
 
     #[test]
     fn findings_say_who_beats_whom() {
-        let arms = [arm("learned int8 on gt", 1.3), arm("cv on gt", 1.2), arm("learned int8 on estimated", 1.0), arm("cv on estimated", 1.1)];
+        let arms = [
+            arm("learned int8 on gt", 1.3),
+            arm("cv on gt", 1.2),
+            arm("learned int8 on estimated", 1.0),
+            arm("cv on estimated", 1.1),
+        ];
         let f = findings(&arms, &[Source::Estimated, Source::Gt], Scoring::OwnFuture);
         assert_eq!(f.len(), 3, "{f:?}");
         assert!(f[0].starts_with("estimated: the learned int8 model beats"), "{}", f[0]);
@@ -103,6 +121,10 @@ mod tests {
         let with_fit = [arm("learned int8 on gt", 1.3), arm("cv on gt", 1.2), arm("cv-fit on gt", 1.25)];
         let g = findings(&with_fit, &[Source::Gt], Scoring::OwnFuture);
         assert_eq!(g.len(), 2, "{g:?}");
-        assert!(g[1].starts_with("gt: against its own zero-control forecast") && g[1].contains("gains nothing"), "{}", g[1]);
+        assert!(
+            g[1].starts_with("gt: against its own zero-control forecast") && g[1].contains("gains nothing"),
+            "{}",
+            g[1]
+        );
     }
 }

@@ -4,11 +4,11 @@
 use anyhow::Context as _;
 use dynotraj_core::model::blob::Precision;
 
-use super::cache::{fold_key, CachedFold, FoldCache};
+use super::cache::{CachedFold, FoldCache, fold_key};
 use super::{ExperimentConfig, FoldReport};
 use crate::jobs::map_jobs;
 use crate::sequence::SequenceTracks;
-use crate::train::{train_fold_with, Event, TrainConfig};
+use crate::train::{Event, TrainConfig, train_fold_with};
 use crate::trajectory::Source;
 
 /// One model to train: an arm, one of the config's folds (by index) and a seed.
@@ -45,7 +45,11 @@ impl FoldSpec {
     #[must_use]
     pub fn name(&self, config: &ExperimentConfig, default_seed: u64) -> String {
         let held = config.folds.get(self.fold).map(|f| f.join("+")).unwrap_or_default();
-        if self.seed == default_seed { format!("{}-{held}", self.arm) } else { format!("{}-{held}-s{}", self.arm, self.seed) }
+        if self.seed == default_seed {
+            format!("{}-{held}", self.arm)
+        } else {
+            format!("{}-{held}-s{}", self.arm, self.seed)
+        }
     }
 
     /// The training set-up of this fold.
@@ -69,7 +73,12 @@ impl FoldSpec {
 ///
 /// # Errors
 /// A fold with no training data; a numerical failure; cache or blob errors, named by fold.
-pub fn train_folds(sequences: &[SequenceTracks], config: &ExperimentConfig, specs: &[FoldSpec], progress: &dyn TrainProgress) -> anyhow::Result<Vec<CachedFold>> {
+pub fn train_folds(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    specs: &[FoldSpec],
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<Vec<CachedFold>> {
     let cache = config.cache.as_deref().map(FoldCache::open).transpose()?;
     let results = map_jobs(specs, config.jobs, |spec| -> anyhow::Result<CachedFold> {
         let train = spec.train_config(sequences, config);
@@ -92,7 +101,8 @@ pub fn train_folds(sequences: &[SequenceTracks], config: &ExperimentConfig, spec
             progress.done(&name, &fold.report);
             return Ok(fold);
         }
-        let model = train_fold_with(&train, &mut |e| progress.event(&name, e)).with_context(|| format!("training fold {name}"))?;
+        let model = train_fold_with(&train, &mut |e| progress.event(&name, e))
+            .with_context(|| format!("training fold {name}"))?;
         let r = &model.report;
         let report = FoldReport {
             train_instances: r.train_instances,
@@ -104,7 +114,8 @@ pub fn train_folds(sequences: &[SequenceTracks], config: &ExperimentConfig, spec
             cached: false,
             ..template
         };
-        let fold = CachedFold { f32_blob: model.blob(Precision::F32)?, int8_blob: model.blob(Precision::Int8)?, report };
+        let fold =
+            CachedFold { f32_blob: model.blob(Precision::F32)?, int8_blob: model.blob(Precision::Int8)?, report };
         if let Some(c) = &cache {
             c.store(&name, key, &fold)?;
         }
@@ -120,15 +131,20 @@ mod tests {
     use dynotraj_core::wire::ObjectClass;
 
     use super::*;
-    use crate::train::synthetic::constant_control_runs;
     use crate::train::Hyper;
+    use crate::train::synthetic::constant_control_runs;
     use crate::trajectory::{EligibilityRule, Track};
 
     fn sequence(id: &str, seed: u64) -> SequenceTracks {
         let tracks = constant_control_runs(4, 50, 0.05, seed)
             .into_iter()
             .enumerate()
-            .map(|(i, states)| Track { track_id: i as i32, class: ObjectClass::Car, frames: (0..states.len() as u32).collect(), states })
+            .map(|(i, states)| Track {
+                track_id: i as i32,
+                class: ObjectClass::Car,
+                frames: (0..states.len() as u32).collect(),
+                states,
+            })
             .collect();
         SequenceTracks { id: id.into(), frame_count: 50, tracks, estimated: None }
     }
@@ -154,19 +170,30 @@ mod tests {
     /// train one after another or two at a time; another seed gives other models.
     #[test]
     fn training_is_reproducible_and_independent_of_the_number_of_jobs() {
-        let sequences: Vec<SequenceTracks> = ["a", "b", "c", "d", "e"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
+        let sequences: Vec<SequenceTracks> =
+            ["a", "b", "c", "d", "e"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
         let specs = super::super::fold_specs(&config(1), &[1, 2]);
         assert_eq!(specs.len(), 4);
         let one = train_folds(&sequences, &config(1), &specs, &Quiet).unwrap();
         let again = train_folds(&sequences, &config(1), &specs, &Quiet).unwrap();
         let two = train_folds(&sequences, &config(2), &specs, &Quiet).unwrap();
-        assert!(one.iter().all(|f| f.report.train_instances > 50), "{:?}", one.iter().map(|f| f.report.train_instances).collect::<Vec<_>>());
+        assert!(
+            one.iter().all(|f| f.report.train_instances > 50),
+            "{:?}",
+            one.iter().map(|f| f.report.train_instances).collect::<Vec<_>>()
+        );
         for ((a, b), c) in one.iter().zip(&again).zip(&two) {
             assert_eq!(a.f32_blob, b.f32_blob, "{}: a rerun differs", a.report.sequence);
             assert_eq!(a.int8_blob, b.int8_blob);
             assert_eq!(a.f32_blob, c.f32_blob, "{}: two jobs differ from one", a.report.sequence);
         }
-        let seed = |s: u64| one.iter().zip(&specs).filter(move |(_, p)| p.seed == s && p.arm == Source::Gt).map(|(f, _)| f.f32_blob.clone()).collect::<Vec<_>>();
+        let seed = |s: u64| {
+            one.iter()
+                .zip(&specs)
+                .filter(move |(_, p)| p.seed == s && p.arm == Source::Gt)
+                .map(|(f, _)| f.f32_blob.clone())
+                .collect::<Vec<_>>()
+        };
         assert_ne!(seed(1), seed(2), "the seed changes the weights");
     }
 
@@ -174,7 +201,8 @@ mod tests {
     /// which is plain training with the fold's seed.
     #[test]
     fn restarts_keep_the_best_validation_model() {
-        let sequences: Vec<SequenceTracks> = ["a", "b", "c", "d"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
+        let sequences: Vec<SequenceTracks> =
+            ["a", "b", "c", "d"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
         let mut one = config(1);
         one.folds = vec![vec!["a".into()]];
         let mut two = one.clone();
@@ -183,7 +211,12 @@ mod tests {
         let plain = crate::train::train_fold(&spec.train_config(&sequences, &one)).unwrap();
         let best = crate::train::train_fold(&spec.train_config(&sequences, &two)).unwrap();
         assert_eq!(plain.report.kept_seed, 1);
-        assert!(best.report.best_val_ade <= plain.report.best_val_ade, "{} > {}", best.report.best_val_ade, plain.report.best_val_ade);
+        assert!(
+            best.report.best_val_ade <= plain.report.best_val_ade,
+            "{} > {}",
+            best.report.best_val_ade,
+            plain.report.best_val_ade
+        );
         if best.report.kept_seed == 1 {
             assert_eq!(best.blob(Precision::F32).unwrap(), plain.blob(Precision::F32).unwrap());
         } else {

@@ -22,15 +22,15 @@ use anyhow::Context as _;
 use dynotraj_core::model::Dims;
 use dynotraj_core::predict::Baseline;
 
-use crate::evaluate::{instance_keys, score_sequence, score_sequence_against, Forecaster, Reference};
+use crate::evaluate::{Forecaster, Reference, instance_keys, score_sequence, score_sequence_against};
 use crate::model_file::ModelFile;
-use crate::report::{forecast_table, ArmScores, Table};
+use crate::report::{ArmScores, Table, forecast_table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::train::Hyper;
-use crate::trajectory::{eligible_runs, EligibilityRule, EligibleRun, Source};
+use crate::trajectory::{EligibilityRule, EligibleRun, Source, eligible_runs};
 use cache::CachedFold;
-use folds::{train_folds, FoldSpec, TrainProgress};
+use folds::{FoldSpec, TrainProgress, train_folds};
 
 /// What to run.
 #[derive(Debug, Clone)]
@@ -134,7 +134,15 @@ pub struct ExperimentResult {
 
 /// Scores `forecaster` on one sequence against the source's own future into `own` and, when
 /// there is a common reference, against it into `common`.
-fn score_both(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32, reference: Option<Reference<'_>>, own: &mut ArmScores, common: &mut ArmScores) {
+fn score_both(
+    runs: &[EligibleRun],
+    scene: &Scene,
+    forecaster: &mut dyn Forecaster,
+    dt: f32,
+    reference: Option<Reference<'_>>,
+    own: &mut ArmScores,
+    common: &mut ArmScores,
+) {
     own.per_sequence.push(score_sequence(runs, scene, forecaster, dt).scores);
     if let Some(r) = reference {
         common.per_sequence.push(score_sequence_against(runs, scene, forecaster, dt, r).scores);
@@ -146,7 +154,11 @@ fn score_both(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecast
 ///
 /// # Errors
 /// A test sequence that is not loaded; a fold with no training data; I/O errors for --out.
-pub fn run_experiment(sequences: &[SequenceTracks], config: &ExperimentConfig, progress: &dyn TrainProgress) -> anyhow::Result<ExperimentResult> {
+pub fn run_experiment(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<ExperimentResult> {
     let start = Instant::now();
     check_inputs(sequences, config)?;
     let specs = fold_specs(config, &[config.hyper.seed]);
@@ -191,13 +203,26 @@ pub fn check_inputs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> 
 }
 
 /// The two blobs of the model that `trained` holds for (arm, fold of `id`, seed), as model files.
-fn models_for(config: &ExperimentConfig, specs: &[FoldSpec], trained: &[CachedFold], arm: Source, id: &str, seed: u64) -> anyhow::Result<[ModelFile; 2]> {
+fn models_for(
+    config: &ExperimentConfig,
+    specs: &[FoldSpec],
+    trained: &[CachedFold],
+    arm: Source,
+    id: &str,
+    seed: u64,
+) -> anyhow::Result<[ModelFile; 2]> {
     let fold = config.fold_of(id).with_context(|| format!("sequence {id} is in no fold"))?;
     let spec = FoldSpec { arm, fold, seed };
-    let k = specs.iter().position(|s| *s == spec).with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
+    let k = specs
+        .iter()
+        .position(|s| *s == spec)
+        .with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
     let t = trained.get(k).with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
     let name = spec.name(config, config.hyper.seed);
-    Ok([ModelFile::from_bytes(t.f32_blob.clone(), &name)?, ModelFile::from_bytes(t.int8_blob.clone(), &format!("{name} (int8)"))?])
+    Ok([
+        ModelFile::from_bytes(t.f32_blob.clone(), &name)?,
+        ModelFile::from_bytes(t.int8_blob.clone(), &format!("{name} (int8)"))?,
+    ])
 }
 
 /// Scores the models of `seed` (trained for `specs`, in `trained`) on every test sequence:
@@ -206,10 +231,23 @@ fn models_for(config: &ExperimentConfig, specs: &[FoldSpec], trained: &[CachedFo
 ///
 /// # Errors
 /// A missing model; a blob that does not load; I/O errors for --out.
-pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs: &[FoldSpec], trained: &[CachedFold], seed: u64) -> anyhow::Result<ExperimentResult> {
+pub fn score_seed(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    specs: &[FoldSpec],
+    trained: &[CachedFold],
+    seed: u64,
+) -> anyhow::Result<ExperimentResult> {
     let ids = config.test_sequences();
-    let tests: Vec<&SequenceTracks> =
-        ids.iter().map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| format!("test sequence {id} is not in the data folder"))).collect::<anyhow::Result<_>>()?;
+    let tests: Vec<&SequenceTracks> = ids
+        .iter()
+        .map(|id| {
+            sequences
+                .iter()
+                .find(|s| &s.id == id)
+                .with_context(|| format!("test sequence {id} is not in the data folder"))
+        })
+        .collect::<anyhow::Result<_>>()?;
     if let Some(dir) = &config.out {
         for (spec, fold) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
             let name = spec.name(config, config.hyper.seed);
@@ -222,11 +260,18 @@ pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs
     let folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
     // The common reference: the simulator's truth of each test sequence, and the instances
     // that every arm has; only when every test sequence has a truth (none from real images).
-    let truths: Option<Vec<Scene>> =
-        tests.iter().map(|s| s.estimated.as_ref().filter(|e| !e.truth.is_empty()).map(|e| Scene::new(&e.truth, Source::Gt, config.dt))).collect();
+    let truths: Option<Vec<Scene>> = tests
+        .iter()
+        .map(|s| {
+            s.estimated.as_ref().filter(|e| !e.truth.is_empty()).map(|e| Scene::new(&e.truth, Source::Gt, config.dt))
+        })
+        .collect();
     // Per arm, per test sequence: the eligible runs of the arm's own tracks.
-    let runs_by_arm: Vec<Vec<Vec<EligibleRun>>> =
-        config.arms.iter().map(|&a| tests.iter().map(|s| eligible_runs(s.tracks_for(a), &config.rule)).collect()).collect();
+    let runs_by_arm: Vec<Vec<Vec<EligibleRun>>> = config
+        .arms
+        .iter()
+        .map(|&a| tests.iter().map(|s| eligible_runs(s.tracks_for(a), &config.rule)).collect())
+        .collect();
     let common_keys: Vec<BTreeSet<(i32, u32)>> = (0..tests.len())
         .map(|i| {
             let mut sets = runs_by_arm.iter().filter_map(|per_test| per_test.get(i)).map(|r| instance_keys(r));
@@ -234,12 +279,20 @@ pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
         })
         .collect();
-    let scenes_by_arm: Vec<Vec<Scene>> = config.arms.iter().map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect()).collect();
+    let scenes_by_arm: Vec<Vec<Scene>> = config
+        .arms
+        .iter()
+        .map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect())
+        .collect();
     let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
         (0..tests.len())
             .map(|i| {
                 let world_yaw = tests[i].estimated.as_ref().filter(|_| source.is_estimated()).map(|e| &e.world_yaw);
-                truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common { truth, only: &common_keys[i], world_yaw })
+                truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common {
+                    truth,
+                    only: &common_keys[i],
+                    world_yaw,
+                })
             })
             .collect()
     };
@@ -288,13 +341,15 @@ pub fn score_seed(sequences: &[SequenceTracks], config: &ExperimentConfig, specs
                     let models = models_for(config, specs, trained, source, &test.id, seed)?;
                     for (arm, file) in row.iter_mut().zip(&models) {
                         let reference = rf.context("deployment needs the simulator's truth")?;
-                        arm.per_sequence.push(score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference).scores);
+                        arm.per_sequence
+                            .push(score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference).scores);
                     }
                 }
                 rows.extend(row);
             }
             for mut baseline in Baseline::ALL {
-                let mut row = ArmScores { label: format!("{} (no training)", baseline.name()), per_sequence: Vec::new() };
+                let mut row =
+                    ArmScores { label: format!("{} (no training)", baseline.name()), per_sequence: Vec::new() };
                 for ((r, sc), rf) in runs_by_arm[e].iter().zip(&scenes_by_arm[e]).zip(&references) {
                     let reference = rf.context("deployment needs the simulator's truth")?;
                     row.per_sequence.push(score_sequence_against(r, sc, &mut baseline, config.dt, reference).scores);

@@ -50,7 +50,18 @@ pub struct Report {
 /// The fold summary as a table.
 #[must_use]
 pub fn folds_table(folds: &[FoldReport]) -> Table {
-    let mut t = Table::new(["arm", "held-out sequences", "seed", "training instances", "epoch kept", "shrink", "val ADE (m)", "val cv ADE (m)", "training s", "cached"]);
+    let mut t = Table::new([
+        "arm",
+        "held-out sequences",
+        "seed",
+        "training instances",
+        "epoch kept",
+        "shrink",
+        "val ADE (m)",
+        "val cv ADE (m)",
+        "training s",
+        "cached",
+    ]);
     for f in folds {
         t.push([
             f.arm.to_string(),
@@ -83,7 +94,12 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     let cached: Vec<&FoldReport> = report.folds.iter().filter(|f| f.cached).collect();
     if !cached.is_empty() {
         let trained: f32 = cached.iter().map(|f| f.seconds).sum();
-        let _ = write!(md, " {} of {} folds were read from the fold cache; training them took {trained:.0} s when they were trained.", cached.len(), report.folds.len());
+        let _ = write!(
+            md,
+            " {} of {} folds were read from the fold cache; training them took {trained:.0} s when they were trained.",
+            cached.len(),
+            report.folds.len()
+        );
     }
     md.push_str("\n\n");
     for s in &report.sections {
@@ -97,7 +113,11 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     }
     let folds = folds_table(&report.folds);
     write("folds.csv".into(), &folds.render(Format::Csv))?;
-    let _ = writeln!(md, "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola fitted through the history), kept when no epoch beats it on the held-out training sequences.\n\n{}\n", folds.render(Format::Md).trim_end());
+    let _ = writeln!(
+        md,
+        "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola fitted through the history), kept when no epoch beats it on the held-out training sequences.\n\n{}\n",
+        folds.render(Format::Md).trim_end()
+    );
     if !report.figures.is_empty() {
         md.push_str("## Figures\n\n");
         for f in &report.figures {
@@ -126,18 +146,40 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let mut table = Table::new(["metric", "avg"]);
         table.push(["ADE", "1.25"]);
-        let fold = FoldReport { arm: Source::Estimated, sequence: "0003".into(), seed: 1, train_instances: 9, val_ade: 1.0, val_cv_ade: 1.1, best_epoch: 2, shrink: 1.0, seconds: 3.0, cached: true };
+        let fold = FoldReport {
+            arm: Source::Estimated,
+            sequence: "0003".into(),
+            seed: 1,
+            train_instances: 9,
+            val_ade: 1.0,
+            val_cv_ade: 1.1,
+            best_epoch: 2,
+            shrink: 1.0,
+            seconds: 3.0,
+            cached: true,
+        };
         let report = Report {
             title: "dynotraj experiment report".into(),
             command: "dynotraj experiment".into(),
-            sections: vec![Section { stem: "table_iv".into(), title: "Table IV".into(), caption: "scored against own future".into(), table }],
+            sections: vec![Section {
+                stem: "table_iv".into(),
+                title: "Table IV".into(),
+                caption: "scored against own future".into(),
+                table,
+            }],
             folds: vec![fold],
             seconds: 90.0,
             notes: vec!["a finding".into()],
-            figures: vec![super::super::figures::Figure { png: dir.path().join("figures/fig5.png"), caption: "ACE".into() }],
+            figures: vec![super::super::figures::Figure {
+                png: dir.path().join("figures/fig5.png"),
+                caption: "ACE".into(),
+            }],
         };
         let md = std::fs::read_to_string(write_report(dir.path(), &report).unwrap()).unwrap();
-        assert!(md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"), "{md}");
+        assert!(
+            md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"),
+            "{md}"
+        );
         assert!(md.contains("| estimated | 0003"), "{md}");
         assert!(md.contains("![ACE](figures/fig5.png)") && md.contains("(figures/fig5.svg)"), "{md}");
         assert!(md.contains("1 of 1 folds were read from the fold cache; training them took 3 s"), "{md}");

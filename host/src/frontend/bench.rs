@@ -4,13 +4,13 @@
 
 use std::collections::BTreeMap;
 
-use dynotraj_fixtures::drive::{generate, DriveSpec};
+use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim, RenderedFrame};
 use dynotraj_fixtures::track_sim::LabelBox;
 use opencv::core::Mat;
-use opencv::imgproc::{cvt_color, COLOR_BGR2GRAY};
+use opencv::imgproc::{COLOR_BGR2GRAY, cvt_color};
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 use super::image_io::{bgr_from_rgb, u16_from_buffer};
 use super::masks::Detection;
 use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};

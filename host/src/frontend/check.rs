@@ -13,17 +13,17 @@
 
 use std::path::Path;
 
-use dynotraj_core::estimate::{fit_pose, Correspondence, EstimatorParams, Intrinsics, Pcg32, PointModel};
+use dynotraj_core::estimate::{Correspondence, EstimatorParams, Intrinsics, Pcg32, PointModel, fit_pose};
 use dynotraj_core::geometry::Pose3;
 use nalgebra::Isometry3;
-use opencv::core::{Mat, Scalar, CV_16UC1};
+use opencv::core::{CV_16UC1, Mat, Scalar};
 use opencv::prelude::*;
 
 use super::depth::DepthMap;
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::Instances;
-use super::stereo::{d1_error, Stereo, StereoParams, D1};
+use super::stereo::{D1, Stereo, StereoParams, d1_error};
 use super::tracker::{Tracker, TrackerParams};
 
 /// D1 of the stereo stage on `<root>/stereo2015/training/{image_2,image_3,disp_occ_0}/<name>`.
@@ -32,7 +32,8 @@ use super::tracker::{Tracker, TrackerParams};
 /// Missing or unreadable images, named.
 pub fn stereo2015_d1(root: &Path, name: &str, params: StereoParams) -> Result<D1, FrontEndError> {
     let dir = root.join("stereo2015/training");
-    let (lp, rp, gp) = (dir.join("image_2").join(name), dir.join("image_3").join(name), dir.join("disp_occ_0").join(name));
+    let (lp, rp, gp) =
+        (dir.join("image_2").join(name), dir.join("image_3").join(name), dir.join("disp_occ_0").join(name));
     let left = read_grey(&lp, "left image")?;
     let right = read_grey(&rp, "right image")?;
     same_size(&right, &rp, &left, &lp)?;
@@ -73,8 +74,16 @@ pub struct OdometryCheck {
 /// Reads `Camera.<key>: value` from an ORB-SLAM style camera.yaml.
 fn yaml_number(text: &str, path: &Path, key: &str) -> Result<f64, FrontEndError> {
     text.lines()
-        .find_map(|l| l.trim().strip_prefix(key).and_then(|r| r.trim().strip_prefix(':')).and_then(|v| v.trim().parse::<f64>().ok()))
-        .ok_or_else(|| FrontEndError::Unreadable { path: path.to_path_buf(), expected: format!("a camera.yaml with a numeric `{key}`") })
+        .find_map(|l| {
+            l.trim()
+                .strip_prefix(key)
+                .and_then(|r| r.trim().strip_prefix(':'))
+                .and_then(|v| v.trim().parse::<f64>().ok())
+        })
+        .ok_or_else(|| FrontEndError::Unreadable {
+            path: path.to_path_buf(),
+            expected: format!("a camera.yaml with a numeric `{key}`"),
+        })
 }
 
 /// The odometry check on `<root>/odometry/06` (frames 12, 13, 14).
@@ -84,12 +93,20 @@ fn yaml_number(text: &str, path: &Path, key: &str) -> Result<f64, FrontEndError>
 pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> Result<OdometryCheck, FrontEndError> {
     let dir = root.join("odometry/06");
     let yaml_path = dir.join("camera.yaml");
-    let yaml = std::fs::read_to_string(&yaml_path).map_err(|source| FrontEndError::Io { path: yaml_path.clone(), source })?;
+    let yaml =
+        std::fs::read_to_string(&yaml_path).map_err(|source| FrontEndError::Io { path: yaml_path.clone(), source })?;
     let num = |k: &str| yaml_number(&yaml, &yaml_path, k);
-    let (fx, fy, cx, cy, bf) = (num("Camera.fx")?, num("Camera.fy")?, num("Camera.cx")?, num("Camera.cy")?, num("Camera.bf")?);
+    let (fx, fy, cx, cy, bf) =
+        (num("Camera.fx")?, num("Camera.fy")?, num("Camera.cx")?, num("Camera.cy")?, num("Camera.bf")?);
     let poses_path = dir.join("poses_gt.txt");
-    let poses = crate::kitti::read_poses(&poses_path).map_err(|e| FrontEndError::Unreadable { path: poses_path.clone(), expected: format!("KITTI poses ({e})") })?;
-    let pose = |k: usize| poses.get(k).copied().ok_or_else(|| FrontEndError::Unreadable { path: poses_path.clone(), expected: format!("a pose for frame {k}") });
+    let poses = crate::kitti::read_poses(&poses_path)
+        .map_err(|e| FrontEndError::Unreadable { path: poses_path.clone(), expected: format!("KITTI poses ({e})") })?;
+    let pose = |k: usize| {
+        poses.get(k).copied().ok_or_else(|| FrontEndError::Unreadable {
+            path: poses_path.clone(),
+            expected: format!("a pose for frame {k}"),
+        })
+    };
 
     let frames: Vec<(std::path::PathBuf, Mat)> = [12, 13, 14]
         .iter()
@@ -113,12 +130,17 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
         empty: 0,
     };
     // Frames 13 and 14 have no depth: the tracker still follows their points.
-    let no_depth = DepthMap::Given(Mat::new_rows_cols_with_default(h, w, opencv::core::CV_32F, Scalar::all(0.0)).map_err(cv("depth image"))?);
+    let no_depth = DepthMap::Given(
+        Mat::new_rows_cols_with_default(h, w, opencv::core::CV_32F, Scalar::all(0.0)).map_err(cv("depth image"))?,
+    );
     let mut tracker = Tracker::new(params);
     let sent12 = tracker.process(&frames[0].1, &depth12, &background)?;
     let mut survival = [0.0; 2];
     let mut motion = [None, None];
-    let mut est_params = EstimatorParams::kitti(Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: 0.0 }, 0.1);
+    let mut est_params = EstimatorParams::kitti(
+        Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: 0.0 },
+        0.1,
+    );
     est_params.pixel_sigma = 1.0;
     let model = PointModel::new(&est_params);
     for (i, k) in [13usize, 14].iter().enumerate() {
@@ -126,7 +148,8 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
         tracker.process(&frames[i + 1].1, &no_depth, &background)?;
         let s = tracker.stats;
         let tracked = s.static_tracked - before.static_tracked;
-        let tried = tracked + (s.static_lost - before.static_lost) + (s.static_failed_check - before.static_failed_check);
+        let tried =
+            tracked + (s.static_lost - before.static_lost) + (s.static_failed_check - before.static_failed_check);
         survival[i] = if tried == 0 { 0.0 } else { tracked as f64 / tried as f64 };
         let now = tracker.static_points();
         let corrs: Vec<Correspondence> = sent12
@@ -138,17 +161,19 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
             })
             .collect();
         let truth = pose(*k)?.inverse() * pose(12)?;
-        motion[i] = fit_pose(&corrs, Some(&Pose3::identity()), &est_params.camera_fit, &model, &mut Pcg32::new(1)).ok().map(|fit| {
-            let est: Isometry3<f64> = fit.pose.cast::<f64>();
-            let e = truth.inverse() * est;
-            MotionError {
-                points: corrs.len(),
-                inliers: fit.inliers,
-                translation_m: e.translation.vector.norm(),
-                rotation_deg: e.rotation.angle().to_degrees(),
-                true_translation_m: truth.translation.vector.norm(),
-            }
-        });
+        motion[i] = fit_pose(&corrs, Some(&Pose3::identity()), &est_params.camera_fit, &model, &mut Pcg32::new(1))
+            .ok()
+            .map(|fit| {
+                let est: Isometry3<f64> = fit.pose.cast::<f64>();
+                let e = truth.inverse() * est;
+                MotionError {
+                    points: corrs.len(),
+                    inliers: fit.inliers,
+                    translation_m: e.translation.vector.norm(),
+                    rotation_deg: e.rotation.angle().to_degrees(),
+                    true_translation_m: truth.translation.vector.norm(),
+                }
+            });
     }
     Ok(OdometryCheck { corners: sent12.len(), survival, motion, stats: tracker.stats })
 }

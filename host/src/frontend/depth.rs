@@ -1,10 +1,10 @@
 //! Per-pixel depth for the front-end: from a stereo disparity map, or from a given depth map
 //! (an RGB-D sensor, or the simulator's exact depth).
 
-use opencv::core::{Mat, CV_32F};
+use opencv::core::{CV_32F, Mat};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 use super::stereo::DisparityMap;
 
 /// Where a frame's depth comes from.

@@ -12,7 +12,7 @@ use super::stats::FrontEndStats;
 use super::stereo::StereoParams;
 use super::tracker::TrackerParams;
 use crate::estimate::evaluate::WINDOW;
-use crate::estimate::{run_estimator, score_run, EstimatorRun, RunScores};
+use crate::estimate::{EstimatorRun, RunScores, run_estimator, score_run};
 
 /// What an end-to-end run gave.
 #[derive(Debug, Clone)]
@@ -34,7 +34,13 @@ pub struct EndToEnd {
 ///
 /// # Errors
 /// An OpenCV failure.
-pub fn run(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams, min_step_m: f64) -> Result<EndToEnd, FrontEndError> {
+pub fn run(
+    sim: &ImageSim,
+    frames: usize,
+    dt: f32,
+    stereo: StereoParams,
+    min_step_m: f64,
+) -> Result<EndToEnd, FrontEndError> {
     let cam = sim.camera;
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
     let mut out = Vec::new();
@@ -44,7 +50,13 @@ pub fn run(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams, min_ste
         let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
         out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
     }
-    let intrinsics = Intrinsics { fx: cam.fx as f32, fy: cam.fy as f32, cx: cam.cx as f32, cy: cam.cy as f32, stereo_fb: cam.fb() as f32 };
+    let intrinsics = Intrinsics {
+        fx: cam.fx as f32,
+        fy: cam.fy as f32,
+        cx: cam.cx as f32,
+        cy: cam.cy as f32,
+        stereo_fb: cam.fb() as f32,
+    };
     let params = EstimatorParams::kitti(intrinsics, dt);
     let run = run_estimator::<WINDOW>(&out, params, 1);
     let moving = crate::estimate::score::moving_objects(&out, min_step_m);

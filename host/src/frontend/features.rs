@@ -4,10 +4,10 @@
 //! ego-motion: corners bunched on one building constrain rotation badly.
 
 use opencv::core::{Mat, Point, Point2f, Scalar, Vector};
-use opencv::imgproc::{circle, good_features_to_track, FILLED, LINE_8};
+use opencv::imgproc::{FILLED, LINE_8, circle, good_features_to_track};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 
 /// Detection parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +42,13 @@ pub struct Detected {
 ///
 /// # Errors
 /// An OpenCV failure.
-pub fn detect(grey: &Mat, allowed: &Mat, existing: &[Point2f], want: usize, p: &DetectParams) -> Result<Detected, FrontEndError> {
+pub fn detect(
+    grey: &Mat,
+    allowed: &Mat,
+    existing: &[Point2f],
+    want: usize,
+    p: &DetectParams,
+) -> Result<Detected, FrontEndError> {
     let (cols, rows) = (p.grid_cols.max(1), p.grid_rows.max(1));
     let (w, h) = (grey.cols().max(1) as f32, grey.rows().max(1) as f32);
     let cell_of = |q: &Point2f| -> usize {
@@ -54,7 +60,16 @@ pub fn detect(grey: &Mat, allowed: &Mat, existing: &[Point2f], want: usize, p: &
     let radius = p.min_distance.round() as i32;
     let mut per_cell = vec![0usize; cols * rows];
     for q in existing {
-        circle(&mut mask, Point::new(q.x.round() as i32, q.y.round() as i32), radius, Scalar::all(0.0), FILLED, LINE_8, 0).map_err(cv("masking existing tracks"))?;
+        circle(
+            &mut mask,
+            Point::new(q.x.round() as i32, q.y.round() as i32),
+            radius,
+            Scalar::all(0.0),
+            FILLED,
+            LINE_8,
+            0,
+        )
+        .map_err(cv("masking existing tracks"))?;
         per_cell[cell_of(q)] += 1;
     }
     let mut found = Detected::default();
@@ -64,7 +79,8 @@ pub fn detect(grey: &Mat, allowed: &Mat, existing: &[Point2f], want: usize, p: &
     let mut corners = Vector::<Point2f>::new();
     // Ask for more than needed so that crowded cells can give way to empty ones.
     let ask = i32::try_from(3 * want).unwrap_or(i32::MAX);
-    good_features_to_track(grey, &mut corners, ask, p.quality, p.min_distance, &mask, 3, false, 0.04).map_err(cv("goodFeaturesToTrack"))?;
+    good_features_to_track(grey, &mut corners, ask, p.quality, p.min_distance, &mask, 3, false, 0.04)
+        .map_err(cv("goodFeaturesToTrack"))?;
     let share = (existing.len() + want).div_ceil(cols * rows);
     let mut taken = vec![false; corners.len()];
     let mut has_corner = vec![false; cols * rows];

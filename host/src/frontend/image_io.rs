@@ -3,11 +3,11 @@
 
 use std::path::Path;
 
-use opencv::core::{Mat, CV_16UC1, CV_8UC1};
-use opencv::imgcodecs::{imread, IMREAD_ANYDEPTH, IMREAD_GRAYSCALE};
+use opencv::core::{CV_8UC1, CV_16UC1, Mat};
+use opencv::imgcodecs::{IMREAD_ANYDEPTH, IMREAD_GRAYSCALE, imread};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 
 /// Reads `path` as an 8-bit grey image (colour PNGs are converted).
 ///
@@ -77,14 +77,23 @@ pub fn bgr_from_rgb(data: &[u8], width: usize, height: usize) -> Result<Mat, Fro
     mat_from(&swapped, width, height, 3)
 }
 
-fn mat_from<T: opencv::core::DataType>(data: &[T], width: usize, height: usize, channels: usize) -> Result<Mat, FrontEndError> {
-    let bad = |what: &str| FrontEndError::OpenCv { context: format!("image buffer: {what}"), source: opencv::Error::new(0, "bad size") };
+fn mat_from<T: opencv::core::DataType>(
+    data: &[T],
+    width: usize,
+    height: usize,
+    channels: usize,
+) -> Result<Mat, FrontEndError> {
+    let bad = |what: &str| FrontEndError::OpenCv {
+        context: format!("image buffer: {what}"),
+        source: opencv::Error::new(0, "bad size"),
+    };
     if data.len() != width * height * channels || width == 0 || height == 0 {
         return Err(bad("length is not width x height x channels"));
     }
     let flat = Mat::from_slice(data).map_err(cv("wrapping a buffer"))?;
     let rows = i32::try_from(height).map_err(|_| bad("too tall"))?;
-    let shaped = flat.reshape(i32::try_from(channels).map_err(|_| bad("channels"))?, rows).map_err(cv("reshaping a buffer"))?;
+    let shaped =
+        flat.reshape(i32::try_from(channels).map_err(|_| bad("channels"))?, rows).map_err(cv("reshaping a buffer"))?;
     shaped.try_clone().map_err(cv("copying a buffer"))
 }
 

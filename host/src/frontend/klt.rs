@@ -6,7 +6,7 @@ use opencv::core::{Mat, Point2f, Size, TermCriteria, TermCriteria_COUNT, TermCri
 use opencv::prelude::*;
 use opencv::video::{build_optical_flow_pyramid, calc_optical_flow_pyr_lk};
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 
 /// KLT parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,8 +52,17 @@ impl Pyramid {
     /// An OpenCV failure.
     pub fn new(grey: &Mat, p: &KltParams) -> Result<Self, FrontEndError> {
         let mut levels = Vector::<Mat>::new();
-        build_optical_flow_pyramid(grey, &mut levels, Size::new(p.window, p.window), p.levels, true, opencv::core::BORDER_REFLECT_101, opencv::core::BORDER_CONSTANT, true)
-            .map_err(cv("building an optical-flow pyramid"))?;
+        build_optical_flow_pyramid(
+            grey,
+            &mut levels,
+            Size::new(p.window, p.window),
+            p.levels,
+            true,
+            opencv::core::BORDER_REFLECT_101,
+            opencv::core::BORDER_CONSTANT,
+            true,
+        )
+        .map_err(cv("building an optical-flow pyramid"))?;
         Ok(Self { levels, size: grey.size().map_err(cv("image size"))? })
     }
 }
@@ -66,21 +75,48 @@ pub fn track(prev: &Pyramid, cur: &Pyramid, points: &[Point2f], p: &KltParams) -
     if points.is_empty() {
         return Ok(Vec::new());
     }
-    let criteria = TermCriteria::new(TermCriteria_COUNT + TermCriteria_EPS, p.iterations, 0.01).map_err(cv("KLT criteria"))?;
+    let criteria =
+        TermCriteria::new(TermCriteria_COUNT + TermCriteria_EPS, p.iterations, 0.01).map_err(cv("KLT criteria"))?;
     let win = Size::new(p.window, p.window);
     let src = Vector::<Point2f>::from_slice(points);
     let (mut fwd, mut st, mut err) = (Vector::<Point2f>::new(), Vector::<u8>::new(), Vector::<f32>::new());
-    calc_optical_flow_pyr_lk(&prev.levels, &cur.levels, &src, &mut fwd, &mut st, &mut err, win, p.levels, criteria, 0, 1e-4)
-        .map_err(cv("KLT forward"))?;
+    calc_optical_flow_pyr_lk(
+        &prev.levels,
+        &cur.levels,
+        &src,
+        &mut fwd,
+        &mut st,
+        &mut err,
+        win,
+        p.levels,
+        criteria,
+        0,
+        1e-4,
+    )
+    .map_err(cv("KLT forward"))?;
     let (mut back, mut st_b) = (Vector::<Point2f>::new(), Vector::<u8>::new());
-    calc_optical_flow_pyr_lk(&cur.levels, &prev.levels, &fwd, &mut back, &mut st_b, &mut err, win, p.levels, criteria, 0, 1e-4)
-        .map_err(cv("KLT backward"))?;
+    calc_optical_flow_pyr_lk(
+        &cur.levels,
+        &prev.levels,
+        &fwd,
+        &mut back,
+        &mut st_b,
+        &mut err,
+        win,
+        p.levels,
+        criteria,
+        0,
+        1e-4,
+    )
+    .map_err(cv("KLT backward"))?;
     let (w, h) = (cur.size.width as f32, cur.size.height as f32);
     let out = points
         .iter()
         .enumerate()
         .map(|(i, p0)| {
-            let (Ok(f), Ok(b), Ok(s), Ok(sb)) = (fwd.get(i), back.get(i), st.get(i), st_b.get(i)) else { return Tracked::Lost };
+            let (Ok(f), Ok(b), Ok(s), Ok(sb)) = (fwd.get(i), back.get(i), st.get(i), st_b.get(i)) else {
+                return Tracked::Lost;
+            };
             if s == 0 || !(0.0..w - 1.0).contains(&f.x) || !(0.0..h - 1.0).contains(&f.y) {
                 return Tracked::Lost;
             }

@@ -3,11 +3,11 @@
 //! consistent ids for boxes that come without them (IoU association with the previous frame).
 
 use dynotraj_core::wire::ObjectClass;
-use opencv::core::{Mat, Scalar, CV_16UC1};
+use opencv::core::{CV_16UC1, Mat, Scalar};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
 use super::depth::DepthMap;
+use super::error::{FrontEndError, cv};
 #[cfg(test)]
 use super::stereo::DisparityMap;
 
@@ -69,8 +69,14 @@ fn depth_tolerance(median: f32) -> f32 {
 ///
 /// # Errors
 /// An OpenCV failure.
-pub fn from_boxes(width: i32, height: i32, detections: &[(u16, Detection)], depth: &DepthMap) -> Result<Instances, FrontEndError> {
-    let mut labels = Mat::new_rows_cols_with_default(height, width, CV_16UC1, Scalar::all(0.0)).map_err(cv("allocating a label image"))?;
+pub fn from_boxes(
+    width: i32,
+    height: i32,
+    detections: &[(u16, Detection)],
+    depth: &DepthMap,
+) -> Result<Instances, FrontEndError> {
+    let mut labels = Mat::new_rows_cols_with_default(height, width, CV_16UC1, Scalar::all(0.0))
+        .map_err(cv("allocating a label image"))?;
     let depth_at = |u: i32, v: i32| depth.at(u as f32, v as f32);
     let clamp_box = |b: &[f32; 4]| {
         let l = (b[0].floor() as i32).clamp(0, width - 1);
@@ -221,10 +227,14 @@ mod tests {
         let d = Detection { bbox: [20.0, 20.0, 59.0, 59.0], class: ObjectClass::Car, object_id: Some(3) };
         let inst = from_boxes(100, 100, &[(3, d)], &map).unwrap();
         assert_eq!(inst.objects.len(), 1);
-        let count = (0..100).flat_map(|v| (0..100).map(move |u| (u, v))).filter(|&(u, v)| *inst.labels.at_2d::<u16>(v, u).unwrap() == 3).count();
+        let count = (0..100)
+            .flat_map(|v| (0..100).map(move |u| (u, v)))
+            .filter(|&(u, v)| *inst.labels.at_2d::<u16>(v, u).unwrap() == 3)
+            .count();
         assert_eq!(count, 400);
         // A box over a region without disparity is counted as empty, not a crash.
-        let nothing = DepthMap::Given(Mat::new_rows_cols_with_default(100, 100, opencv::core::CV_32F, Scalar::all(0.0)).unwrap());
+        let nothing =
+            DepthMap::Given(Mat::new_rows_cols_with_default(100, 100, opencv::core::CV_32F, Scalar::all(0.0)).unwrap());
         let inst = from_boxes(100, 100, &[(3, d)], &nothing).unwrap();
         assert_eq!((inst.objects.len(), inst.empty), (0, 1));
     }

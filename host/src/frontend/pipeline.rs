@@ -5,12 +5,12 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use dynotraj_core::wire::{ObjectClass, Track};
-use opencv::core::{Mat, Scalar, CV_16UC1};
+use opencv::core::{CV_16UC1, Mat, Scalar};
 use opencv::prelude::*;
 
 use super::depth::DepthMap;
-use super::error::{cv, FrontEndError};
-use super::masks::{from_boxes, from_label_image, Detection, IdAssigner, Instances};
+use super::error::{FrontEndError, cv};
+use super::masks::{Detection, IdAssigner, Instances, from_boxes, from_label_image};
 use super::stereo::{Stereo, StereoParams};
 use super::tracker::{Tracker, TrackerParams};
 
@@ -99,7 +99,13 @@ impl FrontEnd {
     /// # Errors
     /// OpenCV refusing the stereo parameters.
     pub fn new(stereo: StereoParams, tracker: TrackerParams, fb: f32) -> Result<Self, FrontEndError> {
-        Ok(Self { stereo: Stereo::new(stereo)?, tracker: Tracker::new(tracker), ids: IdAssigner::default(), fb, times: StageTimes::default() })
+        Ok(Self {
+            stereo: Stereo::new(stereo)?,
+            tracker: Tracker::new(tracker),
+            ids: IdAssigner::default(),
+            fb,
+            times: StageTimes::default(),
+        })
     }
 
     /// Processes one frame; returns its tracks (wire order, within the capacities).
@@ -110,14 +116,18 @@ impl FrontEnd {
         let t0 = Instant::now();
         let c0 = process_cpu_seconds();
         let depth = match input.depth {
-            DepthInput::Right(right) => DepthMap::Stereo { disparity: self.stereo.disparity(&input.left, &right)?, fb: self.fb },
+            DepthInput::Right(right) => {
+                DepthMap::Stereo { disparity: self.stereo.disparity(&input.left, &right)?, fb: self.fb }
+            }
             DepthInput::Depth(d) => DepthMap::Given(d),
         };
         let t1 = Instant::now();
         let c1 = process_cpu_seconds();
         let (w, h) = (input.left.cols(), input.left.rows());
         let instances = match input.masks {
-            MaskInput::Labels(labels, classes) => from_label_image(labels, |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc))?,
+            MaskInput::Labels(labels, classes) => {
+                from_label_image(labels, |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc))?
+            }
             MaskInput::Boxes(dets) => {
                 let with_ids = self.ids.assign(&dets);
                 from_boxes(w, h, &with_ids, &depth)?

@@ -18,15 +18,15 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use dynotraj_core::wire::ObjectClass;
-use opencv::core::{Mat, CV_32F};
+use opencv::core::{CV_32F, Mat};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::Detection;
 use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput};
+use crate::kitti::{LabelRow, read_calib, read_labels};
 use dynotraj_core::wire::Track;
-use crate::kitti::{read_calib, read_labels, LabelRow};
 
 /// How to get depth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -96,10 +96,16 @@ impl ImageSequence {
             return Err(FrontEndError::Missing { path: left_dir, what: "left images NNNNNN.png".into() });
         };
         if let Some(gap) = (first..=last).find(|k| frames.binary_search(k).is_err()) {
-            return Err(FrontEndError::Missing { path: left_dir.join(format!("{gap:06}.png")), what: format!("frame {gap} of {first}..={last}") });
+            return Err(FrontEndError::Missing {
+                path: left_dir.join(format!("{gap:06}.png")),
+                what: format!("frame {gap} of {first}..={last}"),
+            });
         }
         let calib_path = dir.join("calib").join(format!("{seq}.txt"));
-        let calib = read_calib(&calib_path).map_err(|e| FrontEndError::Unreadable { path: calib_path.clone(), expected: format!("KITTI calibration ({e})") })?;
+        let calib = read_calib(&calib_path).map_err(|e| FrontEndError::Unreadable {
+            path: calib_path.clone(),
+            expected: format!("KITTI calibration ({e})"),
+        })?;
         let (p2, p3) = (calib.p[2], calib.p[3]);
         let intrinsics = [p2[(0, 0)], p2[(1, 1)], p2[(0, 2)], p2[(1, 2)]];
         let fb = p2[(0, 3)] - p3[(0, 3)];
@@ -107,7 +113,10 @@ impl ImageSequence {
         let mut labels: BTreeMap<u32, Vec<LabelRow>> = BTreeMap::new();
         let need_labels = matches!(masks, MaskMode::Boxes | MaskMode::Detections);
         if labels_path.is_file() || need_labels {
-            let rows = read_labels(&labels_path).map_err(|e| FrontEndError::Unreadable { path: labels_path.clone(), expected: format!("KITTI labels ({e})") })?;
+            let rows = read_labels(&labels_path).map_err(|e| FrontEndError::Unreadable {
+                path: labels_path.clone(),
+                expected: format!("KITTI labels ({e})"),
+            })?;
             for r in rows.into_iter().filter(|r| !r.is_dont_care()) {
                 labels.entry(r.frame as u32).or_default().push(r);
             }
@@ -120,9 +129,22 @@ impl ImageSequence {
         };
         let first_path = left_dir.join(format!("{first:06}.png"));
         let m = read_grey(&first_path, "left image")?;
-        let mut s = Self { dir: dir.to_path_buf(), seq: seq.to_string(), frames, intrinsics, fb, size: (m.cols(), m.rows()), labels, depth, masks };
+        let mut s = Self {
+            dir: dir.to_path_buf(),
+            seq: seq.to_string(),
+            frames,
+            intrinsics,
+            fb,
+            size: (m.cols(), m.rows()),
+            labels,
+            depth,
+            masks,
+        };
         if s.fb <= 0.0 && depth == DepthMode::Stereo {
-            return Err(FrontEndError::Unreadable { path: calib_path, expected: "P2 and P3 of a stereo pair (P2[0][3] - P3[0][3] > 0)".into() });
+            return Err(FrontEndError::Unreadable {
+                path: calib_path,
+                expected: "P2 and P3 of a stereo pair (P2[0][3] - P3[0][3] > 0)".into(),
+            });
         }
         s.fb = s.fb.max(0.0);
         Ok(s)
@@ -143,10 +165,18 @@ impl ImageSequence {
     ///
     /// # Errors
     /// An unreadable frame or a front-end failure, with the frame named; what `each` returns.
-    pub fn track(&self, fe: &mut FrontEnd, frames: usize, rate_hz: f64, mut each: impl FnMut(u32, u64, &[Track]) -> anyhow::Result<()>) -> anyhow::Result<usize> {
+    pub fn track(
+        &self,
+        fe: &mut FrontEnd,
+        frames: usize,
+        rate_hz: f64,
+        mut each: impl FnMut(u32, u64, &[Track]) -> anyhow::Result<()>,
+    ) -> anyhow::Result<usize> {
         let n = frames.min(self.frames.len());
         for &frame in self.frames.iter().take(n) {
-            let tracks = fe.process(self.load(frame)?).map_err(|e| anyhow::anyhow!("{}: image_02/{}/{frame:06}.png: {e}", self.dir.display(), self.seq))?;
+            let tracks = fe
+                .process(self.load(frame)?)
+                .map_err(|e| anyhow::anyhow!("{}: image_02/{}/{frame:06}.png: {e}", self.dir.display(), self.seq))?;
             let timestamp_us = (f64::from(frame) * 1e6 / rate_hz).round() as u64;
             each(frame, timestamp_us, &tracks)?;
         }
@@ -183,7 +213,8 @@ impl ImageSequence {
                 let mp = self.path("instance_02", frame);
                 let ids = read_u16(&mp, "instance mask")?;
                 same_size(&ids, &mp, &left, &lp)?;
-                let classes = rows.iter().filter_map(|r| Some((u16::try_from(r.track_id + 1).ok()?, class_of(r)))).collect();
+                let classes =
+                    rows.iter().filter_map(|r| Some((u16::try_from(r.track_id + 1).ok()?, class_of(r)))).collect();
                 MaskInput::Labels(ids, classes)
             }
             MaskMode::Boxes | MaskMode::Detections => MaskInput::Boxes(
@@ -191,7 +222,11 @@ impl ImageSequence {
                     .map(|r| Detection {
                         bbox: [r.bbox_left as f32, r.bbox_top as f32, r.bbox_right as f32, r.bbox_bottom as f32],
                         class: class_of(r),
-                        object_id: if self.masks == MaskMode::Boxes { u16::try_from(r.track_id + 1).ok() } else { None },
+                        object_id: if self.masks == MaskMode::Boxes {
+                            u16::try_from(r.track_id + 1).ok()
+                        } else {
+                            None
+                        },
                     })
                     .collect(),
             ),

@@ -18,10 +18,10 @@
 //! Disparity `d` gives depth `f b / d`; pixels the matcher leaves invalid have no depth.
 
 use opencv::calib3d::{StereoSGBM, StereoSGBM_MODE_SGBM_3WAY};
-use opencv::core::{Mat, Size, CV_32F};
+use opencv::core::{CV_32F, Mat, Size};
 use opencv::prelude::*;
 
-use super::error::{cv, FrontEndError};
+use super::error::{FrontEndError, cv};
 
 /// Parameters of the stereo stage.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,8 +90,20 @@ impl Stereo {
         let nd = (params.num_disparities / s).max(16) / 16 * 16;
         let bs = params.block_size | 1;
         let area = bs * bs;
-        let matcher = StereoSGBM::create(0, nd, bs, 8 * area, 32 * area, 1, 63, params.uniqueness, 100, 2, StereoSGBM_MODE_SGBM_3WAY)
-            .map_err(cv("creating StereoSGBM"))?;
+        let matcher = StereoSGBM::create(
+            0,
+            nd,
+            bs,
+            8 * area,
+            32 * area,
+            1,
+            63,
+            params.uniqueness,
+            100,
+            2,
+            StereoSGBM_MODE_SGBM_3WAY,
+        )
+        .map_err(cv("creating StereoSGBM"))?;
         Ok(Self { matcher, params: StereoParams { downscale: s, ..params } })
     }
 
@@ -104,8 +116,15 @@ impl Stereo {
         let (l, r) = if s > 1 {
             let half = |m: &Mat| -> Result<Mat, FrontEndError> {
                 let mut out = Mat::default();
-                opencv::imgproc::resize(m, &mut out, Size::new(m.cols() / s, m.rows() / s), 0.0, 0.0, opencv::imgproc::INTER_AREA)
-                    .map_err(cv("shrinking a stereo image"))?;
+                opencv::imgproc::resize(
+                    m,
+                    &mut out,
+                    Size::new(m.cols() / s, m.rows() / s),
+                    0.0,
+                    0.0,
+                    opencv::imgproc::INTER_AREA,
+                )
+                .map_err(cv("shrinking a stereo image"))?;
                 Ok(out)
             };
             (half(left)?, half(right)?)

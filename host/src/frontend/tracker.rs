@@ -18,14 +18,14 @@
 use std::collections::BTreeMap;
 
 use dynotraj_core::limits::{MAX_OBJECTS, MAX_POINTS_PER_OBJECT, MAX_STATIC_TRACKS};
-use dynotraj_core::wire::{ObjectClass, Track, STATIC_OBJECT_ID};
-use opencv::core::{compare, Mat, Point2f, Scalar, CMP_EQ};
+use dynotraj_core::wire::{ObjectClass, STATIC_OBJECT_ID, Track};
+use opencv::core::{CMP_EQ, Mat, Point2f, Scalar, compare};
 use opencv::prelude::*;
 
 use super::depth::DepthMap;
-use super::error::{cv, FrontEndError};
-use super::features::{detect, DetectParams};
-use super::klt::{track, KltParams, Pyramid, Tracked};
+use super::error::{FrontEndError, cv};
+use super::features::{DetectParams, detect};
+use super::klt::{KltParams, Pyramid, Tracked, track};
 use super::masks::Instances;
 use super::stats::FrontEndStats;
 
@@ -138,8 +138,12 @@ impl Tracker {
         // 1. One KLT pass over every point of frame k-1.
         let (mut statics, mut objects) = (Vec::new(), BTreeMap::<u16, Vec<Feature>>::new());
         if let Some(prev) = self.previous.take() {
-            let all: Vec<(u16, Feature)> =
-                prev.statics.iter().map(|f| (STATIC_OBJECT_ID, *f)).chain(prev.objects.iter().flat_map(|(id, fs)| fs.iter().map(move |f| (*id, *f)))).collect();
+            let all: Vec<(u16, Feature)> = prev
+                .statics
+                .iter()
+                .map(|f| (STATIC_OBJECT_ID, *f))
+                .chain(prev.objects.iter().flat_map(|(id, fs)| fs.iter().map(move |f| (*id, *f))))
+                .collect();
             let pts: Vec<Point2f> = all.iter().map(|(_, f)| f.at).collect();
             let result = track(&prev.pyramid, &pyramid, &pts, &p.klt)?;
             for ((owner, f), r) in all.iter().zip(result) {
@@ -193,7 +197,9 @@ impl Tracker {
                 continue;
             }
             let step = ((area as f64 / (2.0 * need as f64)).sqrt().floor() as i32).max(2);
-            let occupied = |u: i32, v: i32, have: &[Feature]| have.iter().any(|f| (f.at.x - u as f32).abs() < step as f32 && (f.at.y - v as f32).abs() < step as f32);
+            let occupied = |u: i32, v: i32, have: &[Feature]| {
+                have.iter().any(|f| (f.at.x - u as f32).abs() < step as f32 && (f.at.y - v as f32).abs() < step as f32)
+            };
             let mut candidates: Vec<(i32, i32, i32)> = Vec::new();
             let mut v = bbox[1].max(1);
             while v <= bbox[3].min(grey.rows() - 2) {
@@ -235,7 +241,13 @@ impl Tracker {
         self.previous.as_ref().map_or_else(Vec::new, |p| p.statics.iter().map(|f| (f.id, f.at.x, f.at.y)).collect())
     }
 
-    fn emit(&mut self, statics: &mut [Feature], objects: &BTreeMap<u16, Vec<Feature>>, depth: &DepthMap, inst: &Instances) -> Vec<Track> {
+    fn emit(
+        &mut self,
+        statics: &mut [Feature],
+        objects: &BTreeMap<u16, Vec<Feature>>,
+        depth: &DepthMap,
+        inst: &Instances,
+    ) -> Vec<Track> {
         let p = self.params;
         let depth_of = |f: &Feature| depth.at(f.at.x, f.at.y).filter(|z| (p.min_depth..=p.max_depth).contains(z));
         let mut out = Vec::new();
@@ -251,7 +263,14 @@ impl Tracker {
                 continue;
             }
             sent += 1;
-            out.push(Track { track_id: f.id, object_id: STATIC_OBJECT_ID, class: ObjectClass::Background, u: f.at.x, v: f.at.y, depth: z });
+            out.push(Track {
+                track_id: f.id,
+                object_id: STATIC_OBJECT_ID,
+                class: ObjectClass::Background,
+                u: f.at.x,
+                v: f.at.y,
+                depth: z,
+            });
         }
         let mut per_object: Vec<(f32, Vec<Track>)> = Vec::new();
         for (id, fs) in objects {
@@ -259,7 +278,9 @@ impl Tracker {
             let mut tracks: Vec<Track> = Vec::new();
             for f in fs {
                 match depth_of(f) {
-                    Some(z) => tracks.push(Track { track_id: f.id, object_id: *id, class, u: f.at.x, v: f.at.y, depth: z }),
+                    Some(z) => {
+                        tracks.push(Track { track_id: f.id, object_id: *id, class, u: f.at.x, v: f.at.y, depth: z })
+                    }
                     None => self.stats.object_points_no_depth += 1,
                 }
             }

@@ -24,9 +24,7 @@ use std::path::Path;
 use nalgebra::{Isometry3, Matrix3, Matrix3x4, Matrix4};
 
 use super::error::KittiError;
-use super::rigid::{
-    ROTATION_EXPECTED, checked_rotation, homogeneous_3x3, homogeneous_3x4, project_to_isometry,
-};
+use super::rigid::{ROTATION_EXPECTED, checked_rotation, homogeneous_3x3, homogeneous_3x4, project_to_isometry};
 use super::text::{LineCtx, read_text};
 
 /// Calibration of one KITTI drive.
@@ -91,15 +89,7 @@ impl Key {
     }
 }
 
-const ALL_KEYS: [Key; 7] = [
-    Key::P(0),
-    Key::P(1),
-    Key::P(2),
-    Key::P(3),
-    Key::RRect,
-    Key::TrVeloCam,
-    Key::TrImuVelo,
-];
+const ALL_KEYS: [Key; 7] = [Key::P(0), Key::P(1), Key::P(2), Key::P(3), Key::RRect, Key::TrVeloCam, Key::TrImuVelo];
 
 /// Parses the text of a calibration file in either spelling; `path` is only used in messages.
 ///
@@ -116,11 +106,7 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
             continue;
         };
         let Some(key) = Key::from_token(key_tok) else {
-            log::debug!(
-                "{}: line {}: ignoring calibration key `{key_tok}`",
-                path.display(),
-                i + 1
-            );
+            log::debug!("{}: line {}: ignoring calibration key `{key_tok}`", path.display(), i + 1);
             continue;
         };
         let field = key_tok.strip_suffix(':').unwrap_or(key_tok);
@@ -134,12 +120,7 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
         }
         let nums = &toks[1..];
         if nums.len() != key.count() {
-            return Err(ctx.error(
-                field,
-                None,
-                &format!("{} numbers", key.count()),
-                format!("{} numbers", nums.len()),
-            ));
+            return Err(ctx.error(field, None, &format!("{} numbers", key.count()), format!("{} numbers", nums.len())));
         }
         let values = nums
             .iter()
@@ -150,12 +131,9 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
         let rotation_ok = match key {
             Key::P(_) => Ok(()),
             Key::RRect => checked_rotation(&Matrix3::from_row_slice(m)).map(|_| ()),
-            Key::TrVeloCam | Key::TrImuVelo => checked_rotation(
-                &Matrix3x4::from_row_slice(m)
-                    .fixed_view::<3, 3>(0, 0)
-                    .into_owned(),
-            )
-            .map(|_| ()),
+            Key::TrVeloCam | Key::TrImuVelo => {
+                checked_rotation(&Matrix3x4::from_row_slice(m).fixed_view::<3, 3>(0, 0).into_owned()).map(|_| ())
+            }
         };
         if let Err(defect) = rotation_ok {
             return Err(ctx.error(field, None, ROTATION_EXPECTED, defect.to_string()));
@@ -167,10 +145,7 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
         found[key.slot()]
             .take()
             .map(|(v, _)| v)
-            .ok_or_else(|| KittiError::Missing {
-                path: path.to_path_buf(),
-                what: key.describe(),
-            })
+            .ok_or_else(|| KittiError::Missing { path: path.to_path_buf(), what: key.describe() })
     };
     let mut vals: Vec<Vec<f64>> = Vec::with_capacity(ALL_KEYS.len());
     for key in ALL_KEYS {
@@ -274,16 +249,7 @@ mod tests {
 
     /// Text with line `n` (1-based) replaced by `f(line)`.
     fn edit_line(text: &str, n: usize, f: impl Fn(&str) -> String) -> String {
-        text.lines()
-            .enumerate()
-            .map(|(i, l)| {
-                if i + 1 == n {
-                    f(l) + "\n"
-                } else {
-                    format!("{l}\n")
-                }
-            })
-            .collect()
+        text.lines().enumerate().map(|(i, l)| if i + 1 == n { f(l) + "\n" } else { format!("{l}\n") }).collect()
     }
 
     fn p() -> PathBuf {
@@ -294,20 +260,12 @@ mod tests {
     fn both_spellings_give_identical_calib() {
         let object = calib_object_style();
         let devkit = calib_devkit_style();
-        assert!(
-            object.contains("R0_rect:")
-                && devkit.contains("R_rect ")
-                && devkit.contains("Tr_imu_velo ")
-        );
+        assert!(object.contains("R0_rect:") && devkit.contains("R_rect ") && devkit.contains("Tr_imu_velo "));
         let a = parse_calib(&object, &p()).unwrap();
         let b = parse_calib(&devkit, &p()).unwrap();
         assert_eq!(a, b);
         // Keys with colons in the devkit spelling, and without colons on P lines, also work.
-        let c = parse_calib(
-            &devkit.replace("R_rect", "R_rect:").replace("P2:", "P2"),
-            &p(),
-        )
-        .unwrap();
+        let c = parse_calib(&devkit.replace("R_rect", "R_rect:").replace("P2:", "P2"), &p()).unwrap();
         assert_eq!(a, c);
         assert_eq!(a.p[1][(0, 3)], -FX * BASELINE);
         assert_eq!(a.p[2][(2, 3)], 0.0027);
@@ -326,10 +284,7 @@ mod tests {
         assert_eq!(c.principal_point(2), (610.0, 173.0));
         // t_cam_imu is the product of the three transforms, and its isometry agrees with it.
         let t = c.t_cam_imu();
-        assert_eq!(
-            t.fixed_view::<1, 4>(3, 0),
-            nalgebra::Matrix1x4::new(0.0, 0.0, 0.0, 1.0)
-        );
+        assert_eq!(t.fixed_view::<1, 4>(3, 0), nalgebra::Matrix1x4::new(0.0, 0.0, 0.0, 1.0));
         let iso = c.t_cam_imu_isometry();
         assert!((iso.to_homogeneous() - t).norm() < 1e-5);
         // IMU is behind/above camera and x_imu (forward) maps to z_cam (forward).
@@ -339,42 +294,26 @@ mod tests {
 
     #[test]
     fn missing_key_names_key_and_file() {
-        let text: String = calib_object_style()
-            .lines()
-            .filter(|l| !l.starts_with("Tr_imu"))
-            .map(|l| format!("{l}\n"))
-            .collect();
+        let text: String =
+            calib_object_style().lines().filter(|l| !l.starts_with("Tr_imu")).map(|l| format!("{l}\n")).collect();
         let m = parse_calib(&text, &p()).unwrap_err().to_string();
-        assert!(
-            m.contains("calib/0003.txt") && m.contains("Tr_imu_velo") && m.contains("not found"),
-            "{m}"
-        );
+        assert!(m.contains("calib/0003.txt") && m.contains("Tr_imu_velo") && m.contains("not found"), "{m}");
         let m = parse_calib("", &p()).unwrap_err().to_string();
         assert!(m.contains("calib/0003.txt") && m.contains("`P0`"), "{m}");
     }
 
     #[test]
     fn wrong_count_and_bad_number_name_line_and_key() {
-        let text = edit_line(&calib_object_style(), 5, |l| {
-            l.rsplit_once(' ').unwrap().0.to_string()
-        });
+        let text = edit_line(&calib_object_style(), 5, |l| l.rsplit_once(' ').unwrap().0.to_string());
         let m = parse_calib(&text, &p()).unwrap_err().to_string();
-        assert!(
-            m.contains(
-                "calib/0003.txt line 5, field `R0_rect`: expected 9 numbers, found 8 numbers"
-            ),
-            "{m}"
-        );
+        assert!(m.contains("calib/0003.txt line 5, field `R0_rect`: expected 9 numbers, found 8 numbers"), "{m}");
         let text = edit_line(&calib_object_style(), 3, |l| {
             let mut t: Vec<&str> = l.split_whitespace().collect();
             t[2] = "zero";
             t.join(" ")
         });
         let m = parse_calib(&text, &p()).unwrap_err().to_string();
-        assert!(
-            m.contains("line 3, field `P2` (column 3): expected a number, found `zero`"),
-            "{m}"
-        );
+        assert!(m.contains("line 3, field `P2` (column 3): expected a number, found `zero`"), "{m}");
     }
 
     #[test]
@@ -383,25 +322,17 @@ mod tests {
         let m = parse_calib(&text, &p()).unwrap_err().to_string();
         assert!(m.contains("line 8") && m.contains("first on line 5"), "{m}");
         let text = edit_line(&calib_object_style(), 5, |l| {
-            l.replacen("R0_rect: ", "R0_rect: 2.0 ", 1)
-                .rsplit_once(' ')
-                .unwrap()
-                .0
-                .to_string()
+            l.replacen("R0_rect: ", "R0_rect: 2.0 ", 1).rsplit_once(' ').unwrap().0.to_string()
         });
         let m = parse_calib(&text, &p()).unwrap_err().to_string();
-        assert!(
-            m.contains("line 5, field `R0_rect`") && m.contains("R^T R"),
-            "{m}"
-        );
+        assert!(m.contains("line 5, field `R0_rect`") && m.contains("R^T R"), "{m}");
         let text = format!("Tr_cam_to_road: 1 2 3\n\n{}", calib_object_style());
         assert!(parse_calib(&text, &p()).is_ok());
     }
 
     #[test]
     fn real_calib_in_both_spellings() {
-        let Some(root) = crate::kitti::test_support::kitti_root("real_calib_in_both_spellings")
-        else {
+        let Some(root) = crate::kitti::test_support::kitti_root("real_calib_in_both_spellings") else {
             return;
         };
         let path = root.join("tracking/training/calib/0000.txt");
@@ -413,11 +344,7 @@ mod tests {
         let a = parse_calib(&text, &path).unwrap();
         assert_eq!(a, parse_calib(&devkit, &path).unwrap());
         assert!((a.baseline_m() - 0.537).abs() < 1e-3, "{}", a.baseline_m());
-        assert!(
-            (a.baseline_color_m() - 0.532).abs() < 2e-3,
-            "{}",
-            a.baseline_color_m()
-        );
+        assert!((a.baseline_color_m() - 0.532).abs() < 2e-3, "{}", a.baseline_color_m());
         let fwd = a.t_cam_imu().fixed_view::<3, 3>(0, 0) * nalgebra::Vector3::x();
         assert!(fwd.z > 0.99, "{fwd}");
     }
@@ -425,9 +352,7 @@ mod tests {
     #[test]
     fn missing_file() {
         let dir = tempfile::tempdir().unwrap();
-        let m = read_calib(dir.path().join("0042.txt"))
-            .unwrap_err()
-            .to_string();
+        let m = read_calib(dir.path().join("0042.txt")).unwrap_err().to_string();
         assert!(m.contains("0042.txt: calibration file not found"), "{m}");
     }
 }

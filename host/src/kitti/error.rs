@@ -77,9 +77,7 @@ impl KittiError {
     #[must_use]
     pub fn path(&self) -> &std::path::Path {
         match self {
-            KittiError::Io { path, .. }
-            | KittiError::Parse { path, .. }
-            | KittiError::Missing { path, .. } => path,
+            KittiError::Io { path, .. } | KittiError::Parse { path, .. } | KittiError::Missing { path, .. } => path,
             KittiError::FrameCountMismatch { poses_path, .. } => poses_path,
         }
     }
@@ -119,10 +117,7 @@ mod tests {
 
     #[test]
     fn missing_and_mismatch_messages_name_paths() {
-        let e = KittiError::Missing {
-            path: PathBuf::from("calib/0003.txt"),
-            what: "calibration file".into(),
-        };
+        let e = KittiError::Missing { path: PathBuf::from("calib/0003.txt"), what: "calibration file".into() };
         assert_eq!(e.to_string(), "calib/0003.txt: calibration file not found");
         let e = KittiError::FrameCountMismatch {
             labels_path: PathBuf::from("label_02/0003.txt"),
@@ -132,10 +127,7 @@ mod tests {
         };
         let m = e.to_string();
         assert!(
-            m.contains("label_02/0003.txt")
-                && m.contains("144")
-                && m.contains("poses/0003.txt")
-                && m.contains("140"),
+            m.contains("label_02/0003.txt") && m.contains("144") && m.contains("poses/0003.txt") && m.contains("140"),
             "{m}"
         );
     }

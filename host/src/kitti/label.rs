@@ -146,11 +146,8 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
     let n = toks.len();
     if !(LABEL_COLUMNS..=LABEL_COLUMNS + 1).contains(&n) {
         // Name the first missing column, or the first surplus one.
-        let (field, column) = if n < LABEL_COLUMNS {
-            (COLUMNS[n], n + 1)
-        } else {
-            ("(extra column)", LABEL_COLUMNS + 2)
-        };
+        let (field, column) =
+            if n < LABEL_COLUMNS { (COLUMNS[n], n + 1) } else { ("(extra column)", LABEL_COLUMNS + 2) };
         return Err(ctx.error(
             field,
             Some(column),
@@ -162,35 +159,18 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
 
     let frame = ctx.integer(toks[0], COLUMNS[0], Some(1))?;
     if frame < 0 {
-        return Err(ctx.error(
-            COLUMNS[0],
-            Some(1),
-            "a non-negative frame index",
-            quote(toks[0]),
-        ));
+        return Err(ctx.error(COLUMNS[0], Some(1), "a non-negative frame index", quote(toks[0])));
     }
     let track_id = ctx.integer(toks[1], COLUMNS[1], Some(2))?;
     if track_id < -1 {
-        return Err(ctx.error(
-            COLUMNS[1],
-            Some(2),
-            "a track id >= 0, or -1 for DontCare",
-            quote(toks[1]),
-        ));
+        return Err(ctx.error(COLUMNS[1], Some(2), "a track id >= 0, or -1 for DontCare", quote(toks[1])));
     }
     let occluded = ctx.integer(toks[4], COLUMNS[4], Some(5))?;
-    let occluded = i32::try_from(occluded).map_err(|_| {
-        ctx.error(
-            COLUMNS[4],
-            Some(5),
-            "a small integer (-1..=3)",
-            quote(toks[4]),
-        )
-    })?;
+    let occluded = i32::try_from(occluded)
+        .map_err(|_| ctx.error(COLUMNS[4], Some(5), "a small integer (-1..=3)", quote(toks[4])))?;
 
     Ok(LabelRow {
-        frame: usize::try_from(frame)
-            .map_err(|_| ctx.error(COLUMNS[0], Some(1), "a frame index", quote(toks[0])))?,
+        frame: usize::try_from(frame).map_err(|_| ctx.error(COLUMNS[0], Some(1), "a frame index", quote(toks[0])))?,
         track_id,
         object_type: toks[2].to_string(),
         truncated: num(3)?,
@@ -207,11 +187,7 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         y: num(14)?,
         z: num(15)?,
         rotation_y: num(16)?,
-        score: if toks.len() > LABEL_COLUMNS {
-            Some(num(17)?)
-        } else {
-            None
-        },
+        score: if toks.len() > LABEL_COLUMNS { Some(num(17)?) } else { None },
     })
 }
 
@@ -303,15 +279,7 @@ mod tests {
         assert_eq!(rows[0].track_id, -1);
         let van = &rows[1];
         assert!(!van.is_dont_care());
-        assert_eq!(
-            (
-                van.frame,
-                van.track_id,
-                van.object_type.as_str(),
-                van.occluded
-            ),
-            (0, 0, "Van", 0)
-        );
+        assert_eq!((van.frame, van.track_id, van.object_type.as_str(), van.occluded), (0, 0, "Van", 0));
         assert_eq!(van.location(), Vector3::new(-4.25, 1.75, 13.5));
         assert_eq!(van.dimensions(), Vector3::new(2.1, 1.85, 4.5));
         assert_eq!(van.rotation_y, -2.0625);
@@ -323,43 +291,28 @@ mod tests {
 
     #[test]
     fn crlf_and_score_column() {
-        let rows =
-            parse_labels("5 3 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1 0.93\r\n", &p()).unwrap();
+        let rows = parse_labels("5 3 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1 0.93\r\n", &p()).unwrap();
         assert_eq!(rows[0].score, Some(0.93));
         assert_eq!(rows[0].frame, 5);
     }
 
     #[test]
     fn wrong_column_count_names_line_and_field() {
-        let m = err(
-            "0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n0 1 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2\n",
-        );
-        assert!(
-            m.contains("label_02/0003.txt line 2, field `z` (column 16)"),
-            "{m}"
-        );
+        let m = err("0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n0 1 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2\n");
+        assert!(m.contains("label_02/0003.txt line 2, field `z` (column 16)"), "{m}");
         assert!(m.contains("15 columns"), "{m}");
         let m = err("0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1 0.9 7\n");
-        assert!(
-            m.contains("line 1") && m.contains("column 19") && m.contains("19 columns"),
-            "{m}"
-        );
+        assert!(m.contains("line 1") && m.contains("column 19") && m.contains("19 columns"), "{m}");
     }
 
     #[test]
     fn non_numeric_field_is_named() {
         let m = err("\n\n0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 abc\n");
-        assert_eq!(
-            m,
-            "label_02/0003.txt line 3, field `rotation_y` (column 17): expected a number, found `abc`"
-        );
+        assert_eq!(m, "label_02/0003.txt line 3, field `rotation_y` (column 17): expected a number, found `abc`");
         let m = err("0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 y 20 0.1\n");
         assert!(m.contains("line 1, field `y` (column 15)"), "{m}");
         let m = err("0 x Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
-        assert!(
-            m.contains("field `track_id` (column 2): expected an integer"),
-            "{m}"
-        );
+        assert!(m.contains("field `track_id` (column 2): expected an integer"), "{m}");
         let m = err("0 0 Car 0 0.5 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
         assert!(m.contains("field `occluded` (column 5)"), "{m}");
     }
@@ -367,19 +320,11 @@ mod tests {
     #[test]
     fn non_finite_and_negative_frame_rejected() {
         let m = err("0 0 Car 0 0 0 1 2 3 4 1.5 NaN 4 1 2 20 0.1\n");
-        assert!(
-            m.contains("line 1, field `width` (column 12): expected a finite number, found `NaN`"),
-            "{m}"
-        );
+        assert!(m.contains("line 1, field `width` (column 12): expected a finite number, found `NaN`"), "{m}");
         let m = err("0 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 inf 0.1\n");
         assert!(m.contains("field `z`") && m.contains("finite"), "{m}");
         let m = err("-2 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
-        assert!(
-            m.contains(
-                "line 1, field `frame` (column 1): expected a non-negative frame index, found `-2`"
-            ),
-            "{m}"
-        );
+        assert!(m.contains("line 1, field `frame` (column 1): expected a non-negative frame index, found `-2`"), "{m}");
         let m = err("1.5 0 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
         assert!(m.contains("field `frame`"), "{m}");
         let m = err("1 -3 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
@@ -397,9 +342,6 @@ mod tests {
 
         let missing = dir.path().join("nope.txt");
         let m = read_labels(&missing).unwrap_err().to_string();
-        assert!(
-            m.contains("nope.txt") && m.contains("label file not found"),
-            "{m}"
-        );
+        assert!(m.contains("nope.txt") && m.contains("label file not found"), "{m}");
     }
 }

@@ -41,8 +41,7 @@ pub enum PoseSource {
 
 impl PoseSource {
     /// All sources in order of preference.
-    pub const PREFERENCE: [PoseSource; 3] =
-        [PoseSource::Oxts, PoseSource::OrbSlam3, PoseSource::PoseFile];
+    pub const PREFERENCE: [PoseSource; 3] = [PoseSource::Oxts, PoseSource::OrbSlam3, PoseSource::PoseFile];
 
     /// The sub-folder of the split directory that holds this source.
     #[must_use]
@@ -108,10 +107,7 @@ impl TrackingDir {
     pub fn open(path: impl AsRef<Path>) -> Result<TrackingDir, KittiError> {
         let root = path.as_ref().to_path_buf();
         if !root.is_dir() {
-            return Err(KittiError::Missing {
-                path: root,
-                what: "KITTI tracking directory".into(),
-            });
+            return Err(KittiError::Missing { path: root, what: "KITTI tracking directory".into() });
         }
         let labels = root.join("label_02");
         if !labels.is_dir() {
@@ -178,10 +174,7 @@ impl TrackingDir {
     /// The pose sources present for sequence `id`, in order of preference.
     #[must_use]
     pub fn pose_sources(&self, id: &str) -> Vec<PoseSource> {
-        PoseSource::PREFERENCE
-            .into_iter()
-            .filter(|s| self.poses_path(id, *s).is_file())
-            .collect()
+        PoseSource::PREFERENCE.into_iter().filter(|s| self.poses_path(id, *s).is_file()).collect()
     }
 
     /// Loads sequence `id` with the preferred pose source present (oxts, then ORB-SLAM3, then
@@ -208,11 +201,7 @@ impl TrackingDir {
     /// Any error of reading the label, calibration or pose file (missing, unreadable,
     /// malformed), and [`KittiError::FrameCountMismatch`] unless the pose count equals the highest
     /// labelled frame + 1; [`KittiError::Missing`] when the label file has no rows.
-    pub fn load_sequence_with(
-        &self,
-        id: &str,
-        source: PoseSource,
-    ) -> Result<SequenceData, KittiError> {
+    pub fn load_sequence_with(&self, id: &str, source: PoseSource) -> Result<SequenceData, KittiError> {
         let labels_path = self.labels_path(id);
         let calib_path = self.calib_path(id);
         let poses_path = self.poses_path(id, source);
@@ -266,17 +255,12 @@ mod tests {
         }
         let mut labels = String::new();
         for k in 0..frames {
-            labels += &format!(
-                "{k} 0 Car 0 0 -1.5 100 150 200 250 1.5 1.6 4.0 2.0 1.7 {} -1.57\n",
-                10.0 + k as f64
-            );
+            labels += &format!("{k} 0 Car 0 0 -1.5 100 150 200 250 1.5 1.6 4.0 2.0 1.7 {} -1.57\n", 10.0 + k as f64);
         }
         std::fs::write(dir.path().join("label_02/0007.txt"), labels).unwrap();
         std::fs::write(dir.path().join("label_02/README.txt"), "not a sequence").unwrap();
         std::fs::write(dir.path().join("calib/0007.txt"), calib_object_style()).unwrap();
-        let ps: Vec<Isometry3<f64>> = (0..poses)
-            .map(|k| Isometry3::translation(0.0, 0.0, k as f64))
-            .collect();
+        let ps: Vec<Isometry3<f64>> = (0..poses).map(|k| Isometry3::translation(0.0, 0.0, k as f64)).collect();
         write_poses(dir.path().join(folder).join("0007.txt"), &ps).unwrap();
         dir
     }
@@ -284,13 +268,8 @@ mod tests {
     #[test]
     fn open_errors_name_the_path() {
         let dir = tempfile::tempdir().unwrap();
-        let m = TrackingDir::open(dir.path().join("nope"))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            m.contains("nope") && m.contains("KITTI tracking directory not found"),
-            "{m}"
-        );
+        let m = TrackingDir::open(dir.path().join("nope")).unwrap_err().to_string();
+        assert!(m.contains("nope") && m.contains("KITTI tracking directory not found"), "{m}");
         let m = TrackingDir::open(dir.path()).unwrap_err().to_string();
         assert!(m.contains("label_02") && m.contains("not found"), "{m}");
     }
@@ -311,10 +290,7 @@ mod tests {
         let orb = dir.path().join("ego_poses_orbslam3");
         std::fs::create_dir_all(&orb).unwrap();
         std::fs::copy(dir.path().join("poses/0007.txt"), orb.join("0007.txt")).unwrap();
-        assert_eq!(
-            split.load_sequence("0007").unwrap().pose_source,
-            PoseSource::OrbSlam3
-        );
+        assert_eq!(split.load_sequence("0007").unwrap().pose_source, PoseSource::OrbSlam3);
     }
 
     #[test]
@@ -322,40 +298,14 @@ mod tests {
         let dir = synthetic_split(5, 4, "ego_poses_orbslam3");
         let split = TrackingDir::open(dir.path()).unwrap();
         let err = split.load_sequence("0007").unwrap_err();
-        assert!(
-            matches!(
-                err,
-                KittiError::FrameCountMismatch {
-                    label_frames: 5,
-                    pose_count: 4,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
+        assert!(matches!(err, KittiError::FrameCountMismatch { label_frames: 5, pose_count: 4, .. }), "{err:?}");
         let m = err.to_string();
-        assert!(
-            m.contains("label_02/0007.txt") && m.contains("ego_poses_orbslam3/0007.txt"),
-            "{m}"
-        );
+        assert!(m.contains("label_02/0007.txt") && m.contains("ego_poses_orbslam3/0007.txt"), "{m}");
         assert!(m.contains("5 frames") && m.contains("4 poses"), "{m}");
         // Too many poses is an error as well.
         let dir = synthetic_split(5, 6, "poses");
-        let err = TrackingDir::open(dir.path())
-            .unwrap()
-            .load_sequence("0007")
-            .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                KittiError::FrameCountMismatch {
-                    label_frames: 5,
-                    pose_count: 6,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
+        let err = TrackingDir::open(dir.path()).unwrap().load_sequence("0007").unwrap_err();
+        assert!(matches!(err, KittiError::FrameCountMismatch { label_frames: 5, pose_count: 6, .. }), "{err:?}");
     }
 
     #[test]
@@ -369,10 +319,7 @@ mod tests {
         assert!(m.contains("ego poses for sequence 0008"), "{m}");
         std::fs::remove_file(dir.path().join("calib/0007.txt")).unwrap();
         let m = split.load_sequence("0007").unwrap_err().to_string();
-        assert!(
-            m.contains("calib/0007.txt: calibration file not found"),
-            "{m}"
-        );
+        assert!(m.contains("calib/0007.txt: calibration file not found"), "{m}");
     }
 
     /// Frame counts of the paper's sequences (label max frame + 1 = pose count).
@@ -398,25 +345,16 @@ mod tests {
         let expected: Vec<String> = REAL_FRAMES.iter().map(|(id, _)| id.to_string()).collect();
         assert_eq!(ids, expected);
         for (id, frames) in REAL_FRAMES {
-            let seq = split
-                .load_sequence(id)
-                .unwrap_or_else(|e| panic!("sequence {id}: {e}"));
+            let seq = split.load_sequence(id).unwrap_or_else(|e| panic!("sequence {id}: {e}"));
             assert_eq!(seq.frame_count, frames, "sequence {id}");
             assert_eq!(seq.poses.len(), frames);
             assert!(seq.labels.iter().any(|r| !r.is_dont_care()));
             // The ORB-SLAM3 files start at the identity; oxts-derived poses do by construction.
             assert!((seq.poses[0].to_homogeneous() - nalgebra::Matrix4::identity()).norm() < 1e-6);
-            assert!(
-                (seq.calib.baseline_m() - 0.54).abs() < 0.01,
-                "{id}: {}",
-                seq.calib.baseline_m()
-            );
+            assert!((seq.calib.baseline_m() - 0.54).abs() < 0.01, "{id}: {}", seq.calib.baseline_m());
             // Ego motion between frames is a plausible car motion (< 4 m per 0.1 s).
             for w in seq.poses.windows(2) {
-                assert!(
-                    (w[1].translation.vector - w[0].translation.vector).norm() < 4.0,
-                    "{id}"
-                );
+                assert!((w[1].translation.vector - w[0].translation.vector).norm() < 4.0, "{id}");
             }
             if !split.pose_sources(id).contains(&PoseSource::Oxts) {
                 assert_eq!(seq.pose_source, PoseSource::OrbSlam3);
@@ -436,35 +374,15 @@ mod tests {
             std::fs::create_dir_all(dir.path().join(sub)).unwrap();
         }
         for sub in ["label_02", "calib"] {
-            std::fs::copy(
-                real.join(sub).join("0003.txt"),
-                dir.path().join(sub).join("0003.txt"),
-            )
-            .unwrap();
+            std::fs::copy(real.join(sub).join("0003.txt"), dir.path().join(sub).join("0003.txt")).unwrap();
         }
         let poses = read_poses(real.join("ego_poses_orbslam3/0003.txt")).unwrap();
         write_poses(dir.path().join("poses/0003.txt"), &poses[..100]).unwrap();
-        let err = TrackingDir::open(dir.path())
-            .unwrap()
-            .load_sequence("0003")
-            .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                KittiError::FrameCountMismatch {
-                    label_frames: 144,
-                    pose_count: 100,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
+        let err = TrackingDir::open(dir.path()).unwrap().load_sequence("0003").unwrap_err();
+        assert!(matches!(err, KittiError::FrameCountMismatch { label_frames: 144, pose_count: 100, .. }), "{err:?}");
         let m = err.to_string();
         assert!(
-            m.contains("144")
-                && m.contains("100")
-                && m.contains("poses/0003.txt")
-                && m.contains("label_02/0003.txt"),
+            m.contains("144") && m.contains("100") && m.contains("poses/0003.txt") && m.contains("label_02/0003.txt"),
             "{m}"
         );
     }

@@ -34,12 +34,9 @@ mod test_support;
 
 pub use calib::{Calib, parse_calib, read_calib};
 pub use error::KittiError;
-pub use label::{
-    LabelRow, format_label_row, label_frame_count, parse_labels, read_labels, write_labels,
-};
+pub use label::{LabelRow, format_label_row, label_frame_count, parse_labels, read_labels, write_labels};
 pub use layout::{PoseSource, SequenceData, TrackingDir};
 pub use oxts::{OxtsPacket, camera_poses_from_oxts, oxts_to_imu_poses, parse_oxts, read_oxts};
 pub use poses::{
-    format_pose_line, format_tum_line, parse_poses, parse_tum, read_poses, read_tum, write_poses,
-    write_tum,
+    format_pose_line, format_tum_line, parse_poses, parse_tum, read_poses, read_tum, write_poses, write_tum,
 };

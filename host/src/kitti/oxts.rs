@@ -169,10 +169,7 @@ impl OxtsPacket {
 /// line before the last packet included), a non-finite number or a non-integer status field.
 pub fn parse_oxts(text: &str, path: &Path) -> Result<Vec<OxtsPacket>, KittiError> {
     let lines: Vec<&str> = text.lines().collect();
-    let last = lines
-        .iter()
-        .rposition(|l| !l.trim().is_empty())
-        .map_or(0, |i| i + 1);
+    let last = lines.iter().rposition(|l| !l.trim().is_empty()).map_or(0, |i| i + 1);
     let mut out = Vec::with_capacity(last);
     for (i, line) in lines[..last].iter().enumerate() {
         let ctx = LineCtx { path, line: i + 1 };
@@ -183,11 +180,7 @@ pub fn parse_oxts(text: &str, path: &Path) -> Result<Vec<OxtsPacket>, KittiError
             } else {
                 ("(extra column)", OXTS_COLUMNS.len() + 1)
             };
-            let found = if toks.is_empty() {
-                "an empty line".to_string()
-            } else {
-                format!("{} columns", toks.len())
-            };
+            let found = if toks.is_empty() { "an empty line".to_string() } else { format!("{} columns", toks.len()) };
             return Err(ctx.error(
                 field,
                 Some(column),
@@ -203,14 +196,8 @@ pub fn parse_oxts(text: &str, path: &Path) -> Result<Vec<OxtsPacket>, KittiError
         for (k, slot) in s.iter_mut().enumerate() {
             let j = 25 + k;
             let n = ctx.integral(toks[j], OXTS_COLUMNS[j], Some(j + 1))?;
-            *slot = i32::try_from(n).map_err(|_| {
-                ctx.error(
-                    OXTS_COLUMNS[j],
-                    Some(j + 1),
-                    "a 32-bit integer",
-                    quote(toks[j]),
-                )
-            })?;
+            *slot = i32::try_from(n)
+                .map_err(|_| ctx.error(OXTS_COLUMNS[j], Some(j + 1), "a 32-bit integer", quote(toks[j])))?;
         }
         out.push(OxtsPacket::from_values(&v, s));
     }
@@ -254,10 +241,7 @@ pub fn oxts_to_imu_poses(packets: &[OxtsPacket]) -> Vec<Isometry3<f64>> {
     };
     let scale = (first.lat * PI / 180.0).cos();
     let t0_inv = imu_pose_mercator(first, scale).inverse();
-    packets
-        .iter()
-        .map(|p| t0_inv * imu_pose_mercator(p, scale))
-        .collect()
+    packets.iter().map(|p| t0_inv * imu_pose_mercator(p, scale)).collect()
 }
 
 /// Rectified camera-0 poses `T_world_cam(k)` from oxts, with the world frame = camera 0 at the
@@ -267,10 +251,7 @@ pub fn oxts_to_imu_poses(packets: &[OxtsPacket]) -> Vec<Isometry3<f64>> {
 pub fn camera_poses_from_oxts(packets: &[OxtsPacket], calib: &Calib) -> Vec<Isometry3<f64>> {
     let t_cam_imu = calib.t_cam_imu_isometry();
     let t_imu_cam = t_cam_imu.inverse();
-    oxts_to_imu_poses(packets)
-        .into_iter()
-        .map(|p| t_cam_imu * p * t_imu_cam)
-        .collect()
+    oxts_to_imu_poses(packets).into_iter().map(|p| t_cam_imu * p * t_imu_cam).collect()
 }
 
 #[cfg(test)]
@@ -292,10 +273,7 @@ mod tests {
     }
 
     fn line(p: &OxtsPacket) -> String {
-        let mut s = format!(
-            "{} {} {} {} {} {}",
-            p.lat, p.lon, p.alt, p.roll, p.pitch, p.yaw
-        );
+        let mut s = format!("{} {} {} {} {} {}", p.lat, p.lon, p.alt, p.roll, p.pitch, p.yaw);
         for _ in 6..25 {
             s.push_str(" 0.01");
         }
@@ -312,20 +290,13 @@ mod tests {
     #[test]
     fn parses_packets_and_status_fields() {
         let pk = packet(48.98765432101, 8.39876543211, -1.25);
-        let text = format!(
-            "{}\n{}\n\n",
-            line(&pk),
-            line(&pk).replace(" 4 10 4 4 4", " 4.0 9 4 4 4")
-        );
+        let text = format!("{}\n{}\n\n", line(&pk), line(&pk).replace(" 4 10 4 4 4", " 4.0 9 4 4 4"));
         let packets = parse_oxts(&text, &p()).unwrap();
         assert_eq!(packets.len(), 2);
         assert_eq!(packets[0].lat, 48.98765432101);
         assert_eq!(packets[0].yaw, -1.25);
         assert_eq!(packets[0].vel_accuracy, 0.01);
-        assert_eq!(
-            (packets[0].navstat, packets[0].numsats, packets[0].orimode),
-            (4, 10, 4)
-        );
+        assert_eq!((packets[0].navstat, packets[0].numsats, packets[0].orimode), (4, 10, 4));
         assert_eq!((packets[1].navstat, packets[1].numsats), (4, 9));
     }
 
@@ -333,34 +304,13 @@ mod tests {
     fn malformed_lines_name_line_and_field() {
         let good = line(&packet(49.0, 8.4, 0.0));
         let short: Vec<&str> = good.split_whitespace().take(29).collect();
-        let m = parse_oxts(&format!("{good}\n{}\n", short.join(" ")), &p())
-            .unwrap_err()
-            .to_string();
-        assert!(
-            m.contains("oxts/0003.txt line 2, field `orimode` (column 30)")
-                && m.contains("29 columns"),
-            "{m}"
-        );
-        let m = parse_oxts(
-            &format!("{good}\n{}\n", good.replacen("112.5", "high", 1)),
-            &p(),
-        )
-        .unwrap_err()
-        .to_string();
-        assert_eq!(
-            m,
-            "oxts/0003.txt line 2, field `alt` (column 3): expected a number, found `high`"
-        );
-        let m = parse_oxts(&good.replace(" 4 10 ", " 4 10.5 "), &p())
-            .unwrap_err()
-            .to_string();
-        assert!(
-            m.contains("line 1, field `numsats` (column 27): expected an integer"),
-            "{m}"
-        );
-        let m = parse_oxts(&format!("{good}\n\n{good}\n"), &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_oxts(&format!("{good}\n{}\n", short.join(" ")), &p()).unwrap_err().to_string();
+        assert!(m.contains("oxts/0003.txt line 2, field `orimode` (column 30)") && m.contains("29 columns"), "{m}");
+        let m = parse_oxts(&format!("{good}\n{}\n", good.replacen("112.5", "high", 1)), &p()).unwrap_err().to_string();
+        assert_eq!(m, "oxts/0003.txt line 2, field `alt` (column 3): expected a number, found `high`");
+        let m = parse_oxts(&good.replace(" 4 10 ", " 4 10.5 "), &p()).unwrap_err().to_string();
+        assert!(m.contains("line 1, field `numsats` (column 27): expected an integer"), "{m}");
+        let m = parse_oxts(&format!("{good}\n\n{good}\n"), &p()).unwrap_err().to_string();
         assert!(m.contains("line 2") && m.contains("empty line"), "{m}");
     }
 
@@ -379,9 +329,8 @@ mod tests {
     fn straight_drive_north_one_metre_per_frame() {
         let lat0 = 48.98765432101;
         let dlat = 180.0 / (PI * EARTH_RADIUS_M); // one metre north, in degrees
-        let packets: Vec<OxtsPacket> = (0..20)
-            .map(|k| packet(lat0 + k as f64 * dlat, 8.39876543211, PI / 2.0))
-            .collect();
+        let packets: Vec<OxtsPacket> =
+            (0..20).map(|k| packet(lat0 + k as f64 * dlat, 8.39876543211, PI / 2.0)).collect();
 
         let imu = oxts_to_imu_poses(&packets);
         assert_eq!(imu.len(), 20);
@@ -390,10 +339,7 @@ mod tests {
         // by tan(lat) * dlat (~2e-7 per metre here), hence the 1e-4 m tolerance over 20 m.
         for (k, pose) in imu.iter().enumerate() {
             let t = pose.translation.vector;
-            assert!(
-                (t - Vector3::new(k as f64, 0.0, 0.0)).norm() < 1e-4,
-                "{k}: {t}"
-            );
+            assert!((t - Vector3::new(k as f64, 0.0, 0.0)).norm() < 1e-4, "{k}: {t}");
             assert!(pose.rotation.angle() < 1e-12);
         }
 
@@ -403,10 +349,7 @@ mod tests {
         assert!((cams[0].to_homogeneous() - nalgebra::Matrix4::identity()).norm() < 1e-12);
         for (k, pose) in cams.iter().enumerate() {
             let t = pose.translation.vector;
-            assert!(
-                (t - Vector3::new(0.0, 0.0, k as f64)).norm() < 1e-4,
-                "{k}: {t}"
-            );
+            assert!((t - Vector3::new(0.0, 0.0, k as f64)).norm() < 1e-4, "{k}: {t}");
         }
         // With a KITTI-like calibration (small tilts, offsets) the steps are still ~1 m and the first pose the identity.
         let real = parse_calib(&crate::kitti::test_support::calib_object_style(), &p()).unwrap();
@@ -421,18 +364,13 @@ mod tests {
 
     #[test]
     fn turning_left_rotates_about_camera_minus_y() {
-        let packets: Vec<OxtsPacket> = (0..5)
-            .map(|k| packet(49.0, 8.4, 0.5 + 0.1 * k as f64))
-            .collect();
+        let packets: Vec<OxtsPacket> = (0..5).map(|k| packet(49.0, 8.4, 0.5 + 0.1 * k as f64)).collect();
         let calib = parse_calib(AXES_CALIB, &p()).unwrap();
         let cams = camera_poses_from_oxts(&packets, &calib);
         for (k, pose) in cams.iter().enumerate().skip(1) {
             let (axis, angle) = pose.rotation.axis_angle().unwrap();
             assert!((angle - 0.1 * k as f64).abs() < 1e-9);
-            assert!(
-                (axis.into_inner() - -Vector3::y()).norm() < 1e-9,
-                "{axis:?}"
-            );
+            assert!((axis.into_inner() - -Vector3::y()).norm() < 1e-9, "{axis:?}");
         }
         assert!(oxts_to_imu_poses(&[]).is_empty());
     }

@@ -21,9 +21,7 @@ use super::rigid::{ROTATION_EXPECTED, checked_isometry, isometry_to_3x4};
 use super::text::{LineCtx, c_exp, read_text, write_text};
 
 /// Column names of a KITTI pose line.
-pub const POSE_COLUMNS: [&str; 12] = [
-    "r11", "r12", "r13", "tx", "r21", "r22", "r23", "ty", "r31", "r32", "r33", "tz",
-];
+pub const POSE_COLUMNS: [&str; 12] = ["r11", "r12", "r13", "tx", "r21", "r22", "r23", "ty", "r31", "r32", "r33", "tz"];
 
 /// Column names of a TUM line.
 pub const TUM_COLUMNS: [&str; 8] = ["timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"];
@@ -39,26 +37,14 @@ pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
 /// not a rotation up to rounding.
 pub fn parse_poses(text: &str, path: &Path) -> Result<Vec<Isometry3<f64>>, KittiError> {
     let lines: Vec<&str> = text.lines().collect();
-    let last = lines
-        .iter()
-        .rposition(|l| !l.trim().is_empty())
-        .map_or(0, |i| i + 1);
+    let last = lines.iter().rposition(|l| !l.trim().is_empty()).map_or(0, |i| i + 1);
     let mut poses = Vec::with_capacity(last);
     for (i, line) in lines[..last].iter().enumerate() {
         let ctx = LineCtx { path, line: i + 1 };
         let toks: Vec<&str> = line.split_whitespace().collect();
         if toks.len() != 12 {
-            let found = if toks.is_empty() {
-                "an empty line".to_string()
-            } else {
-                format!("{} numbers", toks.len())
-            };
-            return Err(ctx.error(
-                "pose",
-                None,
-                "12 numbers (a 3x4 row-major matrix; one line per frame)",
-                found,
-            ));
+            let found = if toks.is_empty() { "an empty line".to_string() } else { format!("{} numbers", toks.len()) };
+            return Err(ctx.error("pose", None, "12 numbers (a 3x4 row-major matrix; one line per frame)", found));
         }
         let mut m = [0.0; 12];
         for (j, tok) in toks.iter().enumerate() {
@@ -116,20 +102,14 @@ pub fn write_poses(path: impl AsRef<Path>, poses: &[Isometry3<f64>]) -> Result<(
 pub fn format_tum_line(timestamp: f64, pose: &Isometry3<f64>) -> String {
     let t = pose.translation.vector;
     let q = pose.rotation.coords; // (x, y, z, w)
-    format!(
-        "{timestamp:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
-        t.x, t.y, t.z, q.x, q.y, q.z, q.w
-    )
+    format!("{timestamp:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}", t.x, t.y, t.z, q.x, q.y, q.z, q.w)
 }
 
 /// Writes a TUM trajectory file from `(timestamp in seconds, T_world_cam)` pairs.
 ///
 /// # Errors
 /// [`KittiError::Io`] when the file cannot be written.
-pub fn write_tum(
-    path: impl AsRef<Path>,
-    poses: &[(f64, Isometry3<f64>)],
-) -> Result<(), KittiError> {
+pub fn write_tum(path: impl AsRef<Path>, poses: &[(f64, Isometry3<f64>)]) -> Result<(), KittiError> {
     let mut text = String::from("# timestamp tx ty tz qx qy qz qw\n");
     for (t, pose) in poses {
         text.push_str(&format_tum_line(*t, pose));
@@ -168,12 +148,7 @@ pub fn parse_tum(text: &str, path: &Path) -> Result<Vec<(f64, Isometry3<f64>)>, 
         let q = Quaternion::new(v[7], v[4], v[5], v[6]);
         let norm = q.norm();
         if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-            return Err(ctx.error(
-                "qw",
-                None,
-                "a unit quaternion (qx qy qz qw)",
-                format!("norm {norm:.6}"),
-            ));
+            return Err(ctx.error("qw", None, "a unit quaternion (qx qy qz qw)", format!("norm {norm:.6}")));
         }
         let pose = Isometry3::from_parts(
             Translation3::from(Vector3::new(v[1], v[2], v[3])),
@@ -255,43 +230,24 @@ mod tests {
     #[test]
     fn malformed_lines_name_line_and_field() {
         let id = "1 0 0 0 0 1 0 0 0 0 1 0";
-        let m = parse_poses(&format!("{id}\n1 0 0 0 0 1 0 0 0 0 1\n"), &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_poses(&format!("{id}\n1 0 0 0 0 1 0 0 0 0 1\n"), &p()).unwrap_err().to_string();
         assert!(
-            m.contains("poses/0003.txt line 2, field `pose`: expected 12 numbers")
-                && m.contains("found 11 numbers"),
+            m.contains("poses/0003.txt line 2, field `pose`: expected 12 numbers") && m.contains("found 11 numbers"),
             "{m}"
         );
-        let m = parse_poses(&format!("{id}\n1 0 0 0 0 1 0 0 0 0 1 x\n"), &p())
-            .unwrap_err()
-            .to_string();
-        assert_eq!(
-            m,
-            "poses/0003.txt line 2, field `tz` (column 12): expected a number, found `x`"
-        );
-        let m = parse_poses(&format!("{id}\n\n{id}\n"), &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_poses(&format!("{id}\n1 0 0 0 0 1 0 0 0 0 1 x\n"), &p()).unwrap_err().to_string();
+        assert_eq!(m, "poses/0003.txt line 2, field `tz` (column 12): expected a number, found `x`");
+        let m = parse_poses(&format!("{id}\n\n{id}\n"), &p()).unwrap_err().to_string();
         assert!(m.contains("line 2") && m.contains("an empty line"), "{m}");
-        let m = parse_poses("1 0 0 0 0 1 0 0 0 0 1 nan\n", &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_poses("1 0 0 0 0 1 0 0 0 0 1 nan\n", &p()).unwrap_err().to_string();
         assert!(m.contains("field `tz`") && m.contains("finite"), "{m}");
     }
 
     #[test]
     fn far_from_orthonormal_rejected() {
-        let m = parse_poses("1 0 0 0 0 1 0 0 0 0 1 0\n1.2 0 0 0 0 1 0 0 0 0 1 0\n", &p())
-            .unwrap_err()
-            .to_string();
-        assert!(
-            m.contains("poses/0003.txt line 2, field `rotation`") && m.contains("R^T R"),
-            "{m}"
-        );
-        let m = parse_poses("-1 0 0 0 0 1 0 0 0 0 1 0\n", &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_poses("1 0 0 0 0 1 0 0 0 0 1 0\n1.2 0 0 0 0 1 0 0 0 0 1 0\n", &p()).unwrap_err().to_string();
+        assert!(m.contains("poses/0003.txt line 2, field `rotation`") && m.contains("R^T R"), "{m}");
+        let m = parse_poses("-1 0 0 0 0 1 0 0 0 0 1 0\n", &p()).unwrap_err().to_string();
         assert!(m.contains("line 1") && m.contains("det R"), "{m}");
     }
 
@@ -299,11 +255,8 @@ mod tests {
     fn tum_round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("traj.tum");
-        let data: Vec<(f64, Isometry3<f64>)> = sample()
-            .into_iter()
-            .enumerate()
-            .map(|(k, p)| (k as f64 * 0.1, p))
-            .collect();
+        let data: Vec<(f64, Isometry3<f64>)> =
+            sample().into_iter().enumerate().map(|(k, p)| (k as f64 * 0.1, p)).collect();
         write_tum(&path, &data).unwrap();
         let back = read_tum(&path).unwrap();
         assert_eq!(back.len(), data.len());
@@ -316,18 +269,14 @@ mod tests {
             line,
             "1.500000000 1.000000000 2.000000000 3.000000000 0.000000000 0.000000000 0.000000000 1.000000000"
         );
-        let m = parse_tum("0 0 0 0 0 0 0 2\n", &p())
-            .unwrap_err()
-            .to_string();
+        let m = parse_tum("0 0 0 0 0 0 0 2\n", &p()).unwrap_err().to_string();
         assert!(m.contains("line 1") && m.contains("unit quaternion"), "{m}");
     }
 
     #[test]
     fn missing_file() {
         let dir = tempfile::tempdir().unwrap();
-        let m = read_poses(dir.path().join("0009.txt"))
-            .unwrap_err()
-            .to_string();
+        let m = read_poses(dir.path().join("0009.txt")).unwrap_err().to_string();
         assert!(m.contains("0009.txt: pose file not found"), "{m}");
     }
 }

@@ -9,9 +9,7 @@
 
 use std::fmt;
 
-use nalgebra::{
-    Isometry3, Matrix3, Matrix3x4, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3,
-};
+use nalgebra::{Isometry3, Matrix3, Matrix3x4, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// Largest accepted `‖RᵀR − I‖_F` of a rotation block read from a file.
 ///
@@ -96,10 +94,7 @@ pub fn checked_isometry(m: &Matrix3x4<f64>) -> Result<Isometry3<f64>, RotationDe
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
     let t: Vector3<f64> = m.column(3).into_owned();
     let rot = checked_rotation(&r)?;
-    Ok(Isometry3::from_parts(
-        Translation3::from(t),
-        UnitQuaternion::from_rotation_matrix(&rot),
-    ))
+    Ok(Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&rot)))
 }
 
 /// The upper 3x4 block `[R | t]` of an isometry.
@@ -130,10 +125,7 @@ pub fn homogeneous_3x3(m: &Matrix3<f64>) -> Matrix4<f64> {
 pub fn project_to_isometry(m: &Matrix4<f64>) -> Isometry3<f64> {
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
     let t = Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
-    Isometry3::from_parts(
-        Translation3::from(t),
-        UnitQuaternion::from_rotation_matrix(&project_to_rotation(&r)),
-    )
+    Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&project_to_rotation(&r)))
 }
 
 #[cfg(test)]
@@ -152,15 +144,9 @@ mod tests {
 
     #[test]
     fn non_rotations_are_rejected() {
-        assert!(matches!(
-            checked_rotation(&(Matrix3::identity() * 1.1)),
-            Err(RotationDefect::NotOrthonormal { .. })
-        ));
+        assert!(matches!(checked_rotation(&(Matrix3::identity() * 1.1)), Err(RotationDefect::NotOrthonormal { .. })));
         let reflect = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0));
-        assert!(matches!(
-            checked_rotation(&reflect),
-            Err(RotationDefect::NotProper { .. })
-        ));
+        assert!(matches!(checked_rotation(&reflect), Err(RotationDefect::NotProper { .. })));
         assert!(checked_rotation(&Matrix3::from_element(f64::NAN)).is_err());
     }
 

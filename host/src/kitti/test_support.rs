@@ -42,14 +42,8 @@ pub fn calib_object_style() -> String {
     s += &row("P2:", &p(43.2, 0.2, 0.0027));
     s += &row("P3:", &p(43.2 - FX * BASELINE, 2.2, 0.0027));
     s += &row("R0_rect:", r_rect.as_slice_row_major().as_slice());
-    s += &row(
-        "Tr_velo_to_cam:",
-        &rt(&r_velo_cam, Vector3::new(-0.004, -0.076, -0.27)),
-    );
-    s += &row(
-        "Tr_imu_to_velo:",
-        &rt(&r_imu_velo, Vector3::new(-0.81, 0.32, -0.80)),
-    );
+    s += &row("Tr_velo_to_cam:", &rt(&r_velo_cam, Vector3::new(-0.004, -0.076, -0.27)));
+    s += &row("Tr_imu_to_velo:", &rt(&r_imu_velo, Vector3::new(-0.81, 0.32, -0.80)));
     s
 }
 
@@ -75,15 +69,13 @@ impl RowMajor for Matrix3<f64> {
 /// The shared KITTI directory: `$DYNOTRAJ_KITTI`, else `<workspace>/../shared/kitti`.
 /// `None` (after printing why the caller skips) when it does not exist.
 pub fn kitti_root(test: &str) -> Option<PathBuf> {
-    let root = std::env::var_os("DYNOTRAJ_KITTI")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            // Read at run time first: a reused test binary's compile-time value may name another
-            // checkout (see dynotraj_tests::manifest_dir).
-            std::env::var_os("CARGO_MANIFEST_DIR")
-                .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
-                .join("../../shared/kitti")
-        });
+    let root = std::env::var_os("DYNOTRAJ_KITTI").map(PathBuf::from).unwrap_or_else(|| {
+        // Read at run time first: a reused test binary's compile-time value may name another
+        // checkout (see dynotraj_tests::manifest_dir).
+        std::env::var_os("CARGO_MANIFEST_DIR")
+            .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
+            .join("../../shared/kitti")
+    });
     if root.join("tracking/training/label_02").is_dir() {
         Some(root)
     } else {

@@ -18,24 +18,15 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, KittiError> {
 
 /// Writes `text` to `path`, creating or truncating it.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), KittiError> {
-    std::fs::write(path, text).map_err(|source| KittiError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    std::fs::write(path, text).map_err(|source| KittiError::Io { path: path.to_path_buf(), source })
 }
 
 /// Maps an I/O error on `path` to `Missing` (not found) or `Io`.
 pub(crate) fn io_error(path: &Path, what: &str, source: std::io::Error) -> KittiError {
     if source.kind() == ErrorKind::NotFound {
-        KittiError::Missing {
-            path: path.to_path_buf(),
-            what: what.to_string(),
-        }
+        KittiError::Missing { path: path.to_path_buf(), what: what.to_string() }
     } else {
-        KittiError::Io {
-            path: path.to_path_buf(),
-            source,
-        }
+        KittiError::Io { path: path.to_path_buf(), source }
     }
 }
 
@@ -59,13 +50,7 @@ pub(crate) struct LineCtx<'a> {
 
 impl LineCtx<'_> {
     /// A [`KittiError::Parse`] at this line.
-    pub fn error(
-        &self,
-        field: &str,
-        column: Option<usize>,
-        expected: &str,
-        found: String,
-    ) -> KittiError {
+    pub fn error(&self, field: &str, column: Option<usize>, expected: &str, found: String) -> KittiError {
         KittiError::Parse {
             path: self.path.to_path_buf(),
             line: self.line,
@@ -86,24 +71,13 @@ impl LineCtx<'_> {
     }
 
     /// Parses a decimal integer (no fraction, no exponent).
-    pub fn integer(
-        &self,
-        tok: &str,
-        field: &str,
-        column: Option<usize>,
-    ) -> Result<i64, KittiError> {
-        tok.parse::<i64>()
-            .map_err(|_| self.error(field, column, "an integer", quote(tok)))
+    pub fn integer(&self, tok: &str, field: &str, column: Option<usize>) -> Result<i64, KittiError> {
+        tok.parse::<i64>().map_err(|_| self.error(field, column, "an integer", quote(tok)))
     }
 
     /// Parses an integer that may be written as a float with zero fraction (`4` or `4.0`), as some
     /// converters write the integer status fields of oxts files.
-    pub fn integral(
-        &self,
-        tok: &str,
-        field: &str,
-        column: Option<usize>,
-    ) -> Result<i64, KittiError> {
+    pub fn integral(&self, tok: &str, field: &str, column: Option<usize>) -> Result<i64, KittiError> {
         if let Ok(v) = tok.parse::<i64>() {
             return Ok(v);
         }
@@ -125,11 +99,7 @@ pub(crate) fn c_exp(x: f64, prec: usize) -> String {
                 Some(d) => ('-', d),
                 None => ('+', exp),
             };
-            let digits = if digits.len() < 2 {
-                format!("0{digits}")
-            } else {
-                digits.to_string()
-            };
+            let digits = if digits.len() < 2 { format!("0{digits}") } else { digits.to_string() };
             format!("{mantissa}e{sign}{digits}")
         }
         None => s, // inf / NaN: no exponent
@@ -151,26 +121,15 @@ mod tests {
 
     #[test]
     fn numbers_are_checked() {
-        let ctx = LineCtx {
-            path: Path::new("x.txt"),
-            line: 3,
-        };
+        let ctx = LineCtx { path: Path::new("x.txt"), line: 3 };
         assert_eq!(ctx.finite("1e-05", "f", None).unwrap(), 1e-5);
-        assert!(
-            ctx.finite("nan", "f", None)
-                .unwrap_err()
-                .to_string()
-                .contains("finite")
-        );
+        assert!(ctx.finite("nan", "f", None).unwrap_err().to_string().contains("finite"));
         assert!(ctx.finite("inf", "f", None).is_err());
         assert_eq!(ctx.integral("4.0", "f", None).unwrap(), 4);
         assert!(ctx.integral("4.5", "f", None).is_err());
         assert!(ctx.integer("4.0", "f", None).is_err());
         let long = "x".repeat(100);
         let m = ctx.finite(&long, "f", Some(2)).unwrap_err().to_string();
-        assert!(
-            m.len() < 120 && m.contains("x.txt line 3, field `f` (column 2)"),
-            "{m}"
-        );
+        assert!(m.len() < 120 && m.contains("x.txt line 3, field `f` (column 2)"), "{m}");
     }
 }

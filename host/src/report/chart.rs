@@ -38,15 +38,25 @@ fn register_font() -> Result<(), String> {
     static DONE: OnceLock<Result<(), String>> = OnceLock::new();
     DONE.get_or_init(|| {
         let path = std::env::var_os("DYNOTRAJ_FONT").map_or_else(|| PathBuf::from(DEFAULT_FONT), PathBuf::from);
-        let bytes = std::fs::read(&path).map_err(|e| format!("reading the chart font {}: {e} (install fonts-dejavu-core or set DYNOTRAJ_FONT)", path.display()))?;
+        let bytes = std::fs::read(&path).map_err(|e| {
+            format!("reading the chart font {}: {e} (install fonts-dejavu-core or set DYNOTRAJ_FONT)", path.display())
+        })?;
         // plotters keeps fonts for the life of the process.
         let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).map_err(|_| format!("{}: not a TrueType or OpenType font", path.display()))
+        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
+            .map_err(|_| format!("{}: not a TrueType or OpenType font", path.display()))
     })
     .clone()
 }
 
-const COLOURS: [RGBColor; 6] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14), RGBColor(44, 160, 44), RGBColor(214, 39, 40), RGBColor(148, 103, 189), RGBColor(140, 86, 75)];
+const COLOURS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
 
 fn bounds(chart: &Chart) -> Option<((f64, f64), (f64, f64))> {
     let pts = chart.series.iter().flat_map(|s| s.points.iter()).filter(|(x, y)| x.is_finite() && y.is_finite());
@@ -79,7 +89,12 @@ where
         .y_label_area_size(60)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|x| e(&x))?;
-    c.configure_mesh().x_desc(chart.x_label.as_str()).y_desc(chart.y_label.as_str()).label_style(("sans-serif", 14)).draw().map_err(|x| e(&x))?;
+    c.configure_mesh()
+        .x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .label_style(("sans-serif", 14))
+        .draw()
+        .map_err(|x| e(&x))?;
     for (i, s) in chart.series.iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
         let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
@@ -88,7 +103,12 @@ where
             .label(s.label.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
     }
-    c.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).label_font(("sans-serif", 14)).draw().map_err(|x| e(&x))?;
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(|x| e(&x))?;
     root.present().map_err(|x| e(&x))?;
     Ok(())
 }
@@ -101,8 +121,12 @@ pub fn write_chart(chart: &Chart, stem: &Path) -> anyhow::Result<[PathBuf; 2]> {
     register_font().map_err(anyhow::Error::msg)?;
     let png = stem.with_extension("png");
     let svg = stem.with_extension("svg");
-    draw(BitMapBackend::new(&png, (900, 500)).into_drawing_area(), chart).map_err(anyhow::Error::msg).with_context(|| format!("drawing {}", png.display()))?;
-    draw(SVGBackend::new(&svg, (900, 500)).into_drawing_area(), chart).map_err(anyhow::Error::msg).with_context(|| format!("drawing {}", svg.display()))?;
+    draw(BitMapBackend::new(&png, (900, 500)).into_drawing_area(), chart)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("drawing {}", png.display()))?;
+    draw(SVGBackend::new(&svg, (900, 500)).into_drawing_area(), chart)
+        .map_err(anyhow::Error::msg)
+        .with_context(|| format!("drawing {}", svg.display()))?;
     Ok([png, svg])
 }
 
@@ -118,7 +142,10 @@ mod tests {
             x_label: "frame".into(),
             y_label: "m/s".into(),
             series: vec![
-                Series { label: "gt".into(), points: (0..50).map(|k| (f64::from(k), (f64::from(k) * 0.3).sin())).collect() },
+                Series {
+                    label: "gt".into(),
+                    points: (0..50).map(|k| (f64::from(k), (f64::from(k) * 0.3).sin())).collect(),
+                },
                 Series { label: "estimated".into(), points: vec![(0.0, 0.5), (10.0, f64::NAN), (49.0, 0.7)] },
             ],
         };

@@ -3,7 +3,7 @@
 
 use dynotraj_core::metrics::{ForecastScores, Mean};
 
-use super::{fmt_opt, Table};
+use super::{Table, fmt_opt};
 
 /// One arm's scores, one entry per sequence (in the table's column order).
 #[derive(Debug, Clone, PartialEq, Default)]

@@ -2,7 +2,7 @@
 
 use super::Table;
 use crate::sequence::SequenceTracks;
-use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+use crate::trajectory::{EligibilityRule, Source, eligible_runs};
 
 /// Eligible objects and test instances of `seqs` under `rule`, two rows per source (the source
 /// named in the row label unless `sources` is the labels alone), with totals.

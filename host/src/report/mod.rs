@@ -5,6 +5,6 @@ mod forecast_table;
 mod instances_table;
 mod table;
 
-pub use forecast_table::{forecast_table, ArmScores, ReferenceRow};
+pub use forecast_table::{ArmScores, ReferenceRow, forecast_table};
 pub use instances_table::instances_table;
-pub use table::{fmt_opt, Format, Table};
+pub use table::{Format, Table, fmt_opt};

@@ -44,7 +44,8 @@ impl Batch {
         let mut edge = Vec::with_capacity(b * MAX_STEPS * 2 * FEATURES);
         let mut mask = Vec::with_capacity(b * MAX_STEPS);
         let mut current = Vec::with_capacity(b * FEATURES);
-        let (mut u0, mut speed, mut future) = (Vec::with_capacity(2 * b), Vec::with_capacity(b), Vec::with_capacity(2 * b * HORIZON));
+        let (mut u0, mut speed, mut future) =
+            (Vec::with_capacity(2 * b), Vec::with_capacity(b), Vec::with_capacity(2 * b * HORIZON));
         for s in samples {
             for (t, (o, n)) in s.own.iter().zip(&s.neighbours).enumerate() {
                 own.extend_from_slice(o);

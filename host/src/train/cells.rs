@@ -8,12 +8,12 @@
 //! of one per step; the tests hold them to candle-nn's cells and to a hand-written step over the
 //! exported weights.
 
-use candle_core::{Result, Tensor, D};
-use candle_nn::ops::sigmoid;
+use candle_core::{D, Result, Tensor};
 use candle_nn::Linear;
+use candle_nn::ops::sigmoid;
 
 use super::fused::gru_gates;
-use super::params::{default_bound, ParamStore};
+use super::params::{ParamStore, default_bound};
 
 /// A linear layer `y = x W^T + b` named `{prefix}.weight`, `{prefix}.bias`.
 ///
@@ -108,7 +108,14 @@ impl LstmCell {
     ///
     /// # Errors
     /// Shape errors.
-    pub fn run_masked(&self, x: &Tensor, mask: &Tensor, steps: usize, h0: &Tensor, c0: &Tensor) -> Result<(Tensor, Tensor)> {
+    pub fn run_masked(
+        &self,
+        x: &Tensor,
+        mask: &Tensor,
+        steps: usize,
+        h0: &Tensor,
+        c0: &Tensor,
+    ) -> Result<(Tensor, Tensor)> {
         let gx = self.project(x)?;
         let (mut h, mut c) = (h0.clone(), c0.clone());
         for t in 0..steps {

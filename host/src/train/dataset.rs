@@ -13,15 +13,15 @@
 
 use dynotraj_core::limits::{HORIZON, MAX_HISTORY, MIN_HISTORY};
 use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
-use dynotraj_core::model::features::{initial_control, neighbour_sum, rollout_start, state_features, StepFeatures};
+use dynotraj_core::model::features::{StepFeatures, initial_control, neighbour_sum, rollout_start, state_features};
 use dynotraj_core::{BevState, Point2};
+use rand::SeedableRng as _;
 use rand::rngs::SmallRng;
 use rand::seq::SliceRandom as _;
-use rand::SeedableRng as _;
 
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
-use crate::trajectory::{eligible_runs, EligibilityRule, Source};
+use crate::trajectory::{EligibilityRule, Source, eligible_runs};
 
 /// One training instance.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,7 +69,12 @@ impl Sample {
 
     /// ADE (metres) of the forecast that moves by `step` (agent frame) every frame.
     fn straight_line_ade(&self, step: Point2) -> f32 {
-        let sum: f32 = self.future.iter().enumerate().map(|(k, p)| ((k + 1) as f32 * step.x - p.x).hypot((k + 1) as f32 * step.y - p.y)).sum();
+        let sum: f32 = self
+            .future
+            .iter()
+            .enumerate()
+            .map(|(k, p)| ((k + 1) as f32 * step.x - p.x).hypot((k + 1) as f32 * step.y - p.y))
+            .sum();
         sum / HORIZON as f32
     }
 
@@ -79,7 +84,9 @@ impl Sample {
     /// set of about 65 runs per fold.
     #[must_use]
     pub fn mirrored(&self) -> Self {
-        let flip = |rows: &StepFeatures| rows.map(|r| core::array::from_fn(|i| if MIRRORED_FEATURES.contains(&i) { -r[i] } else { r[i] }));
+        let flip = |rows: &StepFeatures| {
+            rows.map(|r| core::array::from_fn(|i| if MIRRORED_FEATURES.contains(&i) { -r[i] } else { r[i] }))
+        };
         let [w, a] = self.initial_control;
         Self {
             own: flip(&self.own),
@@ -126,7 +133,13 @@ pub fn sample_at(states: &[BevState], s: usize, neighbours: &[&[BevState]], dt: 
 /// `dt`; run k of the sequence gets group `first_group + k`. Returns the samples and the number
 /// of runs.
 #[must_use]
-pub fn sequence_samples(seq: &SequenceTracks, source: Source, dt: f32, rule: &EligibilityRule, first_group: usize) -> (Vec<Sample>, usize) {
+pub fn sequence_samples(
+    seq: &SequenceTracks,
+    source: Source,
+    dt: f32,
+    rule: &EligibilityRule,
+    first_group: usize,
+) -> (Vec<Sample>, usize) {
     let tracks = seq.tracks_for(source);
     let scene = Scene::new(tracks, source, dt);
     let runs = eligible_runs(tracks, rule);
@@ -226,7 +239,10 @@ mod tests {
         let other: Vec<BevState> = line(40, 10.0, dt).iter().map(|s| BevState { y: s.y + 3.0, ..*s }).collect();
         let s = sample_at(&states, 8, &[&other[2..=8]], dt, 0).unwrap();
         assert!((s.neighbours[6][1] - 0.3).abs() < 1e-5, "{:?}", s.neighbours[6]);
-        let samples: Vec<Sample> = (0..10).flat_map(|g| (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g))).flatten().collect();
+        let samples: Vec<Sample> = (0..10)
+            .flat_map(|g| (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g)))
+            .flatten()
+            .collect();
         let split = split_by_run(samples, 10, 0.2, 1);
         assert_eq!(split.validation.len(), 8);
         assert_eq!(split.train.len(), 32);
@@ -236,7 +252,9 @@ mod tests {
     #[test]
     fn the_sequence_split_holds_out_whole_sequences_and_never_all() {
         let dt = 0.05;
-        let seq = |g: usize, n: usize| (0..n).filter_map(|k| sample_at(&line(40, 5.0, dt), 1 + k % 8, &[], dt, g)).collect::<Vec<_>>();
+        let seq = |g: usize, n: usize| {
+            (0..n).filter_map(|k| sample_at(&line(40, 5.0, dt), 1 + k % 8, &[], dt, g)).collect::<Vec<_>>()
+        };
         let split = split_by_sequence(vec![seq(0, 10), seq(1, 10), seq(2, 10), seq(3, 10)], 0.3, 2);
         assert_eq!((split.validation.len(), split.train.len()), (20, 20), "two whole sequences reach 30%");
         let groups = |v: &[Sample]| v.iter().map(|s| s.group).collect::<std::collections::BTreeSet<_>>();
@@ -249,17 +267,24 @@ mod tests {
     fn the_mirrored_sample_is_the_sample_of_the_reflected_run() {
         let dt = 0.05;
         // A left turn and its reflection across the world x axis (a right turn).
-        let turn: Vec<BevState> = (0..40).map(|k| {
-            let h = 0.02 * k as f32;
-            BevState { x: 5.0 + 20.0 * h.sin(), y: 20.0 * (1.0 - h.cos()), heading: h, speed: 8.0 }
-        }).collect();
+        let turn: Vec<BevState> = (0..40)
+            .map(|k| {
+                let h = 0.02 * k as f32;
+                BevState { x: 5.0 + 20.0 * h.sin(), y: 20.0 * (1.0 - h.cos()), heading: h, speed: 8.0 }
+            })
+            .collect();
         let reflected: Vec<BevState> = turn.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
         let other: Vec<BevState> = turn.iter().map(|s| BevState { x: s.x + 4.0, y: s.y + 3.0, ..*s }).collect();
         let other_r: Vec<BevState> = other.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
         let a = sample_at(&turn, 6, &[&other[..=6]], dt, 0).unwrap().mirrored();
         let b = sample_at(&reflected, 6, &[&other_r[..=6]], dt, 0).unwrap();
         let close = |x: f32, y: f32| (x - y).abs() < 1e-3;
-        assert!(a.own.iter().flatten().zip(b.own.iter().flatten()).all(|(x, y)| close(*x, *y)), "{:?}\n{:?}", a.own, b.own);
+        assert!(
+            a.own.iter().flatten().zip(b.own.iter().flatten()).all(|(x, y)| close(*x, *y)),
+            "{:?}\n{:?}",
+            a.own,
+            b.own
+        );
         assert!(a.neighbours.iter().flatten().zip(b.neighbours.iter().flatten()).all(|(x, y)| close(*x, *y)));
         assert!(a.future.iter().zip(&b.future).all(|(p, q)| close(p.x, q.x) && close(p.y, q.y)));
         assert!(close(a.initial_control[0], b.initial_control[0]) && a.initial_control[0].abs() > 0.01);

@@ -30,7 +30,7 @@
 //! where every sum over s < T is a prefix sum: the whole horizon in a few tensor operations
 //! (the tests hold it to the step-by-step 4x4 recursion).
 
-use candle_core::{DType, Result, Tensor, D};
+use candle_core::{D, DType, Result, Tensor};
 use dynotraj_core::limits::{MAX_ACCEL, MAX_TURN_RATE};
 use dynotraj_core::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
 
@@ -44,7 +44,8 @@ const STRAIGHT_TURN_RATE: f32 = 0.01;
 /// # Errors
 /// Shape errors.
 pub fn controls(mu: &Tensor) -> Result<(Tensor, Tensor)> {
-    let w = (mu.narrow(D::Minus1, 0, 1)?.squeeze(D::Minus1)? * f64::from(TURN_RATE_SCALE))?.clamp(-MAX_TURN_RATE, MAX_TURN_RATE)?;
+    let w = (mu.narrow(D::Minus1, 0, 1)?.squeeze(D::Minus1)? * f64::from(TURN_RATE_SCALE))?
+        .clamp(-MAX_TURN_RATE, MAX_TURN_RATE)?;
     let a = (mu.narrow(D::Minus1, 1, 1)?.squeeze(D::Minus1)? * f64::from(ACCEL_SCALE))?.clamp(-MAX_ACCEL, MAX_ACCEL)?;
     Ok((w, a))
 }
@@ -147,7 +148,12 @@ fn mat2_t(m: &Tensor) -> Result<Tensor> {
 pub fn position_covariance(mid: &MidSteps, q: &Tensor, dt: f64) -> Result<Tensor> {
     let (r, t) = mid.travel.dims2()?;
     let j = Tensor::stack(
-        &[(&mid.travel * &mid.sin_mid)?.neg()?, (&mid.cos_mid * dt)?, (&mid.travel * &mid.cos_mid)?, (&mid.sin_mid * dt)?],
+        &[
+            (&mid.travel * &mid.sin_mid)?.neg()?,
+            (&mid.cos_mid * dt)?,
+            (&mid.travel * &mid.cos_mid)?,
+            (&mid.sin_mid * dt)?,
+        ],
         2,
     )?
     .reshape((r, t, 2, 2))?;
@@ -165,8 +171,8 @@ pub fn position_covariance(mid: &MidSteps, q: &Tensor, dt: f64) -> Result<Tensor
 #[cfg(test)]
 mod tests {
     use candle_core::Device;
-    use dynotraj_core::predict::unicycle_step;
     use dynotraj_core::BevState;
+    use dynotraj_core::predict::unicycle_step;
 
     use super::*;
 
@@ -244,7 +250,11 @@ mod tests {
         };
         let log_sigma: Vec<f32> = (0..rows * t * 2).map(|i| -1.0 + 0.5 * ((i as f32) * 0.13).cos()).collect();
         let rho: Vec<f32> = (0..rows * t).map(|i| ((i as f32) * 0.31).sin()).collect();
-        let q = control_covariance(&Tensor::from_vec(log_sigma, (rows, t, 2), &dev).unwrap(), &Tensor::from_vec(rho, (rows, t, 1), &dev).unwrap()).unwrap();
+        let q = control_covariance(
+            &Tensor::from_vec(log_sigma, (rows, t, 2), &dev).unwrap(),
+            &Tensor::from_vec(rho, (rows, t, 1), &dev).unwrap(),
+        )
+        .unwrap();
         let got = position_covariance(&mid, &q, dt).unwrap().reshape((rows, t, 4)).unwrap().to_vec3::<f32>().unwrap();
         let qv = q.reshape((rows, t, 4)).unwrap().to_vec3::<f32>().unwrap();
         for r in 0..rows {
@@ -252,11 +262,22 @@ mod tests {
             for k in 0..t {
                 let (d, m) = (f64::from(travel[r * t + k]), f64::from(heading[r * t + k]));
                 let (c, s) = (m.cos(), m.sin());
-                let f: M4 = [[1.0, 0.0, -d * s, dt * c], [0.0, 1.0, d * c, dt * s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+                let f: M4 =
+                    [[1.0, 0.0, -d * s, dt * c], [0.0, 1.0, d * c, dt * s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
                 // G as a 4x4 with zero columns 2 and 3, Q padded likewise.
-                let g: M4 = [[-d * s * dt / 2.0, dt * dt / 2.0 * c, 0.0, 0.0], [d * c * dt / 2.0, dt * dt / 2.0 * s, 0.0, 0.0], [dt, 0.0, 0.0, 0.0], [0.0, dt, 0.0, 0.0]];
+                let g: M4 = [
+                    [-d * s * dt / 2.0, dt * dt / 2.0 * c, 0.0, 0.0],
+                    [d * c * dt / 2.0, dt * dt / 2.0 * s, 0.0, 0.0],
+                    [dt, 0.0, 0.0, 0.0],
+                    [0.0, dt, 0.0, 0.0],
+                ];
                 let qk = &qv[r][k];
-                let qm: M4 = [[f64::from(qk[0]), f64::from(qk[1]), 0.0, 0.0], [f64::from(qk[2]), f64::from(qk[3]), 0.0, 0.0], [0.0; 4], [0.0; 4]];
+                let qm: M4 = [
+                    [f64::from(qk[0]), f64::from(qk[1]), 0.0, 0.0],
+                    [f64::from(qk[2]), f64::from(qk[3]), 0.0, 0.0],
+                    [0.0; 4],
+                    [0.0; 4],
+                ];
                 let fpf = mul(&mul(&f, &p), &tr(&f));
                 let gqg = mul(&mul(&g, &qm), &tr(&g));
                 for i in 0..4 {
@@ -266,7 +287,11 @@ mod tests {
                 }
                 let want = [p[0][0], p[0][1], p[1][0], p[1][1]];
                 for (gv, wv) in got[r][k].iter().zip(want) {
-                    assert!((f64::from(*gv) - wv).abs() <= 1e-4 * (1.0 + wv.abs()), "row {r} step {k}: {:?} vs {want:?}", got[r][k]);
+                    assert!(
+                        (f64::from(*gv) - wv).abs() <= 1e-4 * (1.0 + wv.abs()),
+                        "row {r} step {k}: {:?} vs {want:?}",
+                        got[r][k]
+                    );
                 }
             }
         }

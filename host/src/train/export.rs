@@ -19,7 +19,7 @@ use std::path::Path;
 use candle_core::{DType, Device, Result, Tensor};
 use candle_nn::VarMap;
 use dynotraj_core::model::arch::Dims;
-use dynotraj_core::model::blob::{blob_len, write_blob, Precision};
+use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
 
 use super::cells::bias;
 use super::model::Network;
@@ -66,7 +66,8 @@ pub fn to_blob(net: &Network, dims: &Dims, precision: Precision, dt: f32) -> Res
     let tensors = layout_tensors(net)?;
     let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
     let mut buf = vec![0u8; blob_len(dims, precision)];
-    write_blob(dims, precision, dt, &slices, &mut buf).map_err(|e| candle_core::Error::Msg(format!("writing the model blob: {e}")))?;
+    write_blob(dims, precision, dt, &slices, &mut buf)
+        .map_err(|e| candle_core::Error::Msg(format!("writing the model blob: {e}")))?;
     Ok(buf)
 }
 
@@ -93,8 +94,14 @@ pub fn save_checkpoint(net: &Network, vars: &VarMap, dt: f32, path: &Path) -> Re
 /// I/O errors, a missing variable or a shape that disagrees with `meta.dims`.
 pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32)> {
     let saved = candle_core::safetensors::load(path, &Device::Cpu)?;
-    let meta = saved.get("meta.dims").ok_or_else(|| candle_core::Error::Msg("checkpoint has no meta.dims".into()))?.to_dtype(DType::F32)?.to_vec1::<f32>()?;
-    let [enc, edge, k, dec, dt] = meta[..] else { candle_core::bail!("meta.dims holds {} values, expected 5", meta.len()) };
+    let meta = saved
+        .get("meta.dims")
+        .ok_or_else(|| candle_core::Error::Msg("checkpoint has no meta.dims".into()))?
+        .to_dtype(DType::F32)?
+        .to_vec1::<f32>()?;
+    let [enc, edge, k, dec, dt] = meta[..] else {
+        candle_core::bail!("meta.dims holds {} values, expected 5", meta.len())
+    };
     let dims = Dims { enc: enc as usize, edge: edge as usize, k: k as usize, dec: dec as usize };
     let (net, vars) = Network::new(dims, 0)?;
     {
@@ -110,14 +117,14 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32)> {
 #[cfg(test)]
 mod tests {
     use candle_core::Module as _;
-    use candle_nn::rnn::{GRUConfig, LSTMConfig, LSTMState, GRUState, RNN as _};
     use candle_nn::VarBuilder;
+    use candle_nn::rnn::{GRUConfig, GRUState, LSTMConfig, LSTMState, RNN as _};
     use dynotraj_core::geometry::{BevState, Point2};
     use dynotraj_core::limits::HORIZON;
+    use dynotraj_core::model::LearnedPredictor;
     use dynotraj_core::model::arch::FEATURES;
     use dynotraj_core::model::blob::ModelBlob;
     use dynotraj_core::model::features::rollout_start;
-    use dynotraj_core::model::LearnedPredictor;
 
     use super::*;
     use crate::train::batch::Batch;
@@ -128,7 +135,10 @@ mod tests {
 
     /// `w x + b` over row-major `w` [rows, x.len()].
     fn affine(w: &[f32], b: &[f32], x: &[f32]) -> Vec<f32> {
-        b.iter().enumerate().map(|(i, bi)| bi + w[i * x.len()..(i + 1) * x.len()].iter().zip(x).map(|(a, c)| a * c).sum::<f32>()).collect()
+        b.iter()
+            .enumerate()
+            .map(|(i, bi)| bi + w[i * x.len()..(i + 1) * x.len()].iter().zip(x).map(|(a, c)| a * c).sum::<f32>())
+            .collect()
     }
 
     fn sig(x: f32) -> f32 {
@@ -180,7 +190,10 @@ mod tests {
         // History encoder: tensors 0..4 of the layout, candle-nn's names under "enc".
         let (x, h, c) = (values(FEATURES, 0.1), values(SMALL.enc, 0.7), values(SMALL.enc, 1.3));
         let xt = Tensor::from_vec(x.clone(), (1, FEATURES), &dev).unwrap();
-        let (ht, ct) = (Tensor::from_vec(h.clone(), (1, SMALL.enc), &dev).unwrap(), Tensor::from_vec(c.clone(), (1, SMALL.enc), &dev).unwrap());
+        let (ht, ct) = (
+            Tensor::from_vec(h.clone(), (1, SMALL.enc), &dev).unwrap(),
+            Tensor::from_vec(c.clone(), (1, SMALL.enc), &dev).unwrap(),
+        );
         let gx = net.enc.project(&xt.unsqueeze(1).unwrap()).unwrap().squeeze(1).unwrap();
         let (h1, c1) = net.enc.step(&gx, &ht, &ct).unwrap();
         let reference = candle_nn::lstm(FEATURES, SMALL.enc, LSTMConfig::default(), vb.pp("enc")).unwrap();
@@ -250,7 +263,10 @@ mod tests {
         assert_eq!(to_blob(&back, &SMALL, Precision::F32, 0.1).unwrap(), blob);
         let stored = candle_core::safetensors::load(&path, &Device::Cpu).unwrap();
         assert_eq!(stored["meta.blob"].to_vec1::<u8>().unwrap(), blob);
-        assert!(stored.contains_key("qz.weight") && stored.contains_key("future.weight_hh_l0_reverse"), "training-only parts are kept");
+        assert!(
+            stored.contains_key("qz.weight") && stored.contains_key("future.weight_hh_l0_reverse"),
+            "training-only parts are kept"
+        );
         assert!(ModelBlob::parse(&to_blob(&net, &SMALL, Precision::Int8, 0.1).unwrap()).is_ok());
         assert!(to_blob(&net, &Dims::DEFAULT, Precision::F32, 0.1).is_err(), "widths must match");
     }

@@ -7,14 +7,14 @@ use std::time::Instant;
 
 use candle_core::{Device, Result, Tensor, Var};
 use candle_nn::{AdamW, Optimizer as _, ParamsAdamW, VarMap};
+use rand::SeedableRng as _;
 use rand::rngs::SmallRng;
 use rand::seq::SliceRandom as _;
-use rand::SeedableRng as _;
 
 use super::batch::Batch;
 use super::dataset::Sample;
-use super::loss::{beta, loss, LossConfig};
-use super::model::{ade, Network};
+use super::loss::{LossConfig, beta, loss};
+use super::model::{Network, ade};
 
 /// Optimisation settings.
 ///
@@ -220,17 +220,34 @@ fn put_back(params: &[Var], old: &[Tensor]) -> Result<()> {
 ///
 /// # Errors
 /// An empty training set; numerical failure (a non-finite loss).
-pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample], dt: f32, hyper: &Hyper, observer: &mut dyn FnMut(Event)) -> Result<FitOutcome> {
+pub fn fit(
+    net: &Network,
+    vars: &VarMap,
+    train: &[Sample],
+    validation: &[Sample],
+    dt: f32,
+    hyper: &Hyper,
+    observer: &mut dyn FnMut(Event),
+) -> Result<FitOutcome> {
     if train.is_empty() {
         candle_core::bail!("no training samples");
     }
     let held_out = if validation.is_empty() { train } else { validation };
     let start = Instant::now();
     // Sorted names give the optimiser (and so the run) a fixed variable order.
-    let mut named: Vec<(String, Var)> = vars.data().lock().map_err(|_| candle_core::Error::Msg("poisoned".into()))?.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+    let mut named: Vec<(String, Var)> = vars
+        .data()
+        .lock()
+        .map_err(|_| candle_core::Error::Msg("poisoned".into()))?
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     named.sort_by(|a, b| a.0.cmp(&b.0));
     let params: Vec<Var> = named.into_iter().map(|(_, v)| v).collect();
-    let mut opt = AdamW::new(params.clone(), ParamsAdamW { lr: hyper.learning_rate, weight_decay: hyper.weight_decay, ..ParamsAdamW::default() })?;
+    let mut opt = AdamW::new(
+        params.clone(),
+        ParamsAdamW { lr: hyper.learning_rate, weight_decay: hyper.weight_decay, ..ParamsAdamW::default() },
+    )?;
     let mut rng = SmallRng::seed_from_u64(hyper.seed);
     let batch = hyper.batch.max(1);
     let per_epoch = train.len().div_ceil(batch);
@@ -319,10 +336,14 @@ pub fn fit(net: &Network, vars: &VarMap, train: &[Sample], validation: &[Sample]
 /// Shape errors; a missing output layer.
 pub fn shrink_towards_cv(net: &Network, vars: &VarMap, held_out: &[Sample], dt: f32) -> Result<(f32, f32)> {
     let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
-    let (Some(w), Some(b)) = (data.get("out.weight"), data.get("out.bias")) else { candle_core::bail!("no output layer `out` in the variables") };
+    let (Some(w), Some(b)) = (data.get("out.weight"), data.get("out.bias")) else {
+        candle_core::bail!("no output layer `out` in the variables")
+    };
     let (w0, b0) = (w.as_tensor().copy()?, b.as_tensor().copy()?);
     let rows = w0.dim(0)?;
-    let scale_of = |f: f32| Tensor::from_vec((0..rows).map(|r| if r < 2 { f } else { 1.0 }).collect::<Vec<f32>>(), rows, &Device::Cpu);
+    let scale_of = |f: f32| {
+        Tensor::from_vec((0..rows).map(|r| if r < 2 { f } else { 1.0 }).collect::<Vec<f32>>(), rows, &Device::Cpu)
+    };
     let mut best = (1.0f32, f32::INFINITY);
     for &f in &SHRINK_FACTORS {
         let scale = scale_of(f)?;

@@ -46,7 +46,8 @@ fn tanh(x: f32) -> f32 {
 
 /// The contiguous f32 data of a CPU tensor argument.
 fn data<'a>(s: &'a CpuStorage, l: &Layout) -> Result<&'a [f32]> {
-    let (a, b) = l.contiguous_offsets().ok_or_else(|| candle_core::Error::Msg("fused GRU: non-contiguous input".into()))?;
+    let (a, b) =
+        l.contiguous_offsets().ok_or_else(|| candle_core::Error::Msg("fused GRU: non-contiguous input".into()))?;
     s.as_slice::<f32>()?.get(a..b).ok_or_else(|| candle_core::Error::Msg("fused GRU: bad layout".into()))
 }
 
@@ -75,13 +76,25 @@ impl CustomOp3 for GruGates {
         "gru-gates"
     }
 
-    fn cpu_fwd(&self, s1: &CpuStorage, l1: &Layout, s2: &CpuStorage, l2: &Layout, s3: &CpuStorage, l3: &Layout) -> Result<(CpuStorage, Shape)> {
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
         let (rows, h) = widths(l1, l2, l3, 1)?;
         let (gx, gh, hp) = (data(s1, l1)?, data(s2, l2)?, data(s3, l3)?);
         let mut out = vec![0.0f32; rows * h];
-        for (((o, gx), gh), hp) in out.chunks_exact_mut(h).zip(gx.chunks_exact(3 * h)).zip(gh.chunks_exact(3 * h)).zip(hp.chunks_exact(h)) {
+        for (((o, gx), gh), hp) in
+            out.chunks_exact_mut(h).zip(gx.chunks_exact(3 * h)).zip(gh.chunks_exact(3 * h)).zip(hp.chunks_exact(h))
+        {
             let ((xr, xz, xn), (hr, hz, hn)) = (thirds(gx, h), thirds(gh, h));
-            for ((((((o, &hj), &xr), &xz), &xn), (&hr, &hz)), &hn) in o.iter_mut().zip(hp).zip(xr).zip(xz).zip(xn).zip(hr.iter().zip(hz)).zip(hn) {
+            for ((((((o, &hj), &xr), &xz), &xn), (&hr, &hz)), &hn) in
+                o.iter_mut().zip(hp).zip(xr).zip(xz).zip(xn).zip(hr.iter().zip(hz)).zip(hn)
+            {
                 let r = sigmoid(xr + hr);
                 let z = sigmoid(xz + hz);
                 let n = tanh(xn + r * hn);
@@ -91,7 +104,14 @@ impl CustomOp3 for GruGates {
         Ok((CpuStorage::F32(out), Shape::from((rows, h))))
     }
 
-    fn bwd(&self, gx: &Tensor, gh: &Tensor, h: &Tensor, _res: &Tensor, grad: &Tensor) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
+    fn bwd(
+        &self,
+        gx: &Tensor,
+        gh: &Tensor,
+        h: &Tensor,
+        _res: &Tensor,
+        grad: &Tensor,
+    ) -> Result<(Option<Tensor>, Option<Tensor>, Option<Tensor>)> {
         let hd = h.dim(1)?;
         let hg = Tensor::cat(&[h, grad], 1)?;
         let all = gx.contiguous()?.apply_op3_no_bwd(&gh.contiguous()?, &hg, &GruGatesBackward)?;
@@ -107,11 +127,24 @@ impl CustomOp3 for GruGatesBackward {
         "gru-gates-backward"
     }
 
-    fn cpu_fwd(&self, s1: &CpuStorage, l1: &Layout, s2: &CpuStorage, l2: &Layout, s3: &CpuStorage, l3: &Layout) -> Result<(CpuStorage, Shape)> {
+    fn cpu_fwd(
+        &self,
+        s1: &CpuStorage,
+        l1: &Layout,
+        s2: &CpuStorage,
+        l2: &Layout,
+        s3: &CpuStorage,
+        l3: &Layout,
+    ) -> Result<(CpuStorage, Shape)> {
         let (rows, h) = widths(l1, l2, l3, 2)?;
         let (gx, gh, hg) = (data(s1, l1)?, data(s2, l2)?, data(s3, l3)?);
         let mut out = vec![0.0f32; rows * 7 * h];
-        for (((o, gx), gh), hg) in out.chunks_exact_mut(7 * h).zip(gx.chunks_exact(3 * h)).zip(gh.chunks_exact(3 * h)).zip(hg.chunks_exact(2 * h)) {
+        for (((o, gx), gh), hg) in out
+            .chunks_exact_mut(7 * h)
+            .zip(gx.chunks_exact(3 * h))
+            .zip(gh.chunks_exact(3 * h))
+            .zip(hg.chunks_exact(2 * h))
+        {
             let ((xr, xz, xn), (hr, hz, hn)) = (thirds(gx, h), thirds(gh, h));
             let (hp, g) = hg.split_at(h);
             let (d_gx, rest) = o.split_at_mut(3 * h);
@@ -121,8 +154,15 @@ impl CustomOp3 for GruGatesBackward {
             let (dhr, rest) = d_gh.split_at_mut(h);
             let (dhz, dhn) = rest.split_at_mut(h);
             let inputs = hp.iter().zip(g).zip(xr.iter().zip(xz).zip(xn)).zip(hr.iter().zip(hz).zip(hn));
-            let outputs = dxr.iter_mut().zip(dxz.iter_mut()).zip(dxn.iter_mut()).zip(dhr.iter_mut().zip(dhz.iter_mut()).zip(dhn.iter_mut())).zip(d_h.iter_mut());
-            for ((((&hj, &gj), ((&xr, &xz), &xn)), ((&hr, &hz), &hn)), ((((oxr, oxz), oxn), ((ohr, ohz), ohn)), oh)) in inputs.zip(outputs) {
+            let outputs = dxr
+                .iter_mut()
+                .zip(dxz.iter_mut())
+                .zip(dxn.iter_mut())
+                .zip(dhr.iter_mut().zip(dhz.iter_mut()).zip(dhn.iter_mut()))
+                .zip(d_h.iter_mut());
+            for ((((&hj, &gj), ((&xr, &xz), &xn)), ((&hr, &hz), &hn)), ((((oxr, oxz), oxn), ((ohr, ohz), ohn)), oh)) in
+                inputs.zip(outputs)
+            {
                 let r = sigmoid(xr + hr);
                 let z = sigmoid(xz + hz);
                 let n = tanh(xn + r * hn);
@@ -167,8 +207,15 @@ mod tests {
     #[test]
     fn the_fused_gates_match_the_composed_ones_in_value_and_gradient() {
         let dev = Device::Cpu;
-        let filled = |r: usize, c: usize, s: f32| Tensor::from_vec((0..r * c).map(|i| 2.0 * (i as f32 * 0.61 + s).sin()).collect::<Vec<f32>>(), (r, c), &dev).unwrap();
-        let (gx, gh, h) = (Var::from_tensor(&filled(5, 12, 0.1)).unwrap(), Var::from_tensor(&filled(5, 12, 0.9)).unwrap(), Var::from_tensor(&filled(5, 4, 1.7)).unwrap());
+        let filled = |r: usize, c: usize, s: f32| {
+            Tensor::from_vec((0..r * c).map(|i| 2.0 * (i as f32 * 0.61 + s).sin()).collect::<Vec<f32>>(), (r, c), &dev)
+                .unwrap()
+        };
+        let (gx, gh, h) = (
+            Var::from_tensor(&filled(5, 12, 0.1)).unwrap(),
+            Var::from_tensor(&filled(5, 12, 0.9)).unwrap(),
+            Var::from_tensor(&filled(5, 4, 1.7)).unwrap(),
+        );
         let weights = filled(5, 4, 2.3);
         let fused = gru_gates(&gx, &gh, &h).unwrap();
         let reference = composed(&gx, &gh, &h);

@@ -28,7 +28,7 @@
 //! Loss = likelihood_weight * -(E_q[log p(y|x,z)] - beta * KL + I(x; z))
 //!        + ade_weight * sum_z p(z|x) ADE_z, averaged over the batch.
 
-use candle_core::{Result, Tensor, D};
+use candle_core::{D, Result, Tensor};
 use candle_nn::ops::log_softmax;
 
 use super::batch::Batch;
@@ -138,7 +138,12 @@ pub fn loss(net: &Network, b: &Batch, dt: f32, beta: f32, cfg: &LossConfig) -> R
     let dist = ((&roll.positions - &target)?.sqr()?.sum(D::Minus1)? + DISTANCE_EPS)?.sqrt()?; // [n k, t]
     let ade = (&p * dist.mean(1)?.reshape((n, k))?)?.sum(1)?.mean(0)?;
     let total = ((elbo * -f64::from(cfg.likelihood_weight))? + (&ade * f64::from(cfg.ade_weight))?)?;
-    Ok(Loss { total, log_likelihood: expected_ll.to_scalar::<f32>()?, kl: kl.to_scalar::<f32>()?, ade: ade.to_scalar::<f32>()? })
+    Ok(Loss {
+        total,
+        log_likelihood: expected_ll.to_scalar::<f32>()?,
+        kl: kl.to_scalar::<f32>()?,
+        ade: ade.to_scalar::<f32>()?,
+    })
 }
 
 #[cfg(test)]
@@ -158,7 +163,10 @@ mod tests {
         let (sx, sy) = (0.25f32, 0.55f32);
         let want = -(2.0 * std::f32::consts::PI).ln() - 0.5 * (sx * sy).ln() - 0.5 * (0.09 / sx + 0.16 / sy);
         assert!((ll[0][0] - want).abs() < 1e-5, "{} vs {want}", ll[0][0]);
-        assert!((ll[0][1] - (-(2.0 * std::f32::consts::PI).ln() - 0.05f32.ln())).abs() < 1e-4, "the floor bounds the density");
+        assert!(
+            (ll[0][1] - (-(2.0 * std::f32::consts::PI).ln() - 0.05f32.ln())).abs() < 1e-4,
+            "the floor bounds the density"
+        );
         let tight = log_density(&mean, &cov, &target, 1e-6).unwrap().to_vec2::<f32>().unwrap();
         assert_eq!(tight[0][1], 6.0, "an exact hit under a tiny covariance is clamped");
     }
@@ -184,7 +192,14 @@ mod tests {
         let only_position = LossConfig { likelihood_weight: 0.0, ade_weight: 2.0, ..LossConfig::default() };
         let l = loss(&net, &b, dt, 1.0, &only_position).unwrap();
         let start = all.iter().map(|s| s.start_ade(dt)).sum::<f32>() / all.len() as f32;
-        assert!(start > 0.05 && (l.ade - start).abs() < 1e-3 * start.max(1.0), "zero controls forecast cv-fit: {} vs {start}", l.ade);
-        assert!((l.total.to_scalar::<f32>().unwrap() - 2.0 * l.ade).abs() < 1e-4, "only the weighted position term is left");
+        assert!(
+            start > 0.05 && (l.ade - start).abs() < 1e-3 * start.max(1.0),
+            "zero controls forecast cv-fit: {} vs {start}",
+            l.ade
+        );
+        assert!(
+            (l.total.to_scalar::<f32>().unwrap() - 2.0 * l.ade).abs() < 1e-4,
+            "only the weighted position term is left"
+        );
     }
 }

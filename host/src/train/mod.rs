@@ -44,7 +44,7 @@ use dynotraj_core::model::blob::Precision;
 
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source};
-pub use dataset::{sample_at, sequence_samples, split_by_run, split_by_sequence, Sample, Split};
+pub use dataset::{Sample, Split, sample_at, sequence_samples, split_by_run, split_by_sequence};
 pub use fit::{EpochReport, Event, Hyper};
 pub use model::Network;
 
@@ -128,7 +128,15 @@ impl<'a> TrainConfig<'a> {
         if self.validate_on_sequences {
             return (split_by_sequence(per_sequence, self.validation_fraction, self.split_seed), used);
         }
-        (split_by_run(per_sequence.into_iter().flatten().collect(), groups, self.validation_fraction, self.split_seed), used)
+        (
+            split_by_run(
+                per_sequence.into_iter().flatten().collect(),
+                groups,
+                self.validation_fraction,
+                self.split_seed,
+            ),
+            used,
+        )
     }
 }
 
@@ -175,7 +183,11 @@ pub struct TrainedModel {
 
 impl std::fmt::Debug for TrainedModel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("TrainedModel").field("dims", &self.network.dims).field("dt", &self.dt).field("report", &self.report).finish_non_exhaustive()
+        f.debug_struct("TrainedModel")
+            .field("dims", &self.network.dims)
+            .field("dt", &self.dt)
+            .field("report", &self.report)
+            .finish_non_exhaustive()
     }
 }
 
@@ -209,10 +221,14 @@ impl TrainedModel {
             p.push(ext);
             PathBuf::from(p)
         };
-        let files = SavedFiles { f32_blob: path.to_path_buf(), int8_blob: with(".int8"), checkpoint: with(".safetensors") };
-        std::fs::write(&files.f32_blob, self.blob(Precision::F32)?).with_context(|| format!("writing {}", files.f32_blob.display()))?;
-        std::fs::write(&files.int8_blob, self.blob(Precision::Int8)?).with_context(|| format!("writing {}", files.int8_blob.display()))?;
-        export::save_checkpoint(&self.network, &self.vars, self.dt, &files.checkpoint).with_context(|| format!("writing {}", files.checkpoint.display()))?;
+        let files =
+            SavedFiles { f32_blob: path.to_path_buf(), int8_blob: with(".int8"), checkpoint: with(".safetensors") };
+        std::fs::write(&files.f32_blob, self.blob(Precision::F32)?)
+            .with_context(|| format!("writing {}", files.f32_blob.display()))?;
+        std::fs::write(&files.int8_blob, self.blob(Precision::Int8)?)
+            .with_context(|| format!("writing {}", files.int8_blob.display()))?;
+        export::save_checkpoint(&self.network, &self.vars, self.dt, &files.checkpoint)
+            .with_context(|| format!("writing {}", files.checkpoint.display()))?;
         Ok(files)
     }
 }
@@ -249,7 +265,11 @@ pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)
         let reflected: Vec<Sample> = split.train.iter().map(Sample::mirrored).collect();
         split.train.extend(reflected);
     }
-    anyhow::ensure!(!split.train.is_empty(), "no training instances in sequences {sequences:?} (source {})", config.source);
+    anyhow::ensure!(
+        !split.train.is_empty(),
+        "no training instances in sequences {sequences:?} (source {})",
+        config.source
+    );
     // Restarts: independent trainings from other seeds, the one with the best validation ADE
     // kept (restart 0 is the seed itself, so one restart is plain training).
     let mut best: Option<(Network, VarMap, fit::FitOutcome, u64)> = None;

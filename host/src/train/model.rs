@@ -9,15 +9,15 @@
 //! from the current state), and q(z|x,y) `qz` = Linear(cond + 2 FUTURE_ENC -> k) over
 //! [x, h_forward, h_backward].
 
-use candle_core::{DType, Device, Result, Tensor, D};
+use candle_core::{D, DType, Device, Result, Tensor};
 use candle_nn::{Linear, Module as _, VarMap};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::{Dims, FEATURES, FUTURE_ENC, OUTPUTS, PZ_HIDDEN};
 
 use super::batch::Batch;
-use super::cells::{bias, linear, linear_within, GruCell, LstmCell};
-use super::fused::gru_gates;
+use super::cells::{GruCell, LstmCell, bias, linear, linear_within};
 use super::dynamics::{control_covariance, controls, integrate, position_covariance};
+use super::fused::gru_gates;
 use super::params::ParamStore;
 
 /// The whole network: the inference parts and the training-only parts.
@@ -108,8 +108,10 @@ impl Network {
     pub fn encode(&self, b: &Batch) -> Result<Tensor> {
         let n = b.size()?;
         let zeros = |w: usize| Tensor::zeros((n, w), DType::F32, b.own.device());
-        let (h_hist, _) = self.enc.run_masked(&b.own, &b.mask, b.steps, &zeros(self.dims.enc)?, &zeros(self.dims.enc)?)?;
-        let (h_edge, _) = self.edge.run_masked(&b.edge_input, &b.mask, b.steps, &zeros(self.dims.edge)?, &zeros(self.dims.edge)?)?;
+        let (h_hist, _) =
+            self.enc.run_masked(&b.own, &b.mask, b.steps, &zeros(self.dims.enc)?, &zeros(self.dims.enc)?)?;
+        let (h_edge, _) =
+            self.edge.run_masked(&b.edge_input, &b.mask, b.steps, &zeros(self.dims.edge)?, &zeros(self.dims.edge)?)?;
         Tensor::cat(&[h_edge, h_hist], 1)
     }
 
@@ -144,7 +146,15 @@ impl Network {
     ///
     /// # Errors
     /// Shape errors.
-    pub fn decode(&self, x: &Tensor, modes: &Modes, u0: &Tensor, speed: &Tensor, dt: f32, covariance: bool) -> Result<Rollout> {
+    pub fn decode(
+        &self,
+        x: &Tensor,
+        modes: &Modes,
+        u0: &Tensor,
+        speed: &Tensor,
+        dt: f32,
+        covariance: bool,
+    ) -> Result<Rollout> {
         let Dims { k, dec, .. } = self.dims;
         let cond = self.dims.cond();
         let b = x.dim(0)?;
@@ -157,11 +167,20 @@ impl Network {
         let z_gru = self.gru.w_ih.narrow(1, 2, k)?.contiguous()?.t()?; // [k, 3 dec]
         let (mut h, fixed_gx, mut u, speed) = match modes {
             Modes::All => {
-                let per_mode = |xp: &Tensor, zp: &Tensor, w: usize| xp.unsqueeze(1)?.broadcast_add(&zp.unsqueeze(0)?)?.reshape((b * k, w));
+                let per_mode = |xp: &Tensor, zp: &Tensor, w: usize| {
+                    xp.unsqueeze(1)?.broadcast_add(&zp.unsqueeze(0)?)?.reshape((b * k, w))
+                };
                 let repeat = |t: &Tensor, w: usize| t.unsqueeze(1)?.broadcast_as((b, k, w))?.reshape((b * k, w));
-                (per_mode(&x_init, &z_init, dec)?, per_mode(&x_gru, &z_gru, 3 * dec)?, repeat(u0, 2)?, repeat(speed, 1)?)
+                (
+                    per_mode(&x_init, &z_init, dec)?,
+                    per_mode(&x_gru, &z_gru, 3 * dec)?,
+                    repeat(u0, 2)?,
+                    repeat(speed, 1)?,
+                )
             }
-            Modes::OneHot(z) => ((x_init + z.matmul(&z_init)?)?, (x_gru + z.matmul(&z_gru)?)?, u0.clone(), speed.clone()),
+            Modes::OneHot(z) => {
+                ((x_init + z.matmul(&z_init)?)?, (x_gru + z.matmul(&z_gru)?)?, u0.clone(), speed.clone())
+            }
         };
         // Step t's input u_t is the observed control (t = 0) or the mean control
         // mu_(t-1) = W_mu h_(t-1) + b_mu fed back (unclamped, as inference does). Only the
@@ -184,7 +203,11 @@ impl Network {
             hs.push(h.clone());
         }
         let hs = Tensor::stack(&hs, 1)?; // [R, HORIZON, dec]
-        let out = hs.reshape((rows * HORIZON, dec))?.matmul(&self.out.weight().t()?)?.broadcast_add(bias(&self.out)?)?.reshape((rows, HORIZON, OUTPUTS))?;
+        let out = hs
+            .reshape((rows * HORIZON, dec))?
+            .matmul(&self.out.weight().t()?)?
+            .broadcast_add(bias(&self.out)?)?
+            .reshape((rows, HORIZON, OUTPUTS))?;
         let (w, a) = controls(&out.narrow(D::Minus1, 0, 2)?)?;
         let dt = f64::from(dt);
         let (positions, mid) = integrate(&w, &a, &speed, dt)?;

@@ -1,12 +1,12 @@
 //! Synthetic training data for the tests: unicycle runs under constant controls, which a
 //! trained predictor should learn to extrapolate better than it starts.
 
-use dynotraj_core::predict::unicycle_step;
 use dynotraj_core::BevState;
+use dynotraj_core::predict::unicycle_step;
 use rand::rngs::SmallRng;
 use rand::{Rng as _, SeedableRng as _};
 
-use super::dataset::{sample_at, Sample};
+use super::dataset::{Sample, sample_at};
 
 /// `runs` runs of `len` states at period `dt`, each under its own constant turn rate (within
 /// +-0.5 rad/s, half of them clearly turning) and acceleration (+-1 m/s^2) from a speed of
@@ -18,7 +18,12 @@ pub fn constant_control_runs(runs: usize, len: usize, dt: f32, seed: u64) -> Vec
         .map(|i| {
             let w = if i % 2 == 0 { rng.random_range(-0.5..0.5) } else { rng.random_range(-0.005..0.005) };
             let a = rng.random_range(-1.0..1.0);
-            let mut s = BevState { x: rng.random_range(-50.0..50.0), y: rng.random_range(-50.0..50.0), heading: rng.random_range(-3.0..3.0), speed: rng.random_range(4.0..14.0) };
+            let mut s = BevState {
+                x: rng.random_range(-50.0..50.0),
+                y: rng.random_range(-50.0..50.0),
+                heading: rng.random_range(-3.0..3.0),
+                speed: rng.random_range(4.0..14.0),
+            };
             let mut out = vec![s];
             for _ in 1..len {
                 s = unicycle_step(&s, w, a, dt);
@@ -32,5 +37,8 @@ pub fn constant_control_runs(runs: usize, len: usize, dt: f32, seed: u64) -> Vec
 /// Every instance of every run as a sample (no neighbours), group = run index.
 #[must_use]
 pub fn samples(runs: &[Vec<BevState>], dt: f32) -> Vec<Sample> {
-    runs.iter().enumerate().flat_map(|(g, states)| (1..states.len()).filter_map(move |s| sample_at(states, s, &[], dt, g))).collect()
+    runs.iter()
+        .enumerate()
+        .flat_map(|(g, states)| (1..states.len()).filter_map(move |s| sample_at(states, s, &[], dt, g)))
+        .collect()
 }

@@ -11,9 +11,9 @@
 //! in these labels drift 0.01-0.05 m per frame through label noise and ego-pose error; the
 //! slowest real traffic in sequence 0020 creeps at about 0.1 m per frame.
 
+use dynotraj_core::BevState;
 use dynotraj_core::limits::{HORIZON, MIN_ELIGIBLE_RUN, MIN_HISTORY};
 use dynotraj_core::wire::ObjectClass;
-use dynotraj_core::BevState;
 
 use super::Track;
 
@@ -48,7 +48,13 @@ impl Default for EligibilityRule {
         Self {
             min_run: MIN_ELIGIBLE_RUN,
             moving: MovingRule::default(),
-            classes: vec![ObjectClass::Car, ObjectClass::Van, ObjectClass::Truck, ObjectClass::Tram, ObjectClass::Cyclist],
+            classes: vec![
+                ObjectClass::Car,
+                ObjectClass::Van,
+                ObjectClass::Truck,
+                ObjectClass::Tram,
+                ObjectClass::Cyclist,
+            ],
         }
     }
 }

@@ -20,12 +20,12 @@
 
 use std::collections::BTreeMap;
 
-use dynotraj_core::estimate::{bev_heading, PoseEstimate};
-use dynotraj_core::wire::ObjectClass;
 use dynotraj_core::BevState;
+use dynotraj_core::estimate::{PoseEstimate, bev_heading};
+use dynotraj_core::wire::ObjectClass;
 
 use super::Track;
-use crate::estimate::evaluate::{evaluate_sequence, EvalOptions};
+use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
 use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -131,11 +131,21 @@ pub fn truth_tracks(sim: &[SimFrame]) -> Vec<Track> {
     let mut by_id: BTreeMap<u16, Track> = BTreeMap::new();
     for f in sim {
         for o in &f.objects {
-            let t = by_id.entry(o.object_id).or_insert_with(|| Track { track_id: i32::from(o.object_id) - 1, class: o.class, frames: Vec::new(), states: Vec::new() });
+            let t = by_id.entry(o.object_id).or_insert_with(|| Track {
+                track_id: i32::from(o.object_id) - 1,
+                class: o.class,
+                frames: Vec::new(),
+                states: Vec::new(),
+            });
             let p = o.pose.translation.vector;
             let x_axis = o.pose.rotation * nalgebra::Vector3::x();
             t.frames.push(f.frame);
-            t.states.push(BevState { x: p.x as f32, y: p.z as f32, heading: x_axis.z.atan2(x_axis.x) as f32, speed: 0.0 });
+            t.states.push(BevState {
+                x: p.x as f32,
+                y: p.z as f32,
+                heading: x_axis.z.atan2(x_axis.x) as f32,
+                speed: 0.0,
+            });
         }
     }
     by_id.into_values().collect()
@@ -168,13 +178,11 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
     }
     by_id
         .into_iter()
-        .map(|(object_id, (class, rows))| {
-            Track {
-                track_id: i32::from(object_id) - 1,
-                class,
-                frames: rows.iter().map(|r| r.0).collect(),
-                states: rows.iter().map(|r| r.2).collect(),
-            }
+        .map(|(object_id, (class, rows))| Track {
+            track_id: i32::from(object_id) - 1,
+            class,
+            frames: rows.iter().map(|r| r.0).collect(),
+            states: rows.iter().map(|r| r.2).collect(),
         })
         .collect()
 }

@@ -2,9 +2,9 @@
 
 use std::collections::BTreeMap;
 
+use dynotraj_core::BevState;
 use dynotraj_core::geometry::{bev_heading_of_rotation_y, bev_point};
 use dynotraj_core::wire::ObjectClass;
-use dynotraj_core::BevState;
 use nalgebra::{Isometry3, Point3};
 
 /// One labelled object in one frame, in the labelling camera's frame.
@@ -55,7 +55,11 @@ impl Track {
 /// difference, and 0 for a single frame. Observations whose frame has no pose are skipped (the
 /// loader has already checked that poses cover every labelled frame).
 #[must_use]
-pub fn ground_truth_tracks(observations: &[LabelledObservation], camera_poses: &[Isometry3<f64>], dt: f32) -> Vec<Track> {
+pub fn ground_truth_tracks(
+    observations: &[LabelledObservation],
+    camera_poses: &[Isometry3<f64>],
+    dt: f32,
+) -> Vec<Track> {
     let mut by_id: BTreeMap<i32, Vec<(u32, BevState, ObjectClass)>> = BTreeMap::new();
     for o in observations {
         let Some(pose) = camera_poses.get(o.frame as usize) else { continue };
@@ -104,7 +108,13 @@ mod tests {
     use super::*;
 
     fn obs(frame: u32, id: i32, x: f64, z: f64, ry: f64) -> LabelledObservation {
-        LabelledObservation { frame, track_id: id, class: ObjectClass::Car, location: Point3::new(x, 1.5, z), rotation_y: ry }
+        LabelledObservation {
+            frame,
+            track_id: id,
+            class: ObjectClass::Car,
+            location: Point3::new(x, 1.5, z),
+            rotation_y: ry,
+        }
     }
 
     #[test]

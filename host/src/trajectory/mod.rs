@@ -7,7 +7,10 @@ pub mod estimated;
 mod ground_truth;
 mod source;
 
-pub use eligibility::{eligible_runs, instance_frames, EligibilityRule, EligibleRun, MovingRule};
-pub use estimated::{estimated_tracks, image_estimated_tracks, rendered_estimated_tracks, tracks_of_estimates, EstimateInput, EstimatedTracks, OursInput};
-pub use ground_truth::{ground_truth_tracks, LabelledObservation, Track};
-pub use source::{Source, RTS_WINDOW};
+pub use eligibility::{EligibilityRule, EligibleRun, MovingRule, eligible_runs, instance_frames};
+pub use estimated::{
+    EstimateInput, EstimatedTracks, OursInput, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks,
+    tracks_of_estimates,
+};
+pub use ground_truth::{LabelledObservation, Track, ground_truth_tracks};
+pub use source::{RTS_WINDOW, Source};

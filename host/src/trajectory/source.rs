@@ -5,8 +5,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
 use dynotraj_core::BevState;
+use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
 
 /// Look-ahead window of the GT+RTS source, frames (as DynoSAM's sliding window of 20).
 pub const RTS_WINDOW: usize = 20;
@@ -107,10 +107,9 @@ impl FromStr for Source {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
-            .into_iter()
-            .find(|src| src.name() == s)
-            .ok_or_else(|| format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts, estimated, estimated-smoothed"))
+        Self::ALL.into_iter().find(|src| src.name() == s).ok_or_else(|| {
+            format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts, estimated, estimated-smoothed")
+        })
     }
 }
 
