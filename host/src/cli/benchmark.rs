@@ -7,7 +7,7 @@ use anyhow::Context as _;
 use clap::Args;
 
 use super::common::DataArgs;
-use super::experiment::deployment_section;
+use super::experiment::{deployment_section, table_i_sources};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use crate::experiment::ExperimentConfig;
@@ -145,11 +145,7 @@ fn sections(
         });
     }
     let rule = args.data.rule()?;
-    let mut sources: Vec<Source> = Vec::new();
-    if config.arms.iter().any(|a| !a.is_estimated()) {
-        sources.push(Source::Gt);
-    }
-    sources.extend(config.arms.iter().copied().filter(Source::is_estimated));
+    let sources = table_i_sources(&config.arms);
     out.push(Section {
         stem: "table_i".into(),
         title: "Eligible objects and test instances".into(),

@@ -207,7 +207,8 @@ fn input_notes(inputs: &[EstimateInput]) -> Vec<String> {
 
 /// The sources Table I counts for `arms`: the labels once (GT, GT+EKF and GT+RTS share them),
 /// then each estimated arm.
-fn table_i_sources(arms: &[Source]) -> Vec<Source> {
+#[must_use]
+pub fn table_i_sources(arms: &[Source]) -> Vec<Source> {
     let mut out = Vec::new();
     if arms.iter().any(|a| !a.is_estimated()) {
         out.push(Source::Gt);

@@ -5,8 +5,7 @@
 
 use std::time::Instant;
 
-use dynotraj_core::metrics::ForecastScores;
-
+use super::findings::total_of;
 use super::folds::{TrainProgress, train_folds};
 use super::{ExperimentConfig, ExperimentResult, FoldReport, check_inputs, fold_specs, score_seed};
 use crate::report::{ArmScores, Table, fmt_opt, forecast_table};
@@ -83,9 +82,9 @@ pub fn run_benchmark(
 }
 
 /// The weighted (per forecast) ADE, FDE and ACE of the row labelled `label`.
+/// `None` when a metric has no value.
 fn weighted(rows: &[ArmScores], label: &str) -> Option<[f64; 3]> {
-    let t: ForecastScores = rows.iter().find(|a| a.label == label)?.total();
-    Some([t.ade.value()?, t.fde.value()?, t.ace.value()?])
+    total_of(rows, label).filter(|v| v.iter().all(|x| x.is_finite()))
 }
 
 /// One row per (metric, row label) of `rows_of` (per seed), the seeds side by side, their mean

@@ -10,7 +10,8 @@ fn triple(s: &ForecastScores) -> [f64; 3] {
     [s.ade.value().unwrap_or(f64::NAN), s.fde.value().unwrap_or(f64::NAN), s.ace.value().unwrap_or(f64::NAN)]
 }
 
-fn total_of(arms: &[ArmScores], label: &str) -> Option<[f64; 3]> {
+/// The weighted (per forecast) ADE, FDE and ACE of the row labelled `label`.
+pub fn total_of(arms: &[ArmScores], label: &str) -> Option<[f64; 3]> {
     arms.iter().find(|a| a.label == label).map(|a| triple(&a.total()))
 }
 

@@ -41,11 +41,11 @@ impl TrainProgress for Quiet {
 
 impl FoldSpec {
     /// The fold's name in files and messages: `<arm>-<held-out ids joined by +>`, with
-    /// `-s<seed>` unless the seed is `default_seed` (so one-seed experiments keep their names).
+    /// `-s<seed>` unless the seed is the config's own (so one-seed experiments keep their names).
     #[must_use]
-    pub fn name(&self, config: &ExperimentConfig, default_seed: u64) -> String {
+    pub fn name(&self, config: &ExperimentConfig) -> String {
         let held = config.folds.get(self.fold).map(|f| f.join("+")).unwrap_or_default();
-        if self.seed == default_seed {
+        if self.seed == config.hyper.seed {
             format!("{}-{held}", self.arm)
         } else {
             format!("{}-{held}-s{}", self.arm, self.seed)
@@ -82,7 +82,7 @@ pub fn train_folds(
     let cache = config.cache.as_deref().map(FoldCache::open).transpose()?;
     let results = map_jobs(specs, config.jobs, |spec| -> anyhow::Result<CachedFold> {
         let train = spec.train_config(sequences, config);
-        let name = spec.name(config, config.hyper.seed);
+        let name = spec.name(config);
         let key = fold_key(&train);
         let template = FoldReport {
             arm: spec.arm,

@@ -196,33 +196,44 @@ pub fn check_inputs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> 
             anyhow::bail!("arm {source}: the estimator's tracks of sequence {} were not loaded", s.id);
         }
     }
-    if let Some(dir) = &config.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
     Ok(())
 }
 
-/// The two blobs of the model that `trained` holds for (arm, fold of `id`, seed), as model files.
-fn models_for(
+/// The model files of `seed` (f32 and int8), by (arm, fold), each blob parsed once.
+type SeedModels = Vec<((Source, usize), [ModelFile; 2])>;
+
+/// The two model files of every fold of `seed` in `trained` (trained for `specs`).
+fn seed_models(
     config: &ExperimentConfig,
     specs: &[FoldSpec],
     trained: &[CachedFold],
+    seed: u64,
+) -> anyhow::Result<SeedModels> {
+    let mut out = SeedModels::new();
+    for (spec, t) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
+        let name = spec.name(config);
+        let files = [
+            ModelFile::from_bytes(t.f32_blob.clone(), &name)?,
+            ModelFile::from_bytes(t.int8_blob.clone(), &format!("{name} (int8)"))?,
+        ];
+        out.push(((spec.arm, spec.fold), files));
+    }
+    Ok(out)
+}
+
+/// The model files of `arm` for the fold holding out `id`.
+fn models_for<'m>(
+    config: &ExperimentConfig,
+    models: &'m SeedModels,
     arm: Source,
     id: &str,
-    seed: u64,
-) -> anyhow::Result<[ModelFile; 2]> {
+) -> anyhow::Result<&'m [ModelFile; 2]> {
     let fold = config.fold_of(id).with_context(|| format!("sequence {id} is in no fold"))?;
-    let spec = FoldSpec { arm, fold, seed };
-    let k = specs
+    models
         .iter()
-        .position(|s| *s == spec)
-        .with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
-    let t = trained.get(k).with_context(|| format!("no trained model for {arm}, fold {fold}, seed {seed}"))?;
-    let name = spec.name(config, config.hyper.seed);
-    Ok([
-        ModelFile::from_bytes(t.f32_blob.clone(), &name)?,
-        ModelFile::from_bytes(t.int8_blob.clone(), &format!("{name} (int8)"))?,
-    ])
+        .find(|(key, _)| *key == (arm, fold))
+        .map(|(_, files)| files)
+        .with_context(|| format!("no trained model for {arm}, fold {fold}"))
 }
 
 /// Scores the models of `seed` (trained for `specs`, in `trained`) on every test sequence:
@@ -249,8 +260,9 @@ pub fn score_seed(
         })
         .collect::<anyhow::Result<_>>()?;
     if let Some(dir) = &config.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (spec, fold) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
-            let name = spec.name(config, config.hyper.seed);
+            let name = spec.name(config);
             for (ext, bytes) in [("blob", &fold.f32_blob), ("blob.int8", &fold.int8_blob)] {
                 let path = dir.join(format!("{name}.{ext}"));
                 std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
@@ -258,6 +270,7 @@ pub fn score_seed(
         }
     }
     let folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
+    let models = seed_models(config, specs, trained, seed)?;
     // The common reference: the simulator's truth of each test sequence, and the instances
     // that every arm has; only when every test sequence has a truth (none from real images).
     let truths: Option<Vec<Scene>> = tests
@@ -305,8 +318,8 @@ pub fn score_seed(
         ];
         let mut learned_common = learned.clone();
         for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
-            let models = models_for(config, specs, trained, source, &test.id, seed)?;
-            for ((arm, common), file) in learned.iter_mut().zip(learned_common.iter_mut()).zip(&models) {
+            let files = models_for(config, &models, source, &test.id)?;
+            for ((arm, common), file) in learned.iter_mut().zip(learned_common.iter_mut()).zip(files) {
                 score_both(seq_runs, scene, &mut file.predictor(), config.dt, *reference, arm, common);
             }
         }
@@ -338,8 +351,8 @@ pub fn score_seed(
                     ArmScores { label: format!("learned int8 trained on {source}"), per_sequence: Vec::new() },
                 ];
                 for (((test, r), sc), rf) in tests.iter().zip(&runs_by_arm[e]).zip(&scenes_by_arm[e]).zip(&references) {
-                    let models = models_for(config, specs, trained, source, &test.id, seed)?;
-                    for (arm, file) in row.iter_mut().zip(&models) {
+                    let files = models_for(config, &models, source, &test.id)?;
+                    for (arm, file) in row.iter_mut().zip(files) {
                         let reference = rf.context("deployment needs the simulator's truth")?;
                         arm.per_sequence
                             .push(score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference).scores);
