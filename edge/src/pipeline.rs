@@ -7,6 +7,7 @@ use dynotraj_core::model::LearnedPredictor;
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::predict::{Forecast, constant_velocity};
 use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
+use dynotraj_dsp::DspDot;
 use heapless::Vec;
 
 use crate::history::Histories;
@@ -63,7 +64,7 @@ pub struct Edge<'m, const W: usize = EDGE_WINDOW> {
     dt: f32,
     estimate: PoseEstimate,
     histories: Histories,
-    predictor: Option<LearnedPredictor<'m>>,
+    predictor: Option<LearnedPredictor<'m, DspDot>>,
     stats: EdgeStats,
     last_frame: Option<u32>,
     /// Compute spent on parts of the frame being assembled.
@@ -110,7 +111,7 @@ impl<'m, const W: usize> Edge<'m, W> {
 
     /// Forecasts with the learned model in `blob` from now on.
     pub fn set_model(&mut self, blob: ModelBlob<'m>) {
-        self.predictor = Some(LearnedPredictor::new(blob));
+        self.predictor = Some(LearnedPredictor::with_dot(blob));
     }
 
     /// Whether a learned model is in use.

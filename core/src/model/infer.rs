@@ -6,6 +6,7 @@ use super::arch::{
 };
 use super::blob::ModelBlob;
 use super::blob::Precision;
+use super::dot::{Int8Dot, PortableDot};
 use super::features::{StepFeatures, initial_control, neighbour_sum, rollout_start, state_features};
 use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
 use crate::geometry::{BevState, Point2};
@@ -55,18 +56,27 @@ impl Default for Scratch {
 }
 
 /// The learned predictor over a blob, unimodal: the most likely latent mode and the mean
-/// controls.
+/// controls. `D` does its int8 dot products.
 #[derive(Debug, Clone)]
-pub struct LearnedPredictor<'a> {
-    kernel: Kernel<'a>,
+pub struct LearnedPredictor<'a, D = PortableDot> {
+    kernel: Kernel<'a, D>,
     scratch: Scratch,
 }
 
 impl<'a> LearnedPredictor<'a> {
-    /// A predictor reading `blob` in place.
+    /// A predictor reading `blob` in place, with the portable dot products.
     #[must_use]
     pub fn new(blob: ModelBlob<'a>) -> Self {
-        Self { kernel: Kernel::new(blob), scratch: Scratch::default() }
+        Self::with_dot(blob)
+    }
+}
+
+impl<'a, D: Int8Dot> LearnedPredictor<'a, D> {
+    /// A predictor reading `blob` in place, with the dot products of `D` (same forecasts, bit
+    /// for bit, as [`LearnedPredictor::new`]'s).
+    #[must_use]
+    pub fn with_dot(blob: ModelBlob<'a>) -> Self {
+        Self { kernel: Kernel::with_dot(blob), scratch: Scratch::default() }
     }
 
     /// The blob.
@@ -108,15 +118,15 @@ impl<'a> LearnedPredictor<'a> {
     }
 }
 
-impl Predictor for LearnedPredictor<'_> {
+impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
         self.predict_with_neighbours(history, &[], dt, out)
     }
 }
 
 /// One LSTM step (PyTorch gates i, f, g, o) over `input`, updating `h[..w]` and `c[..w]`.
-fn lstm_step(
-    k: &Kernel<'_>,
+fn lstm_step<D: Int8Dot>(
+    k: &Kernel<'_, D>,
     tensors: [usize; 4],
     input: &[f32],
     w: usize,
@@ -164,8 +174,8 @@ struct LstmState<'s> {
 }
 
 /// The forward pass: encoders, latent, decoder rollout. Emits each agent-frame position.
-fn forward(
-    k: &Kernel<'_>,
+fn forward<D: Int8Dot>(
+    k: &Kernel<'_, D>,
     s: &mut Scratch,
     n: usize,
     u0: [f32; 2],
@@ -247,7 +257,7 @@ fn forward(
 
 /// One GRU step (PyTorch gates r, z, n) on input [u, z, x], whose fixed [z, x] part is already
 /// in `s.gru_fixed`, updating `s.h[..w]`.
-fn gru_step(k: &Kernel<'_>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(), ShapeError> {
+fn gru_step<D: Int8Dot>(k: &Kernel<'_, D>, s: &mut Scratch, u: &[f32; 2], w: usize) -> Result<(), ShapeError> {
     let gx = s.gates_x.get_mut(..3 * w).ok_or(ShapeError)?;
     gx.copy_from_slice(s.gru_fixed.get(..3 * w).ok_or(ShapeError)?);
     k.affine_columns(t::GRU_W_IH, 0, None, u, gx, false)?;

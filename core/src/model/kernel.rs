@@ -2,8 +2,11 @@
 //! reference) or int8 (int8 weights, per-call int8 activations, i32 accumulation, table-based
 //! sigmoid and tanh). The network code above it is shared by both.
 
+use core::marker::PhantomData;
+
 use super::arch::{MAX_DEC, MAX_K};
 use super::blob::{ModelBlob, TensorView, le_f32};
+use super::dot::{Int8Dot, PortableDot};
 use super::lut::{sigmoid_lut, tanh_lut};
 
 /// Longest input of any affine map: the decoder GRU's [u_prev (2), z (k), x (cond)].
@@ -12,12 +15,14 @@ pub const MAX_AFFINE_IN: usize = 2 + MAX_K + 2 * MAX_DEC;
 /// Inputs shorter than this are multiplied in f32 with dequantised int8 weights instead of
 /// being quantised (the decoder's two control columns).
 const NARROW_IN: usize = 4;
-/// Rows multiplied together: each activation is loaded once for four rows of weights, and the
-/// per-row setup is shared (on the MCU the products cost about 3.3 instructions each, and the
-/// setup had been about 60 instructions per row).
-const ROW_BLOCK: usize = 4;
-/// Inputs up to this length are quantised into a buffer of this size (every input of the
-/// 8- and 16-wide networks), longer ones into one of [`MAX_AFFINE_IN`].
+/// Rows whose sums wait in a buffer before being added to an output (an int8 product added to
+/// what the output holds; a product that overwrites its output uses the output as its buffer).
+const ADD_CHUNK: usize = 16;
+/// Inputs up to this length are quantised into a buffer of this size (the recurrent inputs of the
+/// 8- and 16-wide networks)...
+const TINY_IN: usize = 16;
+/// ... up to this length into one of this size (every input of those networks), longer ones into
+/// one of [`MAX_AFFINE_IN`].
 const SHORT_IN: usize = 48;
 
 /// Why an affine map could not be applied: a shape the blob does not have (a bug, not an input
@@ -25,17 +30,26 @@ const SHORT_IN: usize = 48;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ShapeError;
 
-/// Affine maps and activations over one blob.
+/// Affine maps and activations over one blob, with the int8 dot products of `D`.
 #[derive(Debug, Clone, Copy)]
-pub struct Kernel<'a> {
+pub struct Kernel<'a, D = PortableDot> {
     blob: ModelBlob<'a>,
+    dot: PhantomData<fn() -> D>,
 }
 
 impl<'a> Kernel<'a> {
-    /// The kernel of `blob`.
+    /// The kernel of `blob`, with the portable dot products.
     #[must_use]
     pub const fn new(blob: ModelBlob<'a>) -> Self {
-        Self { blob }
+        Self::with_dot(blob)
+    }
+}
+
+impl<'a, D: Int8Dot> Kernel<'a, D> {
+    /// The kernel of `blob`, with the dot products of `D`.
+    #[must_use]
+    pub const fn with_dot(blob: ModelBlob<'a>) -> Self {
+        Self { blob, dot: PhantomData }
     }
 
     /// The blob.
@@ -70,6 +84,13 @@ impl<'a> Kernel<'a> {
         overwrite: bool,
     ) -> Result<(), ShapeError> {
         let cols_used = first..first + x.len();
+        let bias = match b {
+            None => None,
+            Some(b) => match self.blob.tensor(b).ok_or(ShapeError)? {
+                TensorView::F32 { rows, data, .. } if rows >= out.len() => Some(data),
+                _ => return Err(ShapeError),
+            },
+        };
         match self.blob.tensor(w).ok_or(ShapeError)? {
             TensorView::F32 { rows, cols, data } => {
                 check(rows, cols, &cols_used, out)?;
@@ -78,20 +99,13 @@ impl<'a> Kernel<'a> {
                     let dot: f32 = part.chunks_exact(4).zip(x).map(|(c, xi)| le_f32(c) * xi).sum();
                     *o = if overwrite { dot } else { *o + dot };
                 }
+                if let Some(bias) = bias {
+                    add_bias(out, bias);
+                }
             }
             TensorView::Int8 { rows, cols, scales, data } => {
                 check(rows, cols, &cols_used, out)?;
-                affine_int8(Int8Rows { cols, scales, data }, cols_used, x, out, overwrite)?;
-            }
-        }
-        if let Some(b) = b {
-            match self.blob.tensor(b).ok_or(ShapeError)? {
-                TensorView::F32 { rows, data, .. } if rows >= out.len() => {
-                    for (o, b) in out.iter_mut().zip(data.chunks_exact(4)) {
-                        *o += le_f32(b);
-                    }
-                }
-                _ => return Err(ShapeError),
+                affine_int8::<D>(Int8Rows { cols, scales, data }, cols_used, x, out, overwrite, bias)?;
             }
         }
         Ok(())
@@ -143,15 +157,15 @@ struct Int8Rows<'a> {
 
 /// `out (+)= W[:, used] x` for an int8 tensor whose shape [`check`] has accepted.
 ///
-/// Rows go four at a time through [`dot4_i8`]; rows and scales are walked by iterators so that
-/// the MCU computes no checked index products per row (with the firmware's overflow checks,
-/// the per-row setup had cost more than the products of a 16-wide row).
-fn affine_int8<'a>(
+/// The products are [`Int8Dot::rows`]'s; scales are walked by iterators so that the MCU
+/// computes no checked index products per row.
+fn affine_int8<'a, D: Int8Dot>(
     t: Int8Rows<'a>,
     used: core::ops::Range<usize>,
     x: &[f32],
     out: &mut [f32],
     overwrite: bool,
+    bias: Option<&[u8]>,
 ) -> Result<(), ShapeError> {
     let Int8Rows { cols, scales, data } = t;
     if cols == 0 {
@@ -163,12 +177,12 @@ fn affine_int8<'a>(
         // dequantised weights.
         let rows = data.chunks_exact(cols).zip(scales.chunks_exact(4)).zip(out.iter_mut());
         let w = |b: u8| f32::from(b as i8);
-        if let [x0, x1] = *x {
-            // The decoder's two controls, 30 times per forecast: written out.
+        if let (&[x0, x1], false) = (x, overwrite) {
+            // The decoder's two controls added to the fixed part of its gates, 30 times per
+            // forecast: written out.
             for ((row, scale), o) in rows {
                 let Some(&[w0, w1]) = row.get(first..end) else { return Err(ShapeError) };
-                let dot = (w(w0) * x0 + w(w1) * x1) * le_f32(scale);
-                *o = if overwrite { dot } else { *o + dot };
+                *o += (w(w0) * x0 + w(w1) * x1) * le_f32(scale);
             }
         } else {
             for ((row, scale), o) in rows {
@@ -177,14 +191,20 @@ fn affine_int8<'a>(
                 *o = if overwrite { dot } else { *o + dot };
             }
         }
+        if let Some(bias) = bias {
+            add_bias(out, bias);
+        }
         return Ok(());
     }
     // A short input quantises into a short buffer: clearing the full MAX_AFFINE_IN bytes on
     // every call cost more than the products of a small network's row block.
-    let mut small = [0i8; SHORT_IN];
-    let mut long;
-    let xq = if x.len() <= SHORT_IN {
-        small.get_mut(..x.len())
+    let (mut tiny, mut short, mut long);
+    let xq = if x.len() <= TINY_IN {
+        tiny = [0i8; TINY_IN];
+        tiny.get_mut(..x.len())
+    } else if x.len() <= SHORT_IN {
+        short = [0i8; SHORT_IN];
+        short.get_mut(..x.len())
     } else {
         long = [0i8; MAX_AFFINE_IN];
         long.get_mut(..x.len())
@@ -192,67 +212,53 @@ fn affine_int8<'a>(
     .ok_or(ShapeError)?;
     let sx = quantise(x, xq);
     let xq = &*xq;
-    // |acc| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
-    let store = |o: &mut f32, acc: i32, scale: &[u8]| {
-        let dot = acc as f32 * (le_f32(scale) * sx);
-        *o = if overwrite { dot } else { *o + dot };
-    };
-    let blocked = out.len() - out.len() % ROW_BLOCK;
-    let (out_blocked, out_rest) = out.split_at_mut(blocked);
-    let (rows_blocked, rows_rest) = data.split_at_checked(blocked * cols).ok_or(ShapeError)?;
-    let (scales_blocked, scales_rest) = scales.split_at_checked(4 * blocked).ok_or(ShapeError)?;
-    let blocks = rows_blocked
-        .chunks_exact(ROW_BLOCK * cols)
-        .zip(scales_blocked.chunks_exact(4 * ROW_BLOCK))
-        .zip(out_blocked.chunks_exact_mut(ROW_BLOCK));
-    for ((w, scale), o) in blocks {
-        let mut rows = w.chunks_exact(cols);
-        let mut row = || rows.next().and_then(|r| r.get(first..end)).ok_or(ShapeError);
-        let acc = dot4_i8([row()?, row()?, row()?, row()?], xq);
-        for ((o, a), s) in o.iter_mut().zip(acc).zip(scale.chunks_exact(4)) {
-            store(o, a, s);
+    let w = data.get(first..).ok_or(ShapeError)?;
+    // |sum| <= 127 * 127 * MAX_AFFINE_IN < 2^24: exact in f32.
+    let scaled = |sum: i32, scale: &[u8]| sum as f32 * (le_f32(scale) * sx);
+    if overwrite {
+        // The sums go into `out` itself (an i32 has an f32's size and alignment) and are scaled
+        // in place, with the bias added in the same pass: a separate buffer had to be cleared on
+        // every call, and a separate bias pass cost 5 instructions per output on the MCU.
+        D::rows(w, cols, xq, bytemuck::cast_slice_mut(out));
+        let rows = out.iter_mut().zip(scales.chunks_exact(4));
+        match bias {
+            Some(bias) => {
+                for ((o, s), b) in rows.zip(bias.chunks_exact(4)) {
+                    *o = scaled(o.to_bits() as i32, s) + le_f32(b);
+                }
+            }
+            None => {
+                for (o, s) in rows {
+                    *o = scaled(o.to_bits() as i32, s);
+                }
+            }
         }
-    }
-    for ((row, s), o) in rows_rest.chunks_exact(cols).zip(scales_rest.chunks_exact(4)).zip(out_rest) {
-        store(o, dot_i8(row.get(first..end).ok_or(ShapeError)?, xq), s);
+    } else {
+        let mut sums = [0i32; ADD_CHUNK];
+        let chunks = w.chunks(ADD_CHUNK * cols).zip(scales.chunks(4 * ADD_CHUNK)).zip(out.chunks_mut(ADD_CHUNK));
+        for ((w, scale), o) in chunks {
+            let sums = sums.get_mut(..o.len()).ok_or(ShapeError)?;
+            D::rows(w, cols, xq, sums);
+            for ((o, &sum), s) in o.iter_mut().zip(&*sums).zip(scale.chunks_exact(4)) {
+                *o += scaled(sum, s);
+            }
+        }
+        if let Some(bias) = bias {
+            add_bias(out, bias);
+        }
     }
     Ok(())
 }
 
+/// `out += b`, b a bias tensor's bytes at least as long as `out`.
+fn add_bias(out: &mut [f32], bias: &[u8]) {
+    for (o, b) in out.iter_mut().zip(bias.chunks_exact(4)) {
+        *o += le_f32(b);
+    }
+}
+
 fn check(rows: usize, cols: usize, used: &core::ops::Range<usize>, out: &[f32]) -> Result<(), ShapeError> {
     if used.end <= cols && out.len() <= rows && used.len() <= MAX_AFFINE_IN { Ok(()) } else { Err(ShapeError) }
-}
-
-/// The dot product of int8 weights (as stored bytes) with int8 activations.
-///
-/// Four products per step from one 32-bit load of each side, added with wrapping arithmetic:
-/// |sum| <= 127 * 127 * MAX_AFFINE_IN < 2^24 cannot overflow, and checked additions (the
-/// firmware builds with overflow checks) cost a compare and a branch per product on the MCU
-/// (measured: about 8 instructions per multiply-accumulate before, see docs/results.md).
-fn dot_i8(w: &[u8], x: &[i8]) -> i32 {
-    let product = |a: u8, b: i8| i32::from(a as i8).wrapping_mul(i32::from(b));
-    let (wq, xq) = (w.chunks_exact(4), x.chunks_exact(4));
-    let tail = wq.remainder().iter().zip(xq.remainder()).fold(0i32, |acc, (&a, &b)| acc.wrapping_add(product(a, b)));
-    wq.zip(xq).fold(tail, |acc, (a, b)| match (a, b) {
-        ([a0, a1, a2, a3], [b0, b1, b2, b3]) => acc
-            .wrapping_add(product(*a0, *b0))
-            .wrapping_add(product(*a1, *b1))
-            .wrapping_add(product(*a2, *b2))
-            .wrapping_add(product(*a3, *b3)),
-        _ => acc,
-    })
-}
-
-/// The dot products of four rows of int8 weights, each as long as `x`, with the int8
-/// activations `x` (each activation loaded once for the four rows).
-fn dot4_i8(w: [&[u8]; 4], x: &[i8]) -> [i32; 4] {
-    let [w0, w1, w2, w3] = w;
-    // Wrapping: see dot_i8.
-    let mac = |acc: i32, w: u8, xi: i32| acc.wrapping_add(i32::from(w as i8).wrapping_mul(xi));
-    x.iter().zip(w0).zip(w1).zip(w2).zip(w3).fold([0i32; 4], |[a0, a1, a2, a3], ((((&xi, &b0), &b1), &b2), &b3)| {
-        let xi = i32::from(xi);
-        [mac(a0, b0, xi), mac(a1, b1, xi), mac(a2, b2, xi), mac(a3, b3, xi)]
-    })
 }
 
 /// Symmetric per-vector int8 quantisation of `x` into `q`; returns the

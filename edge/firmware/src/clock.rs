@@ -61,9 +61,27 @@ impl Clock for Instructions {
     }
 }
 
+/// Loop iterations of the boot-time clock check (2 instructions each).
+const CALIBRATION_LOOPS: u32 = 1_000_000;
+
+/// Checks at boot that SysTick counts instructions (QEMU under `-icount shift=0`) and logs the
+/// outcome as `program`.
+pub fn check(program: &str) {
+    let ticks = calibrate(CALIBRATION_LOOPS);
+    let expected = u64::from(2 * CALIBRATION_LOOPS) / INSTRUCTIONS_PER_TICK;
+    let exact = ticks.abs_diff(expected) * 100 <= expected;
+    cortex_m_semihosting::hprintln!(
+        "{}: clock check: {} instructions in {} SysTick counts ({})",
+        program,
+        2 * CALIBRATION_LOOPS,
+        ticks,
+        if exact { "instruction counting exact within 1%" } else { "NOT instructions: run under -icount shift=0" }
+    );
+}
+
 /// Runs a loop of exactly `2 * iterations` instructions (`subs`, `bne`) and returns the SysTick
 /// counts it took: with `-icount shift=0` that is `2 * iterations / 40`.
-pub fn calibrate(iterations: u32) -> u64 {
+fn calibrate(iterations: u32) -> u64 {
     let t0 = ticks();
     // SAFETY: a register-only countdown loop.
     unsafe {

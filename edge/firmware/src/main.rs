@@ -10,22 +10,18 @@
 #![no_std]
 #![no_main]
 
-mod clock;
-mod stack;
 mod uart;
 
 use core::mem::MaybeUninit;
 
-use cortex_m_rt::{ExceptionFrame, entry, exception};
-use cortex_m_semihosting::{debug, hprintln};
+use cortex_m_rt::entry;
+use cortex_m_semihosting::hprintln;
 use dynotraj_edge::{ModelStatus, Session};
-use panic_semihosting as _;
+use dynotraj_firmware::exit::{fail, fail_with, succeed};
+use dynotraj_firmware::{clock, stack};
 
 /// The model linked into flash (empty: none).
 static MODEL: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/model.bin"));
-
-/// Loop iterations of the boot-time clock check (2 instructions each).
-const CALIBRATION_LOOPS: u32 = 1_000_000;
 
 /// The device interrupt vectors: only UART0 RX (IRQ 0) is used; IRQ 1 (UART0 TX) is not.
 #[unsafe(link_section = ".vector_table.interrupts")]
@@ -50,15 +46,7 @@ fn main() -> ! {
     stack::paint();
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
     clock::start(&mut cp.SYST);
-    let ticks = clock::calibrate(CALIBRATION_LOOPS);
-    let expected = u64::from(2 * CALIBRATION_LOOPS) / clock::INSTRUCTIONS_PER_TICK;
-    let exact = ticks.abs_diff(expected) * 100 <= expected;
-    hprintln!(
-        "dynotraj-firmware: clock check: {} instructions in {} SysTick counts ({})",
-        2 * CALIBRATION_LOOPS,
-        ticks,
-        if exact { "instruction counting exact within 1%" } else { "NOT instructions: run under -icount shift=0" }
-    );
+    clock::check("dynotraj-firmware");
 
     // SAFETY: the only reference to SESSION, taken once. All-zero bytes are a valid value of
     // every field of a session (integers, floats, bools, arrays, heapless containers of length
@@ -73,7 +61,11 @@ fn main() -> ! {
         fail_with(format_args!("linked model rejected: {e:?}"));
     }
     let mut link = uart::Uart::new(&mut cp.NVIC);
-    hprintln!("dynotraj-firmware: ready, model {}", describe(session.model()));
+    hprintln!(
+        "dynotraj-firmware: ready, model {}, int8 products {}",
+        describe(session.model()),
+        if cfg!(feature = "dsp") { "on SMLAD" } else { "portable" }
+    );
 
     let result = session.run(&mut link, &mut clock::Instructions);
 
@@ -98,10 +90,7 @@ fn main() -> ! {
         fail("stack overflow: the stack reached the statics");
     }
     match result {
-        Ok(()) => {
-            debug::exit(debug::EXIT_SUCCESS);
-            halt()
-        }
+        Ok(()) => succeed(),
         Err(err) => fail_with(format_args!("session stopped: {err:?}")),
     }
 }
@@ -112,29 +101,5 @@ fn describe(m: ModelStatus) -> &'static str {
         ModelStatus::Loaded { .. } => "linked in (int8)",
         ModelStatus::Rejected(_) => "rejected",
         ModelStatus::SignatureRejected(_) => "refused (signature)",
-    }
-}
-
-fn fail(why: &str) -> ! {
-    fail_with(format_args!("{why}"))
-}
-
-fn fail_with(why: core::fmt::Arguments<'_>) -> ! {
-    hprintln!("dynotraj-firmware: error: {}", why);
-    debug::exit(debug::EXIT_FAILURE);
-    halt()
-}
-
-#[exception]
-unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
-    hprintln!("dynotraj-firmware: HardFault at pc {:#010x}", frame.pc());
-    debug::exit(debug::EXIT_FAILURE);
-    halt()
-}
-
-/// Where the firmware rests if semihosting did not end it (no debugger attached).
-fn halt() -> ! {
-    loop {
-        cortex_m::asm::wfi();
     }
 }
