@@ -150,10 +150,10 @@ fn lstm_gates<A: Activation>(s: &mut LstmState<'_>, w: usize) -> Result<(), Shap
     let (gx, gh) = (&*s.gates_x, &*s.gates_h);
     let (xi, xf, xg, xo) = (gates(gx, 0)?, gates(gx, 1)?, gates(gx, 2)?, gates(gx, 3)?);
     let (hi, hf, hg, ho) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?, gates(gh, 3)?);
-    for (j, (hj, cj)) in h.iter_mut().zip(c.iter_mut()).enumerate() {
-        let at = |a: &[f32], b: &[f32]| a.get(j).copied().unwrap_or(0.0) + b.get(j).copied().unwrap_or(0.0);
-        let (i, f, gg, o) =
-            (A::sigmoid(at(xi, hi)), A::sigmoid(at(xf, hf)), A::tanh(at(xg, hg)), A::sigmoid(at(xo, ho)));
+    // Zipped iterators: one index for all ten vectors, no bounds check per gate.
+    let units = h.iter_mut().zip(c.iter_mut()).zip(xi.iter().zip(hi)).zip(xf.iter().zip(hf));
+    for ((((hj, cj), (xi, hi)), (xf, hf)), ((xg, hg), (xo, ho))) in units.zip(xg.iter().zip(hg).zip(xo.iter().zip(ho))) {
+        let (i, f, gg, o) = (A::sigmoid(xi + hi), A::sigmoid(xf + hf), A::tanh(xg + hg), A::sigmoid(xo + ho));
         *cj = f * *cj + i * gg;
         *hj = o * A::tanh(*cj);
     }
@@ -276,11 +276,12 @@ fn gru_gates<A: Activation>(s: &mut Scratch, w: usize) -> Result<(), ShapeError>
     let (xr, xz, xn) = (gates(gx, 0)?, gates(gx, 1)?, gates(gx, 2)?);
     let (hr, hz, hn) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?);
     let h = s.h.get_mut(..w).ok_or(ShapeError)?;
-    for (j, hj) in h.iter_mut().enumerate() {
-        let at = |g: &[f32]| g.get(j).copied().unwrap_or(0.0);
-        let r = A::sigmoid(at(xr) + at(hr));
-        let z = A::sigmoid(at(xz) + at(hz));
-        let nn = A::tanh(at(xn) + r * at(hn));
+    // Zipped iterators: one index for all seven vectors, no bounds check per gate.
+    let units = h.iter_mut().zip(xr.iter().zip(hr)).zip(xz.iter().zip(hz)).zip(xn.iter().zip(hn));
+    for (((hj, (xr, hr)), (xz, hz)), (xn, hn)) in units {
+        let r = A::sigmoid(xr + hr);
+        let z = A::sigmoid(xz + hz);
+        let nn = A::tanh(xn + r * hn);
         *hj = (1.0 - z) * nn + z * *hj;
     }
     Ok(())

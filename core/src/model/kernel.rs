@@ -140,9 +140,11 @@ impl Activation for Exact {
 pub struct Table;
 
 impl Activation for Table {
+    #[inline(always)]
     fn sigmoid(x: f32) -> f32 {
         sigmoid_lut(x)
     }
+    #[inline(always)]
     fn tanh(x: f32) -> f32 {
         tanh_lut(x)
     }

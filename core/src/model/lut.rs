@@ -55,22 +55,29 @@ static TANH_Q15: [i16; STEPS + 1] = [
     32767, 32767, 32767, 32767, 32767, 32767, 32767, 32767, 32767,
 ];
 
-/// The table in f32 (computed at compile time): the MCU then interpolates without integer to
-/// float conversions. Evaluated by the compiler, so an index out of range is a build error, not
-/// a panic.
+/// The table in f32 as (value, slope to the next entry) per interval, computed at compile time:
+/// the MCU then interpolates without integer to float conversions, with one bounds check and no
+/// subtraction per call. Evaluated by the compiler, so an index out of range is a build error,
+/// not a panic.
 #[allow(clippy::indexing_slicing)]
-static TANH_F32: [f32; STEPS + 1] = {
-    let mut t = [0.0f32; STEPS + 1];
+static TANH_F32: [[f32; 2]; STEPS] = {
+    let mut t = [[0.0f32; 2]; STEPS];
     let mut i = 0;
-    while i <= STEPS {
-        t[i] = TANH_Q15[i] as f32 * (1.0 / 32767.0);
+    while i < STEPS {
+        let a = TANH_Q15[i] as f32 * (1.0 / 32767.0);
+        let b = TANH_Q15[i + 1] as f32 * (1.0 / 32767.0);
+        t[i] = [a, b - a];
         i += 1;
     }
     t
 };
+/// tanh at the table's ends.
+#[allow(clippy::indexing_slicing)]
+const TANH_ENDS: [f32; 2] = [TANH_Q15[0] as f32 * (1.0 / 32767.0), TANH_Q15[STEPS] as f32 * (1.0 / 32767.0)];
 
 /// tanh(x) from the table.
 #[must_use]
+#[inline(always)]
 pub fn tanh_lut(x: f32) -> f32 {
     let t = x * (STEPS as f32 / (2.0 * TANH_RANGE)) + (STEPS / 2) as f32;
     // Inside the table: interpolate. Beyond it the ends answer (its first and last intervals
@@ -80,21 +87,25 @@ pub fn tanh_lut(x: f32) -> f32 {
         // 0 < t < STEPS: the cast cannot wrap.
         let i = t as usize;
         let frac = t - i as f32;
-        match (TANH_F32.get(i), TANH_F32.get(i + 1)) {
-            (Some(&a), Some(&b)) => a + (b - a) * frac,
-            _ => 0.0,
+        match TANH_F32.get(i) {
+            Some(&[a, slope]) => a + slope * frac,
+            None => 0.0,
         }
-    } else if t >= STEPS as f32 {
-        TANH_F32.last().copied().unwrap_or(1.0)
-    } else if x.is_nan() {
-        0.0
     } else {
-        TANH_F32.first().copied().unwrap_or(-1.0)
+        let [low, high] = TANH_ENDS;
+        if t >= STEPS as f32 {
+            high
+        } else if x.is_nan() {
+            0.0
+        } else {
+            low
+        }
     }
 }
 
 /// The logistic sigmoid from the tanh table: sigma(x) = (1 + tanh(x / 2)) / 2.
 #[must_use]
+#[inline(always)]
 pub fn sigmoid_lut(x: f32) -> f32 {
     0.5 + 0.5 * tanh_lut(0.5 * x)
 }
