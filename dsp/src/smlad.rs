@@ -2,7 +2,9 @@
 //! `asm!` wrappers (SXTB16, register to register) and two multiply-accumulate loops ([`block4`],
 //! [`block1`]) that read rows of weights through raw pointers, each called right after a safe
 //! check that the rows it reads are inside their slice. SMLAD may set the sticky Q flag on
-//! overflow, which nothing here or in inference reads.
+//! overflow, which nothing here or in inference reads. The weights are read with unaligned word
+//! loads, which the M4 performs while the unaligned-access trap (SCB CCR.UNALIGN_TRP) is off, as
+//! it is out of reset; the activations' groups are word-aligned, as LDRD needs.
 #![allow(unsafe_code)]
 
 use core::arch::asm;

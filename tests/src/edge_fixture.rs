@@ -164,19 +164,20 @@ pub fn edge_binary() -> PathBuf {
 /// the same build cache as the tests.
 #[must_use]
 pub fn firmware_elf() -> PathBuf {
-    let path = std::env::var_os("DYNOTRAJ_FIRMWARE").map_or_else(
-        || {
-            let exe = std::env::current_exe().unwrap();
-            exe.parent()
-                .unwrap()
-                .parent()
-                .unwrap()
-                .parent()
-                .unwrap()
-                .join("thumbv7em-none-eabihf/release/dynotraj-firmware")
-        },
-        PathBuf::from,
-    );
+    std::env::var_os("DYNOTRAJ_FIRMWARE")
+        .map_or_else(|| firmware_program("dynotraj-firmware"), |p| checked_elf(p.into()))
+}
+
+/// The firmware crate's program `name` (`dynotraj-firmware`, `dynotraj-kernels`) where
+/// `scripts/build-firmware.sh` puts it in the same build cache as the tests.
+#[must_use]
+pub fn firmware_program(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let release = exe.parent().unwrap().parent().unwrap().parent().unwrap().join("thumbv7em-none-eabihf/release");
+    checked_elf(release.join(name))
+}
+
+fn checked_elf(path: PathBuf) -> PathBuf {
     assert!(
         path.exists(),
         "{} is missing: run `bash scripts/build-firmware.sh` (scripts/test.sh does)",

@@ -152,7 +152,8 @@ fn lstm_gates<A: Activation>(s: &mut LstmState<'_>, w: usize) -> Result<(), Shap
     let (hi, hf, hg, ho) = (gates(gh, 0)?, gates(gh, 1)?, gates(gh, 2)?, gates(gh, 3)?);
     // Zipped iterators: one index for all ten vectors, no bounds check per gate.
     let units = h.iter_mut().zip(c.iter_mut()).zip(xi.iter().zip(hi)).zip(xf.iter().zip(hf));
-    for ((((hj, cj), (xi, hi)), (xf, hf)), ((xg, hg), (xo, ho))) in units.zip(xg.iter().zip(hg).zip(xo.iter().zip(ho))) {
+    for ((((hj, cj), (xi, hi)), (xf, hf)), ((xg, hg), (xo, ho))) in units.zip(xg.iter().zip(hg).zip(xo.iter().zip(ho)))
+    {
         let (i, f, gg, o) = (A::sigmoid(xi + hi), A::sigmoid(xf + hf), A::tanh(xg + hg), A::sigmoid(xo + ho));
         *cj = f * *cj + i * gg;
         *hj = o * A::tanh(*cj);
