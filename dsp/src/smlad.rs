@@ -207,7 +207,7 @@ unsafe fn blocks4(p: *const u8, stride: usize, g: *const [u32; 2], n: usize, out
 #[inline(always)]
 unsafe fn block1(p: *const u8, g: *const [u32; 2], n: usize) -> i32 {
     let mut a = 0i32;
-    // SAFETY: as in `block4`, for one row.
+    // SAFETY: as in `blocks4`, for one row.
     unsafe {
         asm!(
             "2:",

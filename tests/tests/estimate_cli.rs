@@ -18,7 +18,7 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
         "--sequence",
         "0003,0020",
         "--frames",
-        "40",
+        "120",
     ]);
     let Command::Estimate(args) = cli.command else { panic!("not the estimate command") };
     let results = evaluate(&args).expect("runs");
@@ -37,7 +37,69 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
         assert!(seq.join(f).is_file(), "{f} missing");
     }
     let tum = std::fs::read_to_string(seq.join("camera_causal.tum")).expect("reads");
-    assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), 40);
+    assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), 120);
     let objects = std::fs::read_dir(seq.join("objects")).expect("objects folder").count();
     assert!(objects > 0);
+    object_files_give_the_printed_rpe(&seq, &results[0]);
+}
+
+/// Every estimated object file read back and scored against its truth file as evo would (the
+/// poses paired by timestamp, consecutive lines of a file paired) gives the printed object RPE
+/// of its kind: same pairs, same RMSEs to file precision. So no file holds a placeholder pose or
+/// a pair across a restart.
+fn object_files_give_the_printed_rpe(
+    seq: &std::path::Path,
+    result: &dynotraj_host::estimate::evaluate::SequenceResult,
+) {
+    use dynotraj_core::metrics::RpeAccumulator;
+    use dynotraj_host::estimate::runner::Kind;
+    use dynotraj_host::estimate::score::moving_objects;
+    use dynotraj_host::kitti::read_tum;
+
+    let micros = |t: f64| (t * 1e6).round() as i64;
+    let moving = moving_objects(&result.sim, result.min_step_m);
+    let mut files = 0;
+    for (kind, printed) in Kind::ALL.iter().zip(&result.scores.kinds) {
+        let mut all = RpeAccumulator::new();
+        for id in &moving {
+            let truth_path = seq.join(format!("objects/{id}_truth.tum"));
+            let truth: std::collections::HashMap<i64, _> =
+                read_tum(&truth_path).expect("truth file").into_iter().map(|(t, p)| (micros(t), p)).collect();
+            for n in 1.. {
+                let path = seq.join(format!("objects/{id}_{}_{n}.tum", kind.name()));
+                if !path.exists() {
+                    break;
+                }
+                files += 1;
+                let mut acc = RpeAccumulator::new();
+                for (t, p) in read_tum(&path).expect("object file") {
+                    let q =
+                        truth.get(&micros(t)).unwrap_or_else(|| panic!("{}: {t} s has no truth pose", path.display()));
+                    acc.push(&q.cast::<f32>(), &p.cast::<f32>());
+                }
+                all.merge(&acc);
+            }
+        }
+        let (got, want) = (all.result(), printed.object);
+        assert_eq!(got.map(|r| r.pairs), want.map(|r| r.pairs), "{}: pairs in the files", kind.name());
+        if let (Some(g), Some(w)) = (got, want) {
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-4 * b.abs() + 1e-7;
+            assert!(
+                close(g.translation, w.translation),
+                "{}: RPE_t {} from files, {} printed",
+                kind.name(),
+                g.translation,
+                w.translation
+            );
+            assert!(
+                close(g.rotation, w.rotation),
+                "{}: RPE_r {} from files, {} printed",
+                kind.name(),
+                g.rotation,
+                w.rotation
+            );
+        }
+    }
+    assert!(files > 0, "object files were written and read");
+    println!("{files} object run files scored against their truth files: the printed RPE");
 }

@@ -4,7 +4,7 @@
 //! <dir>/camera_truth.{tum,kitti}            true camera poses, every frame
 //! <dir>/camera_<kind>.{tum,kitti}           estimated camera poses (kind: f2f, causal, smoothed)
 //! <dir>/objects/<id>_truth.tum              true object poses, frames labelled
-//! <dir>/objects/<id>_<kind>.tum             estimated object poses, frames estimated
+//! <dir>/objects/<id>_<kind>_<n>.tum         estimated object poses, run n = 1, 2, ... (below)
 //! <dir>/objects/<id>_smoothed.kitti         smoothed poses on the frames with a truth pose,
 //! <dir>/objects/<id>_truth.kitti            and the truth on the same frames (KITTI files have
 //!                                           no timestamps, so evo pairs them by line)
@@ -13,6 +13,13 @@
 //!
 //! `<id>` is the wire object id (KITTI track id + 1). Poses are `T_world_x` in the camera
 //! convention of the first frame.
+//!
+//! An estimated object file holds one run: consecutive frames of one segment (the object's
+//! frame is re-oriented, and a new segment starts, when its heading becomes known or it
+//! restarts) with a known heading and, where the truth is known, a truth pose. So every pair of
+//! consecutive lines is a pair that dynotraj's RPE counts, and evo on a file against
+//! `<id>_truth.tum` agrees with it. Frames whose heading is not known yet keep the world's
+//! orientation as a placeholder: they are only in log.csv (flagged there), never in a pose file.
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -25,7 +32,7 @@ use dynotraj_fixtures::track_sim::SimFrame;
 use nalgebra::Isometry3;
 
 use super::runner::{EstimatorRun, Kind};
-use crate::kitti::{write_poses, write_tum};
+use crate::kitti::{write_poses, write_tum, write_tum_noted};
 
 fn f64_pose(p: &Pose3) -> Isometry3<f64> {
     p.cast::<f64>()
@@ -45,7 +52,9 @@ pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow:
     let truth: Vec<(f64, Isometry3<f64>)> = frames.iter().map(|f| (seconds(f.timestamp_us), f.camera)).collect();
     write_tum(dir.join("camera_truth.tum"), &truth)?;
     write_poses(dir.join("camera_truth.kitti"), &truth.iter().map(|p| p.1).collect::<Vec<_>>())?;
-    write_estimate_poses(dir, run)?;
+    write_estimate_poses(dir, run, &|k, id| {
+        frames.get(k).is_some_and(|f| f.objects.iter().any(|o| o.object_id == id))
+    })?;
     let ids: BTreeSet<u16> = frames.iter().flat_map(|f| f.objects.iter().map(|o| o.object_id)).collect();
     for id in ids {
         let truth: Vec<(f64, Isometry3<f64>)> = frames
@@ -78,12 +87,13 @@ pub fn write_run(dir: &Path, frames: &[SimFrame], run: &EstimatorRun) -> anyhow:
 /// # Errors
 /// A file or folder that cannot be written, named.
 pub fn write_estimates(dir: &Path, frames: &[(u32, u64)], run: &EstimatorRun) -> anyhow::Result<()> {
-    write_estimate_poses(dir, run)?;
+    write_estimate_poses(dir, run, &|_, _| true)?;
     write_log(&dir.join("log.csv"), frames, None, run)
 }
 
-/// Camera and object pose files of every estimate kind.
-fn write_estimate_poses(dir: &Path, run: &EstimatorRun) -> anyhow::Result<()> {
+/// Camera and object pose files of every estimate kind; `has_truth(k, id)`: whether frame `k`
+/// (an index into the run) has a truth pose of object `id` (runs also end where it has none).
+fn write_estimate_poses(dir: &Path, run: &EstimatorRun, has_truth: &dyn Fn(usize, u16) -> bool) -> anyhow::Result<()> {
     let objects_dir = dir.join("objects");
     std::fs::create_dir_all(&objects_dir).with_context(|| format!("creating {}", objects_dir.display()))?;
     for kind in Kind::ALL {
@@ -98,20 +108,52 @@ fn write_estimate_poses(dir: &Path, run: &EstimatorRun) -> anyhow::Result<()> {
         .collect();
     for id in ids {
         for kind in Kind::ALL {
-            let est: Vec<(f64, Isometry3<f64>)> = object_poses(run.of(kind), id).map(|(_, t, p)| (t, p)).collect();
-            if !est.is_empty() {
-                write_tum(objects_dir.join(format!("{id}_{}.tum", kind.name())), &est)?;
+            for (n, poses) in object_runs(run.of(kind), id, |k| has_truth(k, id)).iter().enumerate() {
+                let note = format!(
+                    "object {id}, {}: run {} (consecutive frames of one segment with a known heading)",
+                    kind.name(),
+                    n + 1
+                );
+                write_tum_noted(objects_dir.join(format!("{id}_{}_{}.tum", kind.name(), n + 1)), &[&note], poses)?;
             }
         }
     }
     Ok(())
 }
 
-/// (frame, seconds, pose) of object `id` in a kind's estimates.
-fn object_poses(est: &[Option<PoseEstimate>], id: u16) -> impl Iterator<Item = (u32, f64, Isometry3<f64>)> + '_ {
-    est.iter().flatten().filter_map(move |e| {
-        e.objects.iter().find(|o| o.object_id == id).map(|o| (e.frame, seconds(e.timestamp_us), f64_pose(&o.pose)))
-    })
+/// The runs of object `id` in a kind's estimates, as (seconds, pose): maximal stretches of
+/// consecutive frames `k` with an estimate of `id` whose heading is known, of one segment, with
+/// `has_truth(k)`. Runs of one pose (no pair) are left out.
+#[must_use]
+pub fn object_runs(
+    est: &[Option<PoseEstimate>],
+    id: u16,
+    has_truth: impl Fn(usize) -> bool,
+) -> Vec<Vec<(f64, Isometry3<f64>)>> {
+    let mut runs: Vec<Vec<(f64, Isometry3<f64>)>> = Vec::new();
+    let mut current: Vec<(f64, Isometry3<f64>)> = Vec::new();
+    let mut segment = None;
+    for (k, e) in est.iter().enumerate() {
+        let o = e.as_ref().and_then(|e| {
+            e.objects.iter().find(|o| o.object_id == id && o.heading_known).map(|o| (seconds(e.timestamp_us), o))
+        });
+        match o {
+            Some((t, o)) if has_truth(k) => {
+                if segment.is_some_and(|s| s != o.segment) {
+                    runs.push(std::mem::take(&mut current));
+                }
+                segment = Some(o.segment);
+                current.push((t, f64_pose(&o.pose)));
+            }
+            _ => {
+                runs.push(std::mem::take(&mut current));
+                segment = None;
+            }
+        }
+    }
+    runs.push(current);
+    runs.retain(|r| r.len() >= 2);
+    runs
 }
 
 /// Formats a pose as `tx,ty,tz,qx,qy,qz,qw`.

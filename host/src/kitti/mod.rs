@@ -39,4 +39,5 @@ pub use layout::{PoseSource, SequenceData, TrackingDir};
 pub use oxts::{OxtsPacket, camera_poses_from_oxts, oxts_to_imu_poses, parse_oxts, read_oxts};
 pub use poses::{
     format_pose_line, format_tum_line, parse_poses, parse_tum, read_poses, read_tum, write_poses, write_tum,
+    write_tum_noted,
 };

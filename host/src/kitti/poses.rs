@@ -110,7 +110,25 @@ pub fn format_tum_line(timestamp: f64, pose: &Isometry3<f64>) -> String {
 /// # Errors
 /// [`KittiError::Io`] when the file cannot be written.
 pub fn write_tum(path: impl AsRef<Path>, poses: &[(f64, Isometry3<f64>)]) -> Result<(), KittiError> {
+    write_tum_noted(path, &[], poses)
+}
+
+/// [`write_tum`] with `notes` as `#` comment lines under the column header (readers of TUM
+/// files, evo among them, skip them).
+///
+/// # Errors
+/// [`KittiError::Io`] when the file cannot be written.
+pub fn write_tum_noted(
+    path: impl AsRef<Path>,
+    notes: &[&str],
+    poses: &[(f64, Isometry3<f64>)],
+) -> Result<(), KittiError> {
     let mut text = String::from("# timestamp tx ty tz qx qy qz qw\n");
+    for note in notes {
+        text.push_str("# ");
+        text.push_str(note);
+        text.push('\n');
+    }
     for (t, pose) in poses {
         text.push_str(&format_tum_line(*t, pose));
         text.push('\n');
