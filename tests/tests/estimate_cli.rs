@@ -83,21 +83,9 @@ fn object_files_give_the_printed_rpe(
         let (got, want) = (all.result(), printed.object);
         assert_eq!(got.map(|r| r.pairs), want.map(|r| r.pairs), "{}: pairs in the files", kind.name());
         if let (Some(g), Some(w)) = (got, want) {
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-4 * b.abs() + 1e-7;
-            assert!(
-                close(g.translation, w.translation),
-                "{}: RPE_t {} from files, {} printed",
-                kind.name(),
-                g.translation,
-                w.translation
-            );
-            assert!(
-                close(g.rotation, w.rotation),
-                "{}: RPE_r {} from files, {} printed",
-                kind.name(),
-                g.rotation,
-                w.rotation
-            );
+            for (what, a, b) in [("RPE_t", g.translation, w.translation), ("RPE_r", g.rotation, w.rotation)] {
+                assert!((a - b).abs() <= 1e-4 * b.abs() + 1e-7, "{}: {what} {a} from files, {b} printed", kind.name());
+            }
         }
     }
     assert!(files > 0, "object files were written and read");

@@ -32,6 +32,7 @@ use dynotraj_fixtures::track_sim::SimFrame;
 use nalgebra::Isometry3;
 
 use super::runner::{EstimatorRun, Kind};
+use super::score::object_runs;
 use crate::kitti::{write_poses, write_tum, write_tum_noted};
 
 fn f64_pose(p: &Pose3) -> Isometry3<f64> {
@@ -108,7 +109,7 @@ fn write_estimate_poses(dir: &Path, run: &EstimatorRun, has_truth: &dyn Fn(usize
         .collect();
     for id in ids {
         for kind in Kind::ALL {
-            for (n, poses) in object_runs(run.of(kind), id, |k| has_truth(k, id)).iter().enumerate() {
+            for (n, poses) in object_run_poses(run.of(kind), id, |k| has_truth(k, id)).iter().enumerate() {
                 let note = format!(
                     "object {id}, {}: run {} (consecutive frames of one segment with a known heading)",
                     kind.name(),
@@ -121,39 +122,18 @@ fn write_estimate_poses(dir: &Path, run: &EstimatorRun, has_truth: &dyn Fn(usize
     Ok(())
 }
 
-/// The runs of object `id` in a kind's estimates, as (seconds, pose): maximal stretches of
-/// consecutive frames `k` with an estimate of `id` whose heading is known, of one segment, with
-/// `has_truth(k)`. Runs of one pose (no pair) are left out.
-#[must_use]
-pub fn object_runs(
+/// The runs of object `id` in a kind's estimates that RPE pairs ([`object_runs`]), as (seconds,
+/// pose); runs of one pose (no pair) are left out.
+fn object_run_poses(
     est: &[Option<PoseEstimate>],
     id: u16,
     has_truth: impl Fn(usize) -> bool,
 ) -> Vec<Vec<(f64, Isometry3<f64>)>> {
-    let mut runs: Vec<Vec<(f64, Isometry3<f64>)>> = Vec::new();
-    let mut current: Vec<(f64, Isometry3<f64>)> = Vec::new();
-    let mut segment = None;
-    for (k, e) in est.iter().enumerate() {
-        let o = e.as_ref().and_then(|e| {
-            e.objects.iter().find(|o| o.object_id == id && o.heading_known).map(|o| (seconds(e.timestamp_us), o))
-        });
-        match o {
-            Some((t, o)) if has_truth(k) => {
-                if segment.is_some_and(|s| s != o.segment) {
-                    runs.push(std::mem::take(&mut current));
-                }
-                segment = Some(o.segment);
-                current.push((t, f64_pose(&o.pose)));
-            }
-            _ => {
-                runs.push(std::mem::take(&mut current));
-                segment = None;
-            }
-        }
-    }
-    runs.push(current);
-    runs.retain(|r| r.len() >= 2);
-    runs
+    object_runs(est, id, has_truth)
+        .into_iter()
+        .filter(|r| r.len() >= 2)
+        .map(|r| r.into_iter().map(|(_, e, o)| (seconds(e.timestamp_us), f64_pose(&o.pose))).collect())
+        .collect()
 }
 
 /// Formats a pose as `tx,ty,tz,qx,qy,qz,qw`.

@@ -11,7 +11,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use dynotraj_core::BevState;
-use dynotraj_core::estimate::PoseEstimate;
+use dynotraj_core::estimate::{ObjectEstimate, PoseEstimate};
 use dynotraj_core::geometry::angle_diff;
 use dynotraj_core::metrics::{RpeAccumulator, RpeResult};
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -90,31 +90,57 @@ pub fn score_run(frames: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>
     out
 }
 
-/// RPE of object `id` in `est`: pairs of consecutive frames with a truth pose and an estimate
-/// of one segment with a known heading (before its heading is known an object's frame keeps the
-/// world's orientation, a placeholder that RPE would read as a rotation error).
+/// RPE of object `id` in `est`: the pairs of consecutive frames within each of its
+/// [`object_runs`], with the truth of `frames`.
 #[must_use]
 pub fn object_rpe(frames: &[SimFrame], est: &[Option<PoseEstimate>], id: u16) -> RpeAccumulator {
     let mut acc = RpeAccumulator::new();
-    let mut segment = None;
-    for (f, e) in frames.iter().zip(est) {
-        let truth = f.objects.iter().find(|o| o.object_id == id);
-        let estimate = e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id && o.heading_known));
-        match (truth, estimate) {
-            (Some(t), Some(o)) => {
-                if segment.is_some_and(|s| s != o.segment) {
-                    acc.break_segment();
-                }
-                segment = Some(o.segment);
+    let truth = |k: usize| frames.get(k).and_then(|f| f.objects.iter().find(|o| o.object_id == id));
+    for run in object_runs(est, id, |k| truth(k).is_some()) {
+        acc.break_segment();
+        for (k, _, o) in run {
+            if let Some(t) = truth(k) {
                 acc.push(&t.pose.cast::<f32>(), &o.pose);
-            }
-            _ => {
-                acc.break_segment();
-                segment = None;
             }
         }
     }
     acc
+}
+
+/// The runs of object `id` in `est` whose consecutive frames RPE pairs: maximal stretches of
+/// consecutive frames `k` with an estimate of `id` of one segment with a known heading (before
+/// its heading is known an object's frame keeps the world's orientation, a placeholder that RPE
+/// would read as a rotation error) and `has_truth(k)`. Each entry: (k, the frame's estimate, the
+/// object's).
+pub fn object_runs(
+    est: &[Option<PoseEstimate>],
+    id: u16,
+    has_truth: impl Fn(usize) -> bool,
+) -> Vec<Vec<(usize, &PoseEstimate, &ObjectEstimate)>> {
+    let mut runs = vec![Vec::new()];
+    let mut segment = None;
+    for (k, e) in est.iter().enumerate() {
+        let found =
+            e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id && o.heading_known).map(|o| (e, o)));
+        match found {
+            Some((e, o)) if has_truth(k) => {
+                if segment.is_some_and(|s| s != o.segment) {
+                    runs.push(Vec::new());
+                }
+                segment = Some(o.segment);
+                if let Some(run) = runs.last_mut() {
+                    run.push((k, e, o));
+                }
+            }
+            _ => {
+                if segment.take().is_some() {
+                    runs.push(Vec::new());
+                }
+            }
+        }
+    }
+    runs.retain(|r| !r.is_empty());
+    runs
 }
 
 /// Smoothness of bird's-eye trajectories: mean absolute change between consecutive frames.
