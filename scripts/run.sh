@@ -5,8 +5,10 @@
 # estimated by the core), GT and GT+EKF (float and int8), every other sequence training each
 # fold, with its report in reports/kitti/REPORT.md (tables as Markdown and CSV, figures as PNG
 # and SVG, the run's time); then the paper's Table I and its Table IV for the baselines from
-# the same estimates. Sequences are rendered and folds trained on every core (--jobs); estimates
-# and trained folds are cached in reports/kitti/cache, so a rerun takes seconds. The paper's
+# the same estimates, and Table III for both estimator profiles (host, and the edge's, which
+# the ECU runs) with the restarts of object runs by cause. Sequences are rendered and folds
+# trained on every core (--jobs); renderings and trained folds are cached in
+# reports/kitti/cache, so a rerun takes seconds. The paper's
 # nine-sequence setting is the experiment with --sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020
 # (reports/kitti-paper9, README).
 set -euo pipefail
@@ -21,6 +23,9 @@ echo "## Learned predictor, leave-one-sequence-out (Table IV layout)"
 echo
 echo "## Eligible objects and test instances (Table I layout)"
 "$bin" dataset --kitti "$DYNOTRAJ_KITTI" --source gt,estimated --estimate-cache "$out/cache" "$@"
+echo
+echo "## The estimator from the renderings, host and edge profiles (Table III layout, restarts by cause)"
+"$bin" estimate --kitti "$DYNOTRAJ_KITTI" --profile host,edge --estimate-cache "$out/cache" "$@"
 echo
 echo "## Baselines on the paper's test sequences (Table IV layout)"
 "$bin" eval --kitti "$DYNOTRAJ_KITTI" --source gt,gt-ekf,gt-rts,estimated,estimated-smoothed --predictor cv,cv-fit,ctra --estimate-cache "$out/cache" "$@"

@@ -1,6 +1,6 @@
 //! The edge's work per message: tracks -> estimator -> histories -> predictor -> messages out.
 
-use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::estimate::{EDGE_PROFILE, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
 use dynotraj_core::model::LearnedPredictor;
@@ -17,20 +17,17 @@ use crate::transport::Clock;
 /// same bits from the same stream.
 pub const ESTIMATOR_SEED: u64 = 0x6479_6e6f;
 
-/// The estimator's smoothing window on the edge, frames. DynoSAM uses 20; the ECU's 128 KiB
-/// of RAM holds the estimator, the int8 predictor's scratch, the link buffers and the stack
-/// only with a shorter window (each window frame costs about 2.5-3 KiB over 16 objects and the
-/// camera). 8 frames is 0.4 s at the paper's 20 Hz; 10 fitted until the joint camera-object
-/// solve grew the estimator, after which the firmware's stack met its statics. Both edge
-/// builds use it, so they compute the same bits.
-pub const EDGE_WINDOW: usize = 8;
+/// The estimator's smoothing window on the edge, frames: the edge profile's
+/// ([`dynotraj_core::estimate::EDGE_PROFILE`]). Both edge builds use it, so they compute the
+/// same bits.
+pub const EDGE_WINDOW: usize = EDGE_PROFILE.window;
 
-/// The estimator parameters of the edge: the KITTI defaults with the joint camera-object solve
-/// off (`joint_sweeps = 0`, the separate smoothers). On the track simulator the joint solve
-/// leaves object RPE unchanged (0.110 vs 0.105-0.110 m) for about three times the compute
-/// (docs/results.md), and under QEMU its extra stack no longer fit beside the window in 128 KiB.
+/// The estimator parameters of the edge: the edge profile's for this camera. On the track
+/// simulator the joint solve the host profile adds leaves object RPE unchanged (0.110 vs
+/// 0.105-0.110 m) for about three times the compute (docs/results.md), and under QEMU its extra
+/// stack did not fit beside the window in 128 KiB.
 fn edge_params(intrinsics: Intrinsics, dt: f32) -> EstimatorParams {
-    EstimatorParams { joint_sweeps: 0, ..EstimatorParams::kitti(intrinsics, dt) }
+    EDGE_PROFILE.params(intrinsics, dt)
 }
 
 /// The edge's own counters, beyond the estimator's and the decoder's.

@@ -101,9 +101,11 @@ pub fn load_sequence(
     Ok(seq)
 }
 
-/// The estimator's tracks of sequence `id` with settings `e`: from the cache when a file there
-/// has the key of these inputs, else computed (from the sequence's images where it has them all,
-/// else from the simulator or its rendering) and stored.
+/// The estimator's tracks of sequence `id` with settings `e`: from the sequence's images where
+/// it has them all, else from the simulator or its rendering. Estimates from images or the
+/// simulator are read from the cache when a file there has the key of these inputs, else
+/// computed and stored; a rendering keeps its front-end tracks in the cache instead
+/// ([`crate::estimate::rendered_cache`]) and is estimated afresh.
 fn estimated_cached(
     dir: &TrackingDir,
     id: &str,
@@ -111,6 +113,13 @@ fn estimated_cached(
     e: &EstimateSettings,
 ) -> anyhow::Result<EstimatedTracks> {
     let images = has_images(dir.root(), id, data.frame_count);
+    if !images && e.input == OursInput::Rendered {
+        // The rendering and its front-end tracks are what take minutes; they are cached apart
+        // from the estimator's settings and code, and the estimator runs on them in seconds.
+        let r = estimate_rendered(id, data, &e.options, e.render_scale, e.cache.as_deref())
+            .with_context(|| format!("sequence {id}: rendered front-end"))?;
+        return Ok(rendered_estimated_tracks(&r));
+    }
     let key = match &e.cache {
         Some(_) if images => {
             Some(cache::image_estimate_key(id, data, e, &image_files(dir.root(), id, data.frame_count))?)
@@ -125,10 +134,6 @@ fn estimated_cached(
     let tracks = if images {
         log::info!("sequence {id}: estimating from its stereo images");
         image_estimated_tracks(&estimate_from_images(dir.root(), id, &e.options)?)
-    } else if e.input == OursInput::Rendered {
-        let r = estimate_rendered(data, &e.options, e.render_scale)
-            .with_context(|| format!("sequence {id}: rendered front-end"))?;
-        rendered_estimated_tracks(&r)
     } else {
         estimated_tracks(id, data, &e.options)
     };

@@ -138,22 +138,126 @@ fn duplicate_track_ids_are_counted_and_one_copy_kept() {
     assert!((z - 7.2).abs() < 0.02, "camera at {z} m, expected 7.2 m");
 }
 
-#[test]
-fn an_object_that_vanishes_and_comes_back_is_reinitialised() {
-    let frames = sim(40);
-    let run = feed(sim_frames(&frames).map(|(k, t, tracks)| {
+/// Frames `gap` of the drive without object 1's tracks.
+fn without_object_1(frames: usize, gap: std::ops::Range<u32>) -> Run {
+    let sim = sim(frames);
+    feed(sim_frames(&sim).map(|(k, t, tracks)| {
         let tracks =
-            if (15..18).contains(&k) { tracks.into_iter().filter(|tr| tr.object_id != 1).collect() } else { tracks };
+            if gap.contains(&k) { tracks.into_iter().filter(|tr| tr.object_id != 1).collect() } else { tracks };
         (k, t, tracks)
+    }))
+}
+
+fn has_object_1(e: &PoseEstimate) -> bool {
+    e.objects.iter().any(|o| o.object_id == 1)
+}
+
+#[test]
+fn an_object_missing_for_a_few_frames_coasts_and_resumes_its_run() {
+    // The drive's other objects leave the view (and coast out): counted against the same drive
+    // without the gap.
+    let b = without_object_1(40, 0..0).stats;
+    let run = without_object_1(40, 15..18);
+    let s = run.stats;
+    assert_eq!(
+        (s.objects_resumed, s.object_frames_coasted),
+        (b.objects_resumed + 1, b.object_frames_coasted + 3),
+        "{s:?}"
+    );
+    assert_eq!((s.objects_returned, s.runs_ended_lost), (b.objects_returned, b.runs_ended_lost), "{s:?}");
+    // One run: every frame from the second on, the gap included, causal and smoothed, in one
+    // output segment.
+    assert!(run.causal.iter().filter(|e| e.frame >= 1).all(has_object_1));
+    assert!(run.smoothed.iter().filter(|e| e.frame >= 1).all(has_object_1));
+    let segments: std::collections::BTreeSet<u16> = run
+        .smoothed
+        .iter()
+        .flat_map(|e| e.objects.iter().filter(|o| o.object_id == 1 && o.heading_known).map(|o| o.segment))
+        .collect();
+    assert_eq!(segments.len(), 1, "{segments:?}");
+    // The coasted frames lie on the object's path: the step into and out of the gap is no
+    // larger than the steps around it.
+    let x = |k: u32| {
+        let e = run.smoothed.iter().find(|e| e.frame == k).unwrap();
+        e.objects.iter().find(|o| o.object_id == 1).unwrap().bev
+    };
+    let step = |a: u32| x(a).position().distance(&x(a + 1).position());
+    let before = step(12);
+    for k in 14..19 {
+        assert!((step(k) - before).abs() < 0.25 * before + 0.05, "step {k}: {} m vs {before} m", step(k));
+    }
+}
+
+#[test]
+fn an_object_missing_too_long_ends_its_run_and_is_reinitialised() {
+    let gap = 15..(15 + u32::from(MAX_HELD_FRAMES) + 2);
+    let b = without_object_1(50, 0..0).stats;
+    let run = without_object_1(50, gap.clone());
+    let s = run.stats;
+    let expected = (b.runs_ended_lost + 1, b.objects_returned + 1, b.objects_resumed);
+    assert_eq!((s.runs_ended_lost, s.objects_returned, s.objects_resumed), expected, "{s:?}");
+    assert_eq!(s.object_frames_coasted, b.object_frames_coasted + u32::from(MAX_HELD_FRAMES), "{s:?}");
+    // The first run's measured frames still come out smoothed (its window drained); its coasted
+    // frames were extrapolations and do not.
+    assert!(run.smoothed.iter().filter(|e| e.frame < 15).all(has_object_1));
+    assert!(run.smoothed.iter().filter(|e| gap.contains(&e.frame)).all(|e| !has_object_1(e)));
+    // Causal: coasting for MAX_HELD_FRAMES frames, then gone until tracked again from the
+    // second frame of the new run.
+    let coasting = 15..15 + u32::from(MAX_HELD_FRAMES);
+    assert!(run.causal.iter().filter(|e| coasting.contains(&e.frame)).all(has_object_1));
+    assert!(run.causal.iter().filter(|e| e.frame >= coasting.end && e.frame <= gap.end).all(|e| !has_object_1(e)));
+    assert!(run.causal.iter().filter(|e| e.frame > gap.end).all(has_object_1));
+    assert_eq!(run.smoothed.len(), 50);
+}
+
+/// Object 1's tracks renumbered (every id new) from frame `from` on, and missing in `gap`.
+fn renumbered_object_1(frames: usize, from: u32, gap: std::ops::Range<u32>) -> Run {
+    let sim = sim(frames);
+    feed(sim_frames(&sim).map(|(k, t, tracks)| {
+        let tracks =
+            tracks
+                .into_iter()
+                .filter(|tr| tr.object_id != 1 || !gap.contains(&k))
+                .map(|tr| {
+                    if tr.object_id == 1 && k >= from { Track { track_id: tr.track_id + 1_000_000, ..tr } } else { tr }
+                })
+                .collect();
+        (k, t, tracks)
+    }))
+}
+
+#[test]
+fn an_object_whose_points_all_get_new_ids_is_found_again_not_restarted() {
+    let b = without_object_1(40, 0..0).stats;
+    let run = renumbered_object_1(40, 20, 0..0);
+    let s = run.stats;
+    assert_eq!(s.objects_initialised, b.objects_initialised, "{s:?}");
+    assert_eq!((s.objects_returned, s.runs_ended_fit_failed), (b.objects_returned, b.runs_ended_fit_failed), "{s:?}");
+    assert!(run.causal.iter().filter(|e| e.frame >= 1).all(has_object_1));
+    // Through a gap as well: coasted, then found by position.
+    let run = renumbered_object_1(40, 18, 15..18);
+    let s = run.stats;
+    let expected = (b.objects_resumed + 1, b.objects_returned, b.runs_ended_lost);
+    assert_eq!((s.objects_resumed, s.objects_returned, s.runs_ended_lost), expected, "{s:?}");
+    assert!(run.smoothed.iter().filter(|e| e.frame >= 1).all(has_object_1));
+}
+
+#[test]
+fn an_object_out_of_range_too_long_ends_its_run_as_out_of_range() {
+    let sim = sim(30);
+    let run = feed(sim_frames(&sim).map(|(k, t, tracks)| {
+        let far = |tr: Track| if tr.object_id == 1 && k >= 15 { Track { depth: 500.0, ..tr } } else { tr };
+        (k, t, tracks.into_iter().map(far).collect())
     }));
-    assert_eq!(run.stats.objects_returned, 1, "{:?}", run.stats);
-    let has = |e: &PoseEstimate| e.objects.iter().any(|o| o.object_id == 1);
-    // The first run's frames still come out smoothed (its window drained), none in the gap.
-    assert!(run.smoothed.iter().filter(|e| e.frame < 15).all(has));
-    assert!(run.smoothed.iter().filter(|e| (15..18).contains(&e.frame)).all(|e| !has(e)));
-    // After the return: tracked again from the second frame of the new run.
-    assert!(run.causal.iter().filter(|e| e.frame >= 19).all(has));
-    assert_eq!(run.smoothed.len(), 40);
+    let s = run.stats;
+    let b = without_object_1(30, 0..0).stats;
+    let expected = (1, b.runs_ended_lost, b.runs_ended_fit_failed);
+    assert_eq!((s.runs_ended_out_of_range, s.runs_ended_lost, s.runs_ended_fit_failed), expected, "{s:?}");
+    assert!(s.tracks_too_far > 0, "{s:?}");
+    // Held (not coasted) while out of range, then gone; never re-initialised from no points.
+    assert_eq!(s.object_frames_coasted, b.object_frames_coasted, "{s:?}");
+    let ended = 15 + u32::from(MAX_HELD_FRAMES);
+    assert!(run.causal.iter().filter(|e| e.frame > ended).all(|e| !has_object_1(e)));
 }
 
 #[test]

@@ -13,6 +13,8 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
     let cli = Cli::parse_from([
         "dynotraj",
         "estimate",
+        "--ours-input",
+        "tracks",
         "--sim-kitti",
         dir.to_str().expect("utf-8 path"),
         "--sequence",
@@ -24,7 +26,7 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
     let results = evaluate(&args).expect("runs");
     assert_eq!(results.len(), 2);
     let t = tables(&results);
-    assert_eq!(t.len(), 4, "three Table III blocks and the smoothness table");
+    assert_eq!(t.len(), 5, "three Table III blocks, the restarts and the smoothness table");
     for table in &t[..3] {
         // Two sequences, the average and DynoSAM's reference row.
         assert_eq!(table.rows.len(), 4);
@@ -90,4 +92,54 @@ fn object_files_give_the_printed_rpe(
     }
     assert!(files > 0, "object files were written and read");
     println!("{files} object run files scored against their truth files: the printed RPE");
+}
+
+#[test]
+fn estimate_runs_a_rendering_with_both_profiles_and_keeps_its_tracks() {
+    use dynotraj_host::estimate::runner::Kind;
+
+    let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
+    let cache = tempfile::tempdir().expect("temp dir");
+    let cli = Cli::parse_from([
+        "dynotraj",
+        "estimate",
+        "--kitti",
+        dir.to_str().expect("utf-8 path"),
+        "--sequence",
+        "0003",
+        "--frames",
+        "14",
+        "--render-scale",
+        "0.5",
+        "--profile",
+        "host,edge",
+        "--estimate-cache",
+        cache.path().to_str().expect("utf-8 path"),
+        "--jobs",
+        "1",
+    ]);
+    let Command::Estimate(args) = cli.command else { panic!("not the estimate command") };
+    let results = evaluate(&args).expect("runs");
+    let profiles: Vec<&str> = results.iter().map(|r| r.profile).collect();
+    assert_eq!(profiles, ["host", "edge"]);
+    // One rendering for both profiles, kept in the cache.
+    let kept: Vec<String> = std::fs::read_dir(cache.path())
+        .expect("cache")
+        .map(|e| e.expect("entry").file_name().into_string().expect("utf-8"))
+        .collect();
+    assert_eq!(kept.len(), 1, "{kept:?}");
+    assert!(kept[0].starts_with("rendered-0003-"), "{kept:?}");
+    // The profiles differ where they should: the edge's 8-frame window smooths differently.
+    assert_ne!(results[0].run.of(Kind::Smoothed), results[1].run.of(Kind::Smoothed));
+    for r in &results {
+        let camera = r.scores.kinds[1].camera.expect("camera RPE");
+        assert!(camera.translation < 0.05, "{} profile: camera RPE_t {} m", r.profile, camera.translation);
+    }
+    // A rerun reads the rendering back: the same estimates.
+    let again = evaluate(&args).expect("reruns");
+    assert_eq!(again[1].run.of(Kind::Causal), results[1].run.of(Kind::Causal));
+    let t = tables(&results);
+    assert_eq!(t.len(), 10, "five tables per profile");
+    assert!(t[0].headers[0].ends_with("[host profile]"), "{}", t[0].headers[0]);
+    assert!(t[5].headers[0].ends_with("[edge profile]"), "{}", t[5].headers[0]);
 }

@@ -8,7 +8,7 @@ use core::mem::size_of;
 use dynotraj_core::estimate::frame::FrameBuffer;
 use dynotraj_core::estimate::joint::JointScratch;
 use dynotraj_core::estimate::{
-    ChainScratch, ChainSmoother, DEFAULT_WINDOW, ECU_WINDOW, Estimator, Landmarks, ObjectRun, PoseEstimate,
+    ChainScratch, ChainSmoother, DEFAULT_WINDOW, EDGE_WINDOW, Estimator, Landmarks, ObjectRun, PoseEstimate,
 };
 use dynotraj_core::model::LearnedPredictor;
 use dynotraj_edge::EdgeLoop;
@@ -34,11 +34,11 @@ fn estimator_state_fits_the_ecu_budget() {
     // The firmware's window: the whole edge image, estimator, link loop and one predictor, with
     // 8 KiB left for the stack (painted-stack measurements of the firmware belong to the edge
     // crate).
-    let est = size_of::<Estimator<ECU_WINDOW>>();
-    report("estimate::Estimator<ECU_WINDOW> (firmware)", est, 100 * 1024);
+    let est = size_of::<Estimator<EDGE_WINDOW>>();
+    report("estimate::Estimator<EDGE_WINDOW> (firmware, edge profile)", est, 100 * 1024);
     let image = est + size_of::<EdgeLoop>() + size_of::<LearnedPredictor<'_>>() + 8 * 1024;
-    report("estimator<ECU> + edge + predictor + 8 KiB stack", image, 128 * 1024);
+    report("estimator<EDGE> + edge + predictor + 8 KiB stack", image, 128 * 1024);
     // Each frame of window costs what the constant's docs say (about 2.5 KiB).
-    let per_frame = (host - est) / (W - ECU_WINDOW);
+    let per_frame = (host - est) / (W - EDGE_WINDOW);
     report("bytes per frame of window", per_frame, 2_600);
 }

@@ -27,6 +27,8 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
 
     // The command itself: writes the tracks file and the direct run's files.
     let direct_args = args(&[
+        "--ours-input",
+        "tracks",
         "--kitti",
         root_s,
         "--sequence",

@@ -151,6 +151,9 @@ pub struct ChainSmoother<const W: usize> {
     /// Prior on the oldest slot: mean and information (zero information: no prior).
     prior_mean: [f32; 6],
     prior_info: PackedSym6,
+    /// Diagonal information of a zero-mean prior on every slot's twist (a vehicle's kinematics,
+    /// [`super::params::KinematicPrior`]); zero: none.
+    kinematic: [f32; 6],
 }
 
 impl<const W: usize> Default for ChainSmoother<W> {
@@ -163,7 +166,19 @@ impl<const W: usize> ChainSmoother<W> {
     /// An empty chain without prior.
     #[must_use]
     pub const fn new() -> Self {
-        Self { slots: Deque::new(), prior_mean: [0.0; 6], prior_info: PackedSym6::ZERO }
+        Self { slots: Deque::new(), prior_mean: [0.0; 6], prior_info: PackedSym6::ZERO, kinematic: [0.0; 6] }
+    }
+
+    /// Puts a zero-mean prior of diagonal information `info` on every slot's twist, from the
+    /// next solve on (zeros remove it).
+    pub fn set_kinematic(&mut self, info: [f32; 6]) {
+        if info.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            self.kinematic = info;
+        }
+    }
+
+    fn kinematic_matrix(&self) -> Mat6 {
+        Mat6::from_diagonal(&Vec6::from_column_slice(&self.kinematic))
     }
 
     /// Slots held.
@@ -189,6 +204,7 @@ impl<const W: usize> ChainSmoother<W> {
         self.slots.clear();
         self.prior_mean = [0.0; 6];
         self.prior_info = PackedSym6::ZERO;
+        self.kinematic = [0.0; 6];
     }
 
     /// Appends the next frame: its measured twist and information, or `None` for a frame
@@ -256,12 +272,13 @@ impl<const W: usize> ChainSmoother<W> {
         let sm = s.matrix();
         let prior_info = self.prior_info.unpack();
         let prior_mean = Vec6::from_column_slice(&self.prior_mean);
+        let kinematic = self.kinematic_matrix();
         // Forward elimination.
         let mut prev: Option<(Mat6, Vec6)> = None;
         for (i, slot) in self.slots.iter().enumerate() {
             let info = slot.info.unpack();
             let z = Vec6::from_column_slice(&slot.z);
-            let mut a = info + Mat6::identity() * REGULARISATION;
+            let mut a = info + kinematic + Mat6::identity() * REGULARISATION;
             let mut b = info * z;
             if i == 0 {
                 a += prior_info;
@@ -309,7 +326,7 @@ impl<const W: usize> ChainSmoother<W> {
         let Some(slot) = self.slots.pop_front() else { return false };
         let info = slot.info.unpack();
         let pinfo = self.prior_info.unpack();
-        let own = info + pinfo + Mat6::identity() * REGULARISATION;
+        let own = info + pinfo + self.kinematic_matrix() + Mat6::identity() * REGULARISATION;
         let rhs = info * Vec6::from_column_slice(&slot.z) + pinfo * Vec6::from_column_slice(&self.prior_mean);
         let smooth_cov = Mat6::from_diagonal(&s.diag.map(|v| if v > 0.0 { 1.0 / v } else { 1.0 / REGULARISATION }));
         let next = spd_inverse(&own).and_then(|cov| {

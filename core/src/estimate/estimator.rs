@@ -21,13 +21,7 @@ use super::stats::{EstimatorStats, add, bump};
 use crate::limits::{MAX_OBJECTS, MAX_STATIC_TRACKS};
 use crate::wire::FrameTracks;
 
-/// The default smoothing window, frames (DynoSAM's sliding window is 20 frames).
-pub const DEFAULT_WINDOW: usize = 20;
-/// The smoothing window of the ECU firmware, frames: the largest that keeps the whole edge
-/// image (estimator, link, predictor and stack) within DESIGN.md's 128 KiB of RAM with room to
-/// spare; each frame of window costs about 2.5 KiB (a 33-float slot per chain for the camera and
-/// 16 objects, plus solve scratch). `tests/tests/estimate_size_budget.rs` holds both budgets.
-pub const ECU_WINDOW: usize = 12;
+use super::profile::DEFAULT_WINDOW;
 
 /// One frame in the window.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -300,15 +294,22 @@ impl<const W: usize> Estimator<W> {
         let camera_now =
             if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
 
-        // Runs whose object is missing from this frame end.
+        // Runs whose object is missing from this frame coast on their last motion (for at most
+        // MAX_HELD_FRAMES frames, then they end); one seen only once is dropped.
         for run in &mut self.runs {
-            if run.is_live() && cur.object(run.object_id).is_none() {
-                if run.state == RunState::Initialising {
-                    bump(&mut self.stats.objects_not_initialised);
-                    run.state = RunState::Free;
-                } else {
-                    run.state = RunState::Draining;
-                }
+            if !run.is_live() || cur.object(run.object_id).is_some() {
+                continue;
+            }
+            if run.state == RunState::Initialising {
+                bump(&mut self.stats.objects_not_initialised);
+                run.state = RunState::Free;
+            } else if !has_previous {
+                run.state = RunState::Draining;
+            } else if let StepOutcome::Restart(cause) = run.coast(&self.object_smoothness, &mut self.scratch) {
+                self.stats.run_ended(cause);
+                run.state = RunState::Draining;
+            } else {
+                bump(&mut self.stats.object_frames_coasted);
             }
         }
         // Ended runs emit their leaving frame.
@@ -333,8 +334,11 @@ impl<const W: usize> Estimator<W> {
             let live = self.runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
             let mut restart = live.is_none();
             if let (Some(i), true) = (live, has_previous) {
-                let cx = PairContext { current: &obj.points, camera: &camera_now, leaving };
+                let beyond_range = usize::from(obj.beyond_range) > obj.points.len();
+                let cx = PairContext { current: &obj.points, camera: &camera_now, leaving, beyond_range };
                 let Some(run) = self.runs.get_mut(i) else { continue };
+                let was_coasting = run.coasted_since_fit();
+                let was_initialising = run.state == RunState::Initialising;
                 let outcome = run.measure(
                     &cx,
                     &self.params,
@@ -345,14 +349,22 @@ impl<const W: usize> Estimator<W> {
                     &mut self.scratch,
                 );
                 match outcome {
-                    StepOutcome::Measured => {}
+                    StepOutcome::Measured => {
+                        if was_coasting {
+                            bump(&mut self.stats.objects_resumed);
+                        }
+                        if was_initialising {
+                            bump(&mut self.stats.runs_tracked);
+                        }
+                    }
                     StepOutcome::Held => bump(&mut self.stats.object_motion_held),
-                    StepOutcome::Restart => {
+                    StepOutcome::Restart(cause) => {
                         bump(&mut self.stats.object_motion_held);
                         if run.state == RunState::Initialising {
                             bump(&mut self.stats.objects_not_initialised);
                             run.state = RunState::Free;
                         } else {
+                            self.stats.run_ended(cause);
                             run.state = RunState::Draining;
                             if let Some(s) = leaving
                                 && let Some(e) = drain_run(
@@ -378,7 +390,8 @@ impl<const W: usize> Estimator<W> {
                 }
                 restart = true;
             }
-            if !restart {
+            // An object with no usable point (all beyond range) starts no run.
+            if !restart || obj.points.is_empty() {
                 continue;
             }
             if live.is_none() && self.runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id)
@@ -435,7 +448,7 @@ impl<const W: usize> Estimator<W> {
             if let Some(e) = e {
                 let _ = self.smoothed.objects.push(e);
             }
-            if run.reorient_if_moved(self.params.heading_baseline_m) {
+            if run.reorient_if_moved(&self.params) {
                 bump(&mut self.stats.objects_reoriented);
             }
         }

@@ -71,6 +71,9 @@ pub struct ObjectPoints {
     pub class: ObjectClass,
     /// Observations, sorted by track id, ids unique.
     pub points: Vec<Obs, MAX_POINTS_PER_OBJECT>,
+    /// Tracks of the object beyond the usable depth (skipped, counted in `tracks_too_far`):
+    /// an object with no points but some of these is out of range, not gone.
+    pub beyond_range: u16,
 }
 
 /// One camera frame's tracks.
@@ -252,6 +255,14 @@ impl FrameAssembler {
         }
     }
 
+    /// Notes an object track beyond the usable depth on its object, which is listed (with no
+    /// points) if there is room: it is out of range, not gone. Never counts as a dropped object.
+    fn note_beyond_range(t: &Track, buf: &mut FrameBuffer) {
+        if let Some(slot) = object_slot(t, buf) {
+            slot.beyond_range = slot.beyond_range.saturating_add(1);
+        }
+    }
+
     /// Checks and stores one track.
     fn add_track(&mut self, t: &Track, buf: &mut FrameBuffer, depth: DepthRange, stats: &mut EstimatorStats) {
         if !t.depth.is_finite() || t.depth < depth.min {
@@ -260,6 +271,9 @@ impl FrameAssembler {
         }
         if t.depth > depth.max {
             bump(&mut stats.tracks_too_far);
+            if !t.is_static() {
+                Self::note_beyond_range(t, buf);
+            }
             return;
         }
         let Some(obs) = Obs::new(t.track_id, t.u, t.v, t.depth) else {
@@ -272,23 +286,27 @@ impl FrameAssembler {
             }
             return;
         }
-        let slot = match buf.objects.iter().position(|o| o.object_id == t.object_id) {
-            Some(i) => buf.objects.get_mut(i),
-            None => {
-                let new = ObjectPoints { object_id: t.object_id, class: t.class, points: Vec::new() };
-                if buf.objects.push(new).is_err() {
-                    self.dropped_object = true;
-                    bump(&mut stats.object_tracks_dropped);
-                    return;
-                }
-                buf.objects.last_mut()
-            }
+        let Some(slot) = object_slot(t, buf) else {
+            self.dropped_object = true;
+            bump(&mut stats.object_tracks_dropped);
+            return;
         };
-        let Some(slot) = slot else { return };
         if slot.points.push(obs).is_err() {
             add(&mut stats.object_points_dropped, 1);
         }
     }
+}
+
+/// The list of `t`'s object in `buf`, added (empty) if the object is new; `None` when the
+/// frame's object list is full.
+fn object_slot<'b>(t: &Track, buf: &'b mut FrameBuffer) -> Option<&'b mut ObjectPoints> {
+    if let Some(i) = buf.objects.iter().position(|o| o.object_id == t.object_id) {
+        return buf.objects.get_mut(i);
+    }
+    buf.objects
+        .push(ObjectPoints { object_id: t.object_id, class: t.class, points: Vec::new(), beyond_range: 0 })
+        .ok()?;
+    buf.objects.last_mut()
 }
 
 #[cfg(test)]

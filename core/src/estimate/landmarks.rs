@@ -85,6 +85,35 @@ pub fn landmark_correspondences(landmarks: &Landmarks, current: &[Obs], out: &mu
     });
 }
 
+/// Correspondences by position, for when the track ids no longer match (the object was lost
+/// for a few frames and the front-end follows new points on it): each observation of `current`,
+/// put in the object's frame by the predicted `object_from_camera`, is paired with the nearest
+/// landmark within `radius_m`. The pairs are approximate (the nearest landmark, not the same
+/// surface point), so the fit they feed must be robust; `O(n m)` for `n` observations and `m`
+/// landmarks, done only when ids fail.
+pub fn nearest_landmark_correspondences(
+    landmarks: &Landmarks,
+    current: &[Obs],
+    object_from_camera: &Pose3,
+    model: &PointModel,
+    radius_m: f32,
+    out: &mut Correspondences,
+) {
+    out.clear();
+    let limit = radius_m * radius_m;
+    for o in current {
+        let p = object_from_camera.transform_point(&model.back_project(o.u(), o.v(), o.depth)).coords;
+        let nearest = landmarks
+            .iter()
+            .map(|l| (l.point(), (l.point() - p).norm_squared()))
+            .filter(|(_, d)| *d <= limit)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((src, _)) = nearest {
+            let _ = out.push(Correspondence { src, u: o.u(), v: o.v(), depth: o.depth });
+        }
+    }
+}
+
 /// Fuses the observations `current` of frame k into `landmarks`, the object's pose now known:
 /// `object_from_camera` maps camera k into the object's frame. A landmark whose reprojection
 /// disagrees with its observation by more than `gate_px` restarts from the observation (a bad

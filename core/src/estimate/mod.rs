@@ -19,7 +19,8 @@
 //!    30 m away is a metre off in depth, and noise in the source points both adds to every motion
 //!    and shrinks fitted rotations (see [`fit`]). The first pose `L_0` comes from the object's
 //!    own points, never from ground truth: origin at their robust centroid, world-aligned; once
-//!    the object has moved `heading_baseline_m` (2 m) the frame is turned once, upright with x
+//!    the object has moved `heading_baseline_m` (2 m), or `heading_min_baseline_m` (0.5 m) once
+//!    its run has `heading_max_wait_frames` (5) frames, the frame is turned once, upright with x
 //!    along the displacement (its heading), which starts a new output segment. Before that its
 //!    heading is unknown (`heading_known == false`).
 //! 4. **Smoothing** ([`ChainSmoother`], [`SmoothedPath`]): over the last `W` frames, per object
@@ -76,9 +77,10 @@
 //! | more than 256 static / 128 per-object tracks | drop the excess (arrival order; repeated ids count until the frame completes) | `static_tracks_dropped`, `object_points_dropped` |
 //! | more than 16 objects in a frame | drop the later objects' tracks (the sender orders by priority) | `object_tracks_dropped`, `frames_with_objects_dropped` |
 //! | fewer static matches than `min_inliers`, or RANSAC/LM fails | hold the previous ego-motion; the smoother gets no measurement | `camera_motion_held` |
-//! | fewer object matches than `object_min_points`, or the fit fails | hold the previous object motion; after [`MAX_HELD_FRAMES`] holds re-initialise | `object_motion_held` |
+//! | fewer object matches than `object_min_points`, or the fit fails | hold the previous object motion; after [`MAX_HELD_FRAMES`] consecutive holds the run ends | `object_motion_held`, `runs_ended_fit_failed` |
+//! | an object's tracks beyond `max_depth` | the object is out of range: held as a failed fit | `tracks_too_far`, `runs_ended_out_of_range` |
 //! | object with fewer than `object_min_points` points when first seen | not initialised; tried again next frame | `objects_not_initialised` |
-//! | object missing from a frame, then back | its run ends (its window frames are still emitted smoothed); on return it is re-initialised from its points | `objects_returned`, `objects_initialised` |
+//! | tracking object missing from a frame | it coasts on its last motion (no measurement) for up to [`MAX_HELD_FRAMES`] frames and resumes when seen again; after that its run ends (its window frames up to the last measured one are still emitted smoothed) and on return it is re-initialised from its points | `object_frames_coasted`, `objects_resumed`, `runs_ended_lost`, `objects_returned`, `objects_initialised` |
 //! | a new object with every run slot in use | evict the ended run with the fewest frames still to emit | `runs_evicted`, `smoothed_frames_lost` |
 //! | parts: malformed, repeated, stale, or a newer frame before completion | reject / ignore / abandon the incomplete frame | `parts_*`, `frames_incomplete` |
 //! | timestamps equal, decreasing or over `max_dt` apart | use `nominal_dt` for speeds | `timestamps_replaced` |
@@ -99,22 +101,24 @@ mod object_run;
 mod output;
 mod params;
 mod path;
+pub mod profile;
 mod rng;
 mod stats;
 mod triad;
 
 pub use camera::CameraTrack;
 pub use chain::{ChainScratch, ChainSmoother, SlotView, Smoothness, spd_inverse};
-pub use estimator::{DEFAULT_WINDOW, ECU_WINDOW, Estimator, Pushed};
+pub use estimator::{Estimator, Pushed};
 pub use fit::{Fit, FitFailure, fit_pose};
 pub use frame::{FrameAssembler, FrameBuffer, MAX_PIXEL, ObjectPoints, Obs};
 pub use landmarks::{Landmark, Landmarks, MAX_LANDMARK_WEIGHT};
 pub use lie::{PackedSym6, adjoint};
 pub use model::{Correspondence, PointModel};
-pub use object_run::{MAX_HELD_FRAMES, ObjectRun, RunState};
+pub use object_run::{EndCause, MAX_HELD_FRAMES, ObjectRun, RunState};
 pub use output::{ObjectEstimate, PoseEstimate, bev_heading};
-pub use params::{EstimatorParams, FitParams, Intrinsics, SmootherParams};
+pub use params::{EstimatorParams, FitParams, Intrinsics, KinematicPrior, SmootherParams};
 pub use path::{SmoothedPath, SolveFailed};
+pub use profile::{DEFAULT_WINDOW, EDGE_PROFILE, EDGE_WINDOW, EstimatorProfile, HOST_PROFILE, PROFILES};
 pub use rng::Pcg32;
 pub use stats::EstimatorStats;
 pub use triad::rigid_from_three;

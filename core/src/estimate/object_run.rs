@@ -10,7 +10,9 @@
 
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::Obs;
-use super::landmarks::{self, Landmarks, fuse, initial_landmarks, landmark_correspondences};
+use super::landmarks::{
+    self, Landmarks, fuse, initial_landmarks, landmark_correspondences, nearest_landmark_correspondences,
+};
 use super::lie::{Vec6, normalised, pose_to_lin};
 use super::measure::{Correspondences, MotionMeasurement, measure_motion, robust_centroid};
 use super::model::PointModel;
@@ -25,9 +27,32 @@ use nalgebra::{Translation3, UnitQuaternion, Vector3};
 /// Radius around the median of an object's points within which points count for its centroid,
 /// metres: larger than any road vehicle's half-length, smaller than the gap to a neighbour.
 const CENTROID_RADIUS_M: f32 = 4.0;
-/// Consecutive frames an object's motion may be held (fit failed) before its run ends and the
-/// object is re-initialised from its points.
-pub const MAX_HELD_FRAMES: u8 = 3;
+/// Consecutive frames an object's motion may be held before its run ends: frames in which its
+/// fit failed, its points were out of range, or it was missing from the frame altogether (it
+/// coasts on its last motion). Within this many frames it resumes with its identity, pose and
+/// landmarks; after it the run ends and the object, if it comes back, is initialised afresh.
+/// Five frames are half a second at KITTI's 10 Hz: a car passing behind another, a mask that
+/// breaks for a few frames.
+pub const MAX_HELD_FRAMES: u8 = 5;
+
+/// How far from its predicted place an object's point may lie from a landmark to be paired with
+/// it when track ids fail ([`ObjectRun`]'s re-acquisition), metres: a few frames of coasting
+/// drift, more than the spacing of an object's points.
+const REACQUIRE_RADIUS_M: f32 = 0.6;
+/// Pair-and-fit passes of a re-acquisition (an iterative-closest-point loop, cut short).
+const REACQUIRE_PASSES: usize = 2;
+
+/// Why a run ended before its object was gone for good.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EndCause {
+    /// The object was missing from more than [`MAX_HELD_FRAMES`] consecutive frames.
+    Lost,
+    /// Its motion fit failed in more than [`MAX_HELD_FRAMES`] consecutive frames (too few
+    /// matched points, or no consensus).
+    FitFailed,
+    /// Its points lay beyond the usable depth for more than [`MAX_HELD_FRAMES`] frames.
+    OutOfRange,
+}
 
 /// Where a run is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,9 +74,9 @@ pub enum StepOutcome {
     Measured,
     /// The fit failed and the previous motion was held.
     Held,
-    /// The fit failed too often, or the first motion failed: the run must end and the object be
-    /// re-initialised.
-    Restart,
+    /// The motion was held too often ([`MAX_HELD_FRAMES`]), or the first motion failed: the run
+    /// must end, for the reason given, and the object be re-initialised.
+    Restart(EndCause),
 }
 
 /// What an object step works on.
@@ -63,6 +88,9 @@ pub struct PairContext<'a> {
     pub camera: &'a Pose3,
     /// The step leaving the window now, if any.
     pub leaving: Option<u32>,
+    /// Whether most of the object's tracks in this frame lay beyond the usable depth (a failed
+    /// fit then counts as out of range).
+    pub beyond_range: bool,
 }
 
 /// One object's run; see the module docs.
@@ -91,6 +119,13 @@ pub struct ObjectRun<const W: usize> {
     heading_known: bool,
     /// Consecutive held frames.
     held: u8,
+    /// Whether one of the held frames since the last measured one was coasted (object missing).
+    coasted: bool,
+    /// Step of the newest frame in the path.
+    newest_step: u32,
+    /// Step of the newest frame whose motion was measured: later frames of an ended run are
+    /// extrapolations and are not emitted smoothed.
+    last_measured_step: u32,
     /// Re-orientation count.
     segment: u16,
     /// Set by [`ObjectRun::measure`] when it added a step (true: measured, false: held),
@@ -104,6 +139,11 @@ impl<const W: usize> Default for ObjectRun<W> {
     fn default() -> Self {
         Self::new()
     }
+}
+
+/// Whether objects of `class` move as road vehicles do (not sideways): everything but people.
+fn moves_like_a_vehicle(class: ObjectClass) -> bool {
+    !matches!(class, ObjectClass::Pedestrian | ObjectClass::PersonSitting | ObjectClass::Background)
 }
 
 /// The pure rotation turning the bird's-eye heading by `angle` (about the up axis, -y).
@@ -128,6 +168,9 @@ impl<const W: usize> ObjectRun<W> {
             origin: Point2::new(0.0, 0.0),
             heading_known: false,
             held: 0,
+            coasted: false,
+            newest_step: 0,
+            last_measured_step: 0,
             segment: 0,
             stepped: None,
             landmarks: Landmarks::new(),
@@ -169,6 +212,8 @@ impl<const W: usize> ObjectRun<W> {
         self.class = class;
         self.provisional = Pose3::from_parts(Translation3::from(c.coords), UnitQuaternion::identity());
         self.first_step = step;
+        self.newest_step = step;
+        self.last_measured_step = step;
         self.origin = Point2::new(c.x, c.z);
         initial_landmarks(points, &(self.provisional.inverse() * camera), model, &mut self.landmarks);
         true
@@ -196,40 +241,107 @@ impl<const W: usize> ObjectRun<W> {
         let frame = self.frame_pose();
         // Source points: the landmarks, in the object's frame (at k-1, i.e. `frame`).
         let a = cx.camera.inverse() * frame;
+        let min_points = usize::from(params.object_min_points);
         landmark_correspondences(&self.landmarks, cx.current, corrs);
-        let measured = if corrs.len() >= usize::from(params.object_min_points) {
+        let mut measured = if corrs.len() >= min_points {
             measure_motion(corrs, &a, &self.last_delta, &params.object_fit, model, rng)
         } else {
             None
         };
-        let mut outcome = StepOutcome::Measured;
+        if measured.is_none() && self.state == RunState::Tracking && cx.current.len() >= min_points {
+            measured = self.reacquire(cx, &a, params, model, rng, corrs);
+        }
         let measured = if self.state == RunState::Initialising {
-            let Some(m) = measured else { return StepOutcome::Restart };
+            let Some(m) = measured else { return StepOutcome::Restart(EndCause::FitFailed) };
             Some(self.start_tracking(&m))
         } else {
             measured
         };
-        match &measured {
+        let cause = if cx.beyond_range { EndCause::OutOfRange } else { EndCause::FitFailed };
+        // Camera k from object k as fitted: what couples this motion to the camera's.
+        let lin = measured.as_ref().map_or([0.0; 6], |m| pose_to_lin(&(a * m.delta)));
+        self.step(measured.as_ref(), &lin, cause, s, scratch)
+    }
+
+    /// Finds the motion again when too few track ids match (new points after a loss): the
+    /// points are paired with the nearest landmarks where the object is predicted to be (its
+    /// last motion on), the motion fitted, and the pairing and fit repeated once from it.
+    fn reacquire(
+        &self,
+        cx: &PairContext<'_>,
+        a: &Pose3,
+        params: &EstimatorParams,
+        model: &PointModel,
+        rng: &mut Pcg32,
+        corrs: &mut Correspondences,
+    ) -> Option<MotionMeasurement> {
+        let mut guess = self.last_delta;
+        let mut measured = None;
+        for _ in 0..REACQUIRE_PASSES {
+            let object_from_camera = (a * guess).inverse();
+            nearest_landmark_correspondences(
+                &self.landmarks,
+                cx.current,
+                &object_from_camera,
+                model,
+                REACQUIRE_RADIUS_M,
+                corrs,
+            );
+            if corrs.len() < usize::from(params.object_min_points) {
+                return measured;
+            }
+            let Some(m) = measure_motion(corrs, a, &guess, &params.object_fit, model, rng) else { return measured };
+            guess = m.delta;
+            measured = Some(m);
+        }
+        measured
+    }
+
+    /// Advances a tracking run whose object is missing from the frame by its last motion, with
+    /// no measurement: it coasts for up to [`MAX_HELD_FRAMES`] frames, then must end
+    /// ([`StepOutcome::Restart`] with [`EndCause::Lost`]).
+    pub fn coast(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>) -> StepOutcome {
+        if self.state != RunState::Tracking {
+            return StepOutcome::Restart(EndCause::Lost);
+        }
+        self.step(None, &[0.0; 6], EndCause::Lost, s, scratch)
+    }
+
+    /// Adds one step: the measured motion, or (`None`) a hold of the previous one for `cause`.
+    fn step(
+        &mut self,
+        measured: Option<&MotionMeasurement>,
+        lin: &[f32; 6],
+        cause: EndCause,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+    ) -> StepOutcome {
+        let mut outcome = StepOutcome::Measured;
+        match measured {
             Some(m) => {
                 self.held = 0;
+                self.coasted = false;
                 self.last_delta = m.delta;
             }
             None => {
                 self.held = self.held.saturating_add(1);
+                self.coasted |= cause == EndCause::Lost;
                 if self.held > MAX_HELD_FRAMES {
-                    return StepOutcome::Restart;
+                    return StepOutcome::Restart(cause);
                 }
                 outcome = StepOutcome::Held;
             }
+        }
+        self.newest_step = self.newest_step.wrapping_add(1);
+        if measured.is_some() {
+            self.last_measured_step = self.newest_step;
         }
         // Frame-to-frame: the world motion H = L_(k-1) delta L_(k-1)^-1, chained.
         let frame = self.frame_pose();
         self.f2f_motion = normalised(frame * self.last_delta * frame.inverse());
         self.f2f = normalised(self.f2f_motion * self.f2f);
-        let z = measured.as_ref().map(|m| (&m.xi, &m.information));
-        // Camera k from object k as fitted: what couples this motion to the camera's.
-        let lin = measured.as_ref().map_or([0.0; 6], |m| pose_to_lin(&(a * m.delta)));
-        self.path.push(z, &lin, s, scratch);
+        let z = measured.map(|m| (&m.xi, &m.information));
+        self.path.push(z, lin, s, scratch);
         self.stepped = Some(outcome == StepOutcome::Measured);
         outcome
     }
@@ -264,11 +376,20 @@ impl<const W: usize> ObjectRun<W> {
             let object_from_camera = self.path.current().inverse() * camera;
             fuse(&mut self.landmarks, current, &object_from_camera, model, inlier_px);
         }
-        let out = emitted.map(|e| self.estimate(&e, dt_leaving));
+        // An ended run's frames after its last measured one were extrapolated: not emitted.
+        let extrapolated = self.state == RunState::Draining && leaving.is_some_and(|j| j > self.last_measured_step);
+        let out = emitted.filter(|_| !extrapolated).map(|e| self.estimate(&e, dt_leaving));
         if self.state == RunState::Draining && self.path.pending() == 0 {
             self.state = RunState::Free;
         }
         out
+    }
+
+    /// Whether the run coasted through a frame its object was missing from since its last
+    /// measured motion.
+    #[must_use]
+    pub fn coasted_since_fit(&self) -> bool {
+        self.held > 0 && self.coasted
     }
 
     /// Whether [`ObjectRun::measure`] added a step that [`ObjectRun::finish`] has not taken.
@@ -294,15 +415,21 @@ impl<const W: usize> ObjectRun<W> {
     }
 
     /// Re-orients the frame along the displacement since the first pose once it exceeds
-    /// `baseline` metres, for an object whose heading is not yet known. Returns whether it did.
-    pub fn reorient_if_moved(&mut self, baseline: f32) -> bool {
+    /// `heading_baseline_m`, or, once the run has `heading_max_wait_frames` frames,
+    /// `heading_min_baseline_m`, for an object whose heading is not yet known; a vehicle's
+    /// motions then get `params.vehicle_kinematics`. Returns whether it did.
+    pub fn reorient_if_moved(&mut self, params: &EstimatorParams) -> bool {
+        let (baseline, max_wait, min_baseline) =
+            (params.heading_baseline_m, params.heading_max_wait_frames, params.heading_min_baseline_m);
         if self.heading_known || self.state != RunState::Tracking {
             return false;
         }
         let p = self.path.current().translation.vector;
         let (dx, dz) = (p.x - self.origin.x, p.z - self.origin.y);
         let moved = libm::hypotf(dx, dz);
-        if moved.is_nan() || moved < baseline {
+        let frames = self.newest_step.wrapping_sub(self.first_step);
+        let needed = if frames >= u32::from(max_wait) { baseline.min(min_baseline) } else { baseline };
+        if moved.is_nan() || moved < needed {
             return false;
         }
         // The new frame is upright with its x axis along the displacement: this also removes
@@ -315,23 +442,10 @@ impl<const W: usize> ObjectRun<W> {
         self.last_delta = r.inverse() * self.last_delta * r;
         self.heading_known = true;
         self.segment = self.segment.wrapping_add(1);
-        true
-    }
-
-    /// Emits the leaving step for a draining run; frees the run once nothing is pending.
-    pub fn drain(
-        &mut self,
-        s: &Smoothness,
-        scratch: &mut ChainScratch<W>,
-        leaving: u32,
-        dt_leaving: f32,
-    ) -> Option<ObjectEstimate> {
-        let e = self.path.drain(s, scratch, leaving).ok().flatten();
-        let out = e.map(|e| self.estimate(&e, dt_leaving));
-        if self.path.pending() == 0 {
-            self.state = RunState::Free;
+        if let Some(k) = params.vehicle_kinematics.filter(|_| moves_like_a_vehicle(self.class)) {
+            self.path.set_kinematic(k.information());
         }
-        out
+        true
     }
 
     fn estimate(&self, e: &Emitted, dt: f32) -> ObjectEstimate {

@@ -68,6 +68,36 @@ pub struct SmootherParams {
     pub sigma_rotation: f32,
 }
 
+/// How a road vehicle moves in its own frame (x along its heading, y down, z to its side): per
+/// frame, hardly sideways or vertically, and hardly rolling or pitching. A prior on each body
+/// motion of a vehicle whose heading is known, with mean zero on those components.
+///
+/// Why: the fitted motions of a far object are noisy in rotation, and their yaw integrates into
+/// a heading that wanders away from the direction it travels (measured on rendered KITTI 0004: a
+/// car 40-48 m ahead for 300 frames drifted to 0.8 rad from its path, its relative-pose error
+/// 1.3 m per frame). A car cannot crab, so its direction of travel pins its heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KinematicPrior {
+    /// Standard deviation of the sideways and vertical translation per frame, metres: the box
+    /// centre of a car turning at 0.3 rad/s slides about 0.04 m a frame at 10 Hz.
+    pub sigma_side_m: f32,
+    /// Standard deviation of roll and pitch per frame, radians.
+    pub sigma_tilt_rad: f32,
+}
+
+impl KinematicPrior {
+    /// Road vehicles at KITTI's frame rate.
+    pub const ROAD_VEHICLE: Self = Self { sigma_side_m: 0.05, sigma_tilt_rad: 0.005 };
+
+    /// The prior's diagonal information on a body twist `[rho; omega]`.
+    #[must_use]
+    pub fn information(&self) -> [f32; 6] {
+        let inv = |s: f32| if s > 0.0 && s.is_finite() { 1.0 / (s * s) } else { 0.0 };
+        let (side, tilt) = (inv(self.sigma_side_m), inv(self.sigma_tilt_rad));
+        [0.0, side, side, tilt, 0.0, tilt]
+    }
+}
+
 impl SmootherParams {
     /// DynoSAM's smoothing factor between consecutive object motions: rotation 0.01 rad,
     /// translation 0.2 m (see REFERENCE.md). DynoSAM applies it to world-frame motions, whose
@@ -99,8 +129,11 @@ pub struct EstimatorParams {
     pub max_dt: f32,
     /// Nearest usable depth, metres; closer or non-positive depths are rejected.
     pub min_depth: f32,
-    /// Farthest usable depth, metres: stereo depth noise grows with depth squared, and beyond
-    /// about 40 m a KITTI point's depth is worth little.
+    /// Farthest usable depth, metres. Stereo depth noise grows with depth squared (about 5 m
+    /// per point at 60 m on KITTI's rig, half a pixel of disparity noise) and the point model
+    /// weighs each point by it, so far points add little information but keep an object (or,
+    /// on an open road, the camera) measured at all: with 40 m, rendered KITTI lost most objects
+    /// until they came within 40 m and 0001's camera had too few static points (docs/results.md).
     pub max_depth: f32,
     /// Standard deviation of pixel positions, pixels (the residual weights).
     pub pixel_sigma: f32,
@@ -118,10 +151,20 @@ pub struct EstimatorParams {
     /// relative pose of the object is seen through it, so 2 m (two frames of a car at 10 Hz):
     /// about 1 degree for 3 cm of position noise.
     pub heading_baseline_m: f32,
+    /// The wait for a heading is bounded: once a run has this many frames, a displacement of
+    /// [`EstimatorParams::heading_min_baseline_m`] is enough (a slow object, 0.1 m a frame,
+    /// would otherwise wait 20 frames for 2 m and lose them all from its trajectory).
+    pub heading_max_wait_frames: u8,
+    /// The least displacement a heading is taken from after the bounded wait, metres: the
+    /// heading error is then about 3 degrees for 3 cm of position noise.
+    pub heading_min_baseline_m: f32,
     /// Constant-motion prior of the object smoother.
     pub object_smoother: SmootherParams,
     /// Constant-motion prior of the camera smoother.
     pub camera_smoother: SmootherParams,
+    /// The motion prior of vehicles (not pedestrians) once their heading is known; `None`
+    /// turns it off.
+    pub vehicle_kinematics: Option<KinematicPrior>,
     /// Block Gauss-Seidel sweeps of the joint camera-object solve per frame
     /// ([`super::joint`]; default [`super::joint::JOINT_SWEEPS`]). 0 turns the coupling off:
     /// objects are then smoothed against the frame-to-frame camera and the camera alone (the
@@ -138,7 +181,7 @@ impl EstimatorParams {
             nominal_dt,
             max_dt: 1.0,
             min_depth: 0.5,
-            max_depth: 40.0,
+            max_depth: 80.0,
             pixel_sigma: 0.5,
             disparity_sigma: 0.5,
             camera_fit: FitParams {
@@ -165,10 +208,13 @@ impl EstimatorParams {
             },
             object_min_points: 6,
             heading_baseline_m: 2.0,
+            heading_max_wait_frames: 5,
+            heading_min_baseline_m: 0.5,
             object_smoother: SmootherParams::VEHICLE_OBJECT,
             // The ego vehicle's motion changes smoothly: 0.05 m and 0.005 rad per frame of change
             // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.
             camera_smoother: SmootherParams { sigma_translation: 0.05, sigma_rotation: 0.005 },
+            vehicle_kinematics: Some(KinematicPrior::ROAD_VEHICLE),
             joint_sweeps: super::joint::JOINT_SWEEPS as u8,
         }
     }

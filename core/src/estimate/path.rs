@@ -103,6 +103,12 @@ impl<const W: usize> SmoothedPath<W> {
         self.anchor_step.wrapping_add(1)
     }
 
+    /// Puts a zero-mean prior of diagonal information `info` on every body motion of the
+    /// window ([`ChainSmoother::set_kinematic`]) until the path restarts.
+    pub fn set_kinematic(&mut self, info: [f32; 6]) {
+        self.chain.set_kinematic(info);
+    }
+
     /// The chain of body motions in the window.
     #[must_use]
     pub const fn chain(&self) -> &ChainSmoother<W> {

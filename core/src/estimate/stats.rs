@@ -40,12 +40,25 @@ pub struct EstimatorStats {
     pub object_motion_held: u32,
     /// Objects (re)initialised: first seen, or seen again after missing a frame.
     pub objects_initialised: u32,
-    /// Objects that came back after missing at least one frame (each also counts as initialised).
+    /// Runs that began tracking (their first motion was fitted): one per object, plus one per
+    /// restart.
+    pub runs_tracked: u32,
+    /// Objects that came back after their run had ended (each also counts as initialised).
     pub objects_returned: u32,
     /// Objects seen too briefly or with too few points to be initialised.
     pub objects_not_initialised: u32,
     /// Objects whose frame was re-oriented once their heading became known from motion.
     pub objects_reoriented: u32,
+    /// Object-frames a tracking object was missing from and coasted through on its last motion.
+    pub object_frames_coasted: u32,
+    /// Objects that came back within [`super::MAX_HELD_FRAMES`] frames and resumed their run.
+    pub objects_resumed: u32,
+    /// Runs ended because their object was missing from too many consecutive frames.
+    pub runs_ended_lost: u32,
+    /// Runs ended because their motion fit failed in too many consecutive frames.
+    pub runs_ended_fit_failed: u32,
+    /// Runs ended because their points lay beyond the usable depth for too many frames.
+    pub runs_ended_out_of_range: u32,
     /// Runs of objects evicted from the object table to make room; their frames not yet
     /// smoothed are lost.
     pub runs_evicted: u32,
@@ -53,6 +66,18 @@ pub struct EstimatorStats {
     pub smoothed_frames_lost: u32,
     /// Numerical failures (singular or non-finite systems) caught and answered with a hold.
     pub numerical_failures: u32,
+}
+
+impl EstimatorStats {
+    /// Counts a run that ended for `cause`.
+    pub(super) fn run_ended(&mut self, cause: super::object_run::EndCause) {
+        use super::object_run::EndCause;
+        bump(match cause {
+            EndCause::Lost => &mut self.runs_ended_lost,
+            EndCause::FitFailed => &mut self.runs_ended_fit_failed,
+            EndCause::OutOfRange => &mut self.runs_ended_out_of_range,
+        });
+    }
 }
 
 /// Adds one to a counter, saturating.

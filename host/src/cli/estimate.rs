@@ -1,29 +1,34 @@
-//! `dynotraj estimate`: the DynoSAM-style estimator on the track-level simulator driven by real
-//! KITTI sequences; prints the paper's Table III (camera and object RPE) for the frame-to-frame,
-//! causal and smoothed estimates, the smoothness of object trajectories against the KITTI
-//! labels, and optionally writes pose files and logs. `--bench` times the estimator per frame.
-//! `--write-tracks` records the simulated tracks as a tracks file; `--tracks` estimates on one
-//! (no truth: pose files and log only).
+//! `dynotraj estimate`: the DynoSAM-style estimator on real KITTI sequences, rendered by the
+//! image simulator and tracked by the front-end (`--ours-input rendered`, the default, as every
+//! command) or simulated at the track level (`--ours-input tracks`), with one or more estimator
+//! profiles (`--profile host,edge`); prints the paper's Table III (camera and object RPE) for
+//! the frame-to-frame, causal and smoothed estimates, the restarts of object runs by cause, the
+//! smoothness of object trajectories against the KITTI labels, and optionally writes pose files
+//! and logs. `--bench` times the estimator per frame. `--write-tracks` records the tracks as a
+//! tracks file; `--tracks` estimates on one (no truth: pose files and log only).
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::estimate::{Intrinsics, SmootherParams};
+use dynotraj_core::estimate::{EstimatorProfile, EstimatorStats, Intrinsics, PROFILES, SmootherParams};
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::progress;
 use crate::estimate::evaluate::{
-    ECU_WINDOW, EvalOptions, SequenceResult, WINDOW, camera_info, evaluate_sequence, params_for, run_with_window,
+    EvalOptions, SequenceResult, camera_info, evaluate_sequence, params_for, run_with_window, score_sequence,
     sim_max_depth, write_tracks,
 };
 use crate::estimate::files::{write_estimates, write_run};
+use crate::estimate::from_images::{render_and_track, rendered_params};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::{Kind, RunScores};
+use crate::jobs::{default_jobs, map_jobs, parse_jobs};
 use crate::kitti::TrackingDir;
 use crate::report::{Format, Table, fmt_opt};
+use crate::trajectory::OursInput;
 
 /// The paper's Table III: DynoSAM's averages on real KITTI.
 pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
@@ -38,6 +43,23 @@ pub struct EstimateArgs {
     /// Sequences, comma-separated (default: every sequence in the folder).
     #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
+    /// Where the feature tracks come from: rendered (the image simulator renders each sequence
+    /// and the OpenCV front-end tracks it, as Ours is defined; minutes a sequence, kept in
+    /// --estimate-cache) or tracks (the track-level simulator: points on the labelled boxes
+    /// with the noise of --pixel-sigma, --disparity-sigma, --outliers, --track-lifetime;
+    /// seconds).
+    #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
+    pub ours_input: OursInput,
+    /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375).
+    #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
+    pub render_scale: f64,
+    /// A folder where renderings' front-end tracks are kept between runs (the same folder as
+    /// the other commands' --estimate-cache): a rerun estimates them in seconds.
+    #[arg(long, value_name = "DIR")]
+    pub estimate_cache: Option<PathBuf>,
+    /// Sequences rendered and tracked at the same time (default: the number of cores).
+    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
+    pub jobs: usize,
     /// Instead of simulating, estimate on a recorded tracks file (`.dtt`, the link's byte
     /// stream: camera model, then each frame's tracks). Intrinsics and frame rate come from the
     /// file's camera model; `--pixel-sigma`, `--disparity-sigma` and `--noise-free` set the
@@ -50,7 +72,8 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "FILE")]
     pub write_tracks: Option<PathBuf>,
     /// Folder for pose files (TUM and KITTI, camera and objects) and the per-frame CSV log, one
-    /// sub-folder per sequence (with `--tracks`: the folder itself).
+    /// sub-folder per sequence (with several profiles, per profile and sequence; with
+    /// `--tracks`: the folder itself).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
@@ -86,13 +109,16 @@ pub struct EstimateArgs {
     /// (DynoSAM's world-frame value: 0.01).
     #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
     pub object_sigma_r: f32,
-    /// Block Gauss-Seidel sweeps of the joint camera-object smoother per frame; 0 smooths the
-    /// camera and each object apart (objects against the frame-to-frame camera).
-    #[arg(long, default_value_t = dynotraj_core::estimate::joint::JOINT_SWEEPS as u8, value_name = "N")]
-    pub joint_sweeps: u8,
-    /// Smoothing window in frames: 20 (the default, DynoSAM's) or 12 (the ECU firmware's).
-    #[arg(long, default_value_t = WINDOW, value_name = "FRAMES")]
-    pub window: usize,
+    /// Estimator profiles, comma-separated: host (DynoSAM's 20-frame window, the joint
+    /// camera-object solve) and edge (what the ECU firmware runs: an 8-frame window, camera and
+    /// objects smoothed apart). Every table is printed per profile.
+    #[arg(long = "profile", value_delimiter = ',', default_value = "host", value_name = "LIST")]
+    pub profiles: Vec<String>,
+    /// Block Gauss-Seidel sweeps of the joint camera-object smoother per frame, instead of the
+    /// profile's; 0 smooths the camera and each object apart (objects against the
+    /// frame-to-frame camera).
+    #[arg(long, value_name = "N")]
+    pub joint_sweeps: Option<u8>,
     /// Seed of the simulator and of RANSAC.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -116,21 +142,47 @@ pub struct EstimateArgs {
 }
 
 impl EstimateArgs {
-    /// The evaluation options.
+    /// The estimator profiles asked for, in order.
+    ///
+    /// # Errors
+    /// A name that is no profile, or none at all.
+    pub fn profiles(&self) -> anyhow::Result<Vec<EstimatorProfile>> {
+        let names = || PROFILES.iter().map(|p| p.name).collect::<Vec<_>>().join(", ");
+        let out = self
+            .profiles
+            .iter()
+            .map(|n| {
+                EstimatorProfile::named(n.trim())
+                    .with_context(|| format!("--profile: `{n}` is not a profile (expected one of {})", names()))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        anyhow::ensure!(!out.is_empty(), "--profile: expected at least one of {}", names());
+        Ok(out)
+    }
+
+    /// The evaluation options with `profile`.
     ///
     /// # Errors
     /// A bad class name or rate.
+    pub fn options_for(&self, profile: EstimatorProfile) -> anyhow::Result<EvalOptions> {
+        let mut opt = self.options()?.with_profile(profile);
+        if let Some(n) = self.joint_sweeps {
+            opt.joint_sweeps = n;
+        }
+        Ok(opt)
+    }
+
+    /// The evaluation options with the first profile asked for.
+    ///
+    /// # Errors
+    /// A bad class name, rate or profile.
     pub fn options(&self) -> anyhow::Result<EvalOptions> {
         anyhow::ensure!(
             self.rate.is_finite() && self.rate > 0.0,
             "--rate: expected a positive frame rate in Hz, found {}",
             self.rate
         );
-        anyhow::ensure!(
-            self.window == WINDOW || self.window == ECU_WINDOW,
-            "--window: expected {WINDOW} or {ECU_WINDOW} frames, found {}",
-            self.window
-        );
+        let profile = self.profiles()?.first().copied().unwrap_or(dynotraj_core::estimate::HOST_PROFILE);
         let classes = self
             .classes
             .iter()
@@ -156,8 +208,9 @@ impl EstimateArgs {
             },
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
-            joint_sweeps: self.joint_sweeps,
-            window: self.window,
+            joint_sweeps: self.joint_sweeps.unwrap_or(profile.joint_sweeps),
+            window: profile.window,
+            profile: profile.name,
         })
     }
 }
@@ -202,8 +255,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         println!("{}", per_object_table(&results).render(args.format));
     }
     if let Some(out) = &args.out {
+        let several = args.profiles.len() > 1;
         for r in &results {
-            let dir = out.join(&r.id);
+            let dir = if several { out.join(r.profile).join(&r.id) } else { out.join(&r.id) };
             write_run(&dir, &r.sim, &r.run)?;
             eprintln!("wrote {}", dir.display());
         }
@@ -299,39 +353,129 @@ fn nonzero_counters(stats: &dynotraj_core::estimate::EstimatorStats) -> String {
     nonzero.join(" ")
 }
 
-/// Loads, simulates, estimates and scores the requested sequences.
+/// Loads the requested sequences, simulates or renders and tracks each once, and estimates
+/// and scores it with every profile asked for: the results per profile, then per sequence.
 ///
 /// # Errors
-/// Loading errors, named.
+/// Loading, rendering or cache errors, named.
 pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
-    let opt = args.options()?;
+    let profiles = args.profiles()?;
+    let options = profiles.iter().map(|p| args.options_for(*p)).collect::<anyhow::Result<Vec<_>>>()?;
     let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
     let dir = TrackingDir::open(kitti)?;
     let ids: Vec<String> = if args.sequences.is_empty() { dir.sequences()? } else { args.sequences.clone() };
-    let bar = progress(ids.len() as u64, "estimating");
-    let mut out = Vec::new();
-    for id in &ids {
-        bar.set_message(id.clone());
+    let label = if args.ours_input == OursInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
+    let bar = progress(ids.len() as u64, label);
+    let per_sequence = map_jobs(&ids, args.jobs, |id| -> anyhow::Result<Vec<SequenceResult>> {
         let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-        out.push(evaluate_sequence(id, &data, &opt));
+        let out = match args.ours_input {
+            OursInput::Tracks => options.iter().map(|opt| evaluate_sequence(id, &data, opt)).collect(),
+            OursInput::Rendered => {
+                let base = options.first().context("no profile")?;
+                let frames = render_and_track(id, &data, base, args.render_scale, args.estimate_cache.as_deref())
+                    .with_context(|| format!("sequence {id}: rendered front-end"))?;
+                let intrinsics = crate::frontend::e2e::intrinsics_of(&crate::estimate::from_images::render_camera(
+                    args.render_scale,
+                ));
+                options
+                    .iter()
+                    .map(|opt| {
+                        let params = rendered_params(args.render_scale, opt);
+                        score_sequence(id, &data, opt, frames.clone(), params, intrinsics)
+                    })
+                    .collect()
+            }
+        };
+        bar.set_message(id.clone());
         bar.inc(1);
-    }
+        Ok(out)
+    })?;
     bar.finish_and_clear();
+    let mut per_sequence = per_sequence.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
+    // Profile-major: every sequence of the first profile, then of the next.
+    let mut out = Vec::new();
+    for _ in &profiles {
+        for results in &mut per_sequence {
+            if !results.is_empty() {
+                out.push(results.remove(0));
+            }
+        }
+    }
     Ok(out)
 }
 
-/// The tables of `results`: Table III per kind, then smoothness.
+/// The tables of `results`, per profile (in the order they first occur): Table III per kind,
+/// the restarts of object runs by cause, then smoothness.
 #[must_use]
 pub fn tables(results: &[SequenceResult]) -> Vec<Table> {
-    let mut out: Vec<Table> = Kind::ALL.iter().enumerate().map(|(k, kind)| table_iii(results, k, *kind)).collect();
-    out.push(smoothness_table(results));
+    let mut profiles: Vec<&str> = Vec::new();
+    for r in results {
+        if !profiles.contains(&r.profile) {
+            profiles.push(r.profile);
+        }
+    }
+    let mut out = Vec::new();
+    for profile in profiles {
+        let rs: Vec<&SequenceResult> = results.iter().filter(|r| r.profile == profile).collect();
+        for (k, kind) in Kind::ALL.iter().enumerate() {
+            let rows = rs.iter().map(|r| (r.id.as_str(), r.frames, &r.scores));
+            out.push(table_iii_of(rows, k, *kind).noted(format!("{profile} profile")));
+        }
+        out.push(restarts_table(&rs));
+        out.push(smoothness_table(&rs));
+    }
     out
 }
 
-/// The paper's Table III layout for one kind of estimate.
+/// Why object runs ended and began again, per sequence: the objects the estimator followed,
+/// the runs it tracked them in (from the first fitted motion; a run beyond one per object is a
+/// restart), how each ended run ended (an object leaving the view ends as lost), the runs
+/// re-oriented once their heading was known, and how often an object resumed its run after
+/// coasting through missing frames.
 #[must_use]
-pub fn table_iii(results: &[SequenceResult], k: usize, kind: Kind) -> Table {
-    table_iii_of(results.iter().map(|r| (r.id.as_str(), r.frames, &r.scores)), k, kind)
+pub fn restarts_table(results: &[&SequenceResult]) -> Table {
+    let mut t = Table::new([
+        format!("sequence ({} profile)", results.first().map_or("", |r| r.profile)),
+        "objects followed".into(),
+        "runs".into(),
+        "restarts".into(),
+        "ended: lost".into(),
+        "ended: fit failed".into(),
+        "ended: out of range".into(),
+        "re-oriented".into(),
+        "resumed after a gap".into(),
+        "frames coasted".into(),
+    ]);
+    let mut sums = [0u64; 9];
+    for r in results {
+        let followed = r
+            .run
+            .of(Kind::Causal)
+            .iter()
+            .flatten()
+            .flat_map(|e| e.objects.iter().map(|o| o.object_id))
+            .collect::<std::collections::BTreeSet<_>>()
+            .len() as u64;
+        let s: &EstimatorStats = &r.stats;
+        let runs = u64::from(s.runs_tracked);
+        let row = [
+            followed,
+            runs,
+            runs.saturating_sub(followed),
+            u64::from(s.runs_ended_lost),
+            u64::from(s.runs_ended_fit_failed),
+            u64::from(s.runs_ended_out_of_range),
+            u64::from(s.objects_reoriented),
+            u64::from(s.objects_resumed),
+            u64::from(s.object_frames_coasted),
+        ];
+        for (sum, v) in sums.iter_mut().zip(row) {
+            *sum += v;
+        }
+        t.push(std::iter::once(r.id.clone()).chain(row.iter().map(u64::to_string)));
+    }
+    t.push(std::iter::once("sum".to_string()).chain(sums.iter().map(u64::to_string)));
+    t
 }
 
 /// The paper's Table III layout for one kind of estimate (`k`: its index in [`Kind::ALL`]) from
@@ -409,7 +553,7 @@ pub fn table_iii_of<'a>(
 /// objects: KITTI labels and simulator truth on the smoothed estimate's frame pairs, and each
 /// estimate on its own pairs.
 #[must_use]
-pub fn smoothness_table(results: &[SequenceResult]) -> Table {
+pub fn smoothness_table(results: &[&SequenceResult]) -> Table {
     let names = ["KITTI labels", "simulator truth", "frame-to-frame", "causal", "smoothed"];
     let mut headers = vec!["sequence".to_string()];
     for n in names {
@@ -444,43 +588,60 @@ pub fn smoothness_table(results: &[SequenceResult]) -> Table {
 /// The estimator's counters per sequence (only the non-zero ones).
 #[must_use]
 pub fn counters_table(results: &[SequenceResult]) -> Table {
-    let mut t = Table::new(["sequence", "counters (non-zero)", "estimate time (s)"]);
+    let mut t = Table::new(["sequence", "profile", "counters (non-zero)", "estimate time (s)"]);
     for r in results {
-        t.push([r.id.clone(), nonzero_counters(&r.stats), format!("{:.2}", r.estimate_seconds)]);
+        t.push([r.id.clone(), r.profile.to_string(), nonzero_counters(&r.stats), format!("{:.2}", r.estimate_seconds)]);
     }
     t
 }
 
-/// RPE per moving object, smoothed and frame-to-frame, with its class and pairs scored.
+/// Per moving object: its class, how much of it the estimator kept (frames in the truth,
+/// frames of causal estimate with a known heading, the runs of consecutive frames they form and
+/// the longest; 32 frames make an object eligible), and its RPE (pairs scored by the smoothed
+/// estimate; every kind on its own pairs).
 #[must_use]
 pub fn per_object_table(results: &[SequenceResult]) -> Table {
     let mut t = Table::new([
         "sequence",
+        "profile",
         "object",
         "class",
+        "frames (truth)",
+        "frames (causal)",
+        "runs",
+        "longest run",
         "pairs",
         "f2f RPE_t (m)",
         "f2f RPE_r (deg)",
+        "causal RPE_t (m)",
+        "causal RPE_r (deg)",
         "smoothed RPE_t (m)",
         "smoothed RPE_r (deg)",
     ]);
     for r in results {
+        let causal = crate::trajectory::tracks_of_estimates(r.run.of(Kind::Causal));
         for id in moving_objects(&r.sim, r.min_step_m) {
-            let class = r
-                .sim
-                .iter()
-                .flat_map(|f| f.objects.iter())
-                .find(|o| o.object_id == id)
-                .map_or("?", |o| o.class.kitti_name());
+            let truth: Vec<_> = r.sim.iter().flat_map(|f| f.objects.iter()).filter(|o| o.object_id == id).collect();
+            let class = truth.first().map_or("?", |o| o.class.kitti_name());
+            let track = causal.iter().find(|c| c.track_id == i32::from(id) - 1);
+            let runs: Vec<usize> = track.map(|c| c.runs().map(|run| run.len()).collect()).unwrap_or_default();
             let f = object_rpe(&r.sim, r.run.of(Kind::FrameToFrame), id).result();
+            let c = object_rpe(&r.sim, r.run.of(Kind::Causal), id).result();
             let s = object_rpe(&r.sim, r.run.of(Kind::Smoothed), id).result();
             t.push([
                 r.id.clone(),
+                r.profile.to_string(),
                 id.to_string(),
                 class.to_string(),
+                truth.len().to_string(),
+                track.map_or(0, |c| c.frames.len()).to_string(),
+                runs.len().to_string(),
+                runs.iter().max().copied().unwrap_or(0).to_string(),
                 s.map_or(0, |s| s.pairs).to_string(),
                 fmt_opt(f.map(|x| x.translation), 3),
                 fmt_opt(f.map(|x| x.rotation.to_degrees()), 3),
+                fmt_opt(c.map(|x| x.translation), 3),
+                fmt_opt(c.map(|x| x.rotation.to_degrees()), 3),
                 fmt_opt(s.map(|x| x.translation), 3),
                 fmt_opt(s.map(|x| x.rotation.to_degrees()), 3),
             ]);
@@ -492,7 +653,8 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
 /// The compute benchmark as a table.
 #[must_use]
 pub fn bench_table(args: &EstimateArgs) -> Table {
-    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, args.joint_sweeps);
+    let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
+    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
     let mut t = Table::new(["quantity", "value"]);
     let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
     t.push(["build".to_string(), profile.to_string()]);

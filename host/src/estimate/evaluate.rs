@@ -3,7 +3,9 @@
 use std::collections::BTreeSet;
 use std::time::Instant;
 
-use dynotraj_core::estimate::{EstimatorParams, EstimatorStats, Intrinsics, SmootherParams};
+use dynotraj_core::estimate::{
+    EstimatorParams, EstimatorProfile, EstimatorStats, HOST_PROFILE, Intrinsics, SmootherParams,
+};
 use dynotraj_core::wire::{CameraInfo, ObjectClass};
 use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
 
@@ -44,8 +46,10 @@ pub struct EvalOptions {
     pub max_frames: Option<usize>,
     /// Joint camera-object sweeps per frame (0: camera and objects smoothed apart).
     pub joint_sweeps: u8,
-    /// Smoothing window, frames: [`WINDOW`] or [`ECU_WINDOW`].
+    /// Smoothing window, frames: [`WINDOW`] or [`EDGE_WINDOW`].
     pub window: usize,
+    /// The estimator profile `window` and `joint_sweeps` came from.
+    pub profile: &'static str,
 }
 
 impl EvalOptions {
@@ -75,14 +79,21 @@ impl EvalOptions {
             object_smoother: SmootherParams::VEHICLE_OBJECT,
             camera_smoother: defaults.camera_smoother,
             max_frames: None,
-            joint_sweeps: dynotraj_core::estimate::joint::JOINT_SWEEPS as u8,
-            window: WINDOW,
+            joint_sweeps: HOST_PROFILE.joint_sweeps,
+            window: HOST_PROFILE.window,
+            profile: HOST_PROFILE.name,
         }
+    }
+
+    /// These options with `profile`'s window and joint sweeps.
+    #[must_use]
+    pub fn with_profile(self, profile: EstimatorProfile) -> Self {
+        Self { window: profile.window, joint_sweeps: profile.joint_sweeps, profile: profile.name, ..self }
     }
 }
 
-/// The firmware's smoothing window (fits the ECU's RAM).
-pub const ECU_WINDOW: usize = dynotraj_core::estimate::ECU_WINDOW;
+/// The firmware's smoothing window (the edge profile's; fits the ECU's RAM).
+pub const EDGE_WINDOW: usize = dynotraj_core::estimate::EDGE_WINDOW;
 
 /// Runs the estimator with the window `opt.window` (one of the two compiled in).
 ///
@@ -91,9 +102,18 @@ pub const ECU_WINDOW: usize = dynotraj_core::estimate::ECU_WINDOW;
 #[must_use]
 pub fn run_with_window(frames: &[PartsFrame], params: EstimatorParams, opt: &EvalOptions) -> EstimatorRun {
     match opt.window {
-        ECU_WINDOW => run_parts::<ECU_WINDOW>(frames, params, opt.seed),
+        EDGE_WINDOW => run_parts::<EDGE_WINDOW>(frames, params, opt.seed),
         WINDOW => run_parts::<WINDOW>(frames, params, opt.seed),
-        w => panic!("window {w}: only {WINDOW} and {ECU_WINDOW} are compiled in"),
+        w => panic!("window {w}: only {WINDOW} and {EDGE_WINDOW} are compiled in"),
+    }
+}
+
+/// Runs the estimator with the window `opt.window` on simulated (or rendered and tracked) frames.
+#[must_use]
+pub fn run_sim_with_window(sim: &[SimFrame], params: EstimatorParams, opt: &EvalOptions) -> EstimatorRun {
+    match opt.window {
+        EDGE_WINDOW => run_estimator::<EDGE_WINDOW>(sim, params, opt.seed),
+        _ => run_estimator::<WINDOW>(sim, params, opt.seed),
     }
 }
 
@@ -114,6 +134,8 @@ pub const ALL_CLASSES: [ObjectClass; 8] = [
 pub struct SequenceResult {
     /// Sequence id.
     pub id: String,
+    /// The estimator profile it ran with.
+    pub profile: &'static str,
     /// Frames estimated.
     pub frames: usize,
     /// The moving-object threshold used, metres per frame.
@@ -215,19 +237,31 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
         ..SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, f64::from(opt.dt), opt.seed)
     };
     let sim = simulate(cams, &boxes, &spec);
-    let params = estimator_params(&spec, opt);
+    score_sequence(id, data, opt, sim, estimator_params(&spec, opt), input.intrinsics)
+}
+
+/// Estimates the frames `sim` (simulated, or rendered and tracked, with their truth) of sequence
+/// `id` with `params` and `opt`'s window, and scores the run; `intrinsics` is the camera of the
+/// tracks.
+#[must_use]
+pub fn score_sequence(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    sim: Vec<SimFrame>,
+    params: EstimatorParams,
+    intrinsics: Intrinsics,
+) -> SequenceResult {
     let t0 = Instant::now();
-    let run = match opt.window {
-        ECU_WINDOW => run_estimator::<ECU_WINDOW>(&sim, params, opt.seed),
-        _ => run_estimator::<WINDOW>(&sim, params, opt.seed),
-    };
+    let run = run_sim_with_window(&sim, params, opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
     let smoothness = smoothness_table(id, data, opt, &sim, &run, &moving);
     SequenceResult {
         id: id.to_string(),
-        frames: n,
+        profile: opt.profile,
+        frames: sim.len(),
         min_step_m: opt.min_step_m,
         scores,
         smoothness,
@@ -235,7 +269,7 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
         estimate_seconds,
         sim,
         run,
-        intrinsics: input.intrinsics,
+        intrinsics,
     }
 }
 

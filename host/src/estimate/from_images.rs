@@ -11,15 +11,21 @@
 
 use std::path::Path;
 
-use dynotraj_core::estimate::Intrinsics;
+use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
 use dynotraj_core::wire::frame_parts;
 
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
-use super::evaluate::{EvalOptions, params_for, run_with_window, sim_max_depth};
+use dynotraj_fixtures::track_sim::SimFrame;
+
+use super::evaluate::{
+    EvalOptions, SequenceResult, params_for, run_sim_with_window, run_with_window, score_sequence, sim_max_depth,
+};
 use super::input::sim_input;
+use super::rendered_cache::{self, RenderSettings};
 use super::runner::{EstimatorRun, PartsFrame};
-use crate::frontend::e2e::{self, EndToEnd};
+use super::score::{RunScores, moving_objects, score_run};
+use crate::frontend::e2e;
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
 use crate::kitti::SequenceData;
@@ -70,23 +76,108 @@ pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow:
     Ok(run_with_window(&frames, params, opt))
 }
 
-/// Renders sequence `data` at `scale` of KITTI's resolution (1: 1242 x 375) with `opt`'s
-/// classes and seed, tracks the rendering with the front-end (SGBM stereo, the rendered
-/// instance masks, KLT) and runs the estimator on the tracks.
+/// A rendered sequence, tracked by the front-end, through the estimator.
+#[derive(Debug, Clone)]
+pub struct RenderedRun {
+    /// The front-end's tracks with the simulator's truth, per frame.
+    pub frames: Vec<SimFrame>,
+    /// The estimator's outputs.
+    pub run: EstimatorRun,
+    /// RPE per output kind.
+    pub scores: RunScores,
+}
+
+/// Renders sequence `id` (`data`) at `scale` of KITTI's resolution (1: 1242 x 375) with `opt`'s
+/// classes, seed, frame period and frame limit, and tracks the rendering with the front-end
+/// (SGBM stereo, the rendered instance masks, KLT); with `cache`, the frames are read from it
+/// when it holds this rendering, and stored there otherwise.
 ///
 /// # Errors
-/// A front-end failure, named.
-pub fn estimate_rendered(data: &SequenceData, opt: &EvalOptions, scale: f64) -> anyhow::Result<EndToEnd> {
+/// A bad scale, a front-end failure, or a cache file that cannot be written, named.
+pub fn render_and_track(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    scale: f64,
+    cache: Option<&Path>,
+) -> anyhow::Result<Vec<SimFrame>> {
     anyhow::ensure!(
         scale.is_finite() && (0.05..=2.0).contains(&scale),
         "--render-scale: expected 0.05..=2, found {scale}"
     );
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let settings = RenderSettings { classes: opt.classes.clone(), seed: opt.seed, scale, dt: opt.dt, frames: n };
+    let key = match cache {
+        Some(_) => Some(rendered_cache::rendered_key(id, data, &settings)?),
+        None => None,
+    };
+    if let Some(frames) = cache.zip(key).and_then(|(dir, key)| rendered_cache::load(dir, id, key)) {
+        log::info!("sequence {id}: rendered front-end tracks read from the cache");
+        return Ok(frames);
+    }
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-    let sim = ImageSim::new(Camera { noise: 2, ..Camera::kitti(scale) }, &input.camera_poses[..n], &boxes, opt.seed);
+    let sim = ImageSim::new(render_camera(scale), &input.camera_poses[..n], &boxes, opt.seed);
     // Disparities scale with the image: 128 at full resolution reaches 3 m.
     let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
-    Ok(e2e::run(&sim, n, opt.dt, stereo, opt.min_step_m)?)
+    let frames = e2e::track(&sim, n, opt.dt, stereo)?.frames;
+    if let (Some(dir), Some(key)) = (cache, key) {
+        rendered_cache::store(dir, id, key, &frames)?;
+    }
+    Ok(frames)
+}
+
+/// The camera renderings are made with at `scale`.
+#[must_use]
+pub fn render_camera(scale: f64) -> Camera {
+    Camera { noise: 2, ..Camera::kitti(scale) }
+}
+
+/// The estimator parameters for tracks of a rendering at `scale`: the KITTI defaults with the
+/// render camera and `opt`'s frame period, priors and joint sweeps.
+#[must_use]
+pub fn rendered_params(scale: f64, opt: &EvalOptions) -> EstimatorParams {
+    let mut params = EstimatorParams::kitti(e2e::intrinsics_of(&render_camera(scale)), opt.dt);
+    params.object_smoother = opt.object_smoother;
+    params.camera_smoother = opt.camera_smoother;
+    params.joint_sweeps = opt.joint_sweeps;
+    params
+}
+
+/// Renders and tracks sequence `id` ([`render_and_track`], cached in `cache`) and runs the
+/// estimator with `opt`'s window, priors and joint sweeps on the front-end's tracks, scored
+/// against the simulator's truth (objects moving at least `opt.min_step_m` per frame).
+///
+/// # Errors
+/// As [`render_and_track`].
+pub fn estimate_rendered(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    scale: f64,
+    cache: Option<&Path>,
+) -> anyhow::Result<RenderedRun> {
+    let frames = render_and_track(id, data, opt, scale, cache)?;
+    let run = run_sim_with_window(&frames, rendered_params(scale, opt), opt);
+    let moving = moving_objects(&frames, opt.min_step_m);
+    let scores = score_run(&frames, &run, &moving);
+    Ok(RenderedRun { frames, run, scores })
+}
+
+/// As [`estimate_rendered`], with everything `dynotraj estimate` prints of a sequence
+/// (smoothness, counters, timing).
+///
+/// # Errors
+/// As [`render_and_track`].
+pub fn evaluate_rendered(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    scale: f64,
+    cache: Option<&Path>,
+) -> anyhow::Result<SequenceResult> {
+    let frames = render_and_track(id, data, opt, scale, cache)?;
+    let intrinsics = e2e::intrinsics_of(&render_camera(scale));
+    Ok(score_sequence(id, data, opt, frames, rendered_params(scale, opt), intrinsics))
 }

@@ -7,6 +7,7 @@
 //! - [`score`]: RPE (Sturm et al., delta = 1 frame) of the camera and of every moving object, and
 //!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
 //! - [`cache`]: estimated tracks kept between runs of the experiment.
+//! - [`rendered_cache`]: the front-end's tracks of rendered sequences kept between runs.
 //! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
 //! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
 //! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
@@ -18,6 +19,7 @@ pub mod evaluate;
 pub mod files;
 pub mod from_images;
 pub mod input;
+pub mod rendered_cache;
 pub mod runner;
 pub mod score;
 

@@ -2,7 +2,7 @@
 //! whole image path with exact truth.
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
-use dynotraj_fixtures::image_sim::ImageSim;
+use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::SimFrame;
 
 use super::bench::input_of;
@@ -29,8 +29,49 @@ pub struct EndToEnd {
     pub scores: RunScores,
 }
 
+/// What the front-end gave on a rendering: its tracks with the truth, per frame, and how it did.
+#[derive(Debug, Clone)]
+pub struct Tracked {
+    /// The front-end's tracks with the truth, per frame.
+    pub frames: Vec<SimFrame>,
+    /// Stage times.
+    pub times: StageTimes,
+    /// Front-end counters.
+    pub stats: FrontEndStats,
+}
+
+/// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn track(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams) -> Result<Tracked, FrontEndError> {
+    let cam = sim.camera;
+    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
+    let mut out = Vec::new();
+    for k in 0..frames.min(sim.len()) {
+        let Some(f) = sim.frame(k) else { break };
+        let tracks = fe.process(input_of(&f, &cam)?)?;
+        let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
+        out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
+    }
+    Ok(Tracked { frames: out, times: fe.times, stats: fe.tracker.stats })
+}
+
+/// The estimator's camera model of a rendering camera.
+#[must_use]
+pub fn intrinsics_of(cam: &Camera) -> Intrinsics {
+    Intrinsics {
+        fx: cam.fx as f32,
+        fy: cam.fy as f32,
+        cx: cam.cx as f32,
+        cy: cam.cy as f32,
+        stereo_fb: cam.fb() as f32,
+    }
+}
+
 /// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame, then the
-/// estimator, and scores objects moving at least `min_step_m` per frame.
+/// estimator (the host profile's window, the KITTI defaults), and scores objects moving at least
+/// `min_step_m` per frame.
 ///
 /// # Errors
 /// An OpenCV failure.
@@ -41,25 +82,10 @@ pub fn run(
     stereo: StereoParams,
     min_step_m: f64,
 ) -> Result<EndToEnd, FrontEndError> {
-    let cam = sim.camera;
-    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
-    let mut out = Vec::new();
-    for k in 0..frames.min(sim.len()) {
-        let Some(f) = sim.frame(k) else { break };
-        let tracks = fe.process(input_of(&f, &cam)?)?;
-        let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
-        out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
-    }
-    let intrinsics = Intrinsics {
-        fx: cam.fx as f32,
-        fy: cam.fy as f32,
-        cx: cam.cx as f32,
-        cy: cam.cy as f32,
-        stereo_fb: cam.fb() as f32,
-    };
-    let params = EstimatorParams::kitti(intrinsics, dt);
+    let Tracked { frames: out, times, stats } = track(sim, frames, dt, stereo)?;
+    let params = EstimatorParams::kitti(intrinsics_of(&sim.camera), dt);
     let run = run_estimator::<WINDOW>(&out, params, 1);
     let moving = crate::estimate::score::moving_objects(&out, min_step_m);
     let scores = score_run(&out, &run, &moving);
-    Ok(EndToEnd { frames: out, times: fe.times, stats: fe.tracker.stats, run, scores })
+    Ok(EndToEnd { frames: out, times, stats, run, scores })
 }

@@ -46,6 +46,16 @@ impl Table {
         self.rows.push(r);
     }
 
+    /// The table with `note` added to its first header, in brackets (which of several tables of
+    /// one layout it is).
+    #[must_use]
+    pub fn noted(mut self, note: impl AsRef<str>) -> Self {
+        if let Some(h) = self.headers.first_mut() {
+            *h = format!("{h} [{}]", note.as_ref());
+        }
+        self
+    }
+
     /// The table in `format`.
     #[must_use]
     pub fn render(&self, format: Format) -> String {

@@ -89,7 +89,7 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
 
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
 #[must_use]
-pub fn rendered_estimated_tracks(e: &crate::frontend::e2e::EndToEnd) -> EstimatedTracks {
+pub fn rendered_estimated_tracks(e: &crate::estimate::from_images::RenderedRun) -> EstimatedTracks {
     EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames)
 }
 
