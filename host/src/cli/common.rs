@@ -40,21 +40,31 @@ pub struct DataArgs {
     /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
     #[arg(long, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f32,
+    /// The estimated source's input, its cache and the jobs.
+    #[command(flatten)]
+    pub ours: OursArgs,
+}
+
+/// Where the estimated source (Ours) takes its feature tracks, where renderings are kept, and
+/// how many sequences are worked on at once: shared by every command that estimates.
+#[derive(Debug, Args)]
+pub struct OursArgs {
     /// Where the estimated sources take their feature tracks for sequences without real stereo
     /// images in the folder: rendered (the image simulator renders each sequence and the
     /// OpenCV front-end tracks it: images -> front-end -> estimator, as Ours is defined;
-    /// about 13 minutes for the sixteen sequences at scale 1 on two cores, kept in
-    /// --estimate-cache) or tracks (the track-level simulator: tracks of points on the
-    /// labelled boxes, seconds).
+    /// about 19 minutes for the sixteen sequences at scale 1 on two cores; the front-end's
+    /// tracks are kept in --estimate-cache and re-estimated in seconds) or tracks (the
+    /// track-level simulator: tracks of points on the labelled boxes, seconds).
     #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
     pub ours_input: OursInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
     #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
     pub render_scale: f64,
-    /// A folder where the estimated sources' tracks are kept between runs, keyed by every
-    /// input (labels, poses, calibration, images, settings, estimator version): a rerun with the
-    /// same inputs reads them back. `dynotraj experiment` uses its report's cache/ unless given.
+    /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
+    /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
+    /// settings, estimator or renderer version): a rerun with the same inputs reads them back.
+    /// `dynotraj experiment` uses its report's cache/ unless given.
     #[arg(long, value_name = "DIR")]
     pub estimate_cache: Option<PathBuf>,
     /// Sequences estimated (rendered, tracked) and folds trained at the same time (default:
@@ -103,7 +113,7 @@ impl DataArgs {
     /// # Errors
     /// A missing folder, a missing sequence or a bad file, named.
     pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
-        self.load_cached(sequences, sources, self.estimate_cache.clone())
+        self.load_cached(sequences, sources, self.ours.estimate_cache.clone())
     }
 
     /// As [`DataArgs::load_for`], keeping estimated tracks in `cache` between runs.
@@ -120,14 +130,14 @@ impl DataArgs {
         let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
         let dt = self.dt()?;
         let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
-            input: self.ours_input,
-            render_scale: self.render_scale,
+            input: self.ours.ours_input,
+            render_scale: self.ours.render_scale,
             cache: cache.clone(),
             ..EstimateSettings::tracks(EvalOptions::kitti(dt))
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
         let (start, terminal) = (std::time::Instant::now(), std::io::stderr().is_terminal());
-        let out = map_jobs(&ids, self.jobs, |id| {
+        let out = map_jobs(&ids, self.ours.jobs, |id| {
             let s = load_sequence(&dir, id, dt, estimate.as_ref());
             bar.set_message(id.clone());
             bar.inc(1);

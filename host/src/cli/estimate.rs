@@ -15,7 +15,7 @@ use dynotraj_core::estimate::{EstimatorProfile, EstimatorStats, Intrinsics, PROF
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
-use super::common::progress;
+use super::common::{OursArgs, progress};
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, evaluate_sequence, params_for, run_with_window, score_sequence,
     sim_max_depth, write_tracks,
@@ -25,7 +25,7 @@ use crate::estimate::from_images::{render_and_track, rendered_params};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::{Kind, RunScores};
-use crate::jobs::{default_jobs, map_jobs, parse_jobs};
+use crate::jobs::map_jobs;
 use crate::kitti::TrackingDir;
 use crate::report::{Format, Table, fmt_opt};
 use crate::trajectory::OursInput;
@@ -43,23 +43,10 @@ pub struct EstimateArgs {
     /// Sequences, comma-separated (default: every sequence in the folder).
     #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
-    /// Where the feature tracks come from: rendered (the image simulator renders each sequence
-    /// and the OpenCV front-end tracks it, as Ours is defined; minutes a sequence, kept in
-    /// --estimate-cache) or tracks (the track-level simulator: points on the labelled boxes
-    /// with the noise of --pixel-sigma, --disparity-sigma, --outliers, --track-lifetime;
-    /// seconds).
-    #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
-    pub ours_input: OursInput,
-    /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375).
-    #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
-    pub render_scale: f64,
-    /// A folder where renderings' front-end tracks are kept between runs (the same folder as
-    /// the other commands' --estimate-cache): a rerun estimates them in seconds.
-    #[arg(long, value_name = "DIR")]
-    pub estimate_cache: Option<PathBuf>,
-    /// Sequences rendered and tracked at the same time (default: the number of cores).
-    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
-    pub jobs: usize,
+    /// The feature tracks' source (rendered by default, as every command; `tracks`: the
+    /// track-level simulator with the noise below), the renderings' cache and the jobs.
+    #[command(flatten)]
+    pub ours: OursArgs,
     /// Instead of simulating, estimate on a recorded tracks file (`.dtt`, the link's byte
     /// stream: camera model, then each frame's tracks). Intrinsics and frame rate come from the
     /// file's camera model; `--pixel-sigma`, `--disparity-sigma` and `--noise-free` set the
@@ -364,23 +351,25 @@ pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
     let dir = TrackingDir::open(kitti)?;
     let ids: Vec<String> = if args.sequences.is_empty() { dir.sequences()? } else { args.sequences.clone() };
-    let label = if args.ours_input == OursInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
+    let label =
+        if args.ours.ours_input == OursInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
     let bar = progress(ids.len() as u64, label);
-    let per_sequence = map_jobs(&ids, args.jobs, |id| -> anyhow::Result<Vec<SequenceResult>> {
+    let per_sequence = map_jobs(&ids, args.ours.jobs, |id| -> anyhow::Result<Vec<SequenceResult>> {
         let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-        let out = match args.ours_input {
+        let out = match args.ours.ours_input {
             OursInput::Tracks => options.iter().map(|opt| evaluate_sequence(id, &data, opt)).collect(),
             OursInput::Rendered => {
                 let base = options.first().context("no profile")?;
-                let frames = render_and_track(id, &data, base, args.render_scale, args.estimate_cache.as_deref())
-                    .with_context(|| format!("sequence {id}: rendered front-end"))?;
+                let frames =
+                    render_and_track(id, &data, base, args.ours.render_scale, args.ours.estimate_cache.as_deref())
+                        .with_context(|| format!("sequence {id}: rendered front-end"))?;
                 let intrinsics = crate::frontend::e2e::intrinsics_of(&crate::estimate::from_images::render_camera(
-                    args.render_scale,
+                    args.ours.render_scale,
                 ));
                 options
                     .iter()
                     .map(|opt| {
-                        let params = rendered_params(args.render_scale, opt);
+                        let params = rendered_params(args.ours.render_scale, opt);
                         score_sequence(id, &data, opt, frames.clone(), params, intrinsics)
                     })
                     .collect()

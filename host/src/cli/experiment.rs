@@ -114,7 +114,7 @@ pub fn report(
             sections.push(Section {
                 stem: stem.into(),
                 title: format!("Table III: the estimator behind the Estimated arm, {} estimate", kind.name()),
-                caption: table_iii_caption(&inputs, args.data.render_scale),
+                caption: table_iii_caption(&inputs, args.data.ours.render_scale),
                 table: table_iii_of(estimated.iter().copied(), k, kind),
             });
         }
@@ -145,7 +145,7 @@ pub fn report(
         "Stages: loading and estimating the sequences {:.0} s (rendering and tracking them, or reading the estimate cache), training and scoring {:.0} s, on {} job(s).",
         result.loading_seconds,
         result.seconds - result.loading_seconds,
-        args.data.jobs
+        args.data.ours.jobs
     )];
     notes.extend(findings(&result.arms, &args.arms, Scoring::OwnFuture));
     if let Some((_, arms)) = &result.common {

@@ -46,7 +46,7 @@ impl FoldRunArgs {
     /// `--no-cache` (which recomputes the estimates too).
     #[must_use]
     pub fn estimate_cache(&self, data: &DataArgs) -> Option<PathBuf> {
-        data.estimate_cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
+        data.ours.estimate_cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
     }
 
     /// The run's configuration for `arms` and `folds`.
@@ -71,7 +71,7 @@ impl FoldRunArgs {
             rule: data.rule()?,
             out: self.out.as_ref().map(|d| d.join("models")),
             cache: self.fold_cache(),
-            jobs: data.jobs,
+            jobs: data.ours.jobs,
         })
     }
 }
