@@ -44,10 +44,14 @@ impl ObjectClass {
         Self::Misc,
     ];
 
-    /// The class of a KITTI label `type` string; `None` for `DontCare` and anything unknown.
+    /// The class of a KITTI label `type` string (the tracking benchmark's `Person` is
+    /// `PersonSitting`); `None` for `DontCare` and anything unknown.
     /// `Background` is not a KITTI type, so its name is not accepted here.
     #[must_use]
     pub fn from_kitti_name(name: &str) -> Option<Self> {
+        if name == "Person" {
+            return Some(Self::PersonSitting);
+        }
         Self::ALL.into_iter().find(|c| *c != Self::Background && c.kitti_name() == name)
     }
 
@@ -89,6 +93,7 @@ mod tests {
         assert_eq!(ObjectClass::from_kitti_name("DontCare"), None);
         assert_eq!(ObjectClass::from_kitti_name("car"), None);
         assert_eq!(ObjectClass::from_kitti_name("Person_sitting"), Some(ObjectClass::PersonSitting));
+        assert_eq!(ObjectClass::from_kitti_name("Person"), Some(ObjectClass::PersonSitting));
         let vehicles = ObjectClass::ALL.into_iter().filter(ObjectClass::is_vehicle).count();
         assert_eq!(vehicles, 4);
         assert!(!ObjectClass::Cyclist.is_vehicle());

@@ -31,18 +31,30 @@ pub struct DataArgs {
     pub kitti: PathBuf,
     /// Frame rate in Hz used for speeds and the dynamics. The paper treats KITTI as 20 Hz
     /// (its cameras really run at 10 Hz); horizons stay 30 frames either way.
-    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
     pub rate: f32,
     /// Object classes considered (KITTI type names, comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist", value_name = "LIST")]
     pub classes: Vec<String>,
     /// An object moves when its net displacement over a run is at least this many metres per
     /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
-    #[arg(long, default_value_t = 0.1, value_name = "METRES")]
+    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f32,
     /// The estimated source's input, its cache and the jobs.
     #[command(flatten)]
     pub ours: OursArgs,
+}
+
+/// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
+///
+/// # Errors
+/// A sequence given twice (it would count twice), or a folder that cannot be listed.
+pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
+    let ids: Vec<String> = if given.is_empty() { dir.sequences()? } else { given.to_vec() };
+    if let Some(twice) = ids.iter().enumerate().find_map(|(i, id)| ids[..i].contains(id).then_some(id)) {
+        anyhow::bail!("--sequences: {twice} is given twice (each sequence counts once)");
+    }
+    Ok(ids)
 }
 
 /// Where the estimated source (Ours) takes its feature tracks, where renderings are kept, and
@@ -59,7 +71,7 @@ pub struct OursArgs {
     pub ours_input: OursInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
-    #[arg(long, default_value_t = 1.0, value_name = "SCALE")]
+    #[arg(long, value_parser = crate::cli::numbers::positive, default_value_t = 1.0, value_name = "SCALE")]
     pub render_scale: f64,
     /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
     /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
@@ -127,7 +139,7 @@ impl DataArgs {
         cache: Option<std::path::PathBuf>,
     ) -> anyhow::Result<Vec<SequenceTracks>> {
         let dir = TrackingDir::open(&self.kitti)?;
-        let ids: Vec<String> = if sequences.is_empty() { dir.sequences()? } else { sequences.to_vec() };
+        let ids = sequence_ids(&dir, sequences)?;
         let dt = self.dt()?;
         let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
             input: self.ours.ours_input,

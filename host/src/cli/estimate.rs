@@ -15,7 +15,7 @@ use dynotraj_core::estimate::{EstimatorProfile, EstimatorStats, Intrinsics, PROF
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
-use super::common::{OursArgs, progress};
+use super::common::{OursArgs, progress, sequence_ids};
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, evaluate_sequence, params_for, run_with_window, score_sequence,
     sim_max_depth, write_tracks,
@@ -65,22 +65,22 @@ pub struct EstimateArgs {
     pub out: Option<PathBuf>,
     /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
     /// depend on it).
-    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
     pub rate: f32,
     /// Object classes placed in the scene (KITTI type names, comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist,Pedestrian", value_name = "LIST")]
     pub classes: Vec<String>,
     /// An object is scored when its true motion averages at least this many metres per frame.
-    #[arg(long, default_value_t = 0.1, value_name = "METRES")]
+    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f64,
     /// Pixel noise of the simulated tracks, pixels.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.5)]
     pub pixel_sigma: f64,
     /// Disparity noise of the simulated tracks, pixels (depth noise grows with depth squared).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.5)]
     pub disparity_sigma: f64,
     /// Share of outlier tracks per frame.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, value_parser = crate::cli::numbers::fraction, default_value_t = 0.05)]
     pub outliers: f64,
     /// Mean track lifetime in frames (0: unlimited).
     #[arg(long, default_value_t = 40)]
@@ -90,11 +90,11 @@ pub struct EstimateArgs {
     pub noise_free: bool,
     /// Object smoother: standard deviation of the change of per-frame translation, metres
     /// (DynoSAM's world-frame value: 0.2).
-    #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation)]
+    #[arg(long, value_parser = crate::cli::numbers::positive_f32, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation)]
     pub object_sigma_t: f32,
     /// Object smoother: standard deviation of the change of per-frame rotation, radians
     /// (DynoSAM's world-frame value: 0.01).
-    #[arg(long, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
+    #[arg(long, value_parser = crate::cli::numbers::positive_f32, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
     pub object_sigma_r: f32,
     /// Estimator profiles, comma-separated: host (DynoSAM's 20-frame window, the joint
     /// camera-object solve) and edge (what the ECU firmware runs: an 8-frame window, camera and
@@ -350,7 +350,7 @@ pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let options = profiles.iter().map(|p| args.options_for(*p)).collect::<anyhow::Result<Vec<_>>>()?;
     let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
     let dir = TrackingDir::open(kitti)?;
-    let ids: Vec<String> = if args.sequences.is_empty() { dir.sequences()? } else { args.sequences.clone() };
+    let ids = sequence_ids(&dir, &args.sequences)?;
     let label =
         if args.ours.ours_input == OursInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
     let bar = progress(ids.len() as u64, label);

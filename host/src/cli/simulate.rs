@@ -41,7 +41,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 1)]
     pub stereo_downscale: i32,
     /// Image scale: 1 renders at KITTI's 1242 x 375, 0.5 at 621 x 188.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, value_parser = crate::cli::numbers::positive, default_value_t = 1.0)]
     pub scale: f64,
     /// Frames to render (default: the whole sequence).
     #[arg(long, value_name = "N")]

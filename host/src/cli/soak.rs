@@ -31,7 +31,7 @@ pub struct SoakArgs {
     pub frames: u64,
     /// Probability that a wire frame (one part) is damaged: a byte flipped, its tail dropped,
     /// or sent twice.
-    #[arg(long, default_value_t = 0.01, value_name = "P")]
+    #[arg(long, value_parser = crate::cli::numbers::fraction, default_value_t = 0.01, value_name = "P")]
     pub fault_probability: f64,
     /// Seed of the faults.
     #[arg(long, default_value_t = 1)]

@@ -38,7 +38,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "ENDPOINT")]
     pub to: Endpoint,
     /// Frames per second to send at (default: the stream's camera rate; 0: as fast as possible).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_parser = crate::cli::numbers::send_rate, value_name = "HZ")]
     pub rate: Option<f64>,
     /// Send a frame only after the edge answered the previous one (no loss from overrun).
     #[arg(long)]
@@ -57,7 +57,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
     /// Seconds to wait for the edge: to connect, per answer in lockstep, for its goodbye.
-    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    #[arg(long, value_parser = crate::cli::numbers::seconds, default_value_t = 30.0, value_name = "S")]
     pub timeout: f64,
 }
 

@@ -40,7 +40,7 @@ pub struct TrackArgs {
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
     /// Frame rate for timestamps, Hz.
-    #[arg(long, default_value_t = PAPER_FRAME_RATE_HZ)]
+    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ)]
     pub rate: f32,
     /// Stereo matching on images shrunk by this factor (1 or 2).
     #[arg(long, default_value_t = 1)]

@@ -131,16 +131,35 @@ impl LabelRow {
 /// `< -1` `track_id`, a non-integer `occluded`.
 pub fn parse_labels(text: &str, path: &Path) -> Result<Vec<LabelRow>, KittiError> {
     let mut rows = Vec::new();
+    // (frame, track id) -> line: an object labelled twice in a frame is an error, not a row
+    // silently kept or dropped.
+    let mut seen = std::collections::HashMap::new();
     for (i, line) in text.lines().enumerate() {
         let ctx = LineCtx { path, line: i + 1 };
         let toks: Vec<&str> = line.split_whitespace().collect();
         if toks.is_empty() {
             continue;
         }
-        rows.push(parse_row(&toks, ctx)?);
+        let row = parse_row(&toks, ctx)?;
+        if row.track_id >= 0
+            && let Some(first) = seen.insert((row.frame, row.track_id), i + 1)
+        {
+            return Err(ctx.error(
+                COLUMNS[1],
+                Some(2),
+                "one row per object and frame",
+                format!("track {} in frame {} again (first on line {first})", row.track_id, row.frame),
+            ));
+        }
+        rows.push(row);
     }
     Ok(rows)
 }
+
+/// KITTI's object types (label column `type`): the tracking benchmark's (`Person` is its
+/// spelling of the object benchmark's `Person_sitting`, which is accepted too).
+pub const OBJECT_TYPES: [&str; 10] =
+    ["Car", "Van", "Truck", "Pedestrian", "Person", "Person_sitting", "Cyclist", "Tram", "Misc", "DontCare"];
 
 fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
     let n = toks.len();
@@ -162,8 +181,16 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         return Err(ctx.error(COLUMNS[0], Some(1), "a non-negative frame index", quote(toks[0])));
     }
     let track_id = ctx.integer(toks[1], COLUMNS[1], Some(2))?;
-    if track_id < -1 {
-        return Err(ctx.error(COLUMNS[1], Some(2), "a track id >= 0, or -1 for DontCare", quote(toks[1])));
+    if track_id < -1 || track_id > i64::from(i32::MAX) {
+        return Err(ctx.error(
+            COLUMNS[1],
+            Some(2),
+            "a track id from 0 to 2147483647, or -1 for DontCare",
+            quote(toks[1]),
+        ));
+    }
+    if !OBJECT_TYPES.contains(&toks[2]) {
+        return Err(ctx.error(COLUMNS[2], Some(3), &format!("one of {}", OBJECT_TYPES.join(", ")), quote(toks[2])));
     }
     let occluded = ctx.integer(toks[4], COLUMNS[4], Some(5))?;
     let occluded = i32::try_from(occluded)
@@ -262,6 +289,21 @@ mod tests {
 
 1 0 Van 0 1 -1.8 301.5 160.5 452.0 291.0 2.1 1.85 4.5 -4.25 1.75 14.5 -2.0625
 ";
+
+    #[test]
+    fn rows_that_would_be_dropped_or_overwritten_are_errors_naming_the_line() {
+        let van = "0 0 Van 0 0 -1.75 300 160 450 290 2.1 1.85 4.5 -4.25 1.75 13.5 -2.0";
+        let text = format!("{van}\n{van}\n");
+        let e = parse_labels(&text, &p()).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("first on line 1"), "{e}");
+        let e = parse_labels(&van.replace("Van", "cyclist"), &p()).unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains("`cyclist`") && e.contains("Cyclist"), "{e}");
+        let e = parse_labels(&van.replacen("0 0 Van", "0 2147483648 Van", 1), &p()).unwrap_err().to_string();
+        assert!(e.contains("`2147483648`") && e.contains("2147483647"), "{e}");
+        // DontCare rows share track id -1 in a frame: not duplicates.
+        let dc = "0 -1 DontCare -1 -1 -10 210 180 240 215 -1000 -1000 -1000 -10 -1 -1 -1";
+        assert_eq!(parse_labels(&format!("{dc}\n{dc}\n"), &p()).unwrap().len(), 2);
+    }
 
     fn p() -> PathBuf {
         PathBuf::from("label_02/0003.txt")

@@ -27,6 +27,7 @@ pub mod layout;
 pub mod oxts;
 pub mod poses;
 pub mod rigid;
+pub mod synthetic;
 mod text;
 
 #[cfg(test)]

@@ -1,0 +1,137 @@
+//! The command line's number parsers: every float flag is checked when it is parsed, so that a
+//! value the command cannot use (not a number, NaN, infinite, out of its range) is an error
+//! naming the flag and what was expected, never a panic or a silent fallback later.
+
+/// The largest time a flag may give, seconds (about 11.6 days): any longer wait is a mistake,
+/// and `Duration` holds it exactly.
+pub const MAX_SECONDS: f64 = 1e6;
+/// The slowest and fastest frame rates a flag may give, Hz.
+pub const FRAME_RATE_RANGE: (f64, f64) = (1e-3, 1e6);
+
+fn number(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let v: f64 = t.parse().map_err(|_| format!("expected a number, found `{text}`"))?;
+    if v.is_finite() { Ok(v) } else { Err(format!("expected a finite number, found `{text}`")) }
+}
+
+fn checked(text: &str, what: &str, ok: impl Fn(f64) -> bool) -> Result<f64, String> {
+    let v = number(text)?;
+    if ok(v) { Ok(v) } else { Err(format!("expected {what}, found `{text}`")) }
+}
+
+fn single(v: f64, text: &str) -> Result<f32, String> {
+    // In range for f32 by the callers' bounds, or rejected here when it overflows.
+    #[allow(clippy::cast_possible_truncation)]
+    let x = v as f32;
+    if x.is_finite() { Ok(x) } else { Err(format!("expected a number within single precision, found `{text}`")) }
+}
+
+/// A positive finite number.
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn positive(text: &str) -> Result<f64, String> {
+    checked(text, "a positive number", |v| v > 0.0)
+}
+
+/// [`positive`] as `f32`.
+///
+/// # Errors
+/// As [`positive`], or a value beyond single precision.
+pub fn positive_f32(text: &str) -> Result<f32, String> {
+    positive(text).and_then(|v| single(v, text))
+}
+
+/// A finite number at least 0.
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn non_negative(text: &str) -> Result<f64, String> {
+    checked(text, "a number >= 0", |v| v >= 0.0)
+}
+
+/// [`non_negative`] as `f32`.
+///
+/// # Errors
+/// As [`non_negative`], or a value beyond single precision.
+pub fn non_negative_f32(text: &str) -> Result<f32, String> {
+    non_negative(text).and_then(|v| single(v, text))
+}
+
+/// A fraction: a number in [0, 1].
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn fraction(text: &str) -> Result<f64, String> {
+    checked(text, "a fraction in [0, 1]", |v| (0.0..=1.0).contains(&v))
+}
+
+/// [`fraction`] as `f32`.
+///
+/// # Errors
+/// As [`fraction`].
+pub fn fraction_f32(text: &str) -> Result<f32, String> {
+    fraction(text).and_then(|v| single(v, text))
+}
+
+/// A time in seconds: positive, at most [`MAX_SECONDS`].
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn seconds(text: &str) -> Result<f64, String> {
+    checked(text, &format!("a time in seconds, > 0 and <= {MAX_SECONDS:e}"), |v| v > 0.0 && v <= MAX_SECONDS)
+}
+
+/// A camera frame rate in Hz, within [`FRAME_RATE_RANGE`].
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn frame_rate(text: &str) -> Result<f64, String> {
+    let (lo, hi) = FRAME_RATE_RANGE;
+    checked(text, &format!("a frame rate in Hz, {lo:e} to {hi:e}"), |v| (lo..=hi).contains(&v))
+}
+
+/// [`frame_rate`] as `f32`.
+///
+/// # Errors
+/// As [`frame_rate`].
+pub fn frame_rate_f32(text: &str) -> Result<f32, String> {
+    frame_rate(text).and_then(|v| single(v, text))
+}
+
+/// A sending rate in Hz: 0 (as fast as possible) or a [`frame_rate`].
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn send_rate(text: &str) -> Result<f64, String> {
+    let (lo, hi) = FRAME_RATE_RANGE;
+    checked(text, &format!("0 (as fast as possible) or a rate in Hz, {lo:e} to {hi:e}"), |v| {
+        v == 0.0 || (lo..=hi).contains(&v)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_unusable_value_is_refused_with_what_was_expected() {
+        for bad in ["inf", "-inf", "NaN", "nan", "1e400", "abc", "", "0x10"] {
+            assert!(positive(bad).is_err(), "{bad}");
+            assert!(non_negative(bad).is_err(), "{bad}");
+            assert!(seconds(bad).is_err(), "{bad}");
+        }
+        assert_eq!(positive("0").unwrap_err(), "expected a positive number, found `0`");
+        assert!(positive("-1").is_err() && non_negative("-1").is_err());
+        assert_eq!(non_negative("0"), Ok(0.0));
+        assert!(fraction("1.5").is_err() && fraction("-0.1").is_err());
+        assert_eq!(fraction("1"), Ok(1.0));
+        assert!(seconds("1e20").is_err() && seconds("0").is_err() && seconds("-1").is_err());
+        assert_eq!(seconds(" 3 "), Ok(3.0));
+        assert!(frame_rate("1e-20").is_err() && frame_rate("0").is_err());
+        assert_eq!(send_rate("0"), Ok(0.0));
+        assert!(send_rate("1e-20").is_err() && send_rate("-1").is_err());
+        assert!(positive_f32("1e39").is_err(), "beyond f32");
+        assert_eq!(frame_rate_f32("20"), Ok(20.0));
+    }
+}
