@@ -60,6 +60,19 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     LearnedPredictor::new(blob).predict_with_neighbours(&history, &[], 0.1, &mut forecast).unwrap();
     assert!(forecast.iter().all(|p| p.x.is_finite() && p.y.is_finite()));
 
+    // Evaluated at another rate than it was trained at, the model is refused with the reason
+    // (it used to give a table of "-" and exit 0).
+    let predictor = format!("model:{}", out.display());
+    let eval_at = |rate: &str| {
+        let argv = ["dynotraj", "eval", "--kitti", root.to_str().unwrap(), "--sequences", "0001", "--predictor"];
+        let argv: Vec<&str> = argv.iter().copied().chain([predictor.as_str(), "--rate", rate]).collect();
+        let Command::Eval(a) = Cli::try_parse_from(argv).unwrap().command else { panic!("not the eval command") };
+        dynotraj_host::cli::eval::table(&a)
+    };
+    let e = eval_at("20").unwrap_err().to_string();
+    assert!(e.contains("trained at 10.000 Hz, evaluated with --rate 20.000 Hz"), "{e}");
+    assert!(eval_at("10").is_ok());
+
     // Every flag is documented.
     let help = Cli::try_parse_from(["dynotraj", "train", "--help"]).unwrap_err().to_string();
     for flag in [

@@ -110,6 +110,19 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
                 PredictorSpec::Model(path) => Some(ModelFile::load(path)?),
                 _ => None,
             };
+            if let (PredictorSpec::Model(path), Some(m)) = (spec, &model) {
+                let trained = m.blob().frame_period_s();
+                // A model forecasts at the frame period it was trained at; any other gives no
+                // forecast at all (every row `-`), so say so instead of printing that table.
+                anyhow::ensure!(
+                    (trained - dt).abs() <= 1e-6 * dt.max(trained),
+                    "model {}: trained at {:.3} Hz, evaluated with --rate {:.3} Hz; give --rate {:.3}",
+                    path.display(),
+                    1.0 / trained,
+                    1.0 / dt,
+                    1.0 / trained
+                );
+            }
             let mut forecaster: Box<dyn Forecaster + '_> = match (spec, &model) {
                 (PredictorSpec::Baseline(b), _) => Box::new(*b),
                 (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),

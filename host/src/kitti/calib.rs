@@ -128,6 +128,11 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
             .map(|(j, tok)| ctx.finite(tok, field, Some(j + 2)))
             .collect::<Result<Vec<f64>, _>>()?;
         let m = &values;
+        if let Key::P(_) = key
+            && let Some(defect) = projection_defect(m)
+        {
+            return Err(ctx.error(field, None, PROJECTION_EXPECTED, defect));
+        }
         let rotation_ok = match key {
             Key::P(_) => Ok(()),
             Key::RRect => checked_rotation(&Matrix3::from_row_slice(m)).map(|_| ()),
@@ -162,6 +167,19 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
         tr_velo_cam: Matrix3x4::from_row_slice(&vals[5]),
         tr_imu_velo: Matrix3x4::from_row_slice(&vals[6]),
     })
+}
+
+/// What a rectified camera's projection matrix `K [I | t]` must look like.
+const PROJECTION_EXPECTED: &str = "a rectified projection matrix: focal lengths P[0][0], P[1][1] > 0, P[2][2] = 1";
+
+/// Why the 12 row-major numbers `m` are not a rectified camera's projection matrix, if they
+/// are not (an all-zero P0 would otherwise give every depth as zero, and a nonsense ego-motion).
+fn projection_defect(m: &[f64]) -> Option<String> {
+    let (fx, fy, w) = (m.first()?, m.get(5)?, m.get(10)?);
+    if *fx <= 0.0 || *fy <= 0.0 {
+        return Some(format!("focal lengths {fx} and {fy}"));
+    }
+    ((w - 1.0).abs() > 1e-6).then(|| format!("P[2][2] = {w}"))
 }
 
 /// Reads and parses a calibration file.
@@ -274,6 +292,17 @@ mod tests {
     }
 
     #[test]
+    fn a_projection_that_is_no_camera_is_refused_naming_the_line() {
+        let text = calib_object_style();
+        let zero = "P0: 0 0 0 0 0 0 0 0 0 0 0 0".to_string();
+        let e = parse_calib(&edit_line(&text, 1, |_| zero.clone()), &p()).unwrap_err().to_string();
+        assert!(e.contains("line 1") && e.contains("focal lengths 0 and 0"), "{e}");
+        let flat = "P2: 720 0 610 0 0 720 173 0 0 0 0 0".to_string();
+        let e = parse_calib(&edit_line(&text, 3, |_| flat.clone()), &p()).unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("P[2][2] = 0"), "{e}");
+    }
+
+    #[test]
     fn helpers() {
         let c = parse_calib(&calib_object_style(), &p()).unwrap();
         assert_eq!(c.fx(), FX);
@@ -332,10 +361,10 @@ mod tests {
 
     #[test]
     fn real_calib_in_both_spellings() {
-        let Some(root) = crate::kitti::test_support::kitti_root("real_calib_in_both_spellings") else {
+        let Some(split) = crate::kitti::test_support::kitti_split("real_calib_in_both_spellings") else {
             return;
         };
-        let path = root.join("tracking/training/calib/0000.txt");
+        let path = split.join("calib/0000.txt");
         let text = std::fs::read_to_string(&path).unwrap();
         let devkit = text
             .replace("R0_rect:", "R_rect")

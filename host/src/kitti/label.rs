@@ -196,7 +196,7 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
     let occluded = i32::try_from(occluded)
         .map_err(|_| ctx.error(COLUMNS[4], Some(5), "a small integer (-1..=3)", quote(toks[4])))?;
 
-    Ok(LabelRow {
+    let row = LabelRow {
         frame: usize::try_from(frame).map_err(|_| ctx.error(COLUMNS[0], Some(1), "a frame index", quote(toks[0])))?,
         track_id,
         object_type: toks[2].to_string(),
@@ -215,8 +215,32 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         z: num(15)?,
         rotation_y: num(16)?,
         score: if toks.len() > LABEL_COLUMNS { Some(num(17)?) } else { None },
-    })
+    };
+    if !row.is_dont_care() {
+        // DontCare rows carry -1000 / -10 placeholders; a real object has a size and lies
+        // within reach of the camera.
+        for (c, v) in [(10, row.height), (11, row.width), (12, row.length)] {
+            if v <= 0.0 {
+                return Err(ctx.error(COLUMNS[c], Some(c + 1), "a positive size in metres", quote(toks[c])));
+            }
+        }
+        for (c, v) in [(13, row.x), (14, row.y), (15, row.z)] {
+            if v.abs() > MAX_LOCATION_M {
+                return Err(ctx.error(
+                    COLUMNS[c],
+                    Some(c + 1),
+                    &format!("a location within {MAX_LOCATION_M} m of the camera"),
+                    quote(toks[c]),
+                ));
+            }
+        }
+    }
+    Ok(row)
 }
+
+/// The farthest a labelled object may lie from the camera on any axis, metres: KITTI labels
+/// reach about 100 m; a coordinate beyond this is a broken file, not a far object.
+pub const MAX_LOCATION_M: f64 = 10_000.0;
 
 /// Reads and parses a label file.
 ///
@@ -300,6 +324,10 @@ mod tests {
         assert!(e.contains("line 1") && e.contains("`cyclist`") && e.contains("Cyclist"), "{e}");
         let e = parse_labels(&van.replacen("0 0 Van", "0 2147483648 Van", 1), &p()).unwrap_err().to_string();
         assert!(e.contains("`2147483648`") && e.contains("2147483647"), "{e}");
+        let e = parse_labels(&van.replace("13.5 -2.0", "1e300 -2.0"), &p()).unwrap_err().to_string();
+        assert!(e.contains("field `z`") && e.contains("within 10000 m"), "{e}");
+        let e = parse_labels(&van.replace(" 2.1 1.85 4.5", " 2.1 0 4.5"), &p()).unwrap_err().to_string();
+        assert!(e.contains("field `width`") && e.contains("a positive size"), "{e}");
         // DontCare rows share track id -1 in a frame: not duplicates.
         let dc = "0 -1 DontCare -1 -1 -10 210 180 240 215 -1000 -1000 -1000 -10 -1 -1 -1";
         assert_eq!(parse_labels(&format!("{dc}\n{dc}\n"), &p()).unwrap().len(), 2);

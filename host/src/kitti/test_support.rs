@@ -1,6 +1,6 @@
 //! Synthetic inputs shared by the unit tests of the KITTI readers. The numbers are made up to
 //! look like a KITTI drive (they are not copied from KITTI files, which may not enter the repo),
-//! and the real data is read from `../shared/kitti` instead (see [`kitti_root`]).
+//! and the real data is read from `../shared/kitti` instead (see [`kitti_split`]).
 
 use std::path::PathBuf;
 
@@ -66,24 +66,25 @@ impl RowMajor for Matrix3<f64> {
     }
 }
 
-/// The shared KITTI directory: `$DYNOTRAJ_KITTI`, else `<workspace>/../shared/kitti`.
-/// `None` (after printing why the caller skips) when it does not exist.
-pub fn kitti_root(test: &str) -> Option<PathBuf> {
-    let root = std::env::var_os("DYNOTRAJ_KITTI").map(PathBuf::from).unwrap_or_else(|| {
+/// The real KITTI tracking split (the folder holding `label_02/`): `DYNOTRAJ_KITTI` as the
+/// scripts set it (that folder), or the folder holding `tracking/training` under it, else
+/// `../shared/kitti/tracking/training`. `None` (after printing why the caller skips) when it
+/// is not there.
+pub fn kitti_split(test: &str) -> Option<PathBuf> {
+    let given = std::env::var_os("DYNOTRAJ_KITTI").map(PathBuf::from).unwrap_or_else(|| {
         // Read at run time first: a reused test binary's compile-time value may name another
         // checkout (see dynotraj_tests::manifest_dir).
         std::env::var_os("CARGO_MANIFEST_DIR")
             .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
-            .join("../../shared/kitti")
+            .join("../../shared/kitti/tracking/training")
     });
-    if root.join("tracking/training/label_02").is_dir() {
-        Some(root)
-    } else {
+    let split = [given.clone(), given.join("tracking/training")].into_iter().find(|d| d.join("label_02").is_dir());
+    if split.is_none() {
         println!(
-            "SKIPPED {test}: real KITTI data not found at {} (expected tracking/training/label_02 there; \
-             set DYNOTRAJ_KITTI to the directory holding `tracking/`)",
-            root.display()
+            "SKIPPED {test}: real KITTI data not found at {} (expected label_02/ there or in tracking/training/; \
+             set DYNOTRAJ_KITTI to the tracking split)",
+            given.display()
         );
-        None
     }
+    split
 }
