@@ -70,3 +70,35 @@ fn sequences_given_twice_and_unknown_exclusions_are_errors() {
     );
     assert!(!Path::new(out).exists(), "nothing trained");
 }
+
+#[test]
+fn a_stream_no_edge_answers_fails() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    // A server that accepts and reads but never answers.
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("binds");
+    let port = listener.local_addr().expect("address").port();
+    std::thread::spawn(move || {
+        if let Ok((mut conn, _)) = listener.accept() {
+            let _ = std::io::copy(&mut conn, &mut std::io::sink());
+        }
+    });
+    let to = format!("tcp://127.0.0.1:{port}");
+    let kitti = dir.path().to_str().expect("utf-8");
+    let args = [
+        "stream",
+        "--kitti",
+        kitti,
+        "--sequence",
+        "0000",
+        "--frames",
+        "5",
+        "--rate",
+        "0",
+        "--timeout",
+        "1",
+        "--to",
+        &to,
+    ];
+    refused(&args, 1, "5 frames sent and none answered within --timeout 1 s");
+}

@@ -93,6 +93,24 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
         std::fs::write(p, frames_csv(&result)).with_context(|| format!("--report {}", p.display()))?;
     }
     print!("{}", summary(&result, &args.to));
+    unanswered(&result, &args.to, args.lockstep, args.timeout)
+}
+
+/// An error when the edge did not answer as the stream needs: no frame at all, or (in lockstep,
+/// where every frame waits for its answer) not every frame. The summary and files are written
+/// first, so nothing received is lost.
+fn unanswered(result: &StreamResult, to: &Endpoint, lockstep: bool, timeout_s: f64) -> anyhow::Result<()> {
+    let sent = result.frames.len();
+    let answered = result.frames.iter().filter(|f| f.stats.is_some()).count();
+    anyhow::ensure!(
+        sent == 0 || answered > 0,
+        "edge {to}: {sent} frames sent and none answered within --timeout {timeout_s} s (is an edge serving that link?)"
+    );
+    anyhow::ensure!(
+        !lockstep || answered == sent,
+        "edge {to}: {} of {sent} frames unanswered in lockstep (the edge stopped or stalled)",
+        sent - answered
+    );
     Ok(())
 }
 
