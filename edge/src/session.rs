@@ -291,7 +291,7 @@ fn accept_signed<'m, const W: usize>(
             return ModelStatus::SignatureRejected(e);
         }
     };
-    match ModelBlob::parse(blob) {
+    match ModelBlob::parse_exact(blob) {
         Ok(b) => {
             edge.set_model(b);
             ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) }

@@ -21,7 +21,7 @@ impl ModelFile {
     /// with the path named.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
         let bytes = std::fs::read(path).with_context(|| format!("reading model blob {}", path.display()))?;
-        ModelBlob::parse(&bytes).map_err(|e| anyhow::anyhow!("model blob {}: {e}", path.display()))?;
+        ModelBlob::parse_exact(&bytes).map_err(|e| anyhow::anyhow!("model blob {}: {e}", path.display()))?;
         Ok(Self { path: path.to_path_buf(), bytes })
     }
 
@@ -30,7 +30,7 @@ impl ModelFile {
     /// # Errors
     /// A blob the core refuses.
     pub fn from_bytes(bytes: Vec<u8>, name: &str) -> anyhow::Result<Self> {
-        ModelBlob::parse(&bytes).map_err(|e| anyhow::anyhow!("model blob {name}: {e}"))?;
+        ModelBlob::parse_exact(&bytes).map_err(|e| anyhow::anyhow!("model blob {name}: {e}"))?;
         Ok(Self { path: PathBuf::from(name), bytes })
     }
 

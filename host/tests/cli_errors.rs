@@ -102,3 +102,30 @@ fn a_stream_no_edge_answers_fails() {
     ];
     refused(&args, 1, "5 frames sent and none answered within --timeout 1 s");
 }
+
+#[test]
+fn a_blob_with_bytes_after_it_is_refused_by_sign_and_verify() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().expect("utf-8");
+    let blob = dir.path().join("m.blob");
+    let blob_s = blob.to_str().expect("utf-8");
+    let train = ["train", "--kitti", kitti, "--source", "gt", "--exclude", "0001", "--out", blob_s];
+    let (code, err) = run(&[&train[..], &["--dims", "8,8,2,16", "--epochs", "1", "--rate", "10"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let signed = dir.path().join("m.blob.signed");
+    let signed_s = signed.to_str().expect("utf-8");
+    let (code, err) = run(&["sign", "--key", "dev", "--model", blob_s, "--out", signed_s]);
+    assert_eq!(code, 0, "{err}");
+    // Signing the signed file again: its trailer is bytes after the blob.
+    let twice = dir.path().join("m.blob.signed.signed");
+    let twice_s = twice.to_str().expect("utf-8");
+    refused(&["sign", "--key", "dev", "--model", signed_s, "--out", twice_s], 1, "bytes after the model blob's CRC");
+    // A doubly signed file made anyway verifies as a signature, and is refused as a blob.
+    let key = dynotraj_host::model_signing::development_signing_key().expect("dev key");
+    let bytes = std::fs::read(&signed).expect("reads");
+    std::fs::write(&twice, dynotraj_host::model_signing::sign(&bytes, &key)).expect("writes");
+    refused(&["verify", "--key", "dev", "--model", twice_s], 1, "bytes after the model blob's CRC");
+    let (code, err) = run(&["verify", "--key", "dev", "--model", signed_s]);
+    assert_eq!(code, 0, "{err}");
+}

@@ -95,6 +95,11 @@ pub enum BlobError {
         /// Index of the tensor in layout order.
         index: usize,
     },
+    /// Bytes after the blob's CRC where the blob must end ([`ModelBlob::parse_exact`]).
+    Trailing {
+        /// Bytes after the blob.
+        extra: usize,
+    },
     /// The output buffer is too small.
     BufferTooSmall,
 }
@@ -112,6 +117,7 @@ impl core::fmt::Display for BlobError {
             Self::Crc => f.write_str("model blob CRC mismatch: corrupt"),
             Self::NonFinite => f.write_str("model blob holds a non-finite value"),
             Self::TensorShape { index } => write!(f, "tensor {index} has the wrong number of values"),
+            Self::Trailing { extra } => write!(f, "{extra} bytes after the model blob's CRC, where it must end"),
             Self::BufferTooSmall => f.write_str("output buffer too small for the model blob"),
         }
     }
@@ -291,6 +297,21 @@ impl<'a> ModelBlob<'a> {
             return Err(BlobError::NonFinite);
         }
         Ok(blob)
+    }
+
+    /// [`ModelBlob::parse`] of bytes that must hold the blob and nothing else: a file or a
+    /// signed message, where bytes after the CRC mean a wrong or doubly wrapped file.
+    ///
+    /// # Errors
+    /// See [`BlobError`]; [`BlobError::Trailing`] for bytes after the CRC.
+    pub fn parse_exact(bytes: &'a [u8]) -> Result<Self, BlobError> {
+        let blob = Self::parse(bytes)?;
+        let len = HEADER_LEN + blob.payload.len() + CRC_LEN;
+        match bytes.len().checked_sub(len) {
+            Some(0) => Ok(blob),
+            Some(extra) => Err(BlobError::Trailing { extra }),
+            None => Err(BlobError::TooShort { need: len, have: bytes.len() }),
+        }
     }
 
     fn floats_are_finite(&self) -> bool {
@@ -478,6 +499,17 @@ mod tests {
         let wide = Dims { enc: 32, edge: 32, k: 3, dec: 48 };
         assert!(blob_len(&wide, Precision::Int8) < blob_len(&wide, Precision::F32) / 3);
         assert!(blob_len(&Dims::DEFAULT, Precision::Int8) < blob_len(&Dims::DEFAULT, Precision::F32) / 2);
+    }
+
+    #[test]
+    fn an_exact_parse_refuses_bytes_after_the_blob() {
+        let mut buf = [0u8; 8192];
+        let n = write(&SMALL, Precision::Int8, &mut buf);
+        assert!(ModelBlob::parse_exact(&buf[..n]).is_ok());
+        assert_eq!(ModelBlob::parse_exact(&buf[..n + 1]).err(), Some(BlobError::Trailing { extra: 1 }));
+        // A receive buffer larger than the blob is still fine for `parse`.
+        assert!(ModelBlob::parse(&buf[..n + 100]).is_ok());
+        assert!(matches!(ModelBlob::parse_exact(&buf[..n - 1]), Err(BlobError::TooShort { .. })));
     }
 
     #[test]

@@ -71,7 +71,7 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
         model_signing::read_signing_key(&PathBuf::from(&args.key))?
     };
     let blob = std::fs::read(&args.model).with_context(|| format!("reading model blob {}", args.model.display()))?;
-    ModelBlob::parse(&blob).map_err(|e| {
+    ModelBlob::parse_exact(&blob).map_err(|e| {
         anyhow::anyhow!("model blob {}: {e} (sign the blob `dynotraj train` wrote)", args.model.display())
     })?;
     let out = args.out.clone().unwrap_or_else(|| {
@@ -103,7 +103,7 @@ pub fn verify(args: &VerifyArgs) -> anyhow::Result<()> {
     };
     let bytes = std::fs::read(&args.model).with_context(|| format!("reading {}", args.model.display()))?;
     let blob = model_signing::verify(&bytes, &key, &args.model.display().to_string())?;
-    ModelBlob::parse(blob)
+    ModelBlob::parse_exact(blob)
         .map_err(|e| anyhow::anyhow!("model blob {}: signature good, blob refused: {e}", args.model.display()))?;
     println!("{}: signature good (key {}), {} B model blob valid", args.model.display(), hex(&key[..8]), blob.len());
     Ok(())
