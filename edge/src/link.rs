@@ -76,4 +76,9 @@ impl EdgeLoop {
     pub const fn decoder_stats(&self) -> DecoderStats {
         self.decoder.stats()
     }
+
+    /// The peer closed the stream: an unfinished frame's bytes are counted as dropped.
+    pub fn end_of_stream(&mut self) {
+        self.decoder.finish();
+    }
 }

@@ -258,6 +258,7 @@ impl<'m, const W: usize> Session<'m, W> {
             let n = io.read(&mut buf).map_err(RunError::Transport)?;
             let chunk = buf.get(..n).unwrap_or_default();
             if chunk.is_empty() {
+                self.link.end_of_stream();
                 break;
             }
             self.on_bytes(chunk, io, clock)?;

@@ -72,6 +72,16 @@ impl FrameDecoder {
         self.len
     }
 
+    /// Ends the stream (the peer closed it): the bytes of an unfinished frame can no longer
+    /// complete, so they are counted as discarded, and the decoder waits for a new frame.
+    pub fn finish(&mut self) {
+        if !self.overflowed {
+            self.stats.count_discarded(self.len);
+        }
+        self.len = 0;
+        self.overflowed = false;
+    }
+
     /// Appends delimiter-free `data` to the current frame, or discards it past the buffer.
     fn extend(&mut self, data: &[u8]) {
         if self.overflowed {

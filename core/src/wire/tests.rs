@@ -378,3 +378,18 @@ fn foreign_version_and_bad_bodies_are_rejected_and_counted() {
     };
     assert_eq!(stats, expected);
 }
+
+#[test]
+fn an_unterminated_tail_is_counted_when_the_stream_ends() {
+    let mut d = FrameDecoder::new();
+    assert_eq!(d.feed(&[b'A'; 1000]).count(), 0);
+    assert_eq!((d.pending_len(), d.stats().bytes_discarded), (1000, 0));
+    d.finish();
+    assert_eq!((d.pending_len(), d.stats().bytes_discarded), (0, 1000));
+    // An overlong tail already counted is not counted twice.
+    let mut d = FrameDecoder::new();
+    let _ = d.feed(&[b'A'; MAX_FRAME_LEN + 10]).count();
+    let counted = d.stats().bytes_discarded;
+    d.finish();
+    assert_eq!(d.stats().bytes_discarded, counted);
+}
