@@ -29,12 +29,12 @@ pub const EXTENSION: &str = "dtt";
 #[derive(Debug, thiserror::Error)]
 pub enum TracksFileError {
     /// The file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not a `source`: shown once).
+        cause: std::io::Error,
     },
     /// The content is not a valid tracks file.
     #[error("{path}: byte {offset}: {what}")]
@@ -99,7 +99,7 @@ impl TracksWriter {
     /// # Errors
     /// When the file cannot be created or written.
     pub fn create(path: &Path, camera: &CameraInfo) -> Result<Self, TracksFileError> {
-        let io = |source| TracksFileError::Io { path: path.to_path_buf(), source };
+        let io = |source| TracksFileError::Io { path: path.to_path_buf(), cause: source };
         let out = BufWriter::new(File::create(path).map_err(io)?);
         let mut w = Self { path: path.to_path_buf(), out, buf: [0; MAX_FRAME_LEN] };
         w.write_message(&Message::CameraInfo(*camera))?;
@@ -125,7 +125,7 @@ impl TracksWriter {
             source,
         })?;
         let bytes = self.buf.get(..n).unwrap_or_default();
-        self.out.write_all(bytes).map_err(|source| TracksFileError::Io { path: self.path.clone(), source })
+        self.out.write_all(bytes).map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
     }
 
     /// Flushes and closes the file.
@@ -133,7 +133,7 @@ impl TracksWriter {
     /// # Errors
     /// When the final write fails.
     pub fn finish(mut self) -> Result<(), TracksFileError> {
-        self.out.flush().map_err(|source| TracksFileError::Io { path: self.path.clone(), source })
+        self.out.flush().map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
     }
 }
 
@@ -142,7 +142,8 @@ impl TracksWriter {
 /// # Errors
 /// An unreadable file, or content that is not a tracks file (see the module docs).
 pub fn read(path: &Path) -> Result<Tracks, TracksFileError> {
-    let bytes = std::fs::read(path).map_err(|source| TracksFileError::Io { path: path.to_path_buf(), source })?;
+    let bytes =
+        std::fs::read(path).map_err(|source| TracksFileError::Io { path: path.to_path_buf(), cause: source })?;
     parse(path, &bytes)
 }
 

@@ -93,8 +93,8 @@ fn yaml_number(text: &str, path: &Path, key: &str) -> Result<f64, FrontEndError>
 pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> Result<OdometryCheck, FrontEndError> {
     let dir = root.join("odometry/06");
     let yaml_path = dir.join("camera.yaml");
-    let yaml =
-        std::fs::read_to_string(&yaml_path).map_err(|source| FrontEndError::Io { path: yaml_path.clone(), source })?;
+    let yaml = std::fs::read_to_string(&yaml_path)
+        .map_err(|source| FrontEndError::Io { path: yaml_path.clone(), cause: source })?;
     let num = |k: &str| yaml_number(&yaml, &yaml_path, k);
     let (fx, fy, cx, cy, bf) =
         (num("Camera.fx")?, num("Camera.fy")?, num("Camera.cx")?, num("Camera.cy")?, num("Camera.bf")?);

@@ -38,12 +38,12 @@ pub enum FrontEndError {
         other: String,
     },
     /// A folder could not be listed or a file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Io {
         /// The file or folder.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not a `source`: shown once).
+        cause: std::io::Error,
     },
     /// An OpenCV call failed (with what the front-end was doing).
     #[error("OpenCV: {context}: {source}")]

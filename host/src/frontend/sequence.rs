@@ -71,7 +71,7 @@ pub struct ImageSequence {
 }
 
 fn list_frames(folder: &Path) -> Result<Vec<u32>, FrontEndError> {
-    let io = |source| FrontEndError::Io { path: folder.to_path_buf(), source };
+    let io = |source| FrontEndError::Io { path: folder.to_path_buf(), cause: source };
     let mut frames = Vec::new();
     for e in std::fs::read_dir(folder).map_err(io)? {
         let name = e.map_err(io)?.file_name();

@@ -17,12 +17,12 @@ use std::path::PathBuf;
 pub enum KittiError {
     /// The operating system refused to read or write `path` (other than "not found", which is
     /// [`KittiError::Missing`]).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Io {
         /// File or directory the operation was about.
         path: PathBuf,
-        /// The underlying I/O error.
-        source: std::io::Error,
+        /// The underlying I/O error (in the message, not a `source`: shown once).
+        cause: std::io::Error,
     },
 
     /// A token or line of `path` does not have the expected form.

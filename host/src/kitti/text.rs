@@ -13,12 +13,30 @@ const MAX_QUOTED: usize = 40;
 /// Reads `path` as UTF-8 text. A file that does not exist is [`KittiError::Missing`] with `what`
 /// (e.g. "label file"); any other failure is [`KittiError::Io`].
 pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, KittiError> {
-    std::fs::read_to_string(path).map_err(|source| io_error(path, what, source))
+    let bytes = std::fs::read(path).map_err(|source| io_error(path, what, source))?;
+    match String::from_utf8(bytes) {
+        // A byte-order mark (some editors write one) is not part of the first line.
+        Ok(text) => Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text)),
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let bytes = e.as_bytes();
+            let line = bytes.get(..at).map_or(0, |b| b.iter().filter(|&&c| c == b'\n').count()) + 1;
+            let byte = bytes.get(at).copied().unwrap_or(0);
+            Err(KittiError::Parse {
+                path: path.to_path_buf(),
+                line,
+                field: "text".into(),
+                column: None,
+                expected: "UTF-8 text".into(),
+                found: format!("byte 0x{byte:02x} at byte {at} of the file"),
+            })
+        }
+    }
 }
 
 /// Writes `text` to `path`, creating or truncating it.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), KittiError> {
-    std::fs::write(path, text).map_err(|source| KittiError::Io { path: path.to_path_buf(), source })
+    std::fs::write(path, text).map_err(|source| KittiError::Io { path: path.to_path_buf(), cause: source })
 }
 
 /// Maps an I/O error on `path` to `Missing` (not found) or `Io`.
@@ -26,7 +44,7 @@ pub(crate) fn io_error(path: &Path, what: &str, source: std::io::Error) -> Kitti
     if source.kind() == ErrorKind::NotFound {
         KittiError::Missing { path: path.to_path_buf(), what: what.to_string() }
     } else {
-        KittiError::Io { path: path.to_path_buf(), source }
+        KittiError::Io { path: path.to_path_buf(), cause: source }
     }
 }
 
@@ -109,6 +127,20 @@ pub(crate) fn c_exp(x: f64, prec: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_byte_order_mark_is_skipped_and_invalid_utf8_names_its_line_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("labels.txt");
+        std::fs::write(&path, b"\xef\xbb\xbf0 1\n").unwrap();
+        assert_eq!(read_text(&path, "label file").unwrap(), "0 1\n");
+        std::fs::write(&path, b"ok\nP0: 1 \xff\n").unwrap();
+        let e = read_text(&path, "label file").unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("expected UTF-8 text") && e.contains("0xff"), "{e}");
+        // An I/O failure is said once: in the message, not again as a source.
+        let e = read_text(dir.path(), "label file").unwrap_err();
+        assert!(std::error::Error::source(&e).is_none(), "{e}");
+    }
 
     #[test]
     fn c_exp_matches_c_printf() {
