@@ -388,8 +388,8 @@ impl<const W: usize> ObjectRun<W> {
     /// Whether the run coasted through a frame its object was missing from since its last
     /// measured motion.
     #[must_use]
-    pub fn coasted_since_fit(&self) -> bool {
-        self.held > 0 && self.coasted
+    pub const fn coasted_since_fit(&self) -> bool {
+        self.coasted
     }
 
     /// Whether [`ObjectRun::measure`] added a step that [`ObjectRun::finish`] has not taken.

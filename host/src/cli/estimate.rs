@@ -17,11 +17,11 @@ use dynotraj_core::wire::ObjectClass;
 
 use super::common::{OursArgs, progress, sequence_ids};
 use crate::estimate::evaluate::{
-    EvalOptions, SequenceResult, camera_info, evaluate_sequence, params_for, run_with_window, score_sequence,
-    sim_max_depth, write_tracks,
+    EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
+    sim_max_depth, simulate_sequence, write_tracks,
 };
 use crate::estimate::files::{write_estimates, write_run};
-use crate::estimate::from_images::{render_and_track, rendered_params};
+use crate::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::score::{moving_objects, object_rpe};
 use crate::estimate::{Kind, RunScores};
@@ -152,24 +152,11 @@ impl EstimateArgs {
     /// # Errors
     /// A bad class name or rate.
     pub fn options_for(&self, profile: EstimatorProfile) -> anyhow::Result<EvalOptions> {
-        let mut opt = self.options()?.with_profile(profile);
-        if let Some(n) = self.joint_sweeps {
-            opt.joint_sweeps = n;
-        }
-        Ok(opt)
-    }
-
-    /// The evaluation options with the first profile asked for.
-    ///
-    /// # Errors
-    /// A bad class name, rate or profile.
-    pub fn options(&self) -> anyhow::Result<EvalOptions> {
         anyhow::ensure!(
             self.rate.is_finite() && self.rate > 0.0,
             "--rate: expected a positive frame rate in Hz, found {}",
             self.rate
         );
-        let profile = self.profiles()?.first().copied().unwrap_or(dynotraj_core::estimate::HOST_PROFILE);
         let classes = self
             .classes
             .iter()
@@ -180,7 +167,7 @@ impl EstimateArgs {
         let noise = |v: f64| if self.noise_free { 0.0 } else { v };
         let defaults =
             dynotraj_core::estimate::EstimatorParams::kitti(dynotraj_core::estimate::Intrinsics::KITTI_0926, 0.1);
-        Ok(EvalOptions {
+        let opt = EvalOptions {
             dt: 1.0 / self.rate,
             classes,
             min_step_m: self.min_step,
@@ -195,10 +182,18 @@ impl EstimateArgs {
             },
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
-            joint_sweeps: self.joint_sweeps.unwrap_or(profile.joint_sweeps),
-            window: profile.window,
-            profile: profile.name,
-        })
+            ..EvalOptions::kitti(1.0 / self.rate)
+        }
+        .with_profile(profile);
+        Ok(EvalOptions { joint_sweeps: self.joint_sweeps.unwrap_or(opt.joint_sweeps), ..opt })
+    }
+
+    /// The evaluation options with the first profile asked for.
+    ///
+    /// # Errors
+    /// A bad class name, rate or profile.
+    pub fn options(&self) -> anyhow::Result<EvalOptions> {
+        self.options_for(self.profiles()?.first().copied().unwrap_or(dynotraj_core::estimate::HOST_PROFILE))
     }
 }
 
@@ -303,15 +298,7 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
         write_estimates(out, &r.frames, &r.run)?;
         eprintln!("wrote {}", out.display());
     }
-    let objects = |k: Kind| {
-        r.run
-            .of(k)
-            .iter()
-            .flatten()
-            .flat_map(|e| e.objects.iter().map(|o| o.object_id))
-            .collect::<std::collections::BTreeSet<_>>()
-            .len()
-    };
+    let objects = |k: Kind| objects_followed(r.run.of(k));
     let mut t =
         Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
     t.push([
@@ -325,6 +312,16 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
     let mut c = Table::new(["tracks file", "counters (non-zero)"]);
     c.push([path.display().to_string(), nonzero_counters(&r.run.stats)]);
     Ok((t, c))
+}
+
+/// The objects (distinct ids) present in any of `estimates`.
+fn objects_followed(estimates: &[Option<dynotraj_core::estimate::PoseEstimate>]) -> usize {
+    estimates
+        .iter()
+        .flatten()
+        .flat_map(|e| e.objects.iter().map(|o| o.object_id))
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
 }
 
 /// The non-zero counters of `stats` as `name: value` pairs.
@@ -356,41 +353,41 @@ pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let bar = progress(ids.len() as u64, label);
     let per_sequence = map_jobs(&ids, args.ours.jobs, |id| -> anyhow::Result<Vec<SequenceResult>> {
         let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-        let out = match args.ours.ours_input {
-            OursInput::Tracks => options.iter().map(|opt| evaluate_sequence(id, &data, opt)).collect(),
+        // The tracks depend on no profile setting: made once, estimated with every profile.
+        let base = options.first().context("no profile")?;
+        let scale = args.ours.render_scale;
+        let (frames, spec) = match args.ours.ours_input {
+            OursInput::Tracks => {
+                let (sim, spec) = simulate_sequence(&data, base);
+                (sim, Some(spec))
+            }
             OursInput::Rendered => {
-                let base = options.first().context("no profile")?;
-                let frames =
-                    render_and_track(id, &data, base, args.ours.render_scale, args.ours.estimate_cache.as_deref())
-                        .with_context(|| format!("sequence {id}: rendered front-end"))?;
-                let intrinsics = crate::frontend::e2e::intrinsics_of(&crate::estimate::from_images::render_camera(
-                    args.ours.render_scale,
-                ));
-                options
-                    .iter()
-                    .map(|opt| {
-                        let params = rendered_params(args.ours.render_scale, opt);
-                        score_sequence(id, &data, opt, frames.clone(), params, intrinsics)
-                    })
-                    .collect()
+                let frames = render_and_track(id, &data, base, scale, args.ours.estimate_cache.as_deref())
+                    .with_context(|| format!("sequence {id}: rendered front-end"))?;
+                (frames, None)
             }
         };
+        let intrinsics = spec.as_ref().map_or_else(|| rendered_intrinsics(scale), |s| s.intrinsics);
+        let out = options
+            .iter()
+            .map(|opt| {
+                let params = spec.as_ref().map_or_else(|| rendered_params(scale, opt), |s| estimator_params(s, opt));
+                score_sequence(id, &data, opt, frames.clone(), params, intrinsics)
+            })
+            .collect();
         bar.set_message(id.clone());
         bar.inc(1);
         Ok(out)
     })?;
     bar.finish_and_clear();
-    let mut per_sequence = per_sequence.into_iter().collect::<anyhow::Result<Vec<_>>>()?;
     // Profile-major: every sequence of the first profile, then of the next.
-    let mut out = Vec::new();
-    for _ in &profiles {
-        for results in &mut per_sequence {
-            if !results.is_empty() {
-                out.push(results.remove(0));
-            }
+    let mut by_profile: Vec<Vec<SequenceResult>> = profiles.iter().map(|_| Vec::new()).collect();
+    for results in per_sequence {
+        for (bucket, r) in by_profile.iter_mut().zip(results?) {
+            bucket.push(r);
         }
     }
-    Ok(out)
+    Ok(by_profile.into_iter().flatten().collect())
 }
 
 /// The tables of `results`, per profile (in the order they first occur): Table III per kind,
@@ -437,14 +434,7 @@ pub fn restarts_table(results: &[&SequenceResult]) -> Table {
     ]);
     let mut sums = [0u64; 9];
     for r in results {
-        let followed = r
-            .run
-            .of(Kind::Causal)
-            .iter()
-            .flatten()
-            .flat_map(|e| e.objects.iter().map(|o| o.object_id))
-            .collect::<std::collections::BTreeSet<_>>()
-            .len() as u64;
+        let followed = objects_followed(r.run.of(Kind::Causal)) as u64;
         let s: &EstimatorStats = &r.stats;
         let runs = u64::from(s.runs_tracked);
         let row = [

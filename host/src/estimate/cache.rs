@@ -70,8 +70,20 @@ fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
 /// The cached tracks of `id` under `key`, if a readable file holds them.
 #[must_use]
 pub fn load(dir: &Path, id: &str, key: u64) -> Option<EstimatedTracks> {
-    let bytes = std::fs::read(path(dir, id, key)).ok()?;
-    postcard::from_bytes(&bytes).ok()
+    load_file(&path(dir, id, key))
+}
+
+/// The value a cache file at `path` holds, if it is readable and decodes (else a miss).
+pub(crate) fn load_file<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
+    postcard::from_bytes(&std::fs::read(path).ok()?).ok()
+}
+
+/// Writes `value` as the cache file `path` in `dir` (created if missing); `what` names it in
+/// an encoding error.
+pub(crate) fn store_file<T: serde::Serialize>(dir: &Path, path: &Path, value: &T, what: &str) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let bytes = postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?;
+    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Keeps `tracks` of `id` under `key`.
@@ -79,10 +91,7 @@ pub fn load(dir: &Path, id: &str, key: u64) -> Option<EstimatedTracks> {
 /// # Errors
 /// The folder or file cannot be written, named.
 pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let bytes = postcard::to_stdvec(tracks).context("encoding estimated tracks")?;
-    let p = path(dir, id, key);
-    std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))
+    store_file(dir, &path(dir, id, key), tracks, "estimated tracks")
 }
 
 #[cfg(test)]

@@ -225,6 +225,14 @@ pub fn write_tracks(path: &std::path::Path, camera: &CameraInfo, sim: &[SimFrame
 /// Simulates, estimates and scores sequence `data`.
 #[must_use]
 pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> SequenceResult {
+    let (sim, spec) = simulate_sequence(data, opt);
+    score_sequence(id, data, opt, sim, estimator_params(&spec, opt), spec.intrinsics)
+}
+
+/// The track-level simulation of sequence `data` with `opt`'s classes, noise, seed and frame
+/// limit, and the spec it was made with (what its estimator parameters follow from).
+#[must_use]
+pub fn simulate_sequence(data: &SequenceData, opt: &EvalOptions) -> (Vec<SimFrame>, SimSpec) {
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let cams = &input.camera_poses[..n];
@@ -236,8 +244,7 @@ pub fn evaluate_sequence(id: &str, data: &SequenceData, opt: &EvalOptions) -> Se
         track_lifetime: opt.track_lifetime,
         ..SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, f64::from(opt.dt), opt.seed)
     };
-    let sim = simulate(cams, &boxes, &spec);
-    score_sequence(id, data, opt, sim, estimator_params(&spec, opt), input.intrinsics)
+    (simulate(cams, &boxes, &spec), spec)
 }
 
 /// Estimates the frames `sim` (simulated, or rendered and tracked, with their truth) of sequence

@@ -18,9 +18,7 @@ use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
 use dynotraj_fixtures::track_sim::SimFrame;
 
-use super::evaluate::{
-    EvalOptions, SequenceResult, params_for, run_sim_with_window, run_with_window, score_sequence, sim_max_depth,
-};
+use super::evaluate::{EvalOptions, params_for, run_sim_with_window, run_with_window, sim_max_depth};
 use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::{EstimatorRun, PartsFrame};
@@ -134,11 +132,17 @@ pub fn render_camera(scale: f64) -> Camera {
     Camera { noise: 2, ..Camera::kitti(scale) }
 }
 
+/// The estimator's camera model of a rendering at `scale`.
+#[must_use]
+pub fn rendered_intrinsics(scale: f64) -> Intrinsics {
+    e2e::intrinsics_of(&render_camera(scale))
+}
+
 /// The estimator parameters for tracks of a rendering at `scale`: the KITTI defaults with the
 /// render camera and `opt`'s frame period, priors and joint sweeps.
 #[must_use]
 pub fn rendered_params(scale: f64, opt: &EvalOptions) -> EstimatorParams {
-    let mut params = EstimatorParams::kitti(e2e::intrinsics_of(&render_camera(scale)), opt.dt);
+    let mut params = EstimatorParams::kitti(rendered_intrinsics(scale), opt.dt);
     params.object_smoother = opt.object_smoother;
     params.camera_smoother = opt.camera_smoother;
     params.joint_sweeps = opt.joint_sweeps;
@@ -163,21 +167,4 @@ pub fn estimate_rendered(
     let moving = moving_objects(&frames, opt.min_step_m);
     let scores = score_run(&frames, &run, &moving);
     Ok(RenderedRun { frames, run, scores })
-}
-
-/// As [`estimate_rendered`], with everything `dynotraj estimate` prints of a sequence
-/// (smoothness, counters, timing).
-///
-/// # Errors
-/// As [`render_and_track`].
-pub fn evaluate_rendered(
-    id: &str,
-    data: &SequenceData,
-    opt: &EvalOptions,
-    scale: f64,
-    cache: Option<&Path>,
-) -> anyhow::Result<SequenceResult> {
-    let frames = render_and_track(id, data, opt, scale, cache)?;
-    let intrinsics = e2e::intrinsics_of(&render_camera(scale));
-    Ok(score_sequence(id, data, opt, frames, rendered_params(scale, opt), intrinsics))
 }

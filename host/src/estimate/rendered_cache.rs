@@ -18,6 +18,7 @@ use dynotraj_fixtures::track_sim::{ObjectTruth, SimFrame};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
+use super::cache::{load_file, store_file};
 use crate::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
@@ -120,8 +121,7 @@ fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
 /// The cached front-end frames of `id` under `key`, if a readable file holds them.
 #[must_use]
 pub fn load(dir: &Path, id: &str, key: u64) -> Option<Vec<SimFrame>> {
-    let bytes = std::fs::read(path(dir, id, key)).ok()?;
-    let frames: Vec<StoredFrame> = postcard::from_bytes(&bytes).ok()?;
+    let frames: Vec<StoredFrame> = load_file(&path(dir, id, key))?;
     Some(frames.into_iter().map(restored).collect())
 }
 
@@ -130,11 +130,8 @@ pub fn load(dir: &Path, id: &str, key: u64) -> Option<Vec<SimFrame>> {
 /// # Errors
 /// The folder or file cannot be written, named.
 pub fn store(dir: &Path, id: &str, key: u64, frames: &[SimFrame]) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let stored: Vec<StoredFrame> = frames.iter().map(stored).collect();
-    let bytes = postcard::to_stdvec(&stored).context("encoding rendered frames")?;
-    let p = path(dir, id, key);
-    std::fs::write(&p, bytes).with_context(|| format!("writing {}", p.display()))
+    store_file(dir, &path(dir, id, key), &stored, "rendered frames")
 }
 
 #[cfg(test)]
