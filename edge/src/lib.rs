@@ -35,5 +35,5 @@ pub mod transport;
 
 pub use link::{EdgeLoop, LoopStats};
 pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
-pub use session::{LoadStats, ModelStatus, RunError, Session};
+pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
 pub use transport::{Clock, NoClock, Transport};

@@ -1,6 +1,6 @@
 //! Loading a model blob sent over the link in [`ModelChunk`]s into a caller's buffer.
 
-use dynotraj_core::wire::{ModelChunk, crc32};
+use dynotraj_core::wire::{ModelChunk, ModelRefusal, crc32};
 
 /// What happened to one chunk.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -9,8 +9,9 @@ pub enum ChunkOutcome {
     Stored,
     /// The blob is complete and its CRC matches.
     Complete,
-    /// The chunk does not fit the blob, the buffer, or the blob begun; ignored.
-    Rejected,
+    /// The chunk does not fit the blob, the buffer, or the blob begun; ignored. Says why as
+    /// the host is told ([`ModelRefusal::TooLarge`] or [`ModelRefusal::OutOfOrder`]).
+    Rejected(ModelRefusal),
     /// Every byte arrived but the CRC does not match: the load starts over.
     CrcMismatch,
 }
@@ -40,8 +41,13 @@ impl<'b> ModelLoader<'b> {
     /// Takes one chunk.
     pub fn accept(&mut self, chunk: &ModelChunk) -> ChunkOutcome {
         let fits = usize::try_from(chunk.blob_len).is_ok_and(|n| n <= self.buf.len());
-        if !chunk.is_within_blob() || !fits {
-            return ChunkOutcome::Rejected;
+        if !fits {
+            return ChunkOutcome::Rejected(ModelRefusal::TooLarge {
+                capacity: u32::try_from(self.buf.len()).unwrap_or(u32::MAX),
+            });
+        }
+        if !chunk.is_within_blob() {
+            return ChunkOutcome::Rejected(ModelRefusal::OutOfOrder);
         }
         if self.blob != Some((chunk.blob_len, chunk.blob_crc)) || chunk.offset == 0 {
             self.blob = Some((chunk.blob_len, chunk.blob_crc));
@@ -49,10 +55,12 @@ impl<'b> ModelLoader<'b> {
             self.next_offset = 0;
         }
         if chunk.offset != self.next_offset {
-            return ChunkOutcome::Rejected;
+            return ChunkOutcome::Rejected(ModelRefusal::OutOfOrder);
         }
         let at = chunk.offset as usize;
-        let Some(dst) = self.buf.get_mut(at..at + chunk.data.len()) else { return ChunkOutcome::Rejected };
+        let Some(dst) = self.buf.get_mut(at..at + chunk.data.len()) else {
+            return ChunkOutcome::Rejected(ModelRefusal::OutOfOrder);
+        };
         dst.copy_from_slice(&chunk.data);
         let len = u32::try_from(chunk.data.len()).unwrap_or(u32::MAX);
         self.next_offset = self.next_offset.saturating_add(len);

@@ -153,7 +153,8 @@ impl<'m, const W: usize> Edge<'m, W> {
             | Message::Prediction(_)
             | Message::ModelChunk(_)
             | Message::LinkStats(_)
-            | Message::FrameStats(_) => {
+            | Message::FrameStats(_)
+            | Message::Notice(_) => {
                 self.stats.messages_ignored = self.stats.messages_ignored.saturating_add(1);
                 Ok(())
             }

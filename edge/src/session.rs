@@ -4,7 +4,11 @@ use dynotraj_core::model::blob::{BlobError, ModelBlob};
 use dynotraj_core::model::signed::SignatureError;
 #[cfg(feature = "model-over-link")]
 use dynotraj_core::model::signed::{self, PublicKey};
-use dynotraj_core::wire::{FrameBuf, LinkStats, MAX_FRAME_LEN, Message, WireError, encode};
+#[cfg(feature = "model-over-link")]
+use dynotraj_core::wire::ModelChunk;
+use dynotraj_core::wire::{
+    Forecaster, FrameBuf, LinkStats, MAX_FRAME_LEN, Message, ModelRefusal, Notice, WireError, encode,
+};
 
 use crate::link::EdgeLoop;
 #[cfg(feature = "model-over-link")]
@@ -31,6 +35,34 @@ pub enum ModelStatus {
     /// A model arrived complete with a good CRC but without a valid signature by the
     /// provisioned key ([`crate::provisioned::MODEL_KEY`]); the previous model stays in use.
     SignatureRejected(SignatureError),
+}
+
+impl ModelStatus {
+    /// What forecasts with this status.
+    #[must_use]
+    pub const fn forecaster(&self) -> Forecaster {
+        match self {
+            Self::Loaded { len } => Forecaster::Model { len: *len },
+            Self::None | Self::Rejected(_) | Self::SignatureRejected(_) => Forecaster::ConstantVelocity,
+        }
+    }
+
+    /// What the host is told of this status after a load over the link.
+    #[must_use]
+    pub const fn notice(&self) -> Notice {
+        match self {
+            Self::None => Notice::ModelRefused(ModelRefusal::NotAccepted),
+            Self::Loaded { .. } => Notice::Forecasting(self.forecaster()),
+            Self::Rejected(_) => Notice::ModelRefused(ModelRefusal::InvalidBlob),
+            Self::SignatureRejected(e) => Notice::ModelRefused(match e {
+                SignatureError::Unsigned => ModelRefusal::Unsigned,
+                SignatureError::OtherKey { found, expected } => {
+                    ModelRefusal::OtherKey { found: *found, expected: *expected }
+                }
+                SignatureError::BadKey | SignatureError::BadSignature => ModelRefusal::BadSignature,
+            }),
+        }
+    }
 }
 
 /// Counters of the model load.
@@ -74,6 +106,8 @@ pub struct Session<'m, const W: usize = EDGE_WINDOW> {
     load: LoadStats,
     frames_sent: u32,
     ended: bool,
+    /// Whether the host was told that a chunk was refused (told once a session, not per chunk).
+    chunk_refusal_told: bool,
 }
 
 impl<const W: usize> Default for Session<'_, W> {
@@ -95,6 +129,7 @@ impl<'m, const W: usize> Session<'m, W> {
             load: LoadStats::default(),
             frames_sent: 0,
             ended: false,
+            chunk_refusal_told: false,
         }
     }
 
@@ -110,6 +145,7 @@ impl<'m, const W: usize> Session<'m, W> {
         self.load = LoadStats::default();
         self.frames_sent = 0;
         self.ended = false;
+        self.chunk_refusal_told = false;
     }
 
     /// Forecasts with the model `blob` (linked into the image) from now on.
@@ -199,11 +235,11 @@ impl<'m, const W: usize> Session<'m, W> {
             edge,
             #[cfg(feature = "model-over-link")]
             loader,
-            #[cfg(feature = "model-over-link")]
             model,
             load,
             frames_sent,
             ended,
+            chunk_refusal_told,
             ..
         } = self;
         let lost = io.bytes_lost();
@@ -211,32 +247,36 @@ impl<'m, const W: usize> Session<'m, W> {
         let dropped = link.decoder_stats().bytes_discarded;
         link.on_bytes_with(chunk, |msg| {
             match &msg {
-                #[cfg(not(feature = "model-over-link"))]
-                Message::ModelChunk(_) => load.chunks_rejected += 1,
-                #[cfg(feature = "model-over-link")]
-                Message::ModelChunk(c) => match loader.as_mut() {
-                    Some((l, _)) if edge.stats().frames_estimated == 0 => match l.accept(c) {
-                        ChunkOutcome::Stored => load.chunks_stored += 1,
-                        ChunkOutcome::Rejected => load.chunks_rejected += 1,
-                        ChunkOutcome::CrcMismatch => load.crc_mismatches += 1,
-                        ChunkOutcome::Complete => {
-                            load.chunks_stored += 1;
-                            if let Some((l, key)) = loader.take()
-                                && let Some(bytes) = l.finish()
-                            {
-                                *model = accept_signed(bytes, &key, load, edge);
-                            }
+                Message::ModelChunk(c) => {
+                    #[cfg(feature = "model-over-link")]
+                    let outcome = on_chunk(c, loader, model, load, edge);
+                    #[cfg(not(feature = "model-over-link"))]
+                    let outcome = {
+                        let _ = c;
+                        load.chunks_rejected += 1;
+                        Some(Notice::ModelRefused(ModelRefusal::NotAccepted))
+                    };
+                    if let Some(notice) = outcome
+                        && !(*chunk_refusal_told && is_chunk_refusal(&notice))
+                    {
+                        *chunk_refusal_told |= is_chunk_refusal(&notice);
+                        if let Err(e) = send(io, frames_sent, &Message::Notice(notice)) {
+                            result = Err(e);
+                            return false;
                         }
-                    },
-                    _ => load.chunks_rejected += 1,
-                },
+                    }
+                }
                 Message::LinkStats(_) => {
                     *ended = true;
                     return false;
                 }
                 _ => {
                     let mut send = |m: &Message| send(io, frames_sent, m);
-                    if let Err(e) = edge.handle(&msg, clock, dropped.saturating_add(lost), &mut send) {
+                    let mut handled = edge.handle(&msg, clock, dropped.saturating_add(lost), &mut send);
+                    if handled.is_ok() && matches!(msg, Message::CameraInfo(_)) {
+                        handled = send(&Message::Notice(Notice::Forecasting(model.forecaster())));
+                    }
+                    if let Err(e) = handled {
                         result = Err(e);
                         return false;
                     }
@@ -266,6 +306,51 @@ impl<'m, const W: usize> Session<'m, W> {
         let stats = self.link_stats();
         send(io, &mut self.frames_sent, &Message::LinkStats(stats))
     }
+}
+
+/// Takes one model chunk: stores it, or counts its refusal; returns what the host must be told
+/// (the model loaded or refused).
+#[cfg(feature = "model-over-link")]
+fn on_chunk<'m, const W: usize>(
+    chunk: &ModelChunk,
+    loader: &mut Option<(ModelLoader<'m>, PublicKey)>,
+    model: &mut ModelStatus,
+    load: &mut LoadStats,
+    edge: &mut Edge<'m, W>,
+) -> Option<Notice> {
+    let Some((l, _)) = loader.as_mut().filter(|_| edge.stats().frames_estimated == 0) else {
+        load.chunks_rejected += 1;
+        return Some(Notice::ModelRefused(ModelRefusal::NotAccepted));
+    };
+    match l.accept(chunk) {
+        ChunkOutcome::Stored => {
+            load.chunks_stored += 1;
+            None
+        }
+        ChunkOutcome::Rejected(why) => {
+            load.chunks_rejected += 1;
+            Some(Notice::ModelRefused(why))
+        }
+        ChunkOutcome::CrcMismatch => {
+            load.crc_mismatches += 1;
+            Some(Notice::ModelRefused(ModelRefusal::Crc))
+        }
+        ChunkOutcome::Complete => {
+            load.chunks_stored += 1;
+            let (l, key) = loader.take()?;
+            let bytes = l.finish()?;
+            *model = accept_signed(bytes, &key, load, edge);
+            Some(model.notice())
+        }
+    }
+}
+
+/// Whether `notice` refuses a chunk rather than a whole blob.
+const fn is_chunk_refusal(notice: &Notice) -> bool {
+    matches!(
+        notice,
+        Notice::ModelRefused(ModelRefusal::NotAccepted | ModelRefusal::TooLarge { .. } | ModelRefusal::OutOfOrder)
+    )
 }
 
 /// The status after a complete, CRC-checked load of `bytes`: the signature by `key` first, then
@@ -299,6 +384,14 @@ fn accept_signed<'m, const W: usize>(
         }
         Err(e) => ModelStatus::Rejected(e),
     }
+}
+
+/// Tells the host `notice` now (the platform's own events: the link busy, idle).
+///
+/// # Errors
+/// A transport failure, or a message that cannot be encoded.
+pub fn send_notice<T: Transport>(io: &mut T, notice: Notice) -> Result<(), RunError<T::Error>> {
+    send(io, &mut 0, &Message::Notice(notice))
 }
 
 /// Encodes `msg` and writes it to `io`.

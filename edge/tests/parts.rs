@@ -3,7 +3,7 @@
 
 use dynotraj_core::estimate::{ObjectEstimate, PoseEstimate};
 use dynotraj_core::geometry::{BevState, Pose3};
-use dynotraj_core::wire::{ObjectClass, crc32, model_chunks};
+use dynotraj_core::wire::{ModelRefusal, ObjectClass, crc32, model_chunks};
 use dynotraj_edge::history::{HISTORY_LEN, Histories};
 use dynotraj_edge::model_load::{ChunkOutcome, ModelLoader};
 
@@ -22,7 +22,7 @@ fn model_loader_accepts_only_a_whole_blob_with_its_crc() {
     // A lost chunk: the rest is rejected and the load never completes.
     let mut l = ModelLoader::new(&mut buf);
     assert_eq!(l.accept(&chunks[0]), ChunkOutcome::Stored);
-    assert!(chunks[2..].iter().all(|c| l.accept(c) == ChunkOutcome::Rejected));
+    assert!(chunks[2..].iter().all(|c| l.accept(c) == ChunkOutcome::Rejected(ModelRefusal::OutOfOrder)));
     assert_eq!(l.finish(), None);
 
     // A corrupted byte (with the CRC of the true blob): every byte arrives, the CRC refuses it.
@@ -37,7 +37,7 @@ fn model_loader_accepts_only_a_whole_blob_with_its_crc() {
     // Too big for the buffer.
     let mut small = vec![0u8; 100];
     let mut l = ModelLoader::new(&mut small);
-    assert_eq!(l.accept(&chunks[0]), ChunkOutcome::Rejected);
+    assert_eq!(l.accept(&chunks[0]), ChunkOutcome::Rejected(ModelRefusal::TooLarge { capacity: 100 }));
 }
 
 fn estimate(frame: u32, objects: &[(u16, u16, f32)]) -> PoseEstimate {

@@ -8,16 +8,22 @@
 //! time from sending its last part to receiving its [`FrameStats`].
 
 use std::io::Write;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use dynotraj_core::wire::{
-    DecoderStats, FrameBuf, FrameDecoder, FrameStats, LinkStats, MAX_FRAME_LEN, Message, encode, model_chunks,
+    DecoderStats, Forecaster, FrameBuf, FrameDecoder, FrameStats, LinkStats, MAX_FRAME_LEN, Message, Notice, encode,
+    model_chunks,
 };
 
 use crate::link::{LinkReader, LinkWriter, read_some};
 use crate::tracks_file::Tracks;
+
+/// The longest wait before [`StreamOptions::stop`] is looked at again.
+const STOP_POLL: Duration = Duration::from_millis(100);
 
 /// How to stream.
 #[derive(Debug, Clone)]
@@ -30,11 +36,14 @@ pub struct StreamOptions {
     pub reply_timeout: Duration,
     /// A model blob to send before the frames.
     pub model: Option<Vec<u8>>,
+    /// Set (by a signal handler) to stop sending: the stream then ends as if the recording
+    /// ended there, keeping what was received.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl Default for StreamOptions {
     fn default() -> Self {
-        Self { rate_hz: None, lockstep: false, reply_timeout: Duration::from_secs(10), model: None }
+        Self { rate_hz: None, lockstep: false, reply_timeout: Duration::from_secs(10), model: None, stop: None }
     }
 }
 
@@ -49,6 +58,9 @@ pub struct FrameReport {
     pub answered: Option<Duration>,
     /// The edge's statistics of the frame.
     pub stats: Option<FrameStats>,
+    /// What the edge said forecast the frame (its last [`Notice::Forecasting`] before the
+    /// frame's statistics); `None` when it did not say.
+    pub forecaster: Option<Forecaster>,
 }
 
 impl FrameReport {
@@ -74,6 +86,27 @@ pub struct StreamResult {
     pub received: DecoderStats,
     /// Frames (wire frames) the host sent.
     pub frames_sent: u32,
+    /// The edge's notices, in arrival order.
+    pub notices: Vec<Notice>,
+    /// Whether the stream was stopped before the recording's end ([`StreamOptions::stop`]).
+    pub interrupted: bool,
+    /// Why sending stopped early, when a write to the link failed (the edge went away, or
+    /// closed the link after saying it is busy); what was received until then is kept.
+    pub link_error: Option<String>,
+}
+
+impl StreamResult {
+    /// What the edge last said makes its forecasts.
+    #[must_use]
+    pub fn forecaster(&self) -> Option<Forecaster> {
+        self.notices.iter().rev().find_map(|n| if let Notice::Forecasting(f) = n { Some(*f) } else { None })
+    }
+
+    /// Whether the edge said it is serving another host.
+    #[must_use]
+    pub fn busy(&self) -> bool {
+        self.notices.contains(&Notice::Busy)
+    }
 }
 
 /// What the reader thread hands over.
@@ -83,66 +116,101 @@ enum Event {
     Closed(DecoderStats),
 }
 
-/// Streams `tracks` over the link and collects the answers.
-///
-/// # Errors
-/// A write to the link fails, or a frame cannot be encoded.
-pub fn stream(
-    tracks: &Tracks,
-    rx: LinkReader,
-    mut tx: LinkWriter,
-    opt: &StreamOptions,
-) -> anyhow::Result<StreamResult> {
+/// Streams `tracks` over the link and collects the answers. A write that fails (or a frame
+/// that cannot be encoded) ends the sending and is kept in [`StreamResult::link_error`], with
+/// everything received until then.
+pub fn stream(tracks: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &StreamOptions) -> StreamResult {
     let (events_tx, events) = mpsc::channel();
     std::thread::spawn(move || read_replies(rx, &events_tx));
-    let start = Instant::now();
-    let mut out = StreamResult::default();
+    let mut run = Run { events, out: StreamResult::default(), start: Instant::now(), closed: false, opt };
     let mut sender = Sender { tx: &mut tx, buf: [0; MAX_FRAME_LEN], sent: 0 };
-    sender.send(&Message::CameraInfo(tracks.camera))?;
-    if let Some(blob) = &opt.model {
-        for chunk in model_chunks(blob).context("model blob")? {
-            sender.send(&Message::ModelChunk(chunk))?;
-        }
+    let sent = run.send_all(tracks, &mut sender).and_then(|()| {
+        let goodbye = LinkStats { frames_sent: sender.sent + 1, received: DecoderStats::default() };
+        sender.send(&Message::LinkStats(goodbye))
+    });
+    if let Err(e) = sent {
+        run.out.link_error = Some(format!("{e:#}"));
     }
-    let mut closed = false;
-    for (k, frame) in tracks.frames.iter().enumerate() {
-        if let Some(rate) = opt.rate_hz.filter(|r| *r > 0.0) {
-            let due = start + Duration::from_secs_f64(k as f64 / rate);
-            std::thread::sleep(due.saturating_duration_since(Instant::now()));
+    run.out.frames_sent = sender.sent;
+    // The edge's goodbye, or (after a failed write) its last words before the link closes.
+    let deadline = Instant::now() + opt.reply_timeout;
+    while !run.closed && run.out.edge_link.is_none() && Instant::now() < deadline && !run.stopped() {
+        run.drain(Some(deadline));
+    }
+    run.out
+}
+
+/// One stream in progress: the reader's events and what came of them.
+struct Run<'o> {
+    events: Receiver<Event>,
+    out: StreamResult,
+    start: Instant,
+    closed: bool,
+    opt: &'o StreamOptions,
+}
+
+impl Run<'_> {
+    fn stopped(&self) -> bool {
+        self.opt.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed))
+    }
+
+    fn drain(&mut self, deadline: Option<Instant>) {
+        self.closed |= !drain(&self.events, &mut self.out, self.start, deadline);
+    }
+
+    /// Sends the camera model, the model blob and every frame (paced, or in lockstep), until
+    /// the recording ends, the stop flag is set or the edge says it is busy.
+    fn send_all(&mut self, tracks: &Tracks, sender: &mut Sender<'_>) -> anyhow::Result<()> {
+        sender.send(&Message::CameraInfo(tracks.camera))?;
+        if let Some(blob) = &self.opt.model {
+            for chunk in model_chunks(blob).context("model blob")? {
+                sender.send(&Message::ModelChunk(chunk))?;
+            }
         }
-        for part in &frame.parts {
-            sender.send(&Message::FrameTracks(part.clone()))?;
-        }
-        out.frames.push(FrameReport { frame: frame.frame, sent: start.elapsed(), answered: None, stats: None });
-        if opt.lockstep {
-            let deadline = Instant::now() + opt.reply_timeout;
-            while !closed && !answered(&out, frame.frame) {
-                closed |= !drain(&events, &mut out, start, Some(deadline));
-                if Instant::now() >= deadline {
-                    break;
+        for (k, frame) in tracks.frames.iter().enumerate() {
+            if self.stopped() || (self.closed && self.out.busy()) {
+                self.out.interrupted = self.stopped();
+                return Ok(());
+            }
+            if let Some(rate) = self.opt.rate_hz.filter(|r| *r > 0.0) {
+                let due = self.start + Duration::from_secs_f64(k as f64 / rate);
+                while !self.stopped() && Instant::now() < due {
+                    std::thread::sleep(due.saturating_duration_since(Instant::now()).min(STOP_POLL));
                 }
             }
-        } else {
-            closed |= !drain(&events, &mut out, start, None);
+            for part in &frame.parts {
+                sender.send(&Message::FrameTracks(part.clone()))?;
+            }
+            let sent = self.start.elapsed();
+            self.out.frames.push(FrameReport {
+                frame: frame.frame,
+                sent,
+                answered: None,
+                stats: None,
+                forecaster: None,
+            });
+            if self.opt.lockstep {
+                let deadline = Instant::now() + self.opt.reply_timeout;
+                while !self.closed && !answered(&self.out, frame.frame) && !self.stopped() && Instant::now() < deadline
+                {
+                    self.drain(Some(deadline));
+                }
+            } else {
+                self.drain(None);
+            }
         }
+        Ok(())
     }
-    sender.send(&Message::LinkStats(LinkStats { frames_sent: sender.sent + 1, received: DecoderStats::default() }))?;
-    out.frames_sent = sender.sent;
-    let deadline = Instant::now() + opt.reply_timeout;
-    while !closed && out.edge_link.is_none() && Instant::now() < deadline {
-        closed |= !drain(&events, &mut out, start, Some(deadline));
-    }
-    Ok(out)
 }
 
 fn answered(out: &StreamResult, frame: u32) -> bool {
     out.frames.iter().rev().find(|f| f.frame == frame).is_some_and(|f| f.stats.is_some())
 }
 
-/// Takes the reader's events: all pending ones, or (with a deadline) waits for at least one.
-/// Returns false once the link closed.
+/// Takes the reader's events: all pending ones, or (with a deadline) waits for one, until the
+/// deadline and at most [`STOP_POLL`]. Returns false once the link closed.
 fn drain(events: &Receiver<Event>, out: &mut StreamResult, start: Instant, deadline: Option<Instant>) -> bool {
-    let mut first = deadline.map(|d| events.recv_timeout(d.saturating_duration_since(Instant::now())));
+    let mut first = deadline.map(|d| events.recv_timeout(d.saturating_duration_since(Instant::now()).min(STOP_POLL)));
     loop {
         let ev = match first.take() {
             Some(Ok(ev)) => ev,
@@ -164,12 +232,15 @@ fn drain(events: &Receiver<Event>, out: &mut StreamResult, start: Instant, deadl
                 let msg = *msg;
                 match &msg {
                     Message::FrameStats(s) => {
+                        let forecaster = out.forecaster();
                         if let Some(f) = out.frames.iter_mut().rev().find(|f| f.frame == s.frame) {
                             f.answered = Some(at.saturating_duration_since(start));
                             f.stats = Some(*s);
+                            f.forecaster = forecaster;
                         }
                     }
                     Message::LinkStats(l) => out.edge_link = Some(*l),
+                    Message::Notice(n) => out.notices.push(*n),
                     _ => {}
                 }
                 out.replies.push(msg);

@@ -233,6 +233,7 @@ fn kind(msg: &Message) -> &'static str {
         Message::LinkStats(_) => "LinkStats",
         Message::CameraInfo(_) => "CameraInfo",
         Message::FrameStats(_) => "FrameStats",
+        Message::Notice(_) => "Notice",
     }
 }
 

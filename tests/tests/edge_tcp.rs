@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
-use dynotraj_core::wire::Message;
+use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};
 use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::model_signing::{development_signing_key, sign};
@@ -16,21 +16,26 @@ use dynotraj_host::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
 
 /// Streams the fixture over TCP with `sent` over the link and compares with the in-process
-/// edge that has `expected` linked in; returns the edge's stderr after its first line.
-fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> Vec<String> {
+/// edge that has `expected` linked in; returns the edge's stderr after its first line and the
+/// notices the edge sent.
+fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> (Vec<String>, Vec<Notice>) {
     let tracks = scene_tracks(10);
     let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), expected);
     let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
     assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
 
-    let mut edge =
-        Command::new(edge_binary()).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().unwrap();
+    let mut edge = Command::new(edge_binary())
+        .args(["--listen", "tcp://127.0.0.1:0", "--sessions", "1"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
     let first = lines.next().unwrap().unwrap();
     let addr = first.rsplit("tcp://").next().unwrap().to_string();
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10)).unwrap();
     let opt = StreamOptions { lockstep: true, model: sent, ..StreamOptions::default() };
-    let result = stream(&tracks, rx, tx, &opt).unwrap();
+    let result = stream(&tracks, rx, tx, &opt);
+    assert_eq!(result.link_error, None, "the link held");
     let rest: Vec<String> = lines.map_while(Result::ok).collect();
     assert!(edge.wait().unwrap().success(), "edge failed: {rest:?}");
 
@@ -41,7 +46,9 @@ fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> Vec<String> {
     );
     let link = result.edge_link.expect("edge goodbye");
     assert_eq!((link.received.frames_ok, link.received.frames_rejected()), (result.frames_sent, 0));
-    rest
+    let notices =
+        result.replies.iter().filter_map(|m| if let Message::Notice(n) = m { Some(*n) } else { None }).collect();
+    (rest, notices)
 }
 
 /// Streams the fixture over TCP with `model` (a blob, signed with the development key before it
@@ -52,23 +59,35 @@ fn run_over_tcp(model: Option<Vec<u8>>) {
         return;
     }
     let signed = model.as_deref().map(|b| sign(b, &development_signing_key().unwrap()));
-    let rest = over_tcp(signed, model.as_deref());
-    if let Some(m) = &model {
-        let loaded = format!("model {} B", m.len());
-        assert!(rest.iter().any(|l| l.contains(&loaded)), "edge reports the loaded model ({loaded}): {rest:?}");
+    let (rest, notices) = over_tcp(signed, model.as_deref());
+    let first = Notice::Forecasting(Forecaster::ConstantVelocity);
+    match &model {
+        Some(m) => {
+            let loaded = format!("model {} B", m.len());
+            assert!(rest.iter().any(|l| l.contains(&loaded)), "edge reports the loaded model ({loaded}): {rest:?}");
+            let len = u32::try_from(m.len()).unwrap();
+            assert_eq!(notices, [first, Notice::Forecasting(Forecaster::Model { len })], "the host is told");
+        }
+        None => assert_eq!(notices, [first], "the host is told it gets constant-velocity forecasts"),
     }
 }
 
 #[test]
 fn tcp_edge_refuses_an_unsigned_model_counts_it_and_forecasts_with_constant_velocity() {
-    let rest = over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)), None);
+    let (rest, notices) = over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)), None);
+    assert_eq!(
+        notices,
+        [Notice::Forecasting(Forecaster::ConstantVelocity), Notice::ModelRefused(ModelRefusal::Unsigned)],
+        "the host is told why its model was refused"
+    );
     let id: String = dynotraj_edge::provisioned::MODEL_KEY[..8].iter().map(|b| format!("{b:02x}")).collect();
     assert!(
         rest.iter().any(|l| l.contains(&format!("must be signed by key {id}"))),
         "edge names the key it trusts: {rest:?}"
     );
     assert!(
-        rest.iter().any(|l| l.contains("model refused, signature: Unsigned (unsigned 1 bad signature 0)")),
+        rest.iter().any(|l| l.contains("model refused: the model is not signed")
+            && l.contains("(unsigned 1 bad signature 0)")),
         "{rest:?}"
     );
 }

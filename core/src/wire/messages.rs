@@ -12,7 +12,7 @@ use heapless::Vec;
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
-use super::{DecoderStats, ObjectClass};
+use super::{DecoderStats, Notice, ObjectClass};
 use crate::geometry::{BevState, Point2};
 use crate::limits::{HORIZON, MAX_OBJECTS};
 
@@ -45,6 +45,8 @@ pub enum Message {
     CameraInfo(CameraInfo),
     /// Edge -> host: what the edge did with one camera frame (sent after its forecasts).
     FrameStats(FrameStats),
+    /// Edge -> host: an event of the session (a model refused, the link busy or idle).
+    Notice(Notice),
 }
 
 /// The camera model the tracks of a stream are measured with (rectified pinhole, left camera as

@@ -7,7 +7,8 @@
 //! tracks in parts of [`TRACKS_PER_MESSAGE`], made by [`frame_parts`]), [`ObjectStates`] and
 //! [`Prediction`] (edge -> host), [`ModelChunk`] (host -> edge, a model blob in pieces made
 //! by [`model_chunks`]), [`CameraInfo`] (host -> edge, the camera model, first in every stream)
-//! [`LinkStats`] (either way) and [`FrameStats`] (edge -> host, per camera frame).
+//! [`LinkStats`] (either way), [`FrameStats`] (edge -> host, per camera frame) and [`Notice`]
+//! (edge -> host, an event of the session: the model it was sent refused, the link busy).
 //!
 //! # Framing
 //!
@@ -39,6 +40,7 @@ mod decoder;
 mod error;
 mod frame;
 mod messages;
+mod notice;
 mod parts;
 mod stats;
 #[cfg(test)]
@@ -52,9 +54,11 @@ pub use messages::{
     CameraInfo, CameraPose, ComputeUnit, EstimateKind, FrameStats, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message,
     ModelChunk, ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,
 };
+pub use notice::{Forecaster, ModelRefusal, Notice};
 pub use parts::{FrameParts, MAX_FRAME_PARTS, MAX_FRAME_TRACKS, ModelChunks, frame_parts, model_chunks};
 pub use stats::DecoderStats;
 
 /// Version of the wire protocol, the first byte of every payload. History: 1 first release;
-/// 2 added [`ObjectState::heading_known`].
+/// 2 added [`ObjectState::heading_known`]. [`Message::Notice`] was appended in 2 (existing
+/// messages keep their bytes; an older receiver counts a notice as a decode error).
 pub const PROTOCOL_VERSION: u8 = 2;

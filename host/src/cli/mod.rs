@@ -8,6 +8,7 @@ pub mod estimate;
 pub mod eval;
 pub mod experiment;
 pub mod fold_run;
+pub mod interrupt;
 pub mod numbers;
 pub mod sign;
 pub mod simulate;

@@ -75,15 +75,16 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),
     };
-    let mut child =
-        Command::new(&edge).args(["--listen", "tcp://127.0.0.1:0"]).stderr(Stdio::piped()).spawn().with_context(
-            || {
-                format!(
-                    "starting the edge {} (build it with `cargo build --release --bins`, or give --edge)",
-                    edge.display()
-                )
-            },
-        )?;
+    let mut child = Command::new(&edge)
+        .args(["--listen", "tcp://127.0.0.1:0", "--sessions", "1"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| {
+            format!(
+                "starting the edge {} (build it with `cargo build --release --bins`, or give --edge)",
+                edge.display()
+            )
+        })?;
     let mut lines = BufReader::new(child.stderr.take().context("edge stderr")?).lines();
     let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
     let addr = first.rsplit("tcp://").next().unwrap_or_default().trim().to_string();

@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{CameraInfo, ComputeUnit, Message, ObjectClass, frame_parts};
+use dynotraj_core::wire::{CameraInfo, ComputeUnit, Forecaster, Message, Notice, ObjectClass, frame_parts};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
@@ -79,10 +79,16 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     }
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
     let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
-    let opt =
-        StreamOptions { rate_hz: (rate > 0.0).then_some(rate), lockstep: args.lockstep, reply_timeout: timeout, model };
+    let stop = crate::cli::interrupt::stop_flag()?;
+    let opt = StreamOptions {
+        rate_hz: (rate > 0.0).then_some(rate),
+        lockstep: args.lockstep,
+        reply_timeout: timeout,
+        model,
+        stop: Some(stop),
+    };
     let (rx, tx) = connect(&args.to, timeout)?;
-    let result = stream(&tracks, rx, tx, &opt)?;
+    let result = stream(&tracks, rx, tx, &opt);
     if let Some(p) = &args.out {
         std::fs::write(p, predictions_csv(&result)).with_context(|| format!("--out {}", p.display()))?;
     }
@@ -93,7 +99,46 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
         std::fs::write(p, frames_csv(&result)).with_context(|| format!("--report {}", p.display()))?;
     }
     print!("{}", summary(&result, &args.to));
+    anyhow::ensure!(!result.busy(), "edge {to}: {}; try again when its session ends", Notice::Busy, to = args.to);
+    anyhow::ensure!(
+        !result.interrupted,
+        "interrupted after {} of {} frames; what the edge answered is written",
+        result.frames.len(),
+        tracks.frames.len()
+    );
+    if let Some(e) = &result.link_error {
+        anyhow::bail!(
+            "edge {}: {e} after {} of {} frames; what the edge answered is written",
+            args.to,
+            result.frames.len(),
+            tracks.frames.len()
+        );
+    }
+    refused_model(&result, args)?;
     unanswered(&result, &args.to, args.lockstep, args.timeout)
+}
+
+/// An error when the edge refused the model the stream sent (its forecasts were then not the
+/// model's); written after the summary and files.
+fn refused_model(result: &StreamResult, args: &StreamArgs) -> anyhow::Result<()> {
+    let Some(path) = &args.model else { return Ok(()) };
+    let refusal = result.notices.iter().find_map(|n| if let Notice::ModelRefused(r) = n { Some(*r) } else { None });
+    if let Some(why) = refusal {
+        anyhow::bail!(
+            "edge {}: refused --model {}: {why}; its forecasts were not the model's ({})",
+            args.to,
+            path.display(),
+            result.forecaster().map_or_else(|| "forecaster unknown".to_string(), |f| f.to_string())
+        );
+    }
+    if !matches!(result.forecaster(), Some(Forecaster::Model { .. })) && !result.frames.is_empty() {
+        eprintln!(
+            "warning: edge {}: did not say that it forecasts with --model {} (an edge without session notices?)",
+            args.to,
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 /// An error when the edge did not answer as the stream needs: no frame at all, or (in lockstep,
@@ -191,11 +236,16 @@ pub fn predictions_csv(result: &StreamResult) -> String {
 #[must_use]
 pub fn frames_csv(result: &StreamResult) -> String {
     let mut s = String::from(
-        "frame,sent_ms,latency_ms,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n",
+        "frame,sent_ms,latency_ms,forecaster,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n",
     );
     for f in &result.frames {
         let lat = f.latency().map_or(String::new(), |l| format!("{:.3}", l.as_secs_f64() * 1e3));
-        let _ = write!(s, "{},{:.3},{lat},", f.frame, f.sent.as_secs_f64() * 1e3);
+        let by = match f.forecaster {
+            Some(Forecaster::Model { .. }) => "model",
+            Some(Forecaster::ConstantVelocity) => "constant_velocity",
+            None => "",
+        };
+        let _ = write!(s, "{},{:.3},{lat},{by},", f.frame, f.sent.as_secs_f64() * 1e3);
         match &f.stats {
             Some(st) => {
                 let _ = writeln!(
@@ -237,6 +287,9 @@ pub fn summary(result: &StreamResult, to: &Endpoint) -> String {
     compute.sort_unstable();
     let mut s = String::new();
     let _ = writeln!(s, "edge {to}: {} frames sent, {answered} answered, {forecasts} forecasts", result.frames.len());
+    for n in &result.notices {
+        let _ = writeln!(s, "edge said: {n}");
+    }
     let _ = writeln!(
         s,
         "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}",

@@ -1,0 +1,91 @@
+//! The host's byte links as edge transports: a TCP client, a serial port, stdin/stdout. Reads
+//! wake every [`POLL`] so that a stop request or an idle link is noticed while waiting.
+
+use std::io::{ErrorKind, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use dynotraj_core::wire::ComputeUnit;
+use dynotraj_edge::{Clock, Transport};
+
+/// How often a waiting read looks at the stop flag, the idle limit and (TCP) waiting clients.
+pub const POLL: Duration = Duration::from_millis(100);
+
+/// Why a link stopped.
+#[derive(Debug)]
+pub enum LinkError {
+    /// The link failed.
+    Io(std::io::Error),
+    /// Nothing arrived for this long (the idle limit).
+    Idle(Duration),
+    /// SIGINT or SIGTERM.
+    Stopped,
+}
+
+impl std::fmt::Display for LinkError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Io(e) if e.kind() == ErrorKind::ConnectionReset => f.write_str("the peer reset the connection"),
+            Self::Io(e) => write!(f, "{e}"),
+            Self::Idle(d) => write!(f, "nothing arrived for {} s (--idle-timeout)", d.as_secs_f64()),
+            Self::Stopped => f.write_str("stopped by a signal"),
+        }
+    }
+}
+
+/// What a waiting read does on each [`POLL`] without bytes.
+pub trait OnPoll {
+    /// Called while no byte arrives; an error ends the read.
+    ///
+    /// # Errors
+    /// The link should stop waiting.
+    fn on_poll(&mut self, idle_for: Duration) -> Result<(), LinkError>;
+}
+
+/// Waits only for the stop flag (serial, stdio).
+pub struct UntilStopped<'s>(pub &'s AtomicBool);
+
+impl OnPoll for UntilStopped<'_> {
+    fn on_poll(&mut self, _: Duration) -> Result<(), LinkError> {
+        if self.0.load(Ordering::Relaxed) { Err(LinkError::Stopped) } else { Ok(()) }
+    }
+}
+
+/// Any std reader/writer pair as a transport; the reader must time out (a socket or port read
+/// timeout of about [`POLL`]) or block, and `poll` decides whether to go on waiting.
+pub struct Link<R, W, P> {
+    /// Where the bytes come from.
+    pub rx: R,
+    /// Where the answers go.
+    pub tx: W,
+    /// What to do while the link is quiet.
+    pub poll: P,
+}
+
+impl<R: Read, W: Write, P: OnPoll> Transport for Link<R, W, P> {
+    type Error = LinkError;
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
+        let quiet_since = Instant::now();
+        loop {
+            match self.rx.read(buf) {
+                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
+                    self.poll.on_poll(quiet_since.elapsed())?;
+                }
+                other => return other.map_err(LinkError::Io),
+            }
+        }
+    }
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
+        self.tx.write_all(bytes).and_then(|()| self.tx.flush()).map_err(LinkError::Io)
+    }
+}
+
+/// Nanoseconds since the edge started.
+pub struct WallClock(pub Instant);
+
+impl Clock for WallClock {
+    const UNIT: ComputeUnit = ComputeUnit::Nanoseconds;
+    fn now(&mut self) -> u64 {
+        u64::try_from(self.0.elapsed().as_nanos()).unwrap_or(u64::MAX)
+    }
+}

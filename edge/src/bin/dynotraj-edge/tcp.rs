@@ -1,0 +1,118 @@
+//! Serving TCP clients one session after another. A client that connects while a session is
+//! in progress is told [`Notice::Busy`] and closed (one host drives an edge at a time, as on the
+//! vehicle); a client that sends nothing for the idle limit is told [`Notice::IdleTimeout`] and
+//! its session ends, so a stuck or forgotten client cannot hold the edge.
+
+use std::io::Write as _;
+use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs as _};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, Notice, encode};
+
+use crate::link::{Link, LinkError, OnPoll, POLL};
+
+/// A TCP session's link: reads wake every [`POLL`] to refuse waiting clients and watch the
+/// idle limit and the stop flag.
+pub type TcpLink<'a> = Link<TcpStream, TcpStream, TcpPoll<'a>>;
+
+/// What a quiet TCP session does on each poll.
+pub struct TcpPoll<'a> {
+    listener: &'a TcpListener,
+    stop: &'a AtomicBool,
+    idle_limit: Duration,
+    serving: SocketAddr,
+    /// Clients refused while this session ran.
+    pub refused: u32,
+}
+
+impl OnPoll for TcpPoll<'_> {
+    fn on_poll(&mut self, idle_for: Duration) -> Result<(), LinkError> {
+        if self.stop.load(Ordering::Relaxed) {
+            return Err(LinkError::Stopped);
+        }
+        self.refused += refuse_waiting(self.listener, self.serving);
+        if idle_for >= self.idle_limit { Err(LinkError::Idle(self.idle_limit)) } else { Ok(()) }
+    }
+}
+
+/// Binds `tcp://HOST:PORT` (HOST a name such as `localhost` or an address; loopback only
+/// unless `allow_remote`) for non-blocking accepts.
+///
+/// # Errors
+/// The address does not parse or resolve, is not loopback, or cannot be bound; the message
+/// names the `--listen` value.
+pub fn bind(url: &str, allow_remote: bool) -> Result<TcpListener, String> {
+    let host_port = url.strip_prefix("tcp://").ok_or_else(|| format!("--listen {url}: expected tcp://HOST:PORT"))?;
+    let addrs: Vec<SocketAddr> = host_port
+        .to_socket_addrs()
+        .map_err(|e| format!("--listen {url}: expected tcp://HOST:PORT with a host name or address and a port ({e})"))?
+        .collect();
+    let Some(first) = addrs.first() else { return Err(format!("--listen {url}: the host name has no address")) };
+    if !allow_remote && let Some(remote) = addrs.iter().find(|a| !a.ip().is_loopback()) {
+        return Err(format!(
+            "--listen {url}: {} is not a loopback address (pass --allow-remote to serve other hosts)",
+            remote.ip()
+        ));
+    }
+    let listener = TcpListener::bind(first).map_err(|e| format!("--listen {url}: {e}"))?;
+    listener.set_nonblocking(true).map_err(|e| format!("--listen {url}: {e}"))?;
+    Ok(listener)
+}
+
+/// Waits for the next client: `Ok(None)` once `stop` is set.
+///
+/// # Errors
+/// The listener failed.
+pub fn next_client(listener: &TcpListener, stop: &AtomicBool) -> Result<Option<(TcpStream, SocketAddr)>, String> {
+    loop {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
+        match listener.accept() {
+            Ok(client) => return Ok(Some(client)),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::Interrupted) => {
+                std::thread::sleep(POLL);
+            }
+            // A client that gave up between its connect and our accept: wait for the next.
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionAborted => {}
+            Err(e) => return Err(format!("accepting a client: {e}")),
+        }
+    }
+}
+
+/// The link of a session with `client` (from `peer`).
+///
+/// # Errors
+/// The socket cannot be set up.
+pub fn session_link<'a>(
+    client: TcpStream,
+    peer: SocketAddr,
+    listener: &'a TcpListener,
+    stop: &'a AtomicBool,
+    idle_limit: Duration,
+) -> std::io::Result<TcpLink<'a>> {
+    client.set_nonblocking(false)?;
+    client.set_read_timeout(Some(POLL))?;
+    client.set_nodelay(true)?;
+    let rx = client.try_clone()?;
+    Ok(Link { rx, tx: client, poll: TcpPoll { listener, stop, idle_limit, serving: peer, refused: 0 } })
+}
+
+/// Tells every client waiting on `listener` that the edge is busy with `serving`, and closes
+/// them; returns how many.
+fn refuse_waiting(listener: &TcpListener, serving: SocketAddr) -> u32 {
+    let mut refused = 0;
+    while let Ok((mut other, peer)) = listener.accept() {
+        let mut frame: FrameBuf = [0; MAX_FRAME_LEN];
+        // Best effort: a client that is already gone needs no answer.
+        if other.set_nonblocking(false).and_then(|()| other.set_write_timeout(Some(POLL))).is_ok()
+            && let Ok(n) = encode(&Message::Notice(Notice::Busy), &mut frame)
+        {
+            let _ = other.write_all(frame.get(..n).unwrap_or_default());
+        }
+        eprintln!("dynotraj-edge: refused {peer}: busy with the session from {serving}");
+        refused += 1;
+    }
+    refused
+}

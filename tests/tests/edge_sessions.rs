@@ -1,0 +1,78 @@
+//! The host build of the edge keeps serving: sessions one after another over TCP, each answered
+//! as a fresh edge answers; a client that stays idle is told so and its session ended; a client
+//! that connects during a session is told the edge is busy; SIGTERM ends the edge with exit 0
+//! and its totals.
+
+use std::io::{BufRead, BufReader, Read};
+use std::net::TcpStream;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use dynotraj_core::wire::{FrameDecoder, Message, Notice};
+use dynotraj_host::link::{Endpoint, connect};
+use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
+use dynotraj_host::tracks_file::Tracks;
+use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
+
+fn lockstep(tracks: &Tracks, addr: &str) -> StreamResult {
+    let (rx, tx) = connect(&Endpoint::Tcp(addr.to_string()), Duration::from_secs(10)).unwrap();
+    let opt = StreamOptions { lockstep: true, ..StreamOptions::default() };
+    stream(tracks, rx, tx, &opt)
+}
+
+/// Every notice in the bytes a client reads until the edge closes the connection.
+fn notices_until_closed(mut client: TcpStream) -> Vec<Notice> {
+    client.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    let mut bytes = Vec::new();
+    client.read_to_end(&mut bytes).unwrap();
+    let mut decoder = FrameDecoder::new();
+    decoder.feed(&bytes).filter_map(|m| if let Message::Notice(n) = m { Some(n) } else { None }).collect()
+}
+
+#[test]
+fn the_edge_serves_sessions_in_a_row_survives_an_idle_client_and_stops_on_sigterm() {
+    let tracks = scene_tracks(6);
+    let reference = outputs(&reference_replies(&encode_all(&host_messages(&tracks, None)), None));
+    let mut edge = Command::new(edge_binary())
+        .args(["--listen", "tcp://127.0.0.1:0", "--idle-timeout", "1.5"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let addr = first.rsplit("tcp://").next().unwrap().to_string();
+
+    let one = lockstep(&tracks, &addr);
+    assert_eq!(outputs(&one.replies), reference, "session 1 answers as a fresh edge");
+
+    // A client that connects and says nothing holds the edge only until the idle limit; one
+    // that connects meanwhile is told the edge is busy.
+    let idle = TcpStream::connect(&addr).unwrap();
+    std::thread::sleep(Duration::from_millis(400));
+    let busy = lockstep(&tracks, &addr);
+    assert!(busy.busy(), "the second client is told the edge is busy: {:?}", busy.notices);
+    assert!(busy.frames.iter().all(|f| f.stats.is_none()), "and gets no answers");
+    let started = Instant::now();
+    assert_eq!(notices_until_closed(idle), [Notice::IdleTimeout { seconds: 1 }], "the idle client is told why");
+    assert!(started.elapsed() < Duration::from_secs(10), "the idle session ended at its limit");
+
+    for k in [3, 4] {
+        let again = lockstep(&tracks, &addr);
+        assert_eq!(outputs(&again.replies), reference, "session {k} answers as a fresh edge");
+        assert!(again.edge_link.is_some(), "session {k} ends with the edge's goodbye");
+    }
+
+    let status = Command::new("kill").args(["-TERM", &edge.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let exit = edge.wait().unwrap();
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(exit.success(), "SIGTERM ends the edge cleanly: {exit} {rest:#?}");
+    let last = rest.last().unwrap();
+    assert!(
+        last.contains("stopped by a signal after 4 sessions (1 ended idle, 0 failed), 1 clients refused busy"),
+        "{rest:#?}"
+    );
+    assert!(rest.iter().any(|l| l.contains("session 2 from") && l.contains("ended idle")), "{rest:#?}");
+    assert!(rest.iter().any(|l| l.contains("refused 127.0.0.1:")), "{rest:#?}");
+    assert_eq!(rest.iter().filter(|l| l.contains("ended by the host's goodbye")).count(), 3, "{rest:#?}");
+}
