@@ -1,6 +1,12 @@
 //! Provisions the edge with the Ed25519 public key it requires of a model sent over the link:
-//! the file named by `DYNOTRAJ_MODEL_PUBKEY` (64 hex digits, from `dynotraj keygen`), else the
+//! the file named by `DYNOTRAJ_MODEL_PUBKEY` (`dynotraj-ed25519-public` and 64 hex digits, the
+//! `.pub` from `dynotraj keygen`; a bare line of 64 hex digits is read too), else the
 //! repository's development key (keys/README.md). Writes `$OUT_DIR/model_key.rs`.
+
+/// The label of a public key file (host/src/model_signing.rs writes it).
+const PUBLIC_LABEL: &str = "dynotraj-ed25519-public";
+/// The label of a secret key file, which must never be built into an edge.
+const SECRET_LABEL: &str = "dynotraj-ed25519-secret";
 
 use std::path::PathBuf;
 
@@ -16,9 +22,16 @@ fn main() {
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| fail(&format!("DYNOTRAJ_MODEL_PUBKEY {}: {e}", path.display())));
     let t = text.trim();
+    if t.starts_with(SECRET_LABEL) {
+        fail(&format!(
+            "{}: this is a secret key; the edge is built with the public key (NAME.pub from `dynotraj keygen`)",
+            path.display()
+        ));
+    }
+    let t = t.strip_prefix(PUBLIC_LABEL).map_or(t, str::trim);
     if t.len() != 64 || !t.bytes().all(|c| c.is_ascii_hexdigit()) {
         fail(&format!(
-            "{}: expected one line of 64 hex digits (an Ed25519 public key from `dynotraj keygen`)",
+            "{}: expected `{PUBLIC_LABEL}` and 64 hex digits (an Ed25519 public key from `dynotraj keygen`)",
             path.display()
         ));
     }

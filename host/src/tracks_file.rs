@@ -8,19 +8,24 @@
 //!
 //! 1. one [`Message::CameraInfo`] (the camera model the tracks are measured with);
 //! 2. per camera frame, in frame order, its [`Message::FrameTracks`] parts as
-//!    [`wire::frame_parts`] makes them.
+//!    [`wire::frame_parts`] makes them;
+//! 3. last, the end-of-recording mark: the host's goodbye, a [`Message::LinkStats`] whose
+//!    `frames_sent` counts every wire frame of the file, itself included.
 //!
-//! So a tracks file can be replayed onto a socket or a serial port unchanged, and anything that
-//! records the link writes a valid tracks file. The protocol version travels in every frame.
-//! Reading is strict: a frame that does not decode, a message other than these two, a missing
-//! camera model, or a frame's parts out of order is an error that names the file and the byte
-//! offset, since a file (unlike a live link) has no excuse for damage.
+//! So a tracks file can be replayed onto a socket or a serial port unchanged (the edge ends
+//! its session at the mark), and a recording of the host's side of the link is a valid tracks
+//! file. The protocol version travels in every frame. Reading is strict: a frame that does not
+//! decode, another message, a missing camera model, a frame's parts out of order, or a missing
+//! or miscounting end mark (a file cut at a frame boundary) is an error that names the file
+//! and the byte offset, since a file (unlike a live link) has no excuse for damage.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, FrameTracks, MAX_FRAME_LEN, Message, Track};
+use dynotraj_core::wire::{
+    self, CameraInfo, DecoderStats, FrameBuf, FrameDecoder, FrameTracks, LinkStats, MAX_FRAME_LEN, Message, Track,
+};
 
 /// File name extension of tracks files.
 pub const EXTENSION: &str = "dtt";
@@ -91,6 +96,8 @@ pub struct TracksWriter {
     path: PathBuf,
     out: BufWriter<File>,
     buf: FrameBuf,
+    /// Wire frames written so far.
+    written: u32,
 }
 
 impl TracksWriter {
@@ -101,7 +108,7 @@ impl TracksWriter {
     pub fn create(path: &Path, camera: &CameraInfo) -> Result<Self, TracksFileError> {
         let io = |source| TracksFileError::Io { path: path.to_path_buf(), cause: source };
         let out = BufWriter::new(File::create(path).map_err(io)?);
-        let mut w = Self { path: path.to_path_buf(), out, buf: [0; MAX_FRAME_LEN] };
+        let mut w = Self { path: path.to_path_buf(), out, buf: [0; MAX_FRAME_LEN], written: 0 };
         w.write_message(&Message::CameraInfo(*camera))?;
         Ok(w)
     }
@@ -125,14 +132,17 @@ impl TracksWriter {
             source,
         })?;
         let bytes = self.buf.get(..n).unwrap_or_default();
+        self.written = self.written.saturating_add(1);
         self.out.write_all(bytes).map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
     }
 
-    /// Flushes and closes the file.
+    /// Writes the end-of-recording mark, flushes and closes the file.
     ///
     /// # Errors
-    /// When the final write fails.
+    /// When the final writes fail.
     pub fn finish(mut self) -> Result<(), TracksFileError> {
+        let mark = LinkStats { frames_sent: self.written.saturating_add(1), received: DecoderStats::default() };
+        self.write_message(&Message::LinkStats(mark))?;
         self.out.flush().map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
     }
 }
@@ -156,6 +166,9 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
     let mut decoder = FrameDecoder::new();
     let mut camera = None;
     let mut frames: Vec<TracksFrame> = Vec::new();
+    // Wire frames read, and where the end mark ended.
+    let mut read = 0u32;
+    let mut end_mark = None;
     // Feed one byte range at a time so an error can name where it happened.
     let mut offset = 0;
     for chunk in bytes.split_inclusive(|&b| b == wire::DELIMITER) {
@@ -166,8 +179,26 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
         if after != before && msg.is_none() {
             return Err(fail(offset, format!("a damaged wire frame ({after:?})")));
         }
+        if msg.is_some() {
+            if let Some(at) = end_mark {
+                return Err(fail(offset, format!("a wire frame after the end-of-recording mark (at byte {at})")));
+            }
+            read = read.saturating_add(1);
+        }
         match msg {
             None => {}
+            Some(Message::LinkStats(mark)) => {
+                if mark.frames_sent != read {
+                    return Err(fail(
+                        offset,
+                        format!(
+                            "the end-of-recording mark counts {} wire frames, the file holds {read}: frames are missing",
+                            mark.frames_sent
+                        ),
+                    ));
+                }
+                end_mark = Some(offset);
+            }
             Some(Message::CameraInfo(info)) => {
                 if camera.is_some() || !frames.is_empty() {
                     return Err(fail(offset, "a second camera model; expected one, first".into()));
@@ -181,7 +212,10 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
                 push_part(&mut frames, part).map_err(|what| fail(offset, what))?;
             }
             Some(other) => {
-                return Err(fail(offset, format!("a {} message; expected camera model or tracks", kind(&other))));
+                return Err(fail(
+                    offset,
+                    format!("a {} message; expected camera model, tracks or the end mark", kind(&other)),
+                ));
             }
         }
     }
@@ -195,6 +229,15 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
         }
     }
     let camera = camera.ok_or_else(|| fail(offset, "no camera model; expected one first".into()))?;
+    if end_mark.is_none() {
+        return Err(fail(
+            offset,
+            format!(
+                "no end-of-recording mark after {} frames: the file was cut (at a frame boundary), or written by a dynotraj from before the mark (record it again)",
+                frames.len()
+            ),
+        ));
+    }
     Ok(Tracks { camera, frames })
 }
 
@@ -318,5 +361,32 @@ mod tests {
         assert!(err.contains("before the camera model"), "{err}");
         let err = parse(&path, &[]).unwrap_err().to_string();
         assert!(err.contains("no camera model"), "{err}");
+    }
+
+    /// The byte offsets just after each wire frame of `bytes`.
+    fn frame_ends(bytes: &[u8]) -> Vec<usize> {
+        // Every frame is 0x00 COBS 0x00: ends are the delimiters that close a non-empty frame.
+        (1..bytes.len()).filter(|&i| bytes[i] == 0 && bytes[i - 1] != 0).map(|i| i + 1).collect()
+    }
+
+    #[test]
+    fn a_file_cut_at_a_frame_boundary_or_missing_frames_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), &[(0, 10), (1, 10), (2, 10)]);
+        let bytes = std::fs::read(&path).unwrap();
+        let ends = frame_ends(&bytes);
+        assert_eq!(ends.len(), 5, "camera, three frames, end mark");
+        assert_eq!(ends.last(), Some(&bytes.len()));
+        // Cut after the second frame: every frame whole, the mark gone.
+        let err = parse(&path, &bytes[..ends[2]]).unwrap_err().to_string();
+        assert!(err.contains("no end-of-recording mark after 2 frames: the file was cut"), "{err}");
+        // The middle frame taken out: the mark's count disagrees.
+        let gapped = [&bytes[..ends[1]], &bytes[ends[2]..]].concat();
+        let err = parse(&path, &gapped).unwrap_err().to_string();
+        assert!(err.contains("the end-of-recording mark counts 5 wire frames, the file holds 4"), "{err}");
+        // Two recordings glued together: frames after the mark.
+        let glued = [&bytes[..], &bytes[..]].concat();
+        let err = parse(&path, &glued).unwrap_err().to_string();
+        assert!(err.contains("after the end-of-recording mark"), "{err}");
     }
 }

@@ -129,3 +129,25 @@ fn a_blob_with_bytes_after_it_is_refused_by_sign_and_verify() {
     let (code, err) = run(&["verify", "--key", "dev", "--model", signed_s]);
     assert_eq!(code, 0, "{err}");
 }
+
+#[test]
+fn a_key_of_the_wrong_kind_is_refused_by_sign_and_verify() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().to_str().expect("utf-8");
+    let (code, err) = run(&["keygen", "--out", out, "--name", "k"]);
+    assert_eq!(code, 0, "{err}");
+    let (secret, public) = (dir.path().join("k.key"), dir.path().join("k.pub"));
+    let (secret, public) = (secret.to_str().expect("utf-8"), public.to_str().expect("utf-8"));
+    let model = dir.path().join("absent.blob");
+    let model = model.to_str().expect("utf-8");
+    refused(
+        &["sign", "--key", public, "--model", model],
+        1,
+        "k.pub: this is a public key; signing needs the secret key",
+    );
+    refused(
+        &["verify", "--key", secret, "--model", model],
+        1,
+        "k.key: this is a secret key; checking a signature needs",
+    );
+}

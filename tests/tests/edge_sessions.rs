@@ -8,10 +8,13 @@ use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use dynotraj_core::model::Dims;
+use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{FrameDecoder, Message, Notice};
+use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
-use dynotraj_host::tracks_file::Tracks;
+use dynotraj_host::tracks_file::{Tracks, TracksWriter};
 use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
 
 fn lockstep(tracks: &Tracks, addr: &str) -> StreamResult {
@@ -75,4 +78,77 @@ fn the_edge_serves_sessions_in_a_row_survives_an_idle_client_and_stops_on_sigter
     assert!(rest.iter().any(|l| l.contains("session 2 from") && l.contains("ended idle")), "{rest:#?}");
     assert!(rest.iter().any(|l| l.contains("refused 127.0.0.1:")), "{rest:#?}");
     assert_eq!(rest.iter().filter(|l| l.contains("ended by the host's goodbye")).count(), 3, "{rest:#?}");
+}
+
+/// The `dynotraj` command beside the test binaries (`cargo test --workspace` builds it).
+fn dynotraj() -> Command {
+    let exe = std::env::current_exe().unwrap();
+    let path = exe.parent().unwrap().parent().unwrap().join("dynotraj");
+    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-host`", path.display());
+    let mut cmd = Command::new(path);
+    cmd.env("RAYON_NUM_THREADS", "1");
+    cmd
+}
+
+#[test]
+fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_an_interrupted_stream_got() {
+    let dir = tempfile::tempdir().unwrap();
+    let tracks = scene_tracks(30);
+    let dtt = dir.path().join("scene.dtt");
+    let mut w = TracksWriter::create(&dtt, &tracks.camera).unwrap();
+    for f in &tracks.frames {
+        w.write_frame(f.frame, f.timestamp_us, &f.tracks().copied().collect::<Vec<_>>()).unwrap();
+    }
+    w.finish().unwrap();
+    let blob = dir.path().join("unsigned.blob");
+    std::fs::write(&blob, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
+    let mut edge = Command::new(edge_binary())
+        .args(["--listen", "tcp://localhost:0", "--sessions", "2"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
+    let to = format!("tcp://{}", lines.next().unwrap().unwrap().rsplit("tcp://").next().unwrap());
+    let (out, report) = (dir.path().join("forecasts.csv"), dir.path().join("frames.csv"));
+
+    let refused = dynotraj()
+        .args(["stream", "--tracks"])
+        .arg(&dtt)
+        .args(["--frames", "6", "--rate", "0", "--lockstep", "--to", &to, "--model"])
+        .arg(&blob)
+        .arg("--out")
+        .arg(&out)
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&refused.stdout), String::from_utf8_lossy(&refused.stderr));
+    assert_eq!(refused.status.code(), Some(1), "{stdout}{stderr}");
+    assert!(stderr.contains("refused --model") && stderr.contains("the model is not signed"), "{stderr}");
+    assert!(stdout.contains("edge said: model refused: the model is not signed"), "{stdout}");
+    let frames_csv = std::fs::read_to_string(&report).unwrap();
+    assert!(frames_csv.lines().next().unwrap().contains(",forecaster,"), "{frames_csv}");
+    assert_eq!(frames_csv.lines().skip(1).filter(|l| l.contains(",constant_velocity,")).count(), 6, "{frames_csv}");
+    assert!(std::fs::read_to_string(&out).unwrap().lines().count() > 1, "forecasts written");
+
+    // Interrupted at 5 frames a second: what arrived is written, and the exit says so.
+    std::fs::remove_file(&out).unwrap();
+    let mut slow = dynotraj()
+        .args(["stream", "--tracks"])
+        .arg(&dtt)
+        .args(["--rate", "5", "--to", &to, "--out"])
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(2500));
+    assert!(Command::new("kill").args(["-INT", &slow.id().to_string()]).status().unwrap().success());
+    let slow = slow.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&slow.stderr);
+    assert_eq!(slow.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("interrupted after") && stderr.contains("of 30 frames"), "{stderr}");
+    let forecasts = std::fs::read_to_string(&out).unwrap();
+    assert!(forecasts.lines().count() > 1, "the forecasts received before the interrupt are written");
+    assert!(edge.wait().unwrap().success(), "the edge served its two sessions");
 }
