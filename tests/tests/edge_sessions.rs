@@ -133,7 +133,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
 
     // Interrupted at 5 frames a second: what arrived is written, and the exit says so.
     std::fs::remove_file(&out).unwrap();
-    let mut slow = dynotraj()
+    let slow = dynotraj()
         .args(["stream", "--tracks"])
         .arg(&dtt)
         .args(["--rate", "5", "--to", &to, "--out"])
