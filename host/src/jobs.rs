@@ -3,23 +3,10 @@
 //!
 //! Each item runs whole on one worker thread of a pool of `jobs` threads, and the results
 //! come back in the items' order, so a run's output does not depend on how many jobs it had.
-//! candle's kernels run on their caller's thread once [`one_thread_per_job`] has been called
-//! (the `dynotraj` command does), so folds on different workers do not contend for threads.
+//! candle's kernels run on their caller's thread when `RAYON_NUM_THREADS=1` (the `dynotraj`
+//! command sets it for itself), so folds on different workers do not contend for threads.
 
 use rayon::prelude::*;
-
-/// Makes candle's CPU kernels run on the thread that calls them, in this process: matrix
-/// products never split over threads (gemm's threading threshold set above any product), and
-/// rayon's global pool, where candle's other kernels run when called outside a job pool, has
-/// one thread. This small network trains fastest that way, and `--jobs` then spreads whole
-/// folds over the cores instead. candle reads `RAYON_NUM_THREADS` only from the environment;
-/// this does the same in-process.
-pub fn one_thread_per_job() {
-    gemm::set_threading_threshold(usize::MAX);
-    // An error means the global pool already exists (a second call, or a test harness that
-    // built it): its size is then not ours to choose.
-    let _ = rayon::ThreadPoolBuilder::new().num_threads(1).build_global();
-}
 
 /// The number of jobs used when none is given: the cores this process may run on.
 #[must_use]

@@ -151,3 +151,25 @@ fn a_key_of_the_wrong_kind_is_refused_by_sign_and_verify() {
         "k.key: this is a secret key; checking a signature needs",
     );
 }
+
+#[test]
+fn the_command_runs_as_one_process_so_killing_it_leaves_nothing_running() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("binds");
+    let to = format!("tcp://{}", listener.local_addr().expect("address"));
+    let kitti = dir.path().to_str().expect("utf-8");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dynotraj"))
+        .args(["stream", "--kitti", kitti, "--sequence", "0000", "--rate", "1", "--to", &to])
+        .env_remove("RAYON_NUM_THREADS")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("starts");
+    let _conn = listener.accept().expect("the command connects");
+    let pid = child.id();
+    let children = std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children")).expect("reads /proc");
+    child.kill().expect("kills");
+    child.wait().expect("reaps");
+    assert_eq!(children.trim(), "", "dynotraj started child processes: {children}");
+}

@@ -160,6 +160,24 @@ pub fn edge_binary() -> PathBuf {
     path
 }
 
+/// The host build of the edge started with `args` (a `--listen` among them), its stderr piped:
+/// the child, the rest of its stderr lines, and the address it listens on (`HOST:PORT`, from
+/// its first line).
+///
+/// # Panics
+/// When the edge cannot start or does not say where it listens.
+pub fn spawn_listening_edge(
+    args: &[&str],
+) -> (std::process::Child, std::io::Lines<std::io::BufReader<std::process::ChildStderr>>, String) {
+    use std::io::BufRead as _;
+    let mut edge =
+        std::process::Command::new(edge_binary()).args(args).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    let mut lines = std::io::BufReader::new(edge.stderr.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let addr = first.rsplit("tcp://").next().unwrap().to_string();
+    (edge, lines, addr)
+}
+
 /// The firmware image: `$DYNOTRAJ_FIRMWARE`, else where `scripts/build-firmware.sh` puts it in
 /// the same build cache as the tests.
 #[must_use]

@@ -3,7 +3,7 @@
 //! that connects during a session is told the edge is busy; SIGTERM ends the edge with exit 0
 //! and its totals.
 
-use std::io::{BufRead, BufReader, Read};
+use std::io::Read;
 use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -15,7 +15,9 @@ use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
 use dynotraj_host::tracks_file::{Tracks, TracksWriter};
-use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
+use dynotraj_tests::edge_fixture::{
+    encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
+};
 
 fn lockstep(tracks: &Tracks, addr: &str) -> StreamResult {
     let (rx, tx) = connect(&Endpoint::Tcp(addr.to_string()), Duration::from_secs(10)).unwrap();
@@ -36,14 +38,7 @@ fn notices_until_closed(mut client: TcpStream) -> Vec<Notice> {
 fn the_edge_serves_sessions_in_a_row_survives_an_idle_client_and_stops_on_sigterm() {
     let tracks = scene_tracks(6);
     let reference = outputs(&reference_replies(&encode_all(&host_messages(&tracks, None)), None));
-    let mut edge = Command::new(edge_binary())
-        .args(["--listen", "tcp://127.0.0.1:0", "--idle-timeout", "1.5"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
-    let first = lines.next().unwrap().unwrap();
-    let addr = first.rsplit("tcp://").next().unwrap().to_string();
+    let (mut edge, lines, addr) = spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--idle-timeout", "1.5"]);
 
     let one = lockstep(&tracks, &addr);
     assert_eq!(outputs(&one.replies), reference, "session 1 answers as a fresh edge");
@@ -102,13 +97,8 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     w.finish().unwrap();
     let blob = dir.path().join("unsigned.blob");
     std::fs::write(&blob, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
-    let mut edge = Command::new(edge_binary())
-        .args(["--listen", "tcp://localhost:0", "--sessions", "2"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
-    let to = format!("tcp://{}", lines.next().unwrap().unwrap().rsplit("tcp://").next().unwrap());
+    let (mut edge, _lines, addr) = spawn_listening_edge(&["--listen", "tcp://localhost:0", "--sessions", "2"]);
+    let to = format!("tcp://{addr}");
     let (out, report) = (dir.path().join("forecasts.csv"), dir.path().join("frames.csv"));
 
     let refused = dynotraj()

@@ -2,8 +2,6 @@
 //! client answers a 16-car fixture stream with exactly the bits the in-process edge computes,
 //! once with constant velocity and once with an int8 model loaded over the link.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use dynotraj_core::model::Dims;
@@ -13,7 +11,9 @@ use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_host::stream::{StreamOptions, stream};
-use dynotraj_tests::edge_fixture::{edge_binary, encode_all, host_messages, outputs, reference_replies, scene_tracks};
+use dynotraj_tests::edge_fixture::{
+    encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
+};
 
 /// Streams the fixture over TCP with `sent` over the link and compares with the in-process
 /// edge that has `expected` linked in; returns the edge's stderr after its first line and the
@@ -24,14 +24,7 @@ fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> (Vec<String>, Vec
     let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
     assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
 
-    let mut edge = Command::new(edge_binary())
-        .args(["--listen", "tcp://127.0.0.1:0", "--sessions", "1"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(edge.stderr.take().unwrap()).lines();
-    let first = lines.next().unwrap().unwrap();
-    let addr = first.rsplit("tcp://").next().unwrap().to_string();
+    let (mut edge, lines, addr) = spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--sessions", "1"]);
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10)).unwrap();
     let opt = StreamOptions { lockstep: true, model: sent, ..StreamOptions::default() };
     let result = stream(&tracks, rx, tx, &opt);

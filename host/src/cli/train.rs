@@ -38,7 +38,7 @@ impl From<PrecisionArg> for Precision {
 /// Options of `dynotraj train`.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Run with RAYON_NUM_THREADS=1: candle's thread pools make this small network train about 3 times slower on 2 cores."
+    after_help = "Each training runs on one thread (candle's kernels split over threads train this small network about 3 times slower); --jobs spreads folds over the cores."
 )]
 pub struct TrainArgs {
     /// Data options.
@@ -201,11 +201,6 @@ impl HyperArgs {
 /// # Errors
 /// Loading errors, no training instances, I/O errors.
 pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
-    if std::env::var_os("RAYON_NUM_THREADS").is_none() && std::env::var_os("CANDLE_NUM_THREADS").is_none() {
-        log::warn!(
-            "RAYON_NUM_THREADS is unset: candle will use every core, which trains about 3 times slower on small machines; set RAYON_NUM_THREADS=1"
-        );
-    }
     let dt = args.data.dt()?;
     let rule = args.data.rule()?;
     let sequences = args.data.load_for(&args.sequences, &[args.source])?;

@@ -15,10 +15,10 @@
 //! excluded ones, a seeded 15% split of the runs for validation, training, and the best
 //! epoch's weights in a [`TrainedModel`].
 //!
-//! Speed: set `RAYON_NUM_THREADS=1` (or `CANDLE_NUM_THREADS=1`) in the environment of the
-//! process. The tensors are small, and candle's worker pools (sized from those variables when
-//! first used, with spinning workers) make training three times slower on 2 cores; only the
-//! environment configures them.
+//! Speed: run with `RAYON_NUM_THREADS=1` in the environment (the `dynotraj` command sets it for
+//! itself). The tensors are small; candle's kernels split over threads make training about
+//! three times slower on 2 cores, and with the variable unset candle counts the cores from
+//! /proc and /sys at every matrix product.
 
 pub mod batch;
 pub mod cells;

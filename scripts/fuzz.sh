@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Runs every cargo-fuzz target of fuzz/ for a budget of executions (default 10 million, capped
+# at 30 minutes each), spread over the machine's cores, then minimises each corpus in place.
+# A crash input lands in fuzz/artifacts/<target>/; keep it in fuzz/regressions/<target>/ once
+# fixed (tests/tests/fuzz_corpus_regression.rs replays both folders in every test run).
+#
+#   bash scripts/fuzz.sh [RUNS] [TARGET...]
+#
+# Prints one line per target: executions, seconds, crashes, corpus files kept.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/env.sh
+runs="${1:-10000000}"
+shift || true
+command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
+export RUSTC_BOOTSTRAP=1
+fuzz_target_dir="${DYNOTRAJ_FUZZ_TARGET:-$HOME/.cache/dynotraj-fuzz-target}"
+cd fuzz
+targets=("$@")
+[ ${#targets[@]} -gt 0 ] || mapfile -t targets < <(cargo fuzz list)
+for t in "${targets[@]}"; do cargo fuzz build -s none --target-dir "$fuzz_target_dir" "$t" >/dev/null; done
+logs=$(mktemp -d)
+run_one() {
+    local t=$1 logs=$2 runs=$3 dir=$4
+    mkdir -p "corpus/$t"
+    if cargo fuzz run -s none --target-dir "$dir" "$t" "corpus/$t" -- \
+        -runs="$runs" -max_total_time=1800 -print_final_stats=1 >"$logs/$t.log" 2>&1; then
+        echo 0 >"$logs/$t.crashes"
+    else
+        echo 1 >"$logs/$t.crashes"
+    fi
+}
+export -f run_one
+jobs=$(nproc)
+printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$logs" "$runs" "$fuzz_target_dir"
+echo "target,executions,seconds,crashes,corpus_files"
+for t in "${targets[@]}"; do
+    cargo fuzz cmin -s none --target-dir "$fuzz_target_dir" "$t" "corpus/$t" >"$logs/$t.cmin" 2>&1 || true
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$logs/$t.log" | grep -o '[0-9]*$' | tail -1)
+    secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$logs/$t.log" | grep -o 'in [0-9]*' | grep -o '[0-9]*' | tail -1)
+    echo "$t,${execs:-?},${secs:-?},$(cat "$logs/$t.crashes"),$(ls "corpus/$t" | wc -l)"
+done
+rm -rf "$logs"
