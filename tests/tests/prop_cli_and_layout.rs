@@ -137,7 +137,7 @@ proptest! {
             if all.is_empty() {
                 break;
             }
-            apply(pick.get(&all), d);
+            apply(pick.get::<PathBuf>(&all), d);
         }
         let loaded = TrackingDir::open(dir.path()).and_then(|t| {
             let ids = t.sequences()?;

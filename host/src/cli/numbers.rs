@@ -23,7 +23,14 @@ fn single(v: f64, text: &str) -> Result<f32, String> {
     // In range for f32 by the callers' bounds, or rejected here when it overflows.
     #[allow(clippy::cast_possible_truncation)]
     let x = v as f32;
-    if x.is_finite() { Ok(x) } else { Err(format!("expected a number within single precision, found `{text}`")) }
+    // A tiny non-zero value would round to 0 and pass as "positive" while meaning nothing.
+    if x.is_finite() && (x != 0.0 || v == 0.0) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected a number within single precision (at most 3.4e38, and not so small it rounds to 0), found `{text}`"
+        ))
+    }
 }
 
 /// A positive finite number.
@@ -113,6 +120,12 @@ pub fn send_rate(text: &str) -> Result<f64, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_value_that_single_precision_rounds_to_zero_is_refused() {
+        assert!(positive_f32("1e-50").unwrap_err().contains("rounds to 0"));
+        assert_eq!(non_negative_f32("0"), Ok(0.0));
+    }
 
     #[test]
     fn every_unusable_value_is_refused_with_what_was_expected() {
