@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs every cargo-fuzz target of fuzz/ for a budget of executions (default 10 million, capped
 # at 30 minutes each), spread over the machine's cores, then minimises each corpus in place.
-# A crash input lands in fuzz/artifacts/<target>/; keep it in fuzz/regressions/<target>/ once
-# fixed (tests/tests/fuzz_corpus_regression.rs replays both folders in every test run).
+# The targets are built once, first, and their binaries run (not `cargo fuzz run`, which would
+# rebuild from a work tree that may have changed since). A crash input lands in
+# fuzz/artifacts/<target>/; keep it in fuzz/regressions/<target>/ once fixed
+# (tests/tests/fuzz_corpus_regression.rs replays both folders in every test run).
 #
 #   bash scripts/fuzz.sh [RUNS] [TARGET...]
 #
@@ -18,26 +20,29 @@ fuzz_target_dir="${DYNOTRAJ_FUZZ_TARGET:-$HOME/.cache/dynotraj-fuzz-target}"
 cd fuzz
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || mapfile -t targets < <(cargo fuzz list)
-for t in "${targets[@]}"; do cargo fuzz build -s none --target-dir "$fuzz_target_dir" "$t" >/dev/null; done
+echo "building ${targets[*]} at $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- .. || echo ' (with uncommitted changes)')" >&2
+for t in "${targets[@]}"; do cargo fuzz build -s none --target-dir "$fuzz_target_dir" "$t" >&2; done
+bin_dir="$fuzz_target_dir/x86_64-unknown-linux-gnu/release"
 logs=$(mktemp -d)
 run_one() {
-    local t=$1 logs=$2 runs=$3 dir=$4
-    mkdir -p "corpus/$t"
-    if cargo fuzz run -s none --target-dir "$dir" "$t" "corpus/$t" -- \
-        -runs="$runs" -max_total_time=1800 -print_final_stats=1 >"$logs/$t.log" 2>&1; then
+    local t=$1 logs=$2 runs=$3 bin_dir=$4
+    mkdir -p "corpus/$t" "artifacts/$t"
+    if "$bin_dir/$t" "corpus/$t" -artifact_prefix="artifacts/$t/" -runs="$runs" -max_total_time=1800 \
+        -print_final_stats=1 >"$logs/$t.log" 2>&1; then
         echo 0 >"$logs/$t.crashes"
     else
         echo 1 >"$logs/$t.crashes"
     fi
 }
 export -f run_one
-jobs=$(nproc)
-printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$@"' _ {} "$logs" "$runs" "$fuzz_target_dir"
+printf '%s\n' "${targets[@]}" | xargs -P "$(nproc)" -I{} bash -c 'run_one "$@"' _ {} "$logs" "$runs" "$bin_dir"
 echo "target,executions,seconds,crashes,corpus_files"
 for t in "${targets[@]}"; do
-    cargo fuzz cmin -s none --target-dir "$fuzz_target_dir" "$t" "corpus/$t" >"$logs/$t.cmin" 2>&1 || true
+    # Minimise: merge the corpus into an empty folder, keeping only inputs that add coverage.
+    rm -rf "$logs/min" && mkdir "$logs/min"
+    "$bin_dir/$t" -merge=1 "$logs/min" "corpus/$t" >"$logs/$t.cmin" 2>&1 && rm -rf "corpus/$t" && mv "$logs/min" "corpus/$t"
     execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$logs/$t.log" | grep -o '[0-9]*$' | tail -1)
     secs=$(grep -o 'Done [0-9]* runs in [0-9]* second' "$logs/$t.log" | grep -o 'in [0-9]*' | grep -o '[0-9]*' | tail -1)
-    echo "$t,${execs:-?},${secs:-?},$(cat "$logs/$t.crashes"),$(ls "corpus/$t" | wc -l)"
+    echo "$t,${execs:-?},${secs:-?},$(cat "$logs/$t.crashes"),$(find "corpus/$t" -type f | wc -l)"
 done
 rm -rf "$logs"

@@ -12,6 +12,10 @@
 //! - [`smooth`]: the unicycle EKF (the paper's GT+EKF baseline) and its fixed-window RTS smoother.
 //! - [`predict`]: unicycle dynamics and the baseline predictors (constant velocity, CTRA).
 //! - [`metrics`]: ADE, FDE, ACE and RPE.
+//! - [`estimate`]: the dynamic-SLAM estimator: camera ego-motion and every object's SE(3)
+//!   motion from feature tracks, smoothed in a fixed-lag window (the paper's Estimated source).
+//! - [`model`]: the learned predictor: its architecture, the model blob, float and int8
+//!   inference, and the signature check of a blob sent to the edge.
 #![no_std]
 #![forbid(unsafe_code)]
 

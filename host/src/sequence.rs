@@ -2,16 +2,14 @@
 //! when asked for, the estimator's (the paper's Estimated source).
 
 use anyhow::Context as _;
-use dynotraj_core::wire::ObjectClass;
-use nalgebra::Point3;
 
 use crate::estimate::cache;
-use crate::estimate::evaluate::EvalOptions;
 use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
+pub use crate::estimate::settings::EstimateSettings;
 use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{
-    EstimatedTracks, LabelledObservation, OursInput, Source, Track, estimated_tracks, ground_truth_tracks,
-    image_estimated_tracks, rendered_estimated_tracks,
+    EstimatedTracks, OursInput, Source, Track, estimated_tracks, image_estimated_tracks, label_tracks,
+    rendered_estimated_tracks,
 };
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
@@ -55,27 +53,6 @@ impl SequenceTracks {
 /// Any loading error of the sequence's files, with the file named.
 pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result<SequenceTracks> {
     load_sequence(dir, id, dt, None)
-}
-
-/// How the Estimated source is made for sequences without real images.
-#[derive(Debug, Clone, PartialEq)]
-pub struct EstimateSettings {
-    /// The estimator's (and the track-level simulator's) options.
-    pub options: EvalOptions,
-    /// Simulated tracks or a rendering.
-    pub input: OursInput,
-    /// Render scale for [`OursInput::Rendered`] (1: KITTI's 1242 x 375).
-    pub render_scale: f64,
-    /// A folder where estimated tracks are kept between runs ([`crate::estimate::cache`]).
-    pub cache: Option<std::path::PathBuf>,
-}
-
-impl EstimateSettings {
-    /// The track-level simulator with `options`.
-    #[must_use]
-    pub fn tracks(options: EvalOptions) -> Self {
-        Self { options, input: OursInput::Tracks, render_scale: 1.0, cache: None }
-    }
 }
 
 /// Loads sequence `id` of `dir` at frame period `dt`: its ground-truth tracks and, with
@@ -146,24 +123,10 @@ fn estimated_cached(
 /// Builds ground-truth tracks from loaded sequence data.
 #[must_use]
 pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> SequenceTracks {
-    let observations: Vec<LabelledObservation> = data
-        .labels
-        .iter()
-        .filter(|r| !r.is_dont_care())
-        .filter_map(|r| {
-            Some(LabelledObservation {
-                frame: u32::try_from(r.frame).ok()?,
-                track_id: i32::try_from(r.track_id).ok()?,
-                class: ObjectClass::from_kitti_name(&r.object_type)?,
-                location: Point3::new(r.x, r.y, r.z),
-                rotation_y: r.rotation_y,
-            })
-        })
-        .collect();
     SequenceTracks {
         id: id.to_string(),
         frame_count: data.frame_count,
-        tracks: ground_truth_tracks(&observations, &data.poses, dt),
+        tracks: label_tracks(data, dt),
         estimated: None,
     }
 }

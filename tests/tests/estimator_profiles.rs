@@ -7,7 +7,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_edge::Edge;
 use dynotraj_host::estimate::evaluate::EvalOptions;
 use dynotraj_host::estimate::from_images::{render_camera, rendered_params};
-use dynotraj_host::frontend::e2e::intrinsics_of;
+use dynotraj_host::frontend::rendered::intrinsics_of;
 
 #[test]
 fn the_edge_runs_the_edge_profile() {

@@ -5,15 +5,15 @@ use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_host::estimate::Kind;
+use dynotraj_host::estimate::end_to_end;
 use dynotraj_host::frontend::StereoParams;
-use dynotraj_host::frontend::e2e;
 
 #[test]
 fn rendered_drive_through_front_end_and_estimator_tracks_camera_and_objects() {
     let d = generate(&DriveSpec { frames: 40, ..DriveSpec::default() });
     let sim = ImageSim::new(Camera::kitti(0.5), &d.camera_poses, &LabelBox::of_drive(&d), 1);
     let stereo = StereoParams { num_disparities: 64, ..StereoParams::kitti() };
-    let r = e2e::run(&sim, 40, 0.1, stereo, 0.1).unwrap();
+    let r = end_to_end::run(&sim, 40, 0.1, stereo, 0.1).unwrap();
     let s = r.stats;
     eprintln!("{s:#?}\nstatic survival {:.3}, object survival {:.3}", s.static_survival(), s.object_survival());
     for (kind, k) in Kind::ALL.iter().zip(&r.scores.kinds) {

@@ -30,8 +30,6 @@ pub struct CameraTrack<const W: usize> {
     path: SmoothedPath<W>,
     /// Frame-to-frame pose at the newest step.
     f2f: Pose3,
-    /// Frame-to-frame pose at the step before.
-    f2f_previous: Pose3,
     /// The newest frame-to-frame motion `T_(k-1)^-1 T_k`.
     increment: Pose3,
     /// Whether a first frame was seen.
@@ -48,13 +46,7 @@ impl<const W: usize> CameraTrack<W> {
     /// A camera not yet started.
     #[must_use]
     pub fn new() -> Self {
-        Self {
-            path: SmoothedPath::new(),
-            f2f: Pose3::identity(),
-            f2f_previous: Pose3::identity(),
-            increment: Pose3::identity(),
-            started: false,
-        }
+        Self { path: SmoothedPath::new(), f2f: Pose3::identity(), increment: Pose3::identity(), started: false }
     }
 
     /// Whether the first frame was seen.
@@ -69,12 +61,6 @@ impl<const W: usize> CameraTrack<W> {
         &self.f2f
     }
 
-    /// The frame-to-frame pose of the frame before the newest.
-    #[must_use]
-    pub const fn frame_to_frame_previous(&self) -> &Pose3 {
-        &self.f2f_previous
-    }
-
     /// The causal (smoothed up to now) pose of the newest frame.
     #[must_use]
     pub const fn causal(&self) -> &Pose3 {
@@ -85,7 +71,6 @@ impl<const W: usize> CameraTrack<W> {
     pub fn start(&mut self, step: u32) {
         self.path.start(Pose3::identity(), step);
         self.f2f = Pose3::identity();
-        self.f2f_previous = Pose3::identity();
         self.increment = Pose3::identity();
         self.started = true;
     }
@@ -123,7 +108,6 @@ impl<const W: usize> CameraTrack<W> {
         if let Some(m) = &measured {
             self.increment = m.delta;
         }
-        self.f2f_previous = self.f2f;
         self.f2f = normalised(self.f2f * self.increment);
         let z = measured.as_ref().map(|m| (&m.xi, &m.information));
         let c_bar = se3_log(&self.increment);
@@ -160,11 +144,5 @@ impl<const W: usize> CameraTrack<W> {
     /// Emits the leaving step without a new frame (flushing at the end of a stream).
     pub fn drain(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>, leaving: u32) -> Option<Emitted> {
         self.path.drain(s, scratch, leaving).ok().flatten()
-    }
-
-    /// The anchor step's emission at the very first frame when the window holds one frame only.
-    #[must_use]
-    pub fn pending(&self) -> usize {
-        self.path.pending()
     }
 }

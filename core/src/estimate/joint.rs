@@ -45,10 +45,7 @@
 
 use super::chain::{ChainScratch, ChainSmoother, SlotView, Smoothness};
 use super::lie::{Mat6, PackedSym6, Vec6, ad_matrix, adjoint, lin_to_pose};
-
-/// Default Gauss-Seidel sweeps per frame (objects then camera), before the final object solve
-/// ([`super::EstimatorParams::joint_sweeps`]; docs/results.md has the figures per setting).
-pub const JOINT_SWEEPS: usize = 6;
+pub use super::params::JOINT_SWEEPS;
 
 /// The coupling `B` of an object slot to the camera motion `c_bar` it was measured against.
 #[must_use]

@@ -16,7 +16,7 @@ use heapless::Vec;
 use nalgebra::{Point3, Vector3};
 
 use super::frame::Obs;
-use super::matching::for_each_match;
+use super::matching::{Tracked, for_each_match};
 use super::measure::Correspondences;
 use super::model::{Correspondence, PointModel};
 use crate::geometry::{NormBound, Pose3};
@@ -37,6 +37,12 @@ pub struct Landmark {
     p: [i16; 3],
     /// Measurements averaged, `1..=MAX_LANDMARK_WEIGHT`.
     pub weight: u8,
+}
+
+impl Tracked for Landmark {
+    fn track_id(&self) -> u32 {
+        self.track_id
+    }
 }
 
 impl Landmark {

@@ -1,7 +1,6 @@
 //! Matching by track id: a linear merge of two id-sorted lists.
 
 use super::frame::Obs;
-use super::landmarks::Landmark;
 
 /// Anything with a track id.
 pub trait Tracked {
@@ -10,12 +9,6 @@ pub trait Tracked {
 }
 
 impl Tracked for Obs {
-    fn track_id(&self) -> u32 {
-        self.track_id
-    }
-}
-
-impl Tracked for Landmark {
     fn track_id(&self) -> u32 {
         self.track_id
     }

@@ -20,6 +20,7 @@ use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};
 use super::rng::Pcg32;
+use super::stats::EndCause;
 use crate::geometry::{Point2, Pose3, se3_log};
 use crate::wire::ObjectClass;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
@@ -41,18 +42,6 @@ pub const MAX_HELD_FRAMES: u8 = 5;
 const REACQUIRE_RADIUS_M: f32 = 0.6;
 /// Pair-and-fit passes of a re-acquisition (an iterative-closest-point loop, cut short).
 const REACQUIRE_PASSES: usize = 2;
-
-/// Why a run ended before its object was gone for good.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EndCause {
-    /// The object was missing from more than [`MAX_HELD_FRAMES`] consecutive frames.
-    Lost,
-    /// Its motion fit failed in more than [`MAX_HELD_FRAMES`] consecutive frames (too few
-    /// matched points, or no consensus).
-    FitFailed,
-    /// Its points lay beyond the usable depth for more than [`MAX_HELD_FRAMES`] frames.
-    OutOfRange,
-}
 
 /// Where a run is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -3,6 +3,10 @@
 //! Every value is documented with its unit and why it has its default. The defaults suit a
 //! KITTI-like stereo rig (fx about 720 px, baseline x focal about 388 px m) at 10 Hz.
 
+/// Default Gauss-Seidel sweeps per frame (objects then camera), before the final object solve
+/// ([`EstimatorParams::joint_sweeps`]; docs/results.md has the figures per setting).
+pub const JOINT_SWEEPS: usize = 6;
+
 /// Pinhole intrinsics of the reference (left) camera, plus the stereo constant that turns depth
 /// into disparity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,7 +170,7 @@ pub struct EstimatorParams {
     /// turns it off.
     pub vehicle_kinematics: Option<KinematicPrior>,
     /// Block Gauss-Seidel sweeps of the joint camera-object solve per frame
-    /// ([`super::joint`]; default [`super::joint::JOINT_SWEEPS`]). 0 turns the coupling off:
+    /// ([`super::joint`]; default [`JOINT_SWEEPS`]). 0 turns the coupling off:
     /// objects are then smoothed against the frame-to-frame camera and the camera alone (the
     /// estimator before the joint solve, kept for comparison).
     pub joint_sweeps: u8,
@@ -215,7 +219,7 @@ impl EstimatorParams {
             // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.
             camera_smoother: SmootherParams { sigma_translation: 0.05, sigma_rotation: 0.005 },
             vehicle_kinematics: Some(KinematicPrior::ROAD_VEHICLE),
-            joint_sweeps: super::joint::JOINT_SWEEPS as u8,
+            joint_sweeps: JOINT_SWEEPS as u8,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! The smoothing window is a const generic of [`super::Estimator`] (its memory is fixed at
 //! build time), so a profile names it as a number for the caller to instantiate with.
 
-use super::joint::JOINT_SWEEPS;
+use super::params::JOINT_SWEEPS;
 use super::params::{EstimatorParams, Intrinsics};
 
 /// The host's smoothing window, frames (DynoSAM's sliding window is 20 frames).

@@ -70,8 +70,7 @@ pub struct EstimatorStats {
 
 impl EstimatorStats {
     /// Counts a run that ended for `cause`.
-    pub(super) fn run_ended(&mut self, cause: super::object_run::EndCause) {
-        use super::object_run::EndCause;
+    pub(super) fn run_ended(&mut self, cause: EndCause) {
         bump(match cause {
             EndCause::Lost => &mut self.runs_ended_lost,
             EndCause::FitFailed => &mut self.runs_ended_fit_failed,
@@ -88,4 +87,16 @@ pub(super) fn bump(c: &mut u32) {
 /// Adds `n` to a counter, saturating.
 pub(super) fn add(c: &mut u32, n: usize) {
     *c = c.saturating_add(u32::try_from(n).unwrap_or(u32::MAX));
+}
+
+/// Why a run ended before its object was gone for good.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EndCause {
+    /// The object was missing from more than [`super::MAX_HELD_FRAMES`] consecutive frames.
+    Lost,
+    /// Its motion fit failed in more than [`super::MAX_HELD_FRAMES`] consecutive frames (too few
+    /// matched points, or no consensus).
+    FitFailed,
+    /// Its points lay beyond the usable depth for more than [`super::MAX_HELD_FRAMES`] frames.
+    OutOfRange,
 }

@@ -11,8 +11,9 @@ use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
+use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
-use crate::frontend::{StereoParams, e2e};
+use crate::frontend::StereoParams;
 use crate::image_sim_files::write_sequence;
 use crate::kitti::TrackingDir;
 
@@ -116,7 +117,7 @@ fn end_to_end(args: &SimulateArgs, sim: &ImageSim, n: usize) -> anyhow::Result<(
     let nd = ((128.0 * args.scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities: nd, downscale: args.stereo_downscale, ..StereoParams::kitti() };
     // The paper's 20 Hz for timestamps; RPE does not depend on it.
-    let r = e2e::run(sim, n, 0.05, stereo, 0.1)?;
+    let r = end_to_end::run(sim, n, 0.05, stereo, 0.1)?;
     let s = r.stats;
     println!(
         "{n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving objects",

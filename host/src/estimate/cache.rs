@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
 
+use super::settings::EstimateSettings;
 use crate::kitti::SequenceData;
-use crate::sequence::EstimateSettings;
 use crate::trajectory::EstimatedTracks;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the

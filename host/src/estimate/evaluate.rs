@@ -13,8 +13,8 @@ use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, PartsFrame, run_estimator, run_parts};
 use super::score::{RunScores, Smoothness, SmoothnessSum, moving_objects, score_run, smoothness};
 use crate::kitti::SequenceData;
-use crate::sequence::ground_truth_of;
 use crate::tracks_file::TracksWriter;
+use crate::trajectory::label_tracks;
 
 /// The smoothing window of the command (DynoSAM's 20 frames).
 pub const WINDOW: usize = dynotraj_core::estimate::DEFAULT_WINDOW;
@@ -264,7 +264,7 @@ pub fn score_sequence(
     let estimate_seconds = t0.elapsed().as_secs_f64();
     let moving = moving_objects(&sim, opt.min_step_m);
     let scores = score_run(&sim, &run, &moving);
-    let smoothness = smoothness_table(id, data, opt, &sim, &run, &moving);
+    let smoothness = smoothness_table(data, opt, &sim, &run, &moving);
     SequenceResult {
         id: id.to_string(),
         profile: opt.profile,
@@ -282,7 +282,6 @@ pub fn score_sequence(
 
 /// Smoothness of labels, truth and each kind, on the frame pairs of the smoothed estimate.
 fn smoothness_table(
-    id: &str,
     data: &SequenceData,
     opt: &EvalOptions,
     sim: &[SimFrame],
@@ -290,13 +289,13 @@ fn smoothness_table(
     moving: &BTreeSet<u16>,
 ) -> [Smoothness; 5] {
     let (_, pairs) = smoothness(run.of(Kind::Smoothed), moving);
-    let gt = ground_truth_of(id, data, opt.dt);
+    let gt = label_tracks(data, opt.dt);
     let mut labels = SmoothnessSum::default();
     let mut truth = SmoothnessSum::default();
     let dt = f64::from(opt.dt);
     for &(object_id, i) in &pairs {
         let kitti_id = i32::from(object_id) - 1;
-        if let Some(t) = gt.tracks.iter().find(|t| t.track_id == kitti_id) {
+        if let Some(t) = gt.iter().find(|t| t.track_id == kitti_id) {
             let at = |frame: usize| t.frames.iter().position(|&f| f as usize == frame).map(|j| t.states[j]);
             if let (Some(a), Some(b)) = (at(i), at(i + 1)) {
                 labels.push(&a, &b);

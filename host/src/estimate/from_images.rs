@@ -23,7 +23,7 @@ use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::{EstimatorRun, PartsFrame};
 use super::score::{RunScores, moving_objects, score_run};
-use crate::frontend::e2e;
+use crate::frontend::rendered;
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
 use crate::kitti::SequenceData;
@@ -119,7 +119,7 @@ pub fn render_and_track(
     // Disparities scale with the image: 128 at full resolution reaches 3 m.
     let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
-    let frames = e2e::track(&sim, n, opt.dt, stereo)?.frames;
+    let frames = rendered::track(&sim, n, opt.dt, stereo)?.frames;
     if let (Some(dir), Some(key)) = (cache, key) {
         rendered_cache::store(dir, id, key, &frames)?;
     }
@@ -135,7 +135,7 @@ pub fn render_camera(scale: f64) -> Camera {
 /// The estimator's camera model of a rendering at `scale`.
 #[must_use]
 pub fn rendered_intrinsics(scale: f64) -> Intrinsics {
-    e2e::intrinsics_of(&render_camera(scale))
+    rendered::intrinsics_of(&render_camera(scale))
 }
 
 /// The estimator parameters for tracks of a rendering at `scale`: the KITTI defaults with the

@@ -11,10 +11,13 @@
 //! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
 //! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
 //! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
+//! - [`end_to_end`]: a rendered sequence through the front-end and the estimator, scored.
+//! - [`settings`]: how the Estimated source is made (options, simulated or rendered tracks).
 //! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
 pub mod bench;
 pub mod cache;
+pub mod end_to_end;
 pub mod evaluate;
 pub mod files;
 pub mod from_images;
@@ -22,6 +25,7 @@ pub mod input;
 pub mod rendered_cache;
 pub mod runner;
 pub mod score;
+pub mod settings;
 
 pub use input::{SimInput, sim_input};
 pub use runner::{EstimatorRun, Kind, run_estimator};

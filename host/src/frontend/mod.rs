@@ -17,13 +17,13 @@
 pub mod bench;
 pub mod check;
 pub mod depth;
-pub mod e2e;
 pub mod error;
 pub mod features;
 pub mod image_io;
 pub mod klt;
 pub mod masks;
 pub mod pipeline;
+pub mod rendered;
 pub mod sequence;
 pub mod stats;
 pub mod stereo;

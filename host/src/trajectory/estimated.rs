@@ -26,6 +26,7 @@ use dynotraj_core::wire::ObjectClass;
 
 use super::Track;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
+pub use crate::estimate::settings::OursInput;
 use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -38,19 +39,6 @@ pub enum EstimateInput {
     /// The image front-end's tracks of the sequence's own stereo images (no truth).
     Images,
     /// The image front-end's tracks of a rendering of the sequence by the image simulator.
-    Rendered,
-}
-
-/// Where the Estimated source takes its feature tracks for a sequence without real images.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum OursInput {
-    /// The track-level simulator: tracks of points on the labelled boxes and the static scene
-    /// with pixel and depth noise and outliers (seconds for the nine sequences).
-    Tracks,
-    /// The image simulator renders each sequence and the OpenCV front-end tracks the images
-    /// (minutes: rendering, SGBM stereo and KLT at the render scale). The default: Ours is
-    /// images -> front-end -> estimator.
-    #[default]
     Rendered,
 }
 

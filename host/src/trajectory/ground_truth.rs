@@ -7,6 +7,8 @@ use dynotraj_core::geometry::{bev_heading_of_rotation_y, bev_point};
 use dynotraj_core::wire::ObjectClass;
 use nalgebra::{Isometry3, Point3};
 
+use crate::kitti::SequenceData;
+
 /// One labelled object in one frame, in the labelling camera's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LabelledObservation {
@@ -101,6 +103,27 @@ fn fill_finite_difference_speed(frames: &[u32], states: &mut [BevState], dt: f32
     for (s, v) in states.iter_mut().zip(speeds) {
         s.speed = v;
     }
+}
+
+/// The labelled objects of a loaded sequence as world-frame tracks at frame period `dt`
+/// (DontCare regions and unknown types left out).
+#[must_use]
+pub fn label_tracks(data: &SequenceData, dt: f32) -> Vec<Track> {
+    let observations: Vec<LabelledObservation> = data
+        .labels
+        .iter()
+        .filter(|r| !r.is_dont_care())
+        .filter_map(|r| {
+            Some(LabelledObservation {
+                frame: u32::try_from(r.frame).ok()?,
+                track_id: i32::try_from(r.track_id).ok()?,
+                class: ObjectClass::from_kitti_name(&r.object_type)?,
+                location: Point3::new(r.x, r.y, r.z),
+                rotation_y: r.rotation_y,
+            })
+        })
+        .collect();
+    ground_truth_tracks(&observations, &data.poses, dt)
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
-//! Rendered sequence -> front-end -> core estimator, scored against the simulator's truth: the
-//! whole image path with exact truth.
+//! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
+//! estimator and its scores are [`crate::estimate::end_to_end`]).
 
-use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
+use dynotraj_core::estimate::Intrinsics;
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::SimFrame;
 
@@ -11,23 +11,6 @@ use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;
 use super::stereo::StereoParams;
 use super::tracker::TrackerParams;
-use crate::estimate::evaluate::WINDOW;
-use crate::estimate::{EstimatorRun, RunScores, run_estimator, score_run};
-
-/// What an end-to-end run gave.
-#[derive(Debug, Clone)]
-pub struct EndToEnd {
-    /// The front-end's tracks with the truth, per frame.
-    pub frames: Vec<SimFrame>,
-    /// Stage times.
-    pub times: StageTimes,
-    /// Front-end counters.
-    pub stats: FrontEndStats,
-    /// The estimator's outputs.
-    pub run: EstimatorRun,
-    /// RPE per output kind.
-    pub scores: RunScores,
-}
 
 /// What the front-end gave on a rendering: its tracks with the truth, per frame, and how it did.
 #[derive(Debug, Clone)]
@@ -67,25 +50,4 @@ pub fn intrinsics_of(cam: &Camera) -> Intrinsics {
         cy: cam.cy as f32,
         stereo_fb: cam.fb() as f32,
     }
-}
-
-/// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame, then the
-/// estimator (the host profile's window, the KITTI defaults), and scores objects moving at least
-/// `min_step_m` per frame.
-///
-/// # Errors
-/// An OpenCV failure.
-pub fn run(
-    sim: &ImageSim,
-    frames: usize,
-    dt: f32,
-    stereo: StereoParams,
-    min_step_m: f64,
-) -> Result<EndToEnd, FrontEndError> {
-    let Tracked { frames: out, times, stats } = track(sim, frames, dt, stereo)?;
-    let params = EstimatorParams::kitti(intrinsics_of(&sim.camera), dt);
-    let run = run_estimator::<WINDOW>(&out, params, 1);
-    let moving = crate::estimate::score::moving_objects(&out, min_step_m);
-    let scores = score_run(&out, &run, &moving);
-    Ok(EndToEnd { frames: out, times, stats, run, scores })
 }

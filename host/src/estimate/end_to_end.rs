@@ -1,0 +1,51 @@
+//! Rendered sequence -> front-end -> core estimator, scored against the simulator's truth: the
+//! whole image path with exact truth.
+
+use dynotraj_core::estimate::EstimatorParams;
+use dynotraj_fixtures::image_sim::ImageSim;
+use dynotraj_fixtures::track_sim::SimFrame;
+
+use super::evaluate::WINDOW;
+use super::score::moving_objects;
+use super::{EstimatorRun, RunScores, run_estimator, score_run};
+use crate::frontend::error::FrontEndError;
+use crate::frontend::pipeline::StageTimes;
+use crate::frontend::rendered::{Tracked, intrinsics_of, track};
+use crate::frontend::stats::FrontEndStats;
+use crate::frontend::stereo::StereoParams;
+
+/// What an end-to-end run gave.
+#[derive(Debug, Clone)]
+pub struct EndToEnd {
+    /// The front-end's tracks with the truth, per frame.
+    pub frames: Vec<SimFrame>,
+    /// Stage times.
+    pub times: StageTimes,
+    /// Front-end counters.
+    pub stats: FrontEndStats,
+    /// The estimator's outputs.
+    pub run: EstimatorRun,
+    /// RPE per output kind.
+    pub scores: RunScores,
+}
+
+/// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame, then the
+/// estimator (the host profile's window, the KITTI defaults), and scores objects moving at least
+/// `min_step_m` per frame.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn run(
+    sim: &ImageSim,
+    frames: usize,
+    dt: f32,
+    stereo: StereoParams,
+    min_step_m: f64,
+) -> Result<EndToEnd, FrontEndError> {
+    let Tracked { frames: out, times, stats } = track(sim, frames, dt, stereo)?;
+    let params = EstimatorParams::kitti(intrinsics_of(&sim.camera), dt);
+    let run = run_estimator::<WINDOW>(&out, params, 1);
+    let moving = moving_objects(&out, min_step_m);
+    let scores = score_run(&out, &run, &moving);
+    Ok(EndToEnd { frames: out, times, stats, run, scores })
+}
