@@ -25,7 +25,10 @@ pub fn kitti_training_dir() -> Option<PathBuf> {
     if dir.join("label_02").is_dir() {
         Some(dir)
     } else {
-        eprintln!("SKIPPED: real KITTI data not found at {} (set DYNOTRAJ_KITTI)", dir.display());
+        dynotraj_fixtures::skip::skipped(
+            "kitti_training_dir",
+            &format!("real KITTI data not found at {} (set DYNOTRAJ_KITTI)", dir.display()),
+        );
         None
     }
 }
@@ -43,9 +46,9 @@ pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
     if root.join(sub).is_dir() {
         Some(root)
     } else {
-        eprintln!(
-            "SKIPPED {what}: {} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)",
-            root.join(sub).display()
+        dynotraj_fixtures::skip::skipped(
+            what,
+            &format!("{} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)", root.join(sub).display()),
         );
         None
     }

@@ -35,7 +35,10 @@ fn forecasts(r: &InProcess) -> usize {
 fn development_build() -> bool {
     let dev = dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT;
     if !dev {
-        eprintln!("SKIPPED: the edge was built with DYNOTRAJ_MODEL_PUBKEY; these tests sign with the development key");
+        dynotraj_fixtures::skip::skipped(
+            "signed_model_link",
+            "the edge was built with DYNOTRAJ_MODEL_PUBKEY; these tests sign with the development key",
+        );
     }
     dev
 }

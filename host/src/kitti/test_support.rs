@@ -80,10 +80,12 @@ pub fn kitti_split(test: &str) -> Option<PathBuf> {
     });
     let split = [given.clone(), given.join("tracking/training")].into_iter().find(|d| d.join("label_02").is_dir());
     if split.is_none() {
-        println!(
-            "SKIPPED {test}: real KITTI data not found at {} (expected label_02/ there or in tracking/training/; \
-             set DYNOTRAJ_KITTI to the tracking split)",
-            given.display()
+        dynotraj_fixtures::skip::skipped(
+            test,
+            &format!(
+                "real KITTI data not found at {} (expected label_02/ there or in tracking/training/; set DYNOTRAJ_KITTI to the tracking split)",
+                given.display()
+            ),
         );
     }
     split
