@@ -59,6 +59,10 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     let mut forecast = [Point2::default(); HORIZON];
     LearnedPredictor::new(blob).predict_with_neighbours(&history, &[], 0.1, &mut forecast).unwrap();
     assert!(forecast.iter().all(|p| p.x.is_finite() && p.y.is_finite()));
+    // The unicycle rollout starts at the current 10 m/s and brakes at 4 m/s^2 at most: even a
+    // barely trained model goes on for at least 12.5 m in 3 s.
+    let travelled = forecast[HORIZON - 1].x - history[history.len() - 1].x;
+    assert!(travelled > 12.0, "the forecast moves on: {travelled} m in 3 s");
 
     // Evaluated at another rate than it was trained at, the model is refused with the reason
     // (it used to give a table of "-" and exit 0).

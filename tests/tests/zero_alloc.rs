@@ -83,9 +83,11 @@ fn core_decodes_filters_predicts_and_scores_without_allocating() {
             }
             previous = forecast;
         }
+        // An estimate that drifts 1 cm a frame along world x: every pair is off by 1 cm.
         let mut rpe = RpeAccumulator::new();
-        for p in &poses {
-            rpe.push(p, p);
+        for (k, p) in poses.iter().enumerate() {
+            let drifted = nalgebra::Translation3::new(0.01 * k as f32, 0.0, 0.0) * p;
+            rpe.push(p, &drifted);
         }
         (parts, points, decoder.stats(), smoothed, scores, rpe.result())
     });
@@ -97,7 +99,10 @@ fn core_decodes_filters_predicts_and_scores_without_allocating() {
     assert_eq!(smoothed, noisy.len() - 20, "one smoothed state per frame once the window is full");
     assert_eq!(scores.ade.count() as usize, car.len() - HORIZON - 1);
     assert!(scores.ade.value().is_some_and(f64::is_finite));
-    assert_eq!(rpe.map(|r| r.pairs), Some(79));
+    let rpe = rpe.expect("pairs scored");
+    assert_eq!(rpe.pairs, 79);
+    assert!((rpe.translation - 0.01).abs() < 1e-4, "RPE of a 1 cm-a-frame drift: {}", rpe.translation);
+    assert!(rpe.rotation < 1e-4, "no rotation error: {}", rpe.rotation);
 }
 
 #[test]

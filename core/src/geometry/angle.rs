@@ -51,8 +51,8 @@ mod tests {
             let a = k as f32 * 0.37;
             let w = wrap_angle(a);
             assert!(w > -PI - 1e-6 && w <= PI + 1e-6, "{a} -> {w}");
-            assert!(libm::sinf(w) - libm::sinf(a) < 1e-4);
-            assert!(libm::cosf(w) - libm::cosf(a) < 1e-4);
+            assert!((libm::sinf(w) - libm::sinf(a)).abs() < 1e-4, "{a} -> {w}: same sine");
+            assert!((libm::cosf(w) - libm::cosf(a)).abs() < 1e-4, "{a} -> {w}: same cosine");
         }
         assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-5);
         assert!((angle_diff(PI - 0.1, -PI + 0.1) + 0.2).abs() < 1e-5);

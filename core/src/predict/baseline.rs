@@ -138,15 +138,19 @@ mod tests {
         let dt = 0.1;
         let h = [st(0.0, 0.0, 0.0, 10.0), st(1.0, 0.0, 0.5, 10.0)];
         let mut out = [Point2::default(); HORIZON];
-        ctra(&h, dt, &mut out).unwrap_or_default();
+        assert_eq!(ctra(&h, dt, &mut out), Ok(()));
         // Heading after the horizon is 0.5 + 0.7 * 3 s at most: the path bends left but no more.
         let last = out[HORIZON - 1];
         let prev = out[HORIZON - 2];
         let final_heading = libm::atan2f(last.y - prev.y, last.x - prev.x);
+        assert!(final_heading > 0.5, "it turns left ({final_heading})");
         assert!(final_heading <= 0.5 + MAX_TURN_RATE * dt * HORIZON as f32 + 0.05);
+        assert!(libm::hypotf(last.x, last.y) > 20.0, "it goes on at about 10 m/s ({last:?})");
         let brake = [st(0.0, 0.0, 0.0, 2.0), st(0.2, 0.0, 0.0, 1.5)];
-        ctra(&brake, dt, &mut out).unwrap_or_default();
+        assert_eq!(ctra(&brake, dt, &mut out), Ok(()));
         assert!(out.windows(2).all(|w| w[1].x >= w[0].x - 1e-6), "never reverses");
+        assert!(out[0].x > 0.2, "it moves before it stops ({:?})", out[0]);
+        assert!((out[HORIZON - 1].x - out[HORIZON - 2].x).abs() < 1e-6, "and it stops");
     }
 
     #[test]
