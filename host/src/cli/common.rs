@@ -155,8 +155,9 @@ impl DataArgs {
             bar.inc(1);
             if !terminal {
                 // A log (no bar off a terminal) shows where a long load is.
+                let what = if s.is_ok() { "loaded" } else { "failed" };
                 eprintln!(
-                    "[{:>6.0} s] sequence {id} loaded ({}/{})",
+                    "[{:>6.0} s] sequence {id} {what} ({}/{})",
                     start.elapsed().as_secs_f64(),
                     bar.position(),
                     ids.len()
