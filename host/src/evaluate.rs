@@ -229,7 +229,7 @@ pub fn score_sequence_against(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{Source, Track};
+    use crate::trajectory::{ObjectTrack, Source};
     use dynotraj_core::wire::ObjectClass;
 
     #[test]
@@ -239,7 +239,8 @@ mod tests {
             .iter()
             .map(|&k| BevState { x: 0.5 * k as f32, y: 0.1 * k as f32, heading: 0.0, speed: 0.0 })
             .collect();
-        let scene = Scene::new(&[Track { track_id: 1, class: ObjectClass::Car, frames, states }], Source::Gt, 0.1);
+        let scene =
+            Scene::new(&[ObjectTrack { track_id: 1, class: ObjectClass::Car, frames, states }], Source::Gt, 0.1);
         let r = score_run(&scene.runs[0], 1..10, &scene, &mut Baseline::ConstantVelocity, 0.1);
         assert_eq!(r.scores.ade.count(), 9);
         assert_eq!(r.scores.ace.count(), 8);
@@ -257,7 +258,7 @@ mod tests {
                 .map(|&k| BevState { x: dx + 0.5 * k as f32, y: bend * (k as f32).powi(2), heading: 0.0, speed: 0.0 })
                 .collect()
         };
-        let track = |states| Track { track_id: 1, class: ObjectClass::Car, frames: frames.clone(), states };
+        let track = |states| ObjectTrack { track_id: 1, class: ObjectClass::Car, frames: frames.clone(), states };
         // The source refers to a point 5 m ahead of the truth's; the truth bends away.
         let source = Scene::new(&[track(line(5.0, 0.0))], Source::Gt, 0.1);
         let truth = Scene::new(&[track(line(0.0, 0.01))], Source::Gt, 0.1);
@@ -280,7 +281,7 @@ mod tests {
     #[test]
     fn the_common_reference_turns_the_truth_into_the_sources_world() {
         let frames: Vec<u32> = (0..40).collect();
-        let track = |dx: f32, dy: f32| Track {
+        let track = |dx: f32, dy: f32| ObjectTrack {
             track_id: 1,
             class: ObjectClass::Car,
             frames: frames.clone(),

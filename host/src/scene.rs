@@ -4,7 +4,7 @@
 use dynotraj_core::BevState;
 use dynotraj_core::limits::MAX_HISTORY;
 
-use crate::trajectory::{Source, Track};
+use crate::trajectory::{ObjectTrack, Source};
 
 /// One run of consecutive frames of a track, through a source.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,7 +41,7 @@ pub struct Scene {
 impl Scene {
     /// Applies `source` at frame period `dt` to every run of every track.
     #[must_use]
-    pub fn new(tracks: &[Track], source: Source, dt: f32) -> Self {
+    pub fn new(tracks: &[ObjectTrack], source: Source, dt: f32) -> Self {
         let runs = tracks
             .iter()
             .flat_map(|t| {
@@ -74,9 +74,9 @@ mod tests {
     use super::*;
     use dynotraj_core::wire::ObjectClass;
 
-    fn track(id: i32, frames: Vec<u32>) -> Track {
+    fn track(id: i32, frames: Vec<u32>) -> ObjectTrack {
         let states = frames.iter().map(|&f| BevState { x: f as f32, y: id as f32, heading: 0.0, speed: 1.0 }).collect();
-        Track { track_id: id, class: ObjectClass::Car, frames, states }
+        ObjectTrack { track_id: id, class: ObjectClass::Car, frames, states }
     }
 
     #[test]

@@ -8,7 +8,7 @@ use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_
 pub use crate::estimate::settings::EstimateSettings;
 use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{
-    EstimatedTracks, OursInput, Source, Track, estimated_tracks, image_estimated_tracks, label_tracks,
+    EstimatedTracks, ObjectTrack, OursInput, Source, estimated_tracks, image_estimated_tracks, label_tracks,
     rendered_estimated_tracks,
 };
 
@@ -20,7 +20,7 @@ pub struct SequenceTracks {
     /// Frames in the sequence.
     pub frame_count: usize,
     /// One track per labelled object (DontCare regions and unknown types excluded).
-    pub tracks: Vec<Track>,
+    pub tracks: Vec<ObjectTrack>,
     /// The estimator's tracks of the same sequence, when they were asked for
     /// ([`load_sequence`] with `estimate`).
     pub estimated: Option<EstimatedTracks>,
@@ -31,7 +31,7 @@ impl SequenceTracks {
     /// smoothed tracks for the estimated ones (empty when they were not loaded: callers check
     /// [`SequenceTracks::has`] first).
     #[must_use]
-    pub fn tracks_for(&self, source: Source) -> &[Track] {
+    pub fn tracks_for(&self, source: Source) -> &[ObjectTrack] {
         match (source, &self.estimated) {
             (Source::Estimated, Some(e)) => &e.causal,
             (Source::EstimatedSmoothed, Some(e)) => &e.smoothed,

@@ -9,7 +9,7 @@ use dynotraj_host::estimate::evaluate::{EvalOptions, evaluate_sequence, params_f
 use dynotraj_host::estimate::{Kind, run_estimator};
 use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::report::Table;
-use dynotraj_host::trajectory::{Track, tracks_of_estimates};
+use dynotraj_host::trajectory::{ObjectTrack, tracks_of_estimates};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {
@@ -128,7 +128,7 @@ fn the_estimated_source_from_a_rendering() {
     assert!(ade < 3.0, "{t:?}");
 }
 
-fn states_before(tracks: &[Track], end: u32) -> Vec<(i32, u32, [f32; 4])> {
+fn states_before(tracks: &[ObjectTrack], end: u32) -> Vec<(i32, u32, [f32; 4])> {
     tracks
         .iter()
         .flat_map(|t| {

@@ -8,9 +8,9 @@ use super::lie::normalised;
 use super::measure::{
     Correspondences, MotionMeasurement, correspondences, inverse_information, plausible, twist_measurement,
 };
-use super::model::PointModel;
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
+use super::point_model::PointModel;
 use super::rng::Pcg32;
 use crate::geometry::{Pose3, se3_log};
 

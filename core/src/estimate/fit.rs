@@ -15,8 +15,8 @@
 use nalgebra::{Matrix6, Vector6};
 
 use super::lie::{Mat6, pose_is_finite};
-use super::model::{Correspondence, PointModel};
 use super::params::FitParams;
+use super::point_model::{Correspondence, PointModel};
 use super::rng::Pcg32;
 use super::triad::rigid_from_three;
 use crate::geometry::{Pose3, se3_exp};

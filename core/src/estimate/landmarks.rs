@@ -18,7 +18,7 @@ use nalgebra::{Point3, Vector3};
 use super::frame::Obs;
 use super::matching::{Tracked, for_each_match};
 use super::measure::Correspondences;
-use super::model::{Correspondence, PointModel};
+use super::point_model::{Correspondence, PointModel};
 use crate::geometry::{NormBound, Pose3};
 use crate::limits::MAX_POINTS_PER_OBJECT;
 

@@ -15,10 +15,10 @@ use super::landmarks::{
 };
 use super::lie::{Vec6, normalised, pose_to_lin};
 use super::measure::{Correspondences, MotionMeasurement, measure_motion, robust_centroid};
-use super::model::PointModel;
 use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};
+use super::point_model::PointModel;
 use super::rng::Pcg32;
 use super::stats::EndCause;
 use crate::geometry::{Point2, Pose3, se3_log};

@@ -182,7 +182,7 @@ fn table_iii_caption(inputs: &[EstimateInput], render_scale: f64) -> String {
         format!(
             "the truth of the image simulator, which renders each sequence from its real labels, ego poses and calibration (scale {render_scale}); the OpenCV front-end tracks the rendered stereo images and the core estimator runs on its tracks. DynoSAM's figures on real images are printed below for reference (rendered images lack real images' blur, glare and texture)"
         )
-    } else if inputs.iter().all(|i| *i == EstimateInput::Simulated) {
+    } else if inputs.iter().all(|i| *i == EstimateInput::Tracks) {
         "the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration (no images: simulated feature tracks). Not comparable to DynoSAM on real images, printed below for reference".into()
     } else {
         "the simulator's truth of each sequence made by a simulator (the track-level one or the image renderer, per sequence; real-image sequences have no truth and no row)".into()
@@ -196,7 +196,7 @@ fn input_notes(inputs: &[EstimateInput]) -> Vec<String> {
     if inputs.contains(&EstimateInput::Rendered) {
         out.push("The Estimated arm runs images -> front-end -> estimator on the image simulator's rendering of each sequence: boxes moving along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels, and the images are cleaner than real ones: part of any advantage is the simulator's (docs/decisions.md).".into());
     }
-    if inputs.contains(&EstimateInput::Simulated) {
+    if inputs.contains(&EstimateInput::Tracks) {
         out.push("The Estimated arm's tracks come from simulated feature tracks (`--ours-input tracks`) of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
     }
     if inputs.contains(&EstimateInput::Images) {

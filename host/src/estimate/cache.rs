@@ -97,14 +97,14 @@ pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{EstimateInput, Track};
+    use crate::trajectory::{EstimateInput, ObjectTrack};
     use dynotraj_core::BevState;
     use dynotraj_core::wire::ObjectClass;
 
     #[test]
     fn tracks_round_trip_and_garbage_is_a_miss() {
         let dir = tempfile::tempdir().unwrap();
-        let track = Track {
+        let track = ObjectTrack {
             track_id: 3,
             class: ObjectClass::Cyclist,
             frames: vec![4, 5],

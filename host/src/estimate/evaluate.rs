@@ -11,7 +11,7 @@ use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
 
 use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, PartsFrame, run_estimator, run_parts};
-use super::score::{RunScores, Smoothness, SmoothnessSum, moving_objects, score_run, smoothness};
+use super::score::{RunScores, SmoothnessSum, TrajectorySmoothness, moving_objects, score_run, smoothness};
 use crate::kitti::SequenceData;
 use crate::tracks_file::TracksWriter;
 use crate::trajectory::label_tracks;
@@ -144,7 +144,7 @@ pub struct SequenceResult {
     pub scores: RunScores,
     /// Smoothness of the moving objects: KITTI labels, simulator truth, then each kind in
     /// [`Kind::ALL`] order, all on the pairs the smoothed estimate covers.
-    pub smoothness: [Smoothness; 5],
+    pub smoothness: [TrajectorySmoothness; 5],
     /// Estimator counters.
     pub stats: EstimatorStats,
     /// Wall time of estimation (decode included), seconds.
@@ -287,7 +287,7 @@ fn smoothness_table(
     sim: &[SimFrame],
     run: &EstimatorRun,
     moving: &BTreeSet<u16>,
-) -> [Smoothness; 5] {
+) -> [TrajectorySmoothness; 5] {
     let (_, pairs) = smoothness(run.of(Kind::Smoothed), moving);
     let gt = label_tracks(data, opt.dt);
     let mut labels = SmoothnessSum::default();

@@ -29,4 +29,4 @@ pub mod settings;
 
 pub use input::{SimInput, sim_input};
 pub use runner::{EstimatorRun, Kind, run_estimator};
-pub use score::{RunScores, Smoothness, score_run, smoothness};
+pub use score::{RunScores, TrajectorySmoothness, score_run, smoothness};

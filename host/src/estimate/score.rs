@@ -145,7 +145,7 @@ pub fn object_runs(
 
 /// Smoothness of bird's-eye trajectories: mean absolute change between consecutive frames.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Smoothness {
+pub struct TrajectorySmoothness {
     /// Mean |delta heading|, radians.
     pub heading: f64,
     /// Mean |delta speed|, m/s.
@@ -183,9 +183,9 @@ impl SmoothnessSum {
 
     /// The means.
     #[must_use]
-    pub fn result(&self) -> Smoothness {
+    pub fn result(&self) -> TrajectorySmoothness {
         let n = self.pairs.max(1) as f64;
-        Smoothness { heading: self.heading / n, speed: self.speed / n, pairs: self.pairs }
+        TrajectorySmoothness { heading: self.heading / n, speed: self.speed / n, pairs: self.pairs }
     }
 }
 

@@ -137,12 +137,12 @@ impl FoldCache {
 mod tests {
     use super::*;
     use crate::sequence::SequenceTracks;
-    use crate::trajectory::{Source, Track};
+    use crate::trajectory::{ObjectTrack, Source};
     use dynotraj_core::BevState;
     use dynotraj_core::wire::ObjectClass;
 
     fn seq(id: &str, x: f32) -> SequenceTracks {
-        let track = Track {
+        let track = ObjectTrack {
             track_id: 1,
             class: ObjectClass::Car,
             frames: vec![0, 1],

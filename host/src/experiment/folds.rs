@@ -133,13 +133,13 @@ mod tests {
     use super::*;
     use crate::train::Hyper;
     use crate::train::synthetic::constant_control_runs;
-    use crate::trajectory::{EligibilityRule, Track};
+    use crate::trajectory::{EligibilityRule, ObjectTrack};
 
     fn sequence(id: &str, seed: u64) -> SequenceTracks {
         let tracks = constant_control_runs(4, 50, 0.05, seed)
             .into_iter()
             .enumerate()
-            .map(|(i, states)| Track {
+            .map(|(i, states)| ObjectTrack {
                 track_id: i as i32,
                 class: ObjectClass::Car,
                 frames: (0..states.len() as u32).collect(),

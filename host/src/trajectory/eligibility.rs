@@ -15,7 +15,7 @@ use dynotraj_core::BevState;
 use dynotraj_core::limits::{HORIZON, MIN_ELIGIBLE_RUN, MIN_HISTORY};
 use dynotraj_core::wire::ObjectClass;
 
-use super::Track;
+use super::ObjectTrack;
 
 /// When a run of frames counts as a moving object.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,7 +90,7 @@ pub fn instance_frames(len: usize) -> std::ops::Range<usize> {
 /// The eligible runs of `tracks` under `rule`, in track order. An object seen in several long
 /// runs (an occlusion gap between them) yields one entry per run.
 #[must_use]
-pub fn eligible_runs(tracks: &[Track], rule: &EligibilityRule) -> Vec<EligibleRun> {
+pub fn eligible_runs(tracks: &[ObjectTrack], rule: &EligibilityRule) -> Vec<EligibleRun> {
     let mut out = Vec::new();
     for t in tracks.iter().filter(|t| rule.classes.contains(&t.class)) {
         for run in t.runs() {
@@ -114,9 +114,9 @@ fn is_moving(states: &[BevState], rule: &MovingRule) -> bool {
 mod tests {
     use super::*;
 
-    fn track(id: i32, frames: Vec<u32>, step: f32) -> Track {
+    fn track(id: i32, frames: Vec<u32>, step: f32) -> ObjectTrack {
         let states = frames.iter().map(|&f| BevState { x: f as f32 * step, ..Default::default() }).collect();
-        Track { track_id: id, class: ObjectClass::Car, frames, states }
+        ObjectTrack { track_id: id, class: ObjectClass::Car, frames, states }
     }
 
     #[test]

@@ -24,7 +24,7 @@ use dynotraj_core::BevState;
 use dynotraj_core::estimate::{PoseEstimate, bev_heading};
 use dynotraj_core::wire::ObjectClass;
 
-use super::Track;
+use super::ObjectTrack;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
 pub use crate::estimate::settings::OursInput;
 use crate::estimate::{EstimatorRun, Kind, RunScores};
@@ -34,8 +34,9 @@ use dynotraj_fixtures::track_sim::SimFrame;
 /// What the estimator ran on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum EstimateInput {
-    /// Tracks of the track-level simulator driven by the sequence's labels and ego poses.
-    Simulated,
+    /// Tracks of the track-level simulator driven by the sequence's labels and ego poses
+    /// ([`OursInput::Tracks`]).
+    Tracks,
     /// The image front-end's tracks of the sequence's own stereo images (no truth).
     Images,
     /// The image front-end's tracks of a rendering of the sequence by the image simulator.
@@ -48,16 +49,16 @@ pub struct EstimatedTracks {
     /// What the estimator ran on.
     pub input: EstimateInput,
     /// Newest-frame estimates (causal).
-    pub causal: Vec<Track>,
+    pub causal: Vec<ObjectTrack>,
     /// Estimates as they left the smoothing window (saw later frames).
-    pub smoothed: Vec<Track>,
+    pub smoothed: Vec<ObjectTrack>,
     /// RPE of the run against the simulator's truth (the paper's Table III for Ours); `None`
     /// on real images.
     pub rpe: Option<RunScores>,
     /// The simulator's true bird's-eye paths of every simulated object (box centre, heading;
     /// speed 0: only positions are used), the common reference every arm can be scored
     /// against; empty on real images.
-    pub truth: Vec<Track>,
+    pub truth: Vec<ObjectTrack>,
     /// Per frame: the yaw (radians) that turns the estimator's world into the truth's at that
     /// frame (true camera yaw minus the causal estimate's), from the camera poses. The
     /// estimator's world drifts from the truth's as camera errors accumulate; a displacement
@@ -72,7 +73,7 @@ pub struct EstimatedTracks {
 #[must_use]
 pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> EstimatedTracks {
     let r = evaluate_sequence(id, data, opt);
-    EstimatedTracks::of_run(EstimateInput::Simulated, &r.run, Some(r.scores), &r.sim)
+    EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim)
 }
 
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
@@ -115,11 +116,11 @@ impl EstimatedTracks {
 /// The simulator's true object paths, one track per object, ordered by id (track id = KITTI
 /// id): the box centre on the bird's-eye plane and the heading of its x axis.
 #[must_use]
-pub fn truth_tracks(sim: &[SimFrame]) -> Vec<Track> {
-    let mut by_id: BTreeMap<u16, Track> = BTreeMap::new();
+pub fn truth_tracks(sim: &[SimFrame]) -> Vec<ObjectTrack> {
+    let mut by_id: BTreeMap<u16, ObjectTrack> = BTreeMap::new();
     for f in sim {
         for o in &f.objects {
-            let t = by_id.entry(o.object_id).or_insert_with(|| Track {
+            let t = by_id.entry(o.object_id).or_insert_with(|| ObjectTrack {
                 track_id: i32::from(o.object_id) - 1,
                 class: o.class,
                 frames: Vec::new(),
@@ -142,9 +143,9 @@ pub fn truth_tracks(sim: &[SimFrame]) -> Vec<Track> {
 /// Groups per-frame estimates into one track per object, ordered by id. Kept: finite states
 /// with a known heading. An object whose output segment changes between two consecutive
 /// frames (re-initialised under the same id) loses the first frame of its new segment, so that
-/// the two segments fall into separate runs ([`Track::runs`] splits at frame gaps).
+/// the two segments fall into separate runs ([`ObjectTrack::runs`] splits at frame gaps).
 #[must_use]
-pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
+pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<ObjectTrack> {
     /// Per object: class, then (frame, segment, state) in frame order.
     type Rows = (ObjectClass, Vec<(u32, u16, BevState)>);
     let mut by_id: BTreeMap<u16, Rows> = BTreeMap::new();
@@ -166,7 +167,7 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<Track> {
     }
     by_id
         .into_iter()
-        .map(|(object_id, (class, rows))| Track {
+        .map(|(object_id, (class, rows))| ObjectTrack {
             track_id: i32::from(object_id) - 1,
             class,
             frames: rows.iter().map(|r| r.0).collect(),

@@ -27,7 +27,7 @@ pub struct LabelledObservation {
 /// An object's world-frame trajectory on the bird's-eye plane, frames strictly increasing
 /// (possibly with gaps where the object was not labelled).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Track {
+pub struct ObjectTrack {
     /// Track id.
     pub track_id: i32,
     /// Class of the object (its first label's).
@@ -39,7 +39,7 @@ pub struct Track {
     pub states: Vec<BevState>,
 }
 
-impl Track {
+impl ObjectTrack {
     /// Index ranges (into `frames` and `states`) of the track's runs of consecutive frames, in
     /// order: a gap in the labels ends a run.
     pub fn runs(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
@@ -61,7 +61,7 @@ pub fn ground_truth_tracks(
     observations: &[LabelledObservation],
     camera_poses: &[Isometry3<f64>],
     dt: f32,
-) -> Vec<Track> {
+) -> Vec<ObjectTrack> {
     let mut by_id: BTreeMap<i32, Vec<(u32, BevState, ObjectClass)>> = BTreeMap::new();
     for o in observations {
         let Some(pose) = camera_poses.get(o.frame as usize) else { continue };
@@ -80,7 +80,7 @@ pub fn ground_truth_tracks(
             let frames: Vec<u32> = obs.iter().map(|o| o.0).collect();
             let mut states: Vec<BevState> = obs.iter().map(|o| o.1).collect();
             fill_finite_difference_speed(&frames, &mut states, dt);
-            Track { track_id, class, frames, states }
+            ObjectTrack { track_id, class, frames, states }
         })
         .collect()
 }
@@ -108,7 +108,7 @@ fn fill_finite_difference_speed(frames: &[u32], states: &mut [BevState], dt: f32
 /// The labelled objects of a loaded sequence as world-frame tracks at frame period `dt`
 /// (DontCare regions and unknown types left out).
 #[must_use]
-pub fn label_tracks(data: &SequenceData, dt: f32) -> Vec<Track> {
+pub fn label_tracks(data: &SequenceData, dt: f32) -> Vec<ObjectTrack> {
     let observations: Vec<LabelledObservation> = data
         .labels
         .iter()

@@ -12,5 +12,5 @@ pub use estimated::{
     EstimateInput, EstimatedTracks, OursInput, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks,
     tracks_of_estimates,
 };
-pub use ground_truth::{LabelledObservation, Track, ground_truth_tracks, label_tracks};
+pub use ground_truth::{LabelledObservation, ObjectTrack, ground_truth_tracks, label_tracks};
 pub use source::{RTS_WINDOW, Source};
