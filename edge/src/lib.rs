@@ -8,7 +8,7 @@
 //! [`ObjectStates`], one [`Prediction`] per object and a [`FrameStats`].
 //!
 //! - [`transport`]: the [`Transport`] and [`Clock`] the platform provides;
-//! - [`link`]: decoding and frame-part bookkeeping ([`EdgeLoop`]);
+//! - [`link`]: decoding ([`EdgeLoop`]; the estimator assembles the frame parts);
 //! - [`pipeline`]: the per-frame work ([`Edge`]);
 //! - [`model_load`]: a model blob over the link into a fixed buffer, checked by CRC;
 //! - [`provisioned`]: the Ed25519 key a model over the link must be signed with (build time);
@@ -33,7 +33,7 @@ pub mod provisioned {
 pub mod session;
 pub mod transport;
 
-pub use link::{EdgeLoop, LoopStats};
+pub use link::EdgeLoop;
 pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
 pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
 pub use transport::{Clock, NoClock, Transport};

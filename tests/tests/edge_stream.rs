@@ -1,10 +1,13 @@
 //! Host -> edge over the wire: a fixture drive's feature tracks, encoded in frame parts, with
-//! garbage and a corrupted frame on the link, reach the edge loop; it counts every whole frame,
-//! the one it lost and every byte it dropped.
+//! garbage and a corrupted frame on the link, reach the edge session in chunks of any size; its
+//! one frame assembler (the estimator's) counts every whole frame and the one it lost, and the
+//! decoder every byte it dropped.
 
-use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
-use dynotraj_edge::EdgeLoop;
+use dynotraj_core::estimate::Intrinsics;
+use dynotraj_core::wire::{CameraInfo, FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
+use dynotraj_edge::{NoClock, Session};
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
+use dynotraj_tests::edge_fixture::MemLink;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
@@ -13,7 +16,20 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
     let drive = generate(&DriveSpec { frames: 40, ..DriveSpec::default() });
     let frames = feature_tracks(&drive, 256, 128, 9);
     let mut rng = SmallRng::seed_from_u64(5);
-    let mut stream = Vec::new();
+    let i = Intrinsics::KITTI_0926;
+    let camera = CameraInfo {
+        fx: i.fx,
+        fy: i.fy,
+        cx: i.cx,
+        cy: i.cy,
+        stereo_fb: i.stereo_fb,
+        width: 1242,
+        height: 375,
+        frame_rate_hz: 20.0,
+    };
+    let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
+    let n = encode(&Message::CameraInfo(camera), &mut buf).unwrap();
+    let mut stream = buf[..n].to_vec();
     let mut garbage = 0usize;
     let corrupt_frame = 17;
     for (k, tracks) in frames.iter().enumerate() {
@@ -30,16 +46,17 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
         stream.extend((0..noise).map(|_| rng.random_range(1..=255u8)));
         garbage += noise;
     }
-    let mut edge = EdgeLoop::new();
+    let mut session: Box<Session<'static>> = Box::new(Session::new());
+    let mut sink = MemLink { input: &[], chunk: 1, output: Vec::new() };
     let mut rest = &stream[..];
     while !rest.is_empty() {
         let (chunk, tail) = rest.split_at(rng.random_range(1..=300).min(rest.len()));
-        edge.on_bytes(chunk);
+        session.on_bytes(chunk, &mut sink, &mut NoClock).unwrap();
         rest = tail;
     }
-    let s = edge.stats();
-    let link = edge.decoder_stats();
-    assert_eq!(s.frames_complete as usize, frames.len() - 1, "every frame but the corrupted one");
+    let s = session.edge().estimator().stats();
+    let link = session.link().decoder_stats();
+    assert_eq!(s.frames_processed as usize, frames.len() - 1, "every frame but the corrupted one");
     assert_eq!(s.frames_incomplete, 1);
     assert!(link.frames_rejected() >= 1);
     assert!(link.bytes_discarded as usize >= garbage);
