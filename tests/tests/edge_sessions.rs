@@ -11,12 +11,13 @@ use std::time::{Duration, Instant};
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{FrameDecoder, Message, Notice};
+use dynotraj_edge::{NoClock, Session};
 use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
 use dynotraj_host::tracks_file::{Tracks, TracksWriter};
 use dynotraj_tests::edge_fixture::{
-    encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
+    MemLink, encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
 };
 
 fn lockstep(tracks: &Tracks, addr: &str) -> StreamResult {
@@ -141,4 +142,20 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     let forecasts = std::fs::read_to_string(&out).unwrap();
     assert!(forecasts.lines().count() > 1, "the forecasts received before the interrupt are written");
     assert!(edge.wait().unwrap().success(), "the edge served its two sessions");
+}
+
+#[test]
+fn a_session_reset_in_place_answers_as_a_new_one() {
+    // The firmware keeps its session in a static and resets it between streams: the reset must
+    // forget everything (the estimator's windows, runs and joint-solve scratch among them).
+    let tracks = scene_tracks(12);
+    let stream = encode_all(&host_messages(&tracks, None));
+    let mut session: Box<Session<'static>> = Box::new(Session::new());
+    let mut first = MemLink { input: &stream, chunk: 256, output: Vec::new() };
+    session.run(&mut first, &mut NoClock).unwrap();
+    session.reset();
+    let mut second = MemLink { input: &stream, chunk: 97, output: Vec::new() };
+    session.run(&mut second, &mut NoClock).unwrap();
+    assert!(!first.output.is_empty());
+    assert_eq!(first.output, second.output, "the reset session answers bit for bit as the new one");
 }

@@ -123,6 +123,7 @@ impl<const W: usize> Estimator<W> {
         }
         self.corrs.clear();
         self.scratch = ChainScratch::new();
+        self.joint = JointScratch::new();
         self.rng = Pcg32::new(seed);
         self.stats = EstimatorStats::default();
         self.smoothed.reset(0, 0);
