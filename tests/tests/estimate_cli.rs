@@ -2,9 +2,10 @@
 //! `../shared/kitti`): Table III layout, and the pose files and log that `--out` writes.
 
 use clap::Parser;
-use dynotraj_host::cli::estimate::{evaluate, tables};
+use dynotraj_host::cli::estimate::evaluate;
 use dynotraj_host::cli::{Cli, Command};
 use dynotraj_host::estimate::files::write_run;
+use dynotraj_host::report::estimator_tables::tables;
 
 #[test]
 fn estimate_prints_table_iii_and_writes_pose_files() {

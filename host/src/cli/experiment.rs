@@ -3,7 +3,6 @@
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
-use super::estimate::table_iii_of;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use crate::estimate::{Kind, RunScores};
@@ -11,6 +10,7 @@ use crate::experiment::figures::write_figures;
 use crate::experiment::findings::{Scoring, findings};
 use crate::experiment::report::{Report, Section, write_report};
 use crate::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
+use crate::report::estimator_tables::table_iii_of;
 use crate::report::{Table, instances_table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};

@@ -1,6 +1,7 @@
-//! Reports: tables in Markdown or CSV (Table I and Table IV layouts among them).
+//! Reports: tables in Markdown or CSV (Table I, III and IV layouts among them).
 
 pub mod chart;
+pub mod estimator_tables;
 mod forecast_table;
 mod instances_table;
 mod table;
