@@ -1,54 +1,13 @@
 //! `dynotraj eval`: ADE, FDE and ACE per sequence and their weighted average (Table IV layout).
 
-use std::path::PathBuf;
-
 use clap::Args;
-use dynotraj_core::predict::Baseline;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
-use crate::evaluate::{Forecaster, score_sequence};
-use crate::model_file::ModelFile;
+use crate::evaluate::score_sequence;
+use crate::predictors::{LoadedPredictor, PredictorSpec};
 use crate::report::{ArmScores, Format, Table, forecast_table};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
-
-/// A predictor `eval` can run.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum PredictorSpec {
-    /// A baseline by its name ([`Baseline::name`]): cv (constant velocity from the last two
-    /// positions), cv-fit (along the fitted current velocity), ctra (constant turn rate and
-    /// acceleration on the unicycle, within the paper's limits).
-    Baseline(Baseline),
-    /// A trained model blob (f32 or int8) from `dynotraj train`.
-    Model(PathBuf),
-}
-
-impl std::str::FromStr for PredictorSpec {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        if let Some(b) = Baseline::ALL.into_iter().find(|b| b.name() == s) {
-            return Ok(Self::Baseline(b));
-        }
-        s.strip_prefix("model:")
-            .filter(|p| !p.is_empty())
-            .map(|p| Self::Model(PathBuf::from(p)))
-            .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH"))
-    }
-}
-
-impl PredictorSpec {
-    /// The name in tables.
-    #[must_use]
-    pub fn label(&self) -> String {
-        match self {
-            Self::Baseline(b) => b.name().into(),
-            Self::Model(p) => format!(
-                "model {}",
-                p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
-            ),
-        }
-    }
-}
 
 /// Options of `dynotraj eval`.
 #[derive(Debug, Args)]
@@ -106,28 +65,8 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
         let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &rule)).collect();
         let scenes: Vec<Scene> = seqs.iter().map(|s| Scene::new(s.tracks_for(source), source, dt)).collect();
         for spec in &args.predictor {
-            let model = match spec {
-                PredictorSpec::Model(path) => Some(ModelFile::load(path)?),
-                _ => None,
-            };
-            if let (PredictorSpec::Model(path), Some(m)) = (spec, &model) {
-                let trained = m.blob().frame_period_s();
-                // A model forecasts at the frame period it was trained at; any other gives no
-                // forecast at all (every row `-`), so say so instead of printing that table.
-                anyhow::ensure!(
-                    (trained - dt).abs() <= 1e-6 * dt.max(trained),
-                    "model {}: trained at {:.3} Hz, evaluated with --rate {:.3} Hz; give --rate {:.3}",
-                    path.display(),
-                    1.0 / trained,
-                    1.0 / dt,
-                    1.0 / trained
-                );
-            }
-            let mut forecaster: Box<dyn Forecaster + '_> = match (spec, &model) {
-                (PredictorSpec::Baseline(b), _) => Box::new(*b),
-                (PredictorSpec::Model(_), Some(m)) => Box::new(m.predictor()),
-                (PredictorSpec::Model(p), None) => anyhow::bail!("model {} not loaded", p.display()),
-            };
+            let loaded = LoadedPredictor::load(spec, dt)?;
+            let mut forecaster = loaded.forecaster();
             let mut arm = ArmScores { label: arm_label(spec, source), per_sequence: Vec::new() };
             let mut failed = 0;
             for (seq_runs, scene) in runs.iter().zip(&scenes) {

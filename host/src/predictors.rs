@@ -1,0 +1,91 @@
+//! The predictors that are scored: the baselines by name and trained model files
+//! (`model:PATH`), as `dynotraj eval --predictor` names them, loaded into forecasters.
+
+use std::path::PathBuf;
+
+use dynotraj_core::predict::Baseline;
+
+use crate::evaluate::Forecaster;
+use crate::model_file::ModelFile;
+
+/// A predictor `eval` can run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PredictorSpec {
+    /// A baseline by its name ([`Baseline::name`]): cv (constant velocity from the last two
+    /// positions), cv-fit (along the fitted current velocity), ctra (constant turn rate and
+    /// acceleration on the unicycle, within the paper's limits).
+    Baseline(Baseline),
+    /// A trained model blob (f32 or int8) from `dynotraj train`.
+    Model(PathBuf),
+}
+
+impl std::str::FromStr for PredictorSpec {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if let Some(b) = Baseline::ALL.into_iter().find(|b| b.name() == s) {
+            return Ok(Self::Baseline(b));
+        }
+        s.strip_prefix("model:")
+            .filter(|p| !p.is_empty())
+            .map(|p| Self::Model(PathBuf::from(p)))
+            .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH"))
+    }
+}
+
+impl PredictorSpec {
+    /// The name in tables.
+    #[must_use]
+    pub fn label(&self) -> String {
+        match self {
+            Self::Baseline(b) => b.name().into(),
+            Self::Model(p) => format!(
+                "model {}",
+                p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+            ),
+        }
+    }
+}
+
+/// A predictor ready to forecast: a baseline, or a model file read and checked.
+#[derive(Debug)]
+pub enum LoadedPredictor {
+    /// A baseline.
+    Baseline(Baseline),
+    /// A model blob.
+    Model(ModelFile),
+}
+
+impl LoadedPredictor {
+    /// Loads `spec` for forecasts at frame period `dt` seconds.
+    ///
+    /// # Errors
+    /// A model file that cannot be read or parsed, or that was trained at another frame
+    /// period: it would forecast nothing at this one (every row `-`), so this says so instead.
+    pub fn load(spec: &PredictorSpec, dt: f32) -> anyhow::Result<Self> {
+        match spec {
+            PredictorSpec::Baseline(b) => Ok(Self::Baseline(*b)),
+            PredictorSpec::Model(path) => {
+                let m = ModelFile::load(path)?;
+                let trained = m.blob().frame_period_s();
+                anyhow::ensure!(
+                    (trained - dt).abs() <= 1e-6 * dt.max(trained),
+                    "model {}: trained at {:.3} Hz, evaluated with --rate {:.3} Hz; give --rate {:.3}",
+                    path.display(),
+                    1.0 / trained,
+                    1.0 / dt,
+                    1.0 / trained
+                );
+                Ok(Self::Model(m))
+            }
+        }
+    }
+
+    /// The forecaster.
+    #[must_use]
+    pub fn forecaster(&self) -> Box<dyn Forecaster + '_> {
+        match self {
+            Self::Baseline(b) => Box::new(*b),
+            Self::Model(m) => Box::new(m.predictor()),
+        }
+    }
+}
