@@ -38,7 +38,9 @@ fn main() {
     let bytes: Vec<String> = (0..32).map(|i| format!("0x{}", &t[2 * i..2 * i + 2])).collect();
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap_or_default()).join("model_key.rs");
     let code = format!(
-        "/// The Ed25519 public key a model sent over the link must be signed with ({}).\npub const MODEL_KEY: dynotraj_core::model::signed::PublicKey = [{}];\n/// Whether [`MODEL_KEY`] is the repository's development key (whose secret is public).\npub const MODEL_KEY_IS_DEVELOPMENT: bool = {development};\n",
+        "/// The Ed25519 public key a model sent over the link must be signed with ({}).\npub const MODEL_KEY: \
+            dynotraj_core::model::signed::PublicKey = [{}];\n/// Whether [`MODEL_KEY`] is the repository's \
+            development key (whose secret is public).\npub const MODEL_KEY_IS_DEVELOPMENT: bool = {development};\n",
         if development { "the repository's development key" } else { "provisioned by DYNOTRAJ_MODEL_PUBKEY" },
         bytes.join(", ")
     );

@@ -107,7 +107,8 @@ fn calib_text(sim: &ImageSim) -> String {
     let p = |tx: f64| format!("{:e} 0 {:e} {:e} 0 {:e} {:e} 0 0 0 1 0", c.fx, c.cx, tx, c.fy, c.cy);
     let (left, right) = (p(0.0), p(-c.fb()));
     format!(
-        "P0: {left}\nP1: {right}\nP2: {left}\nP3: {right}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+        "P0: {left}\nP1: {right}\nP2: {left}\nP3: {right}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 \
+            0 -1 0 1 0 0 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"
     )
 }
 

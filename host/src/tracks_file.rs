@@ -192,7 +192,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
                     return Err(fail(
                         offset,
                         format!(
-                            "the end-of-recording mark counts {} wire frames, the file holds {read}: frames are missing",
+                            "the end-of-recording mark counts {} wire frames, the file holds {read}: frames are \
+                                missing",
                             mark.frames_sent
                         ),
                     ));
@@ -233,7 +234,8 @@ pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
         return Err(fail(
             offset,
             format!(
-                "no end-of-recording mark after {} frames: the file was cut (at a frame boundary), or written by a dynotraj from before the mark (record it again)",
+                "no end-of-recording mark after {} frames: the file was cut (at a frame boundary), or written by a \
+                    dynotraj from before the mark (record it again)",
                 frames.len()
             ),
         ));

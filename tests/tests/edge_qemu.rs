@@ -56,7 +56,8 @@ fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
     let median = steady[steady.len() / 2];
     let budget = 200_000_000 / 20;
     println!(
-        "16-object frame (frames {STEADY_FROM}-{}): median {median} instructions, max {} (budget at 20 frames/s on 200 MHz: {budget} cycles; {:.2}x)",
+        "16-object frame (frames {STEADY_FROM}-{}): median {median} instructions, max {} (budget at 20 frames/s on \
+            200 MHz: {budget} cycles; {:.2}x)",
         compute.len() - 1,
         steady.last().unwrap(),
         f64::from(median) / f64::from(budget)

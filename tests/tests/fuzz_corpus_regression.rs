@@ -168,7 +168,8 @@ fn write_seeds(root: &Path) {
     seed("kitti_calib", "calib", lines("calib/0000.txt", 10).as_bytes());
     seed("kitti_poses", "poses", lines("ego_poses_orbslam3/0000.txt", 4).as_bytes());
     seed("kitti_poses", "tum", b"0.0 1 2 3 0 0 0 1\n0.1 1.5 2 3 0 0 0.0998 0.995\n");
-    let oxts_row = "49.0 8.4 112.0 0.02 0.01 1.5 5.0 0.1 5.0 0.1 0.0 0.2 0.1 9.8 0.2 0.1 9.8 0.0 0.0 0.01 0.0 0.0 0.01 0.3 0.2 4 10 4 4 0\n";
+    let oxts_row = "49.0 8.4 112.0 0.02 0.01 1.5 5.0 0.1 5.0 0.1 0.0 0.2 0.1 9.8 0.2 0.1 9.8 0.0 0.0 0.01 0.0 0.0 \
+        0.01 0.3 0.2 4 10 4 4 0\n";
     seed("kitti_oxts", "two_packets", format!("{oxts_row}{oxts_row}").as_bytes());
     // Seeds must be valid inputs, or the fuzzer starts from the error paths only.
     let read = |t: &str, n: &str| fs::read_to_string(root.join("corpus").join(t).join(n)).unwrap();

@@ -42,7 +42,8 @@ fn ekf_reduces_frame_to_frame_jitter_of_real_labels() {
         if seq_totals[0].0 > 0.0 {
             let n = runs.len() as f64;
             println!(
-                "{id} ({} runs): mean |dheading| gt {:.4} ekf {:.4} rad/frame, mean |dspeed| gt {:.3} ekf {:.3} m/s/frame",
+                "{id} ({} runs): mean |dheading| gt {:.4} ekf {:.4} rad/frame, mean |dspeed| gt {:.3} ekf {:.3} \
+                    m/s/frame",
                 runs.len(),
                 seq_totals[0].0 / n,
                 seq_totals[1].0 / n,

@@ -72,7 +72,8 @@ fn main() -> ! {
     let e = session.edge().stats();
     let l = session.link_stats();
     hprintln!(
-        "dynotraj-firmware: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received {} rejected {} | bytes dropped {} | uart overruns {} | rx ring high water {} B",
+        "dynotraj-firmware: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received \
+            {} rejected {} | bytes dropped {} | uart overruns {} | rx ring high water {} B",
         e.frames_estimated,
         e.frames_lost,
         e.forecasts,

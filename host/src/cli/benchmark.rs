@@ -84,9 +84,18 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
             command.push_str(&a);
         }
         let notes = vec![
-            format!("Stages: loading and estimating the sequences {loaded_s:.0} s (rendering and tracking, or the estimate cache), training and scoring {:.0} s on {} job(s).", result.seconds, config.jobs),
-            format!("Folds (held out together): {}.", config.folds.iter().map(|f| f.join(", ")).collect::<Vec<_>>().join(" | ")),
-            "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on these held-out sequences.".to_string(),
+            format!(
+                "Stages: loading and estimating the sequences {loaded_s:.0} s (rendering and tracking, or the \
+                estimate cache), training and scoring {:.0} s on {} job(s).",
+                result.seconds, config.jobs
+            ),
+            format!(
+                "Folds (held out together): {}.",
+                config.folds.iter().map(|f| f.join(", ")).collect::<Vec<_>>().join(" | ")
+            ),
+            "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on \
+                these held-out sequences."
+                .to_string(),
         ];
         let figures = write_figures(&dir.join("figures"), &result, &config)?;
         let report = Report {
@@ -118,7 +127,9 @@ fn sections(
             stem: "weighted".into(),
             title: "Weighted over every held-out instance, per seed".into(),
             caption: format!(
-                "ADE, FDE (m) and ACE per forecast over all held-out sequences; each arm scored against its own source's future (the paper's protocol); seeds {seeds}; spread = largest minus smallest over the seeds. cv, cv-fit and ctra do not depend on the seed."
+                "ADE, FDE (m) and ACE per forecast over all held-out sequences; each arm scored against its own \
+                    source's future (the paper's protocol); seeds {seeds}; spread = largest minus smallest over \
+                    the seeds. cv, cv-fit and ctra do not depend on the seed."
             ),
             table: seeds_table(result, |r| Some(&r.arms)),
         },
@@ -126,7 +137,8 @@ fn sections(
             stem: "goal".into(),
             title: "The goal per arm and seed".into(),
             caption: format!(
-                "The learned int8 model against cv and cv-fit on weighted ADE and FDE (change; the goal is at least {:.0} % better than both) and its ACE against cv-fit's (the goal: no worse).",
+                "The learned int8 model against cv and cv-fit on weighted ADE and FDE (change; the goal is at \
+                    least {:.0} % better than both) and its ACE against cv-fit's (the goal: no worse).",
                 100.0 * GOAL_GAIN
             ),
             table: goal_table(result, &config.arms),
@@ -140,7 +152,9 @@ fn sections(
         out.push(Section {
             stem: "truth_weighted".into(),
             title: "Each arm on its own inputs against the simulator's truth, per seed".into(),
-            caption: "The same models, each on its own source's inputs, every arm scored against the simulator's true future on the instances every arm has.".into(),
+            caption: "The same models, each on its own source's inputs, every arm scored against the simulator's \
+                true future on the instances every arm has."
+                .into(),
             table: seeds_table(result, |r| r.common.as_ref().map(|(_, rows)| &rows[..])),
         });
     }
@@ -208,5 +222,10 @@ fn write_figures(dir: &Path, result: &BenchmarkResult, config: &ExperimentConfig
         series,
     };
     let [png, _] = write_chart(&chart, &dir.join("ade_per_sequence"))?;
-    Ok(vec![Figure { png, caption: "ADE of the learned int8 model and of constant velocity per held-out sequence and arm, each point the mean over the seeds.".into() }])
+    Ok(vec![Figure {
+        png,
+        caption: "ADE of the learned int8 model and of constant velocity per held-out sequence \
+        and arm, each point the mean over the seeds."
+            .into(),
+    }])
 }

@@ -109,7 +109,10 @@ impl DataArgs {
             .iter()
             .map(|c| {
                 ObjectClass::from_kitti_name(c.trim()).with_context(|| {
-                    format!("--classes: `{c}` is not a KITTI type (Car, Van, Truck, Pedestrian, Person_sitting, Cyclist, Tram, Misc)")
+                    format!(
+                        "--classes: `{c}` is not a KITTI type (Car, Van, Truck, Pedestrian, Person_sitting, \
+                        Cyclist, Tram, Misc)"
+                    )
                 })
             })
             .collect::<anyhow::Result<Vec<_>>>()?;

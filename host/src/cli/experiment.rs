@@ -69,7 +69,8 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     result.seconds = start.elapsed().as_secs_f64();
     result.loading_seconds = loading_seconds;
     let mut summary = String::from(
-        "folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, seconds):\n",
+        "folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, \
+            seconds):\n",
     );
     for f in &result.folds {
         summary.push_str(&format!(
@@ -101,7 +102,10 @@ pub fn report(
     let mut sections = vec![Section {
         stem: "table_i".into(),
         title: "Table I: eligible objects and test instances".into(),
-        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arms, the estimator's own tracks. Every loaded sequence is a training candidate; the paper's test sequences are held out in turn.".into(),
+        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arms, the estimator's \
+            own tracks. Every loaded sequence is a training candidate; the paper's test sequences are held out in \
+            turn."
+            .into(),
         table: instances_table(sequences, &table_i_sources(&args.arms), rule),
     }];
     let inputs: Vec<EstimateInput> = sequences.iter().filter_map(|s| s.estimated.as_ref().map(|e| e.input)).collect();
@@ -122,14 +126,22 @@ pub fn report(
     sections.push(Section {
         stem: "table_iv".into(),
         title: "Table IV: forecasts, leave one sequence out".into(),
-        caption: "ADE, FDE (m) and ACE per test sequence and weighted per forecast; each arm is scored against its own source's future (the paper's protocol); learned = the Trajectron++-style model trained on the other sequences of that source; int8 = its quantised twin as the ECU runs it. Inputs are causal except in rows labelled otherwise. The paper's rows are on its 522 DynoSAM-tracked instances, not on ours.".into(),
+        caption: "ADE, FDE (m) and ACE per test sequence and weighted per forecast; each arm is scored against its \
+            own source's future (the paper's protocol); learned = the Trajectron++-style model trained on the \
+            other sequences of that source; int8 = its quantised twin as the ECU runs it. Inputs are causal except \
+            in rows labelled otherwise. The paper's rows are on its 522 DynoSAM-tracked instances, not on ours."
+            .into(),
         table: result.table.clone(),
     });
     if let Some((table, _)) = &result.common {
         sections.push(Section {
             stem: "table_iv_truth".into(),
             title: "Table IV against one common reference: the simulator's truth".into(),
-            caption: "The same models and forecasts, every arm scored against the simulator's true future (the box centre, as a displacement from the current frame: see host/src/evaluate.rs) on the instances that every arm has, so the rows share their instances and their reference. The paper cannot make this comparison on real data; a simulator can.".into(),
+            caption: "The same models and forecasts, every arm scored against the simulator's true future (the box \
+                centre, as a displacement from the current frame: see host/src/evaluate.rs) on the instances that \
+                every arm has, so the rows share their instances and their reference. The paper cannot make this \
+                comparison on real data; a simulator can."
+                .into(),
             table: table.clone(),
         });
     }
@@ -142,7 +154,8 @@ pub fn report(
         command.push_str(&a);
     }
     let mut notes = vec![format!(
-        "Stages: loading and estimating the sequences {:.0} s (rendering and tracking them, or reading the estimate cache), training and scoring {:.0} s, on {} job(s).",
+        "Stages: loading and estimating the sequences {:.0} s (rendering and tracking them, or reading the \
+            estimate cache), training and scoring {:.0} s, on {} job(s).",
         result.loading_seconds,
         result.seconds - result.loading_seconds,
         args.data.ours.jobs
@@ -171,7 +184,12 @@ pub fn deployment_section(table: Table) -> Section {
     Section {
         stem: "deployment".into(),
         title: "Deployment: every training source's model on what the vehicle sees".into(),
-        caption: "A vehicle has only its own estimates at run time. Each arm's models (trained on that source, test sequences held out) run on the estimated arm's inputs (the estimator's causal tracks from the rendered images) and are scored against the simulator's true future on the instances every arm has; the baselines run on the same inputs. Lower is better; the rows share their instances and their reference.".into(),
+        caption: "A vehicle has only its own estimates at run time. Each arm's models (trained on that source, \
+            test sequences held out) run on the estimated arm's inputs (the estimator's causal tracks from the \
+            rendered images) and are scored against the simulator's true future on the instances every arm has; \
+            the baselines run on the same inputs. Lower is better; the rows share their instances and their \
+            reference."
+            .into(),
         table,
     }
 }
@@ -180,12 +198,20 @@ pub fn deployment_section(table: Table) -> Section {
 fn table_iii_caption(inputs: &[EstimateInput], render_scale: f64) -> String {
     let truth = if inputs.iter().all(|i| *i == EstimateInput::Rendered) {
         format!(
-            "the truth of the image simulator, which renders each sequence from its real labels, ego poses and calibration (scale {render_scale}); the OpenCV front-end tracks the rendered stereo images and the core estimator runs on its tracks. DynoSAM's figures on real images are printed below for reference (rendered images lack real images' blur, glare and texture)"
+            "the truth of the image simulator, which renders each sequence from its real labels, ego poses and \
+                calibration (scale {render_scale}); the OpenCV front-end tracks the rendered stereo images and the \
+                core estimator runs on its tracks. DynoSAM's figures on real images are printed below for \
+                reference (rendered images lack real images' blur, glare and texture)"
         )
     } else if inputs.iter().all(|i| *i == EstimateInput::Tracks) {
-        "the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration (no images: simulated feature tracks). Not comparable to DynoSAM on real images, printed below for reference".into()
+        "the truth of the track-level simulator driven by each sequence's real labels, ego poses and calibration \
+            (no images: simulated feature tracks). Not comparable to DynoSAM on real images, printed below for \
+            reference"
+            .into()
     } else {
-        "the simulator's truth of each sequence made by a simulator (the track-level one or the image renderer, per sequence; real-image sequences have no truth and no row)".into()
+        "the simulator's truth of each sequence made by a simulator (the track-level one or the image renderer, \
+            per sequence; real-image sequences have no truth and no row)"
+            .into()
     };
     format!("Camera and object RPE (delta = 1 frame) against {truth}.")
 }
@@ -194,13 +220,28 @@ fn table_iii_caption(inputs: &[EstimateInput], render_scale: f64) -> String {
 fn input_notes(inputs: &[EstimateInput]) -> Vec<String> {
     let mut out = Vec::new();
     if inputs.contains(&EstimateInput::Rendered) {
-        out.push("The Estimated arm runs images -> front-end -> estimator on the image simulator's rendering of each sequence: boxes moving along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels, and the images are cleaner than real ones: part of any advantage is the simulator's (docs/decisions.md).".into());
+        out.push(
+            "The Estimated arm runs images -> front-end -> estimator on the image simulator's rendering of \
+            each sequence: boxes moving along trajectories fitted smoothly to the labels, so the truth behind it \
+            is smoother than the labels, and the images are cleaner than real ones: part of any advantage is the \
+            simulator's (docs/decisions.md)."
+                .into(),
+        );
     }
     if inputs.contains(&EstimateInput::Tracks) {
-        out.push("The Estimated arm's tracks come from simulated feature tracks (`--ours-input tracks`) of boxes that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md).".into());
+        out.push(
+            "The Estimated arm's tracks come from simulated feature tracks (`--ours-input tracks`) of boxes \
+            that move along trajectories fitted smoothly to the labels, so the truth behind it is smoother than \
+            the labels: part of any advantage is the simulator's, not the estimator's (docs/decisions.md)."
+                .into(),
+        );
     }
     if inputs.contains(&EstimateInput::Images) {
-        out.push("Where a sequence has its own stereo images, the Estimated arm ran on them (no simulator, no truth: only the paper's protocol scores it).".into());
+        out.push(
+            "Where a sequence has its own stereo images, the Estimated arm ran on them (no simulator, no \
+            truth: only the paper's protocol scores it)."
+                .into(),
+        );
     }
     out
 }

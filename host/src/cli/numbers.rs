@@ -28,7 +28,8 @@ fn single(v: f64, text: &str) -> Result<f32, String> {
         Ok(x)
     } else {
         Err(format!(
-            "expected a number within single precision (at most 3.4e38, and not so small it rounds to 0), found `{text}`"
+            "expected a number within single precision (at most 3.4e38, and not so small it rounds to 0), found \
+                `{text}`"
         ))
     }
 }

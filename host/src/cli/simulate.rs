@@ -128,7 +128,8 @@ fn end_to_end(args: &SimulateArgs, sim: &ImageSim, n: usize) -> anyhow::Result<(
         r.scores.moving_objects
     );
     println!(
-        "| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r (deg) |\n|---|---|---|---|---|---|"
+        "| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r \
+            (deg) |\n|---|---|---|---|---|---|"
     );
     for (kind, k) in Kind::ALL.iter().zip(&r.scores.kinds) {
         let f = |x: Option<f64>, deg: bool| {

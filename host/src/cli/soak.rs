@@ -129,7 +129,9 @@ pub fn summary(r: &SoakReport) -> String {
         },
     );
     format!(
-        "soak: {} camera frames ({} wire frames) in {:.1} s\nfaults injected: {} ({} flipped bytes, {} dropped tails, {} duplicated frames) in {} damaged camera frames\nanswered: {} frames; clean frames unanswered: {}; edge's frames lost: {}\n{link}\n{mem}\n",
+        "soak: {} camera frames ({} wire frames) in {:.1} s\nfaults injected: {} ({} flipped bytes, {} dropped \
+            tails, {} duplicated frames) in {} damaged camera frames\nanswered: {} frames; clean frames \
+            unanswered: {}; edge's frames lost: {}\n{link}\n{mem}\n",
         r.frames_sent,
         r.wire_frames_sent,
         r.seconds,

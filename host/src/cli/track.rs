@@ -166,7 +166,8 @@ fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
     for (pair, m) in ["12->13", "12->14"].iter().zip(c.motion) {
         match m {
             Some(m) => println!(
-                "odometry 06 ego-motion {pair}: translation error {:.3} m (of {:.3} m travelled), rotation error {:.3} deg; {} of {} correspondences inliers",
+                "odometry 06 ego-motion {pair}: translation error {:.3} m (of {:.3} m travelled), rotation error \
+                    {:.3} deg; {} of {} correspondences inliers",
                 m.translation_m, m.true_translation_m, m.rotation_deg, m.inliers, m.points
             ),
             None => println!("odometry 06 ego-motion {pair}: the fit failed"),

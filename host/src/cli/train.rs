@@ -38,7 +38,8 @@ impl From<PrecisionArg> for Precision {
 /// Options of `dynotraj train`.
 #[derive(Debug, Args)]
 #[command(
-    after_help = "Each training runs on one thread (candle's kernels split over threads train this small network about 3 times slower); --jobs spreads folds over the cores."
+    after_help = "Each training runs on one thread (candle's kernels split over threads train this small network \
+        about 3 times slower); --jobs spreads folds over the cores."
 )]
 pub struct TrainArgs {
     /// Data options.
@@ -247,7 +248,8 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     }
     let r = &model.report;
     println!(
-        "trained {} on {} ({} params): {} train / {} val instances, {} epochs (best {}), best val ADE {:.3} m (constant velocity {:.3} m), {:.1} s; wrote {}, {}, {}",
+        "trained {} on {} ({} params): {} train / {} val instances, {} epochs (best {}), best val ADE {:.3} m \
+            (constant velocity {:.3} m), {:.1} s; wrote {}, {}, {}",
         args.source,
         r.sequences.join(","),
         args.dims.parameters(),

@@ -150,7 +150,13 @@ pub fn write_figures(
                 series,
             };
             let [png, _] = write_chart(&chart, &dir.join("fig5_ace_0000"))?;
-            out.push(Figure { png, caption: format!("ACE of consecutive int8 forecasts of {what}, per arm, each model trained without sequence 0000 (the paper's figure 5).") });
+            out.push(Figure {
+                png,
+                caption: format!(
+                    "ACE of consecutive int8 forecasts of {what}, per arm, each \
+                model trained without sequence 0000 (the paper's figure 5)."
+                ),
+            });
         }
     }
     if let Some(seq) = find("0018")

@@ -74,7 +74,8 @@ pub fn findings(arms: &[ArmScores], sources: &[Source], scoring: Scoring) -> Vec
             ));
             if let Some(fit) = total_of(arms, &format!("cv-fit on {s}")) {
                 out.push(format!(
-                    "{prefix}{s}: against its own zero-control forecast (cv-fit, constant velocity along the fitted velocity) the learned int8 model {} on the weighted ADE: {}.",
+                    "{prefix}{s}: against its own zero-control forecast (cv-fit, constant velocity along the \
+                        fitted velocity) the learned int8 model {} on the weighted ADE: {}.",
                     if l[0] < fit[0] { "gains" } else { "gains nothing" },
                     compare(l, fit)
                 ));

@@ -115,7 +115,8 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     write("folds.csv".into(), &folds.render(Format::Csv))?;
     let _ = writeln!(
         md,
-        "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola fitted through the history), kept when no epoch beats it on the held-out training sequences.\n\n{}\n",
+        "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola \
+            fitted through the history), kept when no epoch beats it on the held-out training sequences.\n\n{}\n",
         folds.render(Format::Md).trim_end()
     );
     if !report.figures.is_empty() {

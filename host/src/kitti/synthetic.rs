@@ -46,7 +46,8 @@ pub fn write_sequence(root: &Path, id: &str, drive: &Drive) -> anyhow::Result<()
     let [fx, _, cx, cy] = INTRINSICS;
     let p = |tx: f64| format!("{fx} 0 {cx} {tx} 0 {fx} {cy} 0 0 0 1 0");
     let calib = format!(
-        "P0: {}\nP1: {}\nP2: {}\nP3: {}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n",
+        "P0: {}\nP1: {}\nP2: {}\nP3: {}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 \
+            0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n",
         p(0.0),
         p(-0.54 * fx),
         p(0.0),

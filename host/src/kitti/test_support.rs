@@ -83,7 +83,8 @@ pub fn kitti_split(test: &str) -> Option<PathBuf> {
         dynotraj_fixtures::skip::skipped(
             test,
             &format!(
-                "real KITTI data not found at {} (expected label_02/ there or in tracking/training/; set DYNOTRAJ_KITTI to the tracking split)",
+                "real KITTI data not found at {} (expected label_02/ there or in tracking/training/; set \
+                    DYNOTRAJ_KITTI to the tracking split)",
                 given.display()
             ),
         );

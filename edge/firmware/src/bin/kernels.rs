@@ -66,7 +66,8 @@ fn main() -> ! {
         let same = portable.iter().zip(&smlad).all(|(a, b)| bits(a) == bits(b));
         forecasts_differ += usize::from(!same);
         hprintln!(
-            "dynotraj-kernels: forecast {},{},{},{}: f32 {} | int8 portable {} | int8 SMLAD {} instructions; int8 SMLAD {}.{:02}x faster than f32, {}.{:02}x than portable; forecasts {}",
+            "dynotraj-kernels: forecast {},{},{},{}: f32 {} | int8 portable {} | int8 SMLAD {} instructions; int8 \
+                SMLAD {}.{:02}x faster than f32, {}.{:02}x than portable; forecasts {}",
             dims.enc,
             dims.edge,
             dims.k,

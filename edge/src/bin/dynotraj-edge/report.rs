@@ -37,7 +37,8 @@ pub fn session_line(who: &str, session: &Session<'_>, ended: &str) -> String {
     let l = session.link_stats().received;
     let ld = session.load_stats();
     format!(
-        "dynotraj-edge: session {who} {ended} | frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | model {} (unsigned {} bad signature {}) | msgs ok {} rejected {} | bytes dropped {}",
+        "dynotraj-edge: session {who} {ended} | frames estimated {} lost {} | forecasts {} (fallback {}, failed \
+            {}) | model {} (unsigned {} bad signature {}) | msgs ok {} rejected {} | bytes dropped {}",
         e.frames_estimated,
         e.frames_lost,
         e.forecasts,
@@ -89,7 +90,8 @@ impl Totals {
     /// The closing line.
     pub fn line(&self, why: &str) -> String {
         format!(
-            "dynotraj-edge: {why} after {} sessions ({} ended idle, {} failed), {} clients refused busy | frames estimated {} | forecasts {} | bytes dropped {}",
+            "dynotraj-edge: {why} after {} sessions ({} ended idle, {} failed), {} clients refused busy | frames \
+                estimated {} | forecasts {} | bytes dropped {}",
             self.sessions,
             self.idle,
             self.failed,
