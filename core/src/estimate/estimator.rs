@@ -18,6 +18,7 @@ use super::params::EstimatorParams;
 use super::point_model::PointModel;
 use super::rng::Pcg32;
 use super::stats::{EstimatorStats, add, bump};
+use crate::geometry::Pose3;
 use crate::limits::{MAX_OBJECTS, MAX_STATIC_TRACKS};
 use crate::wire::FrameTracks;
 
@@ -206,17 +207,12 @@ impl<const W: usize> Estimator<W> {
             if let Some(e) = self.camera.drain(&self.camera_smoothness, &mut self.scratch, info.step) {
                 self.smoothed.camera = e.pose;
             }
-            for run in self.runs.iter_mut().filter(|r| r.state == RunState::Tracking || r.state == RunState::Draining) {
-                if let Some(e) = drain_run(
-                    run,
-                    &self.joint,
-                    &self.object_smoothness,
-                    &mut self.scratch,
-                    info.step,
-                    info.dt,
-                    &mut self.stats.numerical_failures,
-                ) {
-                    let _ = self.smoothed.objects.push(e);
+            let Self { runs, joint, object_smoothness, scratch, stats, smoothed, .. } = self;
+            let solve =
+                JointSolve { joint, smoothness: object_smoothness, leaving: Some(info.step), dt_leaving: info.dt };
+            for run in runs.iter_mut().filter(|r| r.state == RunState::Tracking || r.state == RunState::Draining) {
+                if let Some(e) = solve.finish(run, scratch, None, &mut stats.numerical_failures) {
+                    let _ = smoothed.objects.push(e);
                 }
             }
             self.window.pop_front();
@@ -230,16 +226,41 @@ impl<const W: usize> Estimator<W> {
         self.has_previous = false;
     }
 
-    /// Estimates the frame just assembled in the current buffer. Returns whether a frame left
-    /// the window (its smoothed estimate is then in `self.smoothed`).
+    /// Estimates the frame just assembled in the current buffer, phase by phase. Returns whether
+    /// a frame left the window (its smoothed estimate is then in `self.smoothed`).
     fn process(&mut self) -> bool {
         bump(&mut self.stats.frames_processed);
         let step = self.step;
         self.step = self.step.wrapping_add(1);
-        let cur = &self.frame;
         let has_previous = self.has_previous && self.camera.started();
+        let w = self.advance_window(step, has_previous);
+        self.measure_camera(step, has_previous, w.leaving);
+        // The camera pose objects are measured against. Jointly: the camera's current estimate at
+        // k-1 (the one the objects' poses at k-1 were solved with) moved by the new ego-motion, so
+        // an object's measured motion and the camera motion it is coupled to share one frame
+        // (with the never-revised frame-to-frame pose instead, each camera correction would move
+        // an object only until its next measurement pulled it back). Uncoupled: frame-to-frame.
+        let camera_now =
+            if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
+        self.coast_missing(has_previous);
+        if let Some(s) = w.leaving {
+            self.drain_ended(s, w.dt_leaving);
+        }
+        self.measure_objects(step, has_previous, &camera_now, &w);
+        self.solve_window(has_previous, &camera_now, &w);
+        self.previous_statics.clone_from(&self.frame.statics);
+        self.has_previous = true;
+        let emitted = w.leaving.is_some();
+        if emitted {
+            self.window.pop_front();
+        }
+        emitted
+    }
 
-        // Frame period and the window of frames.
+    /// The time step: this frame's period (the nominal one when its timestamp is unusable)
+    /// enters the window; the frame leaving it, if the window is full, is named.
+    fn advance_window(&mut self, step: u32, has_previous: bool) -> WindowStep {
+        let cur = &self.frame;
         let dt = match self.window.back() {
             Some(last) if has_previous => {
                 let d = cur.timestamp_us.checked_sub(last.timestamp_us).map(|us| us as f32 * 1e-6);
@@ -256,17 +277,19 @@ impl<const W: usize> Estimator<W> {
         // Frames leave the window as it fills, so there is always room here.
         let _ = self.window.push_back(FrameInfo { step, frame: cur.frame, timestamp_us: cur.timestamp_us, dt });
         let leaving_info = if self.window.is_full() { self.window.front().copied() } else { None };
-        let leaving = leaving_info.map(|i| i.step);
-        let dt_leaving = leaving_info.map_or(dt, |i| i.dt);
         if let Some(i) = leaving_info {
             self.smoothed.reset(i.frame, i.timestamp_us);
         }
+        WindowStep { leaving: leaving_info.map(|i| i.step), dt_leaving: leaving_info.map_or(dt, |i| i.dt) }
+    }
 
-        // Camera: measured now, solved jointly with the objects below.
+    /// The camera: its ego-motion measured from the static tracks (solved jointly with the
+    /// objects later), or, without a previous frame, a new world frame begun.
+    fn measure_camera(&mut self, step: u32, has_previous: bool, leaving: Option<u32>) {
         if has_previous {
             let fitted = self.camera.measure(
                 &self.previous_statics,
-                &cur.statics,
+                &self.frame.statics,
                 &self.params.camera_fit,
                 &self.model,
                 &mut self.rng,
@@ -277,108 +300,92 @@ impl<const W: usize> Estimator<W> {
             if !fitted {
                 bump(&mut self.stats.camera_motion_held);
             }
-        } else {
-            // A new stream (or one whose previous frame is unknown) starts a new world frame.
-            if self.camera.started()
-                && let Some(s) = leaving
-                && let Some(e) = self.camera.drain(&self.camera_smoothness, &mut self.scratch, s)
-            {
-                self.smoothed.camera = e.pose;
-            }
-            self.camera.start(step);
+            return;
         }
-        // The camera pose objects are measured against. Jointly: the camera's current estimate at
-        // k-1 (the one the objects' poses at k-1 were solved with) moved by the new ego-motion, so
-        // an object's measured motion and the camera motion it is coupled to share one frame
-        // (with the never-revised frame-to-frame pose instead, each camera correction would move
-        // an object only until its next measurement pulled it back). Uncoupled: frame-to-frame.
-        let camera_now =
-            if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
+        if self.camera.started()
+            && let Some(s) = leaving
+            && let Some(e) = self.camera.drain(&self.camera_smoothness, &mut self.scratch, s)
+        {
+            self.smoothed.camera = e.pose;
+        }
+        self.camera.start(step);
+    }
 
-        // Runs whose object is missing from this frame coast on their last motion (for at most
-        // MAX_HELD_FRAMES frames, then they end); one seen only once is dropped.
-        for run in &mut self.runs {
-            if !run.is_live() || cur.object(run.object_id).is_some() {
+    /// Runs whose object is missing from this frame coast on their last motion (for at most
+    /// MAX_HELD_FRAMES frames, then they end); one seen only once is dropped.
+    fn coast_missing(&mut self, has_previous: bool) {
+        let Self { runs, frame, stats, object_smoothness, scratch, .. } = self;
+        for run in runs.iter_mut() {
+            if !run.is_live() || frame.object(run.object_id).is_some() {
                 continue;
             }
             if run.state == RunState::Initialising {
-                bump(&mut self.stats.objects_not_initialised);
+                bump(&mut stats.objects_not_initialised);
                 run.state = RunState::Free;
             } else if !has_previous {
                 run.state = RunState::Draining;
-            } else if let StepOutcome::Restart(cause) = run.coast(&self.object_smoothness, &mut self.scratch) {
-                self.stats.run_ended(cause);
+            } else if let StepOutcome::Restart(cause) = run.coast(object_smoothness, scratch) {
+                stats.run_ended(cause);
                 run.state = RunState::Draining;
             } else {
-                bump(&mut self.stats.object_frames_coasted);
+                bump(&mut stats.object_frames_coasted);
             }
         }
-        // Ended runs emit their leaving frame.
-        if let Some(s) = leaving {
-            for run in self.runs.iter_mut().filter(|r| r.state == RunState::Draining) {
-                if let Some(e) = drain_run(
-                    run,
-                    &self.joint,
-                    &self.object_smoothness,
-                    &mut self.scratch,
-                    s,
-                    dt_leaving,
-                    &mut self.stats.numerical_failures,
-                ) {
-                    let _ = self.smoothed.objects.push(e);
-                }
-            }
-        }
+    }
 
-        // Objects of this frame.
-        for obj in &cur.objects {
-            let live = self.runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
+    /// Ended runs emit their frame `leaving` the window.
+    fn drain_ended(&mut self, leaving: u32, dt_leaving: f32) {
+        let Self { runs, joint, object_smoothness, scratch, stats, smoothed, .. } = self;
+        for run in runs.iter_mut().filter(|r| r.state == RunState::Draining) {
+            let solve = JointSolve { joint, smoothness: object_smoothness, leaving: Some(leaving), dt_leaving };
+            if let Some(e) = solve.finish(run, scratch, None, &mut stats.numerical_failures) {
+                let _ = smoothed.objects.push(e);
+            }
+        }
+    }
+
+    /// Every object of this frame: its run measures it (and ends on a failed restart), or a new
+    /// run starts in a free slot.
+    fn measure_objects(&mut self, step: u32, has_previous: bool, camera_now: &Pose3, w: &WindowStep) {
+        let Self { frame, runs, stats, params, model, rng, corrs, object_smoothness, scratch, joint, smoothed, .. } =
+            self;
+        for obj in &frame.objects {
+            let live = runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
             let mut restart = live.is_none();
             if let (Some(i), true) = (live, has_previous) {
                 let beyond_range = usize::from(obj.beyond_range) > obj.points.len();
-                let cx = PairContext { current: &obj.points, camera: &camera_now, leaving, beyond_range };
-                let Some(run) = self.runs.get_mut(i) else { continue };
+                let cx = PairContext { current: &obj.points, camera: camera_now, leaving: w.leaving, beyond_range };
+                let Some(run) = runs.get_mut(i) else { continue };
                 let was_coasting = run.coasted_since_fit();
                 let was_initialising = run.state == RunState::Initialising;
-                let outcome = run.measure(
-                    &cx,
-                    &self.params,
-                    &self.model,
-                    &mut self.rng,
-                    &mut self.corrs,
-                    &self.object_smoothness,
-                    &mut self.scratch,
-                );
-                match outcome {
+                match run.measure(&cx, params, model, rng, corrs, object_smoothness, scratch) {
                     StepOutcome::Measured => {
                         if was_coasting {
-                            bump(&mut self.stats.objects_resumed);
+                            bump(&mut stats.objects_resumed);
                         }
                         if was_initialising {
-                            bump(&mut self.stats.runs_tracked);
+                            bump(&mut stats.runs_tracked);
                         }
                     }
-                    StepOutcome::Held => bump(&mut self.stats.object_motion_held),
+                    StepOutcome::Held => bump(&mut stats.object_motion_held),
                     StepOutcome::Restart(cause) => {
-                        bump(&mut self.stats.object_motion_held);
+                        bump(&mut stats.object_motion_held);
                         if run.state == RunState::Initialising {
-                            bump(&mut self.stats.objects_not_initialised);
+                            bump(&mut stats.objects_not_initialised);
                             run.state = RunState::Free;
                         } else {
-                            self.stats.run_ended(cause);
+                            stats.run_ended(cause);
                             run.state = RunState::Draining;
-                            if let Some(s) = leaving
-                                && let Some(e) = drain_run(
-                                    run,
-                                    &self.joint,
-                                    &self.object_smoothness,
-                                    &mut self.scratch,
-                                    s,
-                                    dt_leaving,
-                                    &mut self.stats.numerical_failures,
-                                )
+                            let solve = JointSolve {
+                                joint,
+                                smoothness: object_smoothness,
+                                leaving: w.leaving,
+                                dt_leaving: w.dt_leaving,
+                            };
+                            if w.leaving.is_some()
+                                && let Some(e) = solve.finish(run, scratch, None, &mut stats.numerical_failures)
                             {
-                                let _ = self.smoothed.objects.push(e);
+                                let _ = smoothed.objects.push(e);
                             }
                         }
                         restart = true;
@@ -386,7 +393,7 @@ impl<const W: usize> Estimator<W> {
                 }
             } else if let Some(i) = live {
                 // Live but without a previous frame (a new world frame began): start again.
-                if let Some(run) = self.runs.get_mut(i) {
+                if let Some(run) = runs.get_mut(i) {
                     run.state = RunState::Free;
                 }
                 restart = true;
@@ -395,31 +402,26 @@ impl<const W: usize> Estimator<W> {
             if !restart || obj.points.is_empty() {
                 continue;
             }
-            if live.is_none() && self.runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id)
-            {
-                bump(&mut self.stats.objects_returned);
+            if live.is_none() && runs.iter().any(|r| r.state == RunState::Draining && r.object_id == obj.object_id) {
+                bump(&mut stats.objects_returned);
             }
-            let Some(slot) = free_slot(&mut self.runs, &mut self.stats) else { continue };
-            if slot.initialise(
-                obj.object_id,
-                obj.class,
-                &obj.points,
-                &camera_now,
-                &self.model,
-                step,
-                self.params.object_min_points,
-            ) {
-                bump(&mut self.stats.objects_initialised);
+            let Some(slot) = free_slot(runs, stats) else { continue };
+            if slot.initialise(obj.object_id, obj.class, &obj.points, camera_now, model, step, params.object_min_points)
+            {
+                bump(&mut stats.objects_initialised);
             } else {
-                bump(&mut self.stats.objects_not_initialised);
+                bump(&mut stats.objects_not_initialised);
             }
         }
+    }
 
-        // The joint solve of camera and object motions, then every path takes its solution.
+    /// The joint solve of camera and object motions over the window, then every path takes its
+    /// solution (and emits its frame leaving the window).
+    fn solve_window(&mut self, has_previous: bool, camera_now: &Pose3, w: &WindowStep) {
         if has_previous {
             self.joint_solve();
             let xs = (!self.joint.camera_solution().is_empty()).then(|| self.joint.camera_solution());
-            let r = self.camera.finish(xs, &self.camera_smoothness, leaving);
+            let r = self.camera.finish(xs, &self.camera_smoothness, w.leaving);
             if self.params.joint_sweeps == 0 {
                 // No coupling: objects are smoothed alone, against the frame-to-frame camera.
                 self.joint.unload_camera();
@@ -433,34 +435,62 @@ impl<const W: usize> Estimator<W> {
         } else {
             self.joint.unload_camera();
         }
-        let inlier_px = self.params.object_fit.inlier_px;
-        for run in self.runs.iter_mut().filter(|r| r.stepped()) {
-            let points = self.frame.object(run.object_id).map(|o| &o.points[..]).unwrap_or(&[]);
-            let e = finish_run(
-                run,
-                &self.joint,
-                &self.object_smoothness,
-                &mut self.scratch,
-                leaving,
-                dt_leaving,
-                (points, &camera_now, &self.model, inlier_px),
-                &mut self.stats.numerical_failures,
-            );
-            if let Some(e) = e {
-                let _ = self.smoothed.objects.push(e);
+        let Self { runs, frame, joint, object_smoothness, scratch, stats, smoothed, params, model, .. } = self;
+        let inlier_px = params.object_fit.inlier_px;
+        for run in runs.iter_mut().filter(|r| r.stepped()) {
+            let points = frame.object(run.object_id).map(|o| &o.points[..]).unwrap_or(&[]);
+            let solve =
+                JointSolve { joint, smoothness: object_smoothness, leaving: w.leaving, dt_leaving: w.dt_leaving };
+            let fuse_with = (points, camera_now, &*model, inlier_px);
+            if let Some(e) = solve.finish(run, scratch, Some(fuse_with), &mut stats.numerical_failures) {
+                let _ = smoothed.objects.push(e);
             }
-            if run.reorient_if_moved(&self.params) {
-                bump(&mut self.stats.objects_reoriented);
+            if run.reorient_if_moved(params) {
+                bump(&mut stats.objects_reoriented);
             }
         }
+    }
+}
 
-        self.previous_statics.clone_from(&self.frame.statics);
-        self.has_previous = true;
-        let emitted = leaving.is_some();
-        if emitted {
-            self.window.pop_front();
-        }
-        emitted
+/// What the time step of one frame decided about the window.
+struct WindowStep {
+    /// The step of the frame leaving the window, once it is full.
+    leaving: Option<u32>,
+    /// The frame period of the frame leaving (this frame's when none leaves).
+    dt_leaving: f32,
+}
+
+/// An object's chain solved with the camera held at the joint solution.
+struct JointSolve<'a, const W: usize> {
+    joint: &'a JointScratch<W>,
+    smoothness: &'a Smoothness,
+    leaving: Option<u32>,
+    dt_leaving: f32,
+}
+
+impl<const W: usize> JointSolve<'_, W> {
+    /// Solves `run`'s chain and hands it the result (see [`ObjectRun::finish`]); `fuse_with`
+    /// (the frame's points, the camera, the model, the inlier bound) refines its landmarks,
+    /// none for a run that has ended.
+    fn finish(
+        &self,
+        run: &mut ObjectRun<W>,
+        scratch: &mut ChainScratch<W>,
+        fuse_with: Option<(&[Obs], &Pose3, &PointModel, f32)>,
+        failures: &mut u32,
+    ) -> Option<ObjectEstimate> {
+        let (chain, first) = (run.path().chain(), run.path().first_slot_step());
+        let n = chain.solve_with(self.smoothness, scratch, |i| self.joint.object_extra(chain, first, i));
+        let shift = self.joint.front_shift(chain, first);
+        run.finish(
+            n.map(|n| scratch.solution(n)),
+            self.smoothness,
+            self.leaving,
+            shift,
+            self.dt_leaving,
+            fuse_with,
+            failures,
+        )
     }
 }
 
@@ -488,41 +518,6 @@ impl<const W: usize> Estimator<W> {
             objects,
         );
     }
-}
-
-/// Solves a run's chain with the camera held at the joint solution and hands it the result
-/// (see [`ObjectRun::finish`]).
-#[allow(clippy::too_many_arguments)]
-fn finish_run<const W: usize>(
-    run: &mut ObjectRun<W>,
-    joint: &JointScratch<W>,
-    s: &Smoothness,
-    scratch: &mut ChainScratch<W>,
-    leaving: Option<u32>,
-    dt_leaving: f32,
-    fuse_with: (&[Obs], &crate::geometry::Pose3, &PointModel, f32),
-    failures: &mut u32,
-) -> Option<ObjectEstimate> {
-    let (chain, first) = (run.path().chain(), run.path().first_slot_step());
-    let n = chain.solve_with(s, scratch, |i| joint.object_extra(chain, first, i));
-    let shift = joint.front_shift(chain, first);
-    run.finish(n.map(|n| scratch.solution(n)), s, leaving, shift, dt_leaving, Some(fuse_with), failures)
-}
-
-/// Emits step `leaving` of an ended run, solved with the camera held at the joint solution.
-fn drain_run<const W: usize>(
-    run: &mut ObjectRun<W>,
-    joint: &JointScratch<W>,
-    s: &Smoothness,
-    scratch: &mut ChainScratch<W>,
-    leaving: u32,
-    dt_leaving: f32,
-    failures: &mut u32,
-) -> Option<ObjectEstimate> {
-    let (chain, first) = (run.path().chain(), run.path().first_slot_step());
-    let n = chain.solve_with(s, scratch, |i| joint.object_extra(chain, first, i));
-    let shift = joint.front_shift(chain, first);
-    run.finish(n.map(|n| scratch.solution(n)), s, Some(leaving), shift, dt_leaving, None, failures)
 }
 
 /// A slot for a new run: a free one, else the draining run with the fewest frames still to
