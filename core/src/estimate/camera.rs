@@ -6,12 +6,10 @@ use super::frame::Obs;
 use super::lie::Vec6;
 use super::lie::normalised;
 use super::measure::{
-    Correspondences, MotionMeasurement, correspondences, inverse_information, plausible, twist_measurement,
+    Measuring, MotionMeasurement, correspondences, inverse_information, plausible, twist_measurement,
 };
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
-use super::point_model::PointModel;
-use super::rng::Pcg32;
 use crate::geometry::{Pose3, se3_log};
 
 /// What one camera step produced.
@@ -80,18 +78,9 @@ impl<const W: usize> CameraTrack<W> {
     /// the step to the smoother's window, coupled to the motion the objects of this frame are
     /// measured against (the frame-to-frame one). Returns whether the motion was fitted.
     /// [`CameraTrack::finish`] follows the window's solve.
-    #[allow(clippy::too_many_arguments)]
-    pub fn measure(
-        &mut self,
-        previous: &[Obs],
-        current: &[Obs],
-        fp: &FitParams,
-        model: &PointModel,
-        rng: &mut Pcg32,
-        corrs: &mut Correspondences,
-        s: &Smoothness,
-        scratch: &mut ChainScratch<W>,
-    ) -> bool {
+    pub fn measure(&mut self, previous: &[Obs], current: &[Obs], fp: &FitParams, m: &mut Measuring<'_, W>) -> bool {
+        let (model, s) = (m.model, m.smoothness);
+        let (rng, corrs, scratch) = (&mut *m.rng, &mut *m.corrs, &mut *m.scratch);
         // Source: camera k-1; the fitted pose maps camera k-1 into camera k, i.e. the inverse of
         // the increment n = T_(k-1)^-1 T_k.
         correspondences(previous, current, &Pose3::identity(), model, corrs);

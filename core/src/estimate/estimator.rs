@@ -10,7 +10,7 @@ use heapless::Vec;
 
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
 use super::joint::{JointScratch, solve_joint};
-use super::measure::Correspondences;
+use super::measure::{Correspondences, Measuring};
 use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
 use super::output::ObjectEstimate;
 use super::output::PoseEstimate;
@@ -287,16 +287,15 @@ impl<const W: usize> Estimator<W> {
     /// objects later), or, without a previous frame, a new world frame begun.
     fn measure_camera(&mut self, step: u32, has_previous: bool, leaving: Option<u32>) {
         if has_previous {
-            let fitted = self.camera.measure(
-                &self.previous_statics,
-                &self.frame.statics,
-                &self.params.camera_fit,
-                &self.model,
-                &mut self.rng,
-                &mut self.corrs,
-                &self.camera_smoothness,
-                &mut self.scratch,
-            );
+            let mut m = Measuring {
+                model: &self.model,
+                rng: &mut self.rng,
+                corrs: &mut self.corrs,
+                smoothness: &self.camera_smoothness,
+                scratch: &mut self.scratch,
+            };
+            let fitted =
+                self.camera.measure(&self.previous_statics, &self.frame.statics, &self.params.camera_fit, &mut m);
             if !fitted {
                 bump(&mut self.stats.camera_motion_held);
             }
@@ -358,7 +357,8 @@ impl<const W: usize> Estimator<W> {
                 let Some(run) = runs.get_mut(i) else { continue };
                 let was_coasting = run.coasted_since_fit();
                 let was_initialising = run.state == RunState::Initialising;
-                match run.measure(&cx, params, model, rng, corrs, object_smoothness, scratch) {
+                let mut m = Measuring { model, rng, corrs, smoothness: object_smoothness, scratch };
+                match run.measure(&cx, params, &mut m) {
                     StepOutcome::Measured => {
                         if was_coasting {
                             bump(&mut stats.objects_resumed);

@@ -4,6 +4,7 @@
 use heapless::Vec;
 use nalgebra::Point3;
 
+use super::chain::{ChainScratch, Smoothness};
 use super::fit::{Fit, fit_pose};
 use super::frame::Obs;
 use super::lie::{Mat6, Vec6, ad_matrix, adjoint, map_information};
@@ -13,6 +14,22 @@ use super::point_model::{Correspondence, PointModel};
 use super::rng::Pcg32;
 use crate::geometry::{Pose3, se3_log};
 use crate::limits::MAX_STATIC_TRACKS;
+
+/// What a motion measurement works with, lent by the estimator for one measurement: the point
+/// model, the RANSAC generator, room for correspondences, and the smoother's prior and scratch
+/// of the path the measured step joins.
+pub struct Measuring<'a, const W: usize> {
+    /// The point measurement model.
+    pub model: &'a PointModel,
+    /// The robust fit's sampling.
+    pub rng: &'a mut Pcg32,
+    /// Correspondences, filled per measurement.
+    pub corrs: &'a mut Correspondences,
+    /// The smoother's prior of the path measured.
+    pub smoothness: &'a Smoothness,
+    /// The smoother's scratch.
+    pub scratch: &'a mut ChainScratch<W>,
+}
 
 /// Most correspondences of one fit: the larger of the static and the per-object capacity.
 pub const MAX_CORRESPONDENCES: usize = MAX_STATIC_TRACKS;

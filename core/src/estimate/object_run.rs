@@ -14,7 +14,7 @@ use super::landmarks::{
     self, Landmarks, fuse, initial_landmarks, landmark_correspondences, nearest_landmark_correspondences,
 };
 use super::lie::{Vec6, normalised, pose_to_lin};
-use super::measure::{Correspondences, MotionMeasurement, measure_motion, robust_centroid};
+use super::measure::{Correspondences, Measuring, MotionMeasurement, measure_motion, robust_centroid};
 use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};
@@ -216,17 +216,9 @@ impl<const W: usize> ObjectRun<W> {
     /// Measures the motion from frame k-1 to frame k and adds it to the smoother's window
     /// (coupled to the camera motion `cx.camera` came from). Returns the outcome;
     /// [`ObjectRun::finish`] follows the window's solve (not after a restart, which adds nothing).
-    #[allow(clippy::too_many_arguments)]
-    pub fn measure(
-        &mut self,
-        cx: &PairContext<'_>,
-        params: &EstimatorParams,
-        model: &PointModel,
-        rng: &mut Pcg32,
-        corrs: &mut Correspondences,
-        s: &Smoothness,
-        scratch: &mut ChainScratch<W>,
-    ) -> StepOutcome {
+    pub fn measure(&mut self, cx: &PairContext<'_>, params: &EstimatorParams, m: &mut Measuring<'_, W>) -> StepOutcome {
+        let (model, s) = (m.model, m.smoothness);
+        let (rng, corrs, scratch) = (&mut *m.rng, &mut *m.corrs, &mut *m.scratch);
         let frame = self.frame_pose();
         // Source points: the landmarks, in the object's frame (at k-1, i.e. `frame`).
         let a = cx.camera.inverse() * frame;
