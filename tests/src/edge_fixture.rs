@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::{
-    CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks,
+    FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks,
 };
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
@@ -22,16 +22,7 @@ pub fn scene_tracks(frames: usize) -> Tracks {
     let i = Intrinsics::KITTI_0926;
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
     let sim = simulate(&cams, &boxes, &SimSpec::kitti(i, KITTI_IMAGE_SIZE, dt, 3));
-    let camera = CameraInfo {
-        fx: i.fx,
-        fy: i.fy,
-        cx: i.cx,
-        cy: i.cy,
-        stereo_fb: i.stereo_fb,
-        width: KITTI_IMAGE_SIZE.0 as u16,
-        height: KITTI_IMAGE_SIZE.1 as u16,
-        frame_rate_hz: PAPER_FRAME_RATE_HZ,
-    };
+    let camera = dynotraj_host::estimate::evaluate::camera_info(&i, PAPER_FRAME_RATE_HZ);
     let frames = sim
         .iter()
         .map(|f| TracksFrame {

@@ -4,7 +4,7 @@
 //! decoder every byte it dropped.
 
 use dynotraj_core::estimate::Intrinsics;
-use dynotraj_core::wire::{CameraInfo, FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
+use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_edge::{NoClock, Session};
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::edge_fixture::MemLink;
@@ -17,16 +17,7 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
     let frames = feature_tracks(&drive, 256, 128, 9);
     let mut rng = SmallRng::seed_from_u64(5);
     let i = Intrinsics::KITTI_0926;
-    let camera = CameraInfo {
-        fx: i.fx,
-        fy: i.fy,
-        cx: i.cx,
-        cy: i.cy,
-        stereo_fb: i.stereo_fb,
-        width: 1242,
-        height: 375,
-        frame_rate_hz: 20.0,
-    };
+    let camera = dynotraj_host::estimate::evaluate::camera_info(&i, 20.0);
     let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
     let n = encode(&Message::CameraInfo(camera), &mut buf).unwrap();
     let mut stream = buf[..n].to_vec();

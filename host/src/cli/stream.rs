@@ -9,9 +9,10 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{CameraInfo, ComputeUnit, Forecaster, Message, Notice, ObjectClass, frame_parts};
+use dynotraj_core::wire::{ComputeUnit, Forecaster, Message, Notice, ObjectClass, frame_parts};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
+use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
@@ -195,17 +196,7 @@ pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyh
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
     let spec = SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, dt, 1);
     let sim = simulate(&input.camera_poses[..n], &boxes, &spec);
-    let i = input.intrinsics;
-    let camera = CameraInfo {
-        fx: i.fx,
-        fy: i.fy,
-        cx: i.cx,
-        cy: i.cy,
-        stereo_fb: i.stereo_fb,
-        width: KITTI_IMAGE_SIZE.0 as u16,
-        height: KITTI_IMAGE_SIZE.1 as u16,
-        frame_rate_hz: PAPER_FRAME_RATE_HZ,
-    };
+    let camera = camera_info(&input.intrinsics, PAPER_FRAME_RATE_HZ);
     let frames = sim
         .iter()
         .map(|f| {
