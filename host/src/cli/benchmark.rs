@@ -7,7 +7,6 @@ use anyhow::Context as _;
 use clap::Args;
 
 use super::common::DataArgs;
-use super::experiment::{deployment_section, table_i_sources};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use crate::experiment::ExperimentConfig;
@@ -16,6 +15,7 @@ use crate::experiment::benchmark::{
 };
 use crate::experiment::figures::Figure;
 use crate::experiment::report::{Report, Section, write_report};
+use crate::experiment::sections::{deployment_section, table_i_sources};
 use crate::report::chart::{Chart, Series, write_chart};
 use crate::report::instances_table;
 use crate::trajectory::Source;

@@ -4,7 +4,8 @@
 //! per fold; [`benchmark`] holds out groups of sequences, with several seeds.
 //!
 //! Two stages: [`folds::train_folds`] trains every (arm, fold, seed) on `--jobs` threads;
-//! [`score_seed`] scores one seed's models, sequence by sequence.
+//! [`score_seed`] scores one seed's models, sequence by sequence; [`sections`] turns a run into
+//! its report's tables and notes ([`report`] writes them).
 
 pub mod benchmark;
 pub mod cache;
@@ -13,6 +14,7 @@ pub mod findings;
 pub mod folds;
 pub mod paper;
 pub mod report;
+pub mod sections;
 
 use std::collections::BTreeSet;
 use std::path::PathBuf;
