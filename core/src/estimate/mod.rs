@@ -5,13 +5,13 @@
 //!
 //! 1. **Assembly** ([`FrameAssembler`]): the [`crate::wire::FrameTracks`] parts of one frame
 //!    are collected into fixed, id-sorted arrays (one static list, one list per object).
-//! 2. **Ego-motion** ([`CameraTrack`]): static tracks matched by id between frames k-1 and k;
+//! 2. **Ego-motion** (`camera::CameraTrack`): static tracks matched by id between frames k-1 and k;
 //!    3-point TRIAD RANSAC (fixed budget, deterministic [`Pcg32`] seeded by the caller), then
 //!    Levenberg-Marquardt on the stereo reprojection error `(u, v, disparity)` under a truncated
 //!    Huber kernel. The fit's information (J^T W J over the a-posteriori residual variance) is
 //!    the measurement of the camera motion.
 //! 3. **Object motion** ([`ObjectRun`]): each object keeps its tracked points as landmarks in its
-//!    own frame, running means over the frames they were seen in ([`Landmark`]); the same
+//!    own frame, running means over the frames they were seen in (`landmarks::Landmark`); the same
 //!    robust fit between the landmarks and the object's tracks at frame k gives its pose at k,
 //!    hence the body motion `delta_k = L_(k-1)^-1 L_k` and the world-centric motion
 //!    `H_k = L_(k-1) delta_k L_(k-1)^-1` (DynoSAM's `H = X_k G^-1`), `L_k = H_k L_(k-1)`.
@@ -23,7 +23,7 @@
 //!    its run has `heading_max_wait_frames` (5) frames, the frame is turned once, upright with x
 //!    along the displacement (its heading), which starts a new output segment. Before that its
 //!    heading is unknown (`heading_known == false`).
-//! 4. **Smoothing** ([`ChainSmoother`], [`SmoothedPath`]): over the last `W` frames, per object
+//! 4. **Smoothing** ([`ChainSmoother`], `path::SmoothedPath`): over the last `W` frames, per object
 //!    (and for the camera), the body motions are estimated jointly from the per-frame
 //!    measurements and a constant-motion prior between consecutive motions. DynoSAM's smoothing
 //!    factor (0.01 rad, 0.2 m, on world-frame motions) was the starting point; on body-frame

@@ -280,7 +280,7 @@ impl<const W: usize> ObjectRun<W> {
 
     /// Advances a tracking run whose object is missing from the frame by its last motion, with
     /// no measurement: it coasts for up to [`MAX_HELD_FRAMES`] frames, then must end
-    /// ([`StepOutcome::Restart`] with [`EndCause::Lost`]).
+    /// (`StepOutcome::Restart` with `EndCause::Lost`).
     pub fn coast(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>) -> StepOutcome {
         if self.state != RunState::Tracking {
             return StepOutcome::Restart(EndCause::Lost);
