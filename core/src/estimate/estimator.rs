@@ -11,7 +11,7 @@ use heapless::Vec;
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
 use super::joint::{JointScratch, solve_joint};
 use super::measure::{Correspondences, Measuring};
-use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome};
+use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome, WindowExit};
 use super::output::ObjectEstimate;
 use super::output::PoseEstimate;
 use super::params::EstimatorParams;
@@ -406,8 +406,7 @@ impl<const W: usize> Estimator<W> {
                 bump(&mut stats.objects_returned);
             }
             let Some(slot) = free_slot(runs, stats) else { continue };
-            if slot.initialise(obj.object_id, obj.class, &obj.points, camera_now, model, step, params.object_min_points)
-            {
+            if slot.initialise(obj, camera_now, model, step, params.object_min_points) {
                 bump(&mut stats.objects_initialised);
             } else {
                 bump(&mut stats.objects_not_initialised);
@@ -482,15 +481,8 @@ impl<const W: usize> JointSolve<'_, W> {
         let (chain, first) = (run.path().chain(), run.path().first_slot_step());
         let n = chain.solve_with(self.smoothness, scratch, |i| self.joint.object_extra(chain, first, i));
         let shift = self.joint.front_shift(chain, first);
-        run.finish(
-            n.map(|n| scratch.solution(n)),
-            self.smoothness,
-            self.leaving,
-            shift,
-            self.dt_leaving,
-            fuse_with,
-            failures,
-        )
+        let exit = WindowExit { leaving: self.leaving, dt_leaving: self.dt_leaving, front_shift: shift };
+        run.finish(n.map(|n| scratch.solution(n)), self.smoothness, exit, fuse_with, failures)
     }
 }
 

@@ -9,7 +9,7 @@
 //! still in the smoother's window are emitted as they leave) -> `Free`.
 
 use super::chain::{ChainScratch, Smoothness};
-use super::frame::Obs;
+use super::frame::{ObjectPoints, Obs};
 use super::landmarks::{
     self, Landmarks, fuse, initial_landmarks, landmark_correspondences, nearest_landmark_correspondences,
 };
@@ -42,6 +42,17 @@ pub const MAX_HELD_FRAMES: u8 = 5;
 const REACQUIRE_RADIUS_M: f32 = 0.6;
 /// Pair-and-fit passes of a re-acquisition (an iterative-closest-point loop, cut short).
 const REACQUIRE_PASSES: usize = 2;
+
+/// The frame leaving the smoothing window, as a run's finish takes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowExit {
+    /// The step leaving the window, once it is full.
+    pub leaving: Option<u32>,
+    /// Its frame period, seconds.
+    pub dt_leaving: f32,
+    /// Conditions the leaving step on the camera as solved, before it is marginalised.
+    pub front_shift: Option<Vec6>,
+}
 
 /// Where a run is in its life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -178,19 +189,17 @@ impl<const W: usize> ObjectRun<W> {
         if self.state == RunState::Tracking || self.state == RunState::Draining { self.path.pending() } else { 0 }
     }
 
-    /// Starts a run for `object_id` from its points at step `step`, seen by `camera`. `false`
+    /// Starts a run for `object` from its points at step `step`, seen by `camera`. `false`
     /// (and the slot stays free) when there are fewer than `min_points` points.
-    #[allow(clippy::too_many_arguments)]
     pub fn initialise(
         &mut self,
-        object_id: u16,
-        class: ObjectClass,
-        points: &[Obs],
+        object: &ObjectPoints,
         camera: &Pose3,
         model: &PointModel,
         step: u32,
         min_points: u16,
     ) -> bool {
+        let (object_id, class, points) = (object.object_id, object.class, &object.points[..]);
         if points.len() < usize::from(min_points) {
             return false;
         }
@@ -328,21 +337,19 @@ impl<const W: usize> ObjectRun<W> {
     }
 
     /// Takes the window's solution `xs` (`None`: the solve failed, counted in `solve_failures`),
-    /// emits the leaving step if it is this run's (`dt_leaving` is its frame period; `front_shift`
-    /// conditions it on the camera as solved before it is marginalised), and, for a run measured
-    /// in this frame, fuses its points (`current`, seen by `camera`) into its landmarks. A
-    /// draining run frees itself once nothing is pending.
-    #[allow(clippy::too_many_arguments)]
+    /// emits the frame leaving the window if it is this run's (see [`WindowExit`]), and, for a
+    /// run measured in this frame, fuses its points (`fuse_with`: the frame's points, the camera
+    /// they were seen by, the point model, the inlier bound) into its landmarks. A draining run
+    /// frees itself once nothing is pending.
     pub fn finish(
         &mut self,
         xs: Option<&[Vec6]>,
         s: &Smoothness,
-        leaving: Option<u32>,
-        front_shift: Option<Vec6>,
-        dt_leaving: f32,
+        exit: WindowExit,
         fuse_with: Option<(&[Obs], &Pose3, &PointModel, f32)>,
         solve_failures: &mut u32,
     ) -> Option<ObjectEstimate> {
+        let WindowExit { leaving, dt_leaving, front_shift } = exit;
         let stepped = self.stepped.take();
         let emitted = match self.path.apply(xs, s, leaving, stepped.is_some(), front_shift) {
             Ok(e) => e,
