@@ -351,7 +351,8 @@ mod tests {
             let t = pose.translation.vector;
             assert!((t - Vector3::new(0.0, 0.0, k as f64)).norm() < 1e-4, "{k}: {t}");
         }
-        // With a KITTI-like calibration (small tilts, offsets) the steps are still ~1 m and the first pose the identity.
+        // With a KITTI-like calibration (small tilts, offsets) the steps are still ~1 m and the
+        // first pose the identity.
         let real = parse_calib(&crate::kitti::test_support::calib_object_style(), &p()).unwrap();
         let cams = camera_poses_from_oxts(&packets, &real);
         assert!((cams[0].to_homogeneous() - nalgebra::Matrix4::identity()).norm() < 1e-9);

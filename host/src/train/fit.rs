@@ -254,7 +254,8 @@ pub fn fit(
     let total = per_epoch * hyper.epochs;
     let mut order: Vec<usize> = (0..train.len()).collect();
     // Epoch 0 is the untrained model (the cv-fit forecast, constant velocity along the fitted
-    // velocity, when the output layer starts at zero): a trained epoch is kept only if it beats it on the held-out runs.
+    // velocity, when the output layer starts at zero): a trained epoch is kept only if it beats it
+    // on the held-out runs.
     let untrained = if hyper.keep_untrained_if_better { mean_ade(net, held_out, dt)? } else { f32::INFINITY };
     let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0, shrink: 1.0 };
     let mut best = snapshot(vars)?;
