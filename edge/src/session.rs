@@ -47,20 +47,29 @@ impl ModelStatus {
         }
     }
 
-    /// What the host is told of this status after a load over the link.
+    /// Why the model was refused, as the host is told; `None` when none was.
     #[must_use]
-    pub const fn notice(&self) -> Notice {
+    pub const fn refusal(&self) -> Option<ModelRefusal> {
         match self {
-            Self::None => Notice::ModelRefused(ModelRefusal::NotAccepted),
-            Self::Loaded { .. } => Notice::Forecasting(self.forecaster()),
-            Self::Rejected(_) => Notice::ModelRefused(ModelRefusal::InvalidBlob),
-            Self::SignatureRejected(e) => Notice::ModelRefused(match e {
+            Self::None | Self::Loaded { .. } => None,
+            Self::Rejected(_) => Some(ModelRefusal::InvalidBlob),
+            Self::SignatureRejected(e) => Some(match e {
                 SignatureError::Unsigned => ModelRefusal::Unsigned,
                 SignatureError::OtherKey { found, expected } => {
                     ModelRefusal::OtherKey { found: *found, expected: *expected }
                 }
                 SignatureError::BadKey | SignatureError::BadSignature => ModelRefusal::BadSignature,
             }),
+        }
+    }
+
+    /// What the host is told of this status after a load over the link: the refusal, or how
+    /// the edge forecasts now.
+    #[must_use]
+    pub const fn notice(&self) -> Notice {
+        match self.refusal() {
+            Some(why) => Notice::ModelRefused(why),
+            None => Notice::Forecasting(self.forecaster()),
         }
     }
 }

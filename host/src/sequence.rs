@@ -5,10 +5,10 @@ use anyhow::Context as _;
 
 use crate::estimate::cache;
 use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
-pub use crate::estimate::settings::EstimateSettings;
+use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{
-    EstimatedTracks, ObjectTrack, OursInput, Source, estimated_tracks, image_estimated_tracks, label_tracks,
+    EstimatedTracks, ObjectTrack, Source, estimated_tracks, image_estimated_tracks, label_tracks,
     rendered_estimated_tracks,
 };
 

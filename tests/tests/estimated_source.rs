@@ -108,9 +108,9 @@ fn the_estimated_source_from_a_rendering() {
     let t = eval::table(&args).unwrap();
     println!("{}", t.render(dynotraj_host::report::Format::Md));
     let tracking = TrackingDir::open(dir.path()).unwrap();
-    let settings = dynotraj_host::sequence::EstimateSettings {
-        input: dynotraj_host::trajectory::OursInput::Rendered,
-        ..dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.05))
+    let settings = dynotraj_host::estimate::settings::EstimateSettings {
+        input: dynotraj_host::estimate::settings::OursInput::Rendered,
+        ..dynotraj_host::estimate::settings::EstimateSettings::tracks(EvalOptions::kitti(0.05))
     };
     let seq = dynotraj_host::sequence::load_sequence(&tracking, "0000", 0.05, Some(&settings)).unwrap();
     let e = seq.estimated.unwrap();
@@ -167,7 +167,7 @@ fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     // image_02/, image_03/, instance masks, labels and poses.
     let root = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
     let dir = TrackingDir::open(&root).unwrap();
-    let settings = dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.1));
+    let settings = dynotraj_host::estimate::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     let seq = dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();
     let e = seq.estimated.as_ref().unwrap();
     assert_eq!(e.input, dynotraj_host::trajectory::EstimateInput::Images);
@@ -187,7 +187,7 @@ fn estimates_from_images_are_cached_under_a_key_that_covers_the_image_bytes() {
     let root = tmp.path().join("kitti");
     copy_tree(&fixture, &root);
     let cache = tmp.path().join("cache");
-    let mut settings = dynotraj_host::sequence::EstimateSettings::tracks(EvalOptions::kitti(0.1));
+    let mut settings = dynotraj_host::estimate::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     settings.cache = Some(cache.clone());
     let load = || {
         let dir = TrackingDir::open(&root).unwrap();

@@ -335,8 +335,8 @@ impl<const W: usize> Estimator<W> {
     /// Ended runs emit their frame `leaving` the window.
     fn drain_ended(&mut self, leaving: u32, dt_leaving: f32) {
         let Self { runs, joint, object_smoothness, scratch, stats, smoothed, .. } = self;
+        let solve = JointSolve { joint, smoothness: object_smoothness, leaving: Some(leaving), dt_leaving };
         for run in runs.iter_mut().filter(|r| r.state == RunState::Draining) {
-            let solve = JointSolve { joint, smoothness: object_smoothness, leaving: Some(leaving), dt_leaving };
             if let Some(e) = solve.finish(run, scratch, None, &mut stats.numerical_failures) {
                 let _ = smoothed.objects.push(e);
             }
@@ -348,6 +348,8 @@ impl<const W: usize> Estimator<W> {
     fn measure_objects(&mut self, step: u32, has_previous: bool, camera_now: &Pose3, w: &WindowStep) {
         let Self { frame, runs, stats, params, model, rng, corrs, object_smoothness, scratch, joint, smoothed, .. } =
             self;
+        // A run that ends here emits its frame leaving the window, solved as the ended ones are.
+        let drain = JointSolve { joint, smoothness: object_smoothness, leaving: w.leaving, dt_leaving: w.dt_leaving };
         for obj in &frame.objects {
             let live = runs.iter().position(|r| r.is_live() && r.object_id == obj.object_id);
             let mut restart = live.is_none();
@@ -376,14 +378,8 @@ impl<const W: usize> Estimator<W> {
                         } else {
                             stats.run_ended(cause);
                             run.state = RunState::Draining;
-                            let solve = JointSolve {
-                                joint,
-                                smoothness: object_smoothness,
-                                leaving: w.leaving,
-                                dt_leaving: w.dt_leaving,
-                            };
                             if w.leaving.is_some()
-                                && let Some(e) = solve.finish(run, scratch, None, &mut stats.numerical_failures)
+                                && let Some(e) = drain.finish(run, scratch, None, &mut stats.numerical_failures)
                             {
                                 let _ = smoothed.objects.push(e);
                             }
@@ -436,10 +432,9 @@ impl<const W: usize> Estimator<W> {
         }
         let Self { runs, frame, joint, object_smoothness, scratch, stats, smoothed, params, model, .. } = self;
         let inlier_px = params.object_fit.inlier_px;
+        let solve = JointSolve { joint, smoothness: object_smoothness, leaving: w.leaving, dt_leaving: w.dt_leaving };
         for run in runs.iter_mut().filter(|r| r.stepped()) {
             let points = frame.object(run.object_id).map(|o| &o.points[..]).unwrap_or(&[]);
-            let solve =
-                JointSolve { joint, smoothness: object_smoothness, leaving: w.leaving, dt_leaving: w.dt_leaving };
             let fuse_with = (points, camera_now, &*model, inlier_px);
             if let Some(e) = solve.finish(run, scratch, Some(fuse_with), &mut stats.numerical_failures) {
                 let _ = smoothed.objects.push(e);

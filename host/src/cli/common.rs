@@ -10,10 +10,11 @@ use dynotraj_core::wire::ObjectClass;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::estimate::evaluate::EvalOptions;
+use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::jobs::{default_jobs, map_jobs, parse_jobs};
 use crate::kitti::TrackingDir;
-use crate::sequence::{EstimateSettings, SequenceTracks, load_sequence};
-use crate::trajectory::{EligibilityRule, MovingRule, OursInput, Source};
+use crate::sequence::{SequenceTracks, load_sequence};
+use crate::trajectory::{EligibilityRule, MovingRule, Source};
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];

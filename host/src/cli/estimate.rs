@@ -24,11 +24,11 @@ use crate::estimate::evaluate::{
 use crate::estimate::files::{write_estimates, write_run};
 use crate::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
+use crate::estimate::settings::OursInput;
 use crate::jobs::map_jobs;
 use crate::kitti::TrackingDir;
 use crate::report::estimator_tables::{counters_table, nonzero_counters, objects_followed, per_object_table, tables};
 use crate::report::{Format, Table};
-use crate::trajectory::OursInput;
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]

@@ -101,19 +101,18 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     }
     print!("{}", summary(&result, &args.to));
     anyhow::ensure!(!result.busy(), "edge {to}: {}; try again when its session ends", Notice::Busy, to = args.to);
-    anyhow::ensure!(
-        !result.interrupted,
-        "interrupted after {} of {} frames; what the edge answered is written",
-        result.frames.len(),
-        tracks.frames.len()
-    );
-    if let Some(e) = &result.link_error {
-        anyhow::bail!(
-            "edge {}: {e} after {} of {} frames; what the edge answered is written",
-            args.to,
+    let stopped_early = |why: String| {
+        anyhow::anyhow!(
+            "{why} after {} of {} frames; what the edge answered is written",
             result.frames.len(),
             tracks.frames.len()
-        );
+        )
+    };
+    if result.interrupted {
+        return Err(stopped_early("interrupted".into()));
+    }
+    if let Some(e) = &result.link_error {
+        return Err(stopped_early(format!("edge {}: {e}", args.to)));
     }
     refused_model(&result, args)?;
     unanswered(&result, &args.to, args.lockstep, args.timeout)

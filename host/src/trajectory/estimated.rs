@@ -26,7 +26,6 @@ use dynotraj_core::wire::ObjectClass;
 
 use super::ObjectTrack;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
-pub use crate::estimate::settings::OursInput;
 use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -35,7 +34,7 @@ use dynotraj_fixtures::track_sim::SimFrame;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum EstimateInput {
     /// Tracks of the track-level simulator driven by the sequence's labels and ego poses
-    /// ([`OursInput::Tracks`]).
+    /// ([`crate::estimate::settings::OursInput::Tracks`]).
     Tracks,
     /// The image front-end's tracks of the sequence's own stereo images (no truth).
     Images,

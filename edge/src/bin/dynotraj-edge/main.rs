@@ -114,6 +114,13 @@ impl Edge {
         result
     }
 
+    /// The closing line: why the edge stops (`stop` set by a signal, else `--sessions`) and its
+    /// totals.
+    fn say_totals(&self, stop: &AtomicBool) {
+        let why = if stop.load(Ordering::Relaxed) { "stopped by a signal" } else { "served --sessions" };
+        eprintln!("{}", self.totals.line(why));
+    }
+
     /// Says which key a model over the link must be signed with (once the link is up: the
     /// first line stays the listening address, which callers read).
     fn key_note(&self) {
@@ -187,8 +194,7 @@ fn serve_tcp(edge: &mut Edge, url: &str, args: &Args) -> Result<(), String> {
             let _ = send_notice(&mut io, Notice::IdleTimeout { seconds });
         }
     }
-    let why = if stop.load(Ordering::Relaxed) { "stopped by a signal" } else { "served --sessions" };
-    eprintln!("{}", edge.totals.line(why));
+    edge.say_totals(&stop);
     Ok(())
 }
 
@@ -208,7 +214,6 @@ fn serve_serial(edge: &mut Edge, path: &std::path::Path, args: &Args) -> Result<
             Err(e) => return Err(format!("{name}: {}", report::ending(&Err(e), false))),
         }
     }
-    let why = if stop.load(Ordering::Relaxed) { "stopped by a signal" } else { "served --sessions" };
-    eprintln!("{}", edge.totals.line(why));
+    edge.say_totals(&stop);
     Ok(())
 }

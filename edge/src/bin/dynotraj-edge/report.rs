@@ -20,14 +20,11 @@ pub fn ending(result: &Result<(), RunError<LinkError>>, said_goodbye: bool) -> S
 
 /// The model's status, in words.
 pub fn model(status: ModelStatus) -> String {
-    match status {
-        ModelStatus::None => "none (constant velocity)".to_string(),
-        ModelStatus::Loaded { len } => format!("{len} B"),
-        ModelStatus::Rejected(err) => format!("refused, not a model this edge runs: {err}"),
-        ModelStatus::SignatureRejected(_) => match status.notice() {
-            dynotraj_core::wire::Notice::ModelRefused(why) => format!("refused: {why}"),
-            other => format!("{other}"),
-        },
+    match (status, status.refusal()) {
+        (ModelStatus::Rejected(err), _) => format!("refused, not a model this edge runs: {err}"),
+        (_, Some(why)) => format!("refused: {why}"),
+        (ModelStatus::Loaded { len }, None) => format!("{len} B"),
+        _ => "none (constant velocity)".to_string(),
     }
 }
 
