@@ -66,10 +66,9 @@ impl RowMajor for Matrix3<f64> {
     }
 }
 
-/// The real KITTI tracking split (the folder holding `label_02/`): `DYNOTRAJ_KITTI` as the
-/// scripts set it (that folder), or the folder holding `tracking/training` under it, else
-/// `../shared/kitti/tracking/training`. `None` (after printing why the caller skips) when it
-/// is not there.
+/// The real KITTI tracking split (the folder holding `label_02/`): `DYNOTRAJ_KITTI`, which names
+/// that folder for the scripts, the tests and the CLI alike, else `../shared/kitti/tracking/training`.
+/// `None` (after printing why the caller skips) when it is not there.
 pub fn kitti_split(test: &str) -> Option<PathBuf> {
     let given = std::env::var_os("DYNOTRAJ_KITTI").map(PathBuf::from).unwrap_or_else(|| {
         // Read at run time first: a reused test binary's compile-time value may name another
@@ -78,13 +77,13 @@ pub fn kitti_split(test: &str) -> Option<PathBuf> {
             .map_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")), PathBuf::from)
             .join("../../shared/kitti/tracking/training")
     });
-    let split = [given.clone(), given.join("tracking/training")].into_iter().find(|d| d.join("label_02").is_dir());
+    let split = given.join("label_02").is_dir().then(|| given.clone());
     if split.is_none() {
         dynotraj_fixtures::skip::skipped(
             test,
             &format!(
-                "real KITTI data not found at {} (expected label_02/ there or in tracking/training/; set \
-                    DYNOTRAJ_KITTI to the tracking split)",
+                "real KITTI data not found at {} (expected label_02/ there; set DYNOTRAJ_KITTI \
+                    to the tracking split)",
                 given.display()
             ),
         );
