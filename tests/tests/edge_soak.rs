@@ -4,7 +4,8 @@
 //! not grow (`dynotraj soak` runs the 100,000-frame version).
 
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::cli::soak::{SoakArgs, soak_edge, summary};
+use dynotraj_host::cli::soak::{SoakArgs, soak_edge};
+use dynotraj_host::report::stream_report::soak_summary;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]
@@ -21,7 +22,7 @@ fn a_faulty_link_loses_only_damaged_frames_and_memory_stays_flat() {
         edge: Some(dynotraj_tests::edge_fixture::edge_binary()),
     };
     let r = soak_edge(&args).unwrap();
-    println!("{}", summary(&r));
+    println!("{}", soak_summary(&r));
     assert_eq!(r.frames_sent, 2000);
     assert!(r.faults_injected() > 20 && r.faults.iter().all(|&n| n > 0), "{:?}", r.faults);
     assert!(r.damaged_frames > 0);

@@ -32,7 +32,12 @@ pub struct DataArgs {
     pub kitti: PathBuf,
     /// Frame rate in Hz used for speeds and the dynamics. The paper treats KITTI as 20 Hz
     /// (its cameras really run at 10 Hz); horizons stay 30 frames either way.
-    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::frame_rate_f32,
+        default_value_t = PAPER_FRAME_RATE_HZ,
+        value_name = "HZ",
+    )]
     pub rate: f32,
     /// Object classes considered (KITTI type names, comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist", value_name = "LIST")]

@@ -16,7 +16,6 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::{OursArgs, progress, sequence_ids};
-use crate::estimate::Kind;
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
@@ -27,7 +26,7 @@ use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::settings::OursInput;
 use crate::jobs::map_jobs;
 use crate::kitti::TrackingDir;
-use crate::report::estimator_tables::{counters_table, nonzero_counters, objects_followed, per_object_table, tables};
+use crate::report::estimator_tables::{bench_table, counters_table, per_object_table, replay_tables, tables};
 use crate::report::{Format, Table};
 
 /// Options of `dynotraj estimate`.
@@ -35,7 +34,13 @@ use crate::report::{Format, Table};
 pub struct EstimateArgs {
     /// A KITTI tracking split folder (label_02/, calib/, ego poses), e.g.
     /// ../shared/kitti/tracking/training. Its labels and ego poses drive the simulator.
-    #[arg(long = "kitti", visible_alias = "sim-kitti", env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["bench", "tracks"])]
+    #[arg(
+        long = "kitti",
+        visible_alias = "sim-kitti",
+        env = "DYNOTRAJ_KITTI",
+        value_name = "DIR",
+        required_unless_present_any = ["bench", "tracks"],
+    )]
     pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
     #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
@@ -62,7 +67,12 @@ pub struct EstimateArgs {
     pub out: Option<PathBuf>,
     /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
     /// depend on it).
-    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ, value_name = "HZ")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::frame_rate_f32,
+        default_value_t = PAPER_FRAME_RATE_HZ,
+        value_name = "HZ",
+    )]
     pub rate: f32,
     /// Object classes placed in the scene (KITTI type names, comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist,Pedestrian", value_name = "LIST")]
@@ -87,11 +97,19 @@ pub struct EstimateArgs {
     pub noise_free: bool,
     /// Object smoother: standard deviation of the change of per-frame translation, metres
     /// (DynoSAM's world-frame value: 0.2).
-    #[arg(long, value_parser = crate::cli::numbers::positive_f32, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation)]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::positive_f32,
+        default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation,
+    )]
     pub object_sigma_t: f32,
     /// Object smoother: standard deviation of the change of per-frame rotation, radians
     /// (DynoSAM's world-frame value: 0.01).
-    #[arg(long, value_parser = crate::cli::numbers::positive_f32, default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation)]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::positive_f32,
+        default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation,
+    )]
     pub object_sigma_r: f32,
     /// Estimator profiles, comma-separated: host (DynoSAM's 20-frame window, the joint
     /// camera-object solve) and edge (what the ECU firmware runs: an 8-frame window, camera and
@@ -200,7 +218,9 @@ impl EstimateArgs {
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     if args.bench {
-        println!("{}", bench_table(args).render(args.format));
+        let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
+        let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
+        println!("{}", bench_table(&r).render(args.format));
         return Ok(());
     }
     if let Some(path) = &args.tracks {
@@ -295,20 +315,7 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
         write_estimates(out, &r.frames, &r.run)?;
         eprintln!("wrote {}", out.display());
     }
-    let objects = |k: Kind| objects_followed(r.run.of(k));
-    let mut t =
-        Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
-    t.push([
-        path.display().to_string(),
-        r.frames.len().to_string(),
-        objects(Kind::Causal).to_string(),
-        objects(Kind::Smoothed).to_string(),
-        format!("{:.2}", r.estimate_seconds),
-        "not available: a tracks file carries no truth".to_string(),
-    ]);
-    let mut c = Table::new(["tracks file", "counters (non-zero)"]);
-    c.push([path.display().to_string(), nonzero_counters(&r.run.stats)]);
-    Ok((t, c))
+    Ok(replay_tables(&path.display().to_string(), r.frames.len(), &r.run, r.estimate_seconds))
 }
 
 /// Loads the requested sequences, simulates or renders and tracks each once, and estimates
@@ -362,23 +369,4 @@ pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
         }
     }
     Ok(by_profile.into_iter().flatten().collect())
-}
-
-/// The compute benchmark as a table.
-#[must_use]
-pub fn bench_table(args: &EstimateArgs) -> Table {
-    let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-    let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
-    let mut t = Table::new(["quantity", "value"]);
-    let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
-    t.push(["build".to_string(), profile.to_string()]);
-    t.push(["frames timed".to_string(), r.frames.to_string()]);
-    t.push(["tracks per frame (mean)".to_string(), format!("{:.0}", r.tracks_per_frame)]);
-    t.push(["objects estimated per frame (mean)".to_string(), format!("{:.1}", r.objects_per_frame)]);
-    t.push(["time per frame, mean (us)".to_string(), format!("{:.0}", r.mean())]);
-    t.push(["time per frame, median (us)".to_string(), format!("{:.0}", r.quantile(0.5))]);
-    t.push(["time per frame, 95th percentile (us)".to_string(), format!("{:.0}", r.quantile(0.95))]);
-    t.push(["time per frame, max (us)".to_string(), format!("{:.0}", r.quantile(1.0))]);
-    t.push(["estimator state (bytes)".to_string(), r.state_bytes.to_string()]);
-    t
 }

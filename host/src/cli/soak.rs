@@ -11,6 +11,7 @@ use anyhow::Context as _;
 use clap::Args;
 
 use crate::link::{Endpoint, connect};
+use crate::report::stream_report::soak_summary;
 use crate::soak::{SoakOptions, SoakReport, soak};
 use crate::tracks_file::{self, Tracks};
 
@@ -48,7 +49,7 @@ pub struct SoakArgs {
 /// Input, edge start-up or link errors, named; a clean frame left unanswered.
 pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
     let report = soak_edge(args)?;
-    print!("{}", summary(&report));
+    print!("{}", soak_summary(&report));
     anyhow::ensure!(report.clean_unanswered == 0, "{} clean frames were not answered", report.clean_unanswered);
     Ok(())
 }
@@ -103,45 +104,4 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
     let status = child.wait().context("waiting for the edge")?;
     anyhow::ensure!(status.success(), "the edge exited with {status}");
     Ok(report)
-}
-
-/// The report as text.
-#[must_use]
-pub fn summary(r: &SoakReport) -> String {
-    let mem = r.edge_memory.map_or_else(
-        || "edge memory: not read".to_string(),
-        |(a, b)| {
-            format!(
-                "edge memory: resident {} KiB after the first frames, {} KiB at the end (peak {} KiB)",
-                a.rss_kib, b.rss_kib, b.peak_kib
-            )
-        },
-    );
-    let link = r.edge_link.map_or_else(
-        || "edge goodbye: none".to_string(),
-        |l| {
-            format!(
-                "edge decoder: {} wire frames accepted, {} rejected, {} bytes discarded",
-                l.received.frames_ok,
-                l.received.frames_rejected(),
-                l.received.bytes_discarded
-            )
-        },
-    );
-    format!(
-        "soak: {} camera frames ({} wire frames) in {:.1} s\nfaults injected: {} ({} flipped bytes, {} dropped \
-            tails, {} duplicated frames) in {} damaged camera frames\nanswered: {} frames; clean frames \
-            unanswered: {}; edge's frames lost: {}\n{link}\n{mem}\n",
-        r.frames_sent,
-        r.wire_frames_sent,
-        r.seconds,
-        r.faults_injected(),
-        r.faults[0],
-        r.faults[1],
-        r.faults[2],
-        r.damaged_frames,
-        r.answered,
-        r.clean_unanswered,
-        r.edge_frames_lost
-    )
 }

@@ -2,20 +2,20 @@
 //! serial port, paced at the camera rate, and collects its object states, forecasts and
 //! per-frame statistics.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{ComputeUnit, Forecaster, Message, Notice, ObjectClass, frame_parts};
+use dynotraj_core::wire::{Forecaster, Notice, ObjectClass, frame_parts};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
+use crate::report::stream_report::{frames_csv, predictions_csv, summary};
 use crate::stream::{StreamOptions, StreamResult, stream};
 use crate::tracks_file::{self, Tracks, TracksFrame};
 
@@ -206,112 +206,4 @@ pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyh
         })
         .collect::<anyhow::Result<_>>()?;
     Ok(Tracks { camera, frames })
-}
-
-/// The forecasts as CSV.
-#[must_use]
-pub fn predictions_csv(result: &StreamResult) -> String {
-    let mut s = String::from("frame,object_id,step,x,y\n");
-    for msg in &result.replies {
-        if let Message::Prediction(p) = msg {
-            for (k, q) in p.points.iter().enumerate() {
-                let _ = writeln!(s, "{},{},{},{},{}", p.frame, p.object_id, k + 1, q.x, q.y);
-            }
-        }
-    }
-    s
-}
-
-/// Per-frame latency, compute and losses as CSV.
-#[must_use]
-pub fn frames_csv(result: &StreamResult) -> String {
-    let mut s = String::from(
-        "frame,sent_ms,latency_ms,forecaster,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n",
-    );
-    for f in &result.frames {
-        let lat = f.latency().map_or(String::new(), |l| format!("{:.3}", l.as_secs_f64() * 1e3));
-        let by = match f.forecaster {
-            Some(Forecaster::Model { .. }) => "model",
-            Some(Forecaster::ConstantVelocity) => "constant_velocity",
-            None => "",
-        };
-        let _ = write!(s, "{},{:.3},{lat},{by},", f.frame, f.sent.as_secs_f64() * 1e3);
-        match &f.stats {
-            Some(st) => {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{},{},{},{}",
-                    st.compute,
-                    unit_name(st.unit),
-                    st.objects,
-                    st.predictions,
-                    st.frames_lost,
-                    st.objects_dropped,
-                    st.tracks_dropped,
-                    st.bytes_dropped
-                );
-            }
-            None => s.push_str(",,,,,,,\n"),
-        }
-    }
-    s
-}
-
-const fn unit_name(u: ComputeUnit) -> &'static str {
-    match u {
-        ComputeUnit::Nanoseconds => "ns",
-        ComputeUnit::Instructions => "instructions",
-    }
-}
-
-/// The closing report: frames answered, latency quantiles, compute, losses.
-#[must_use]
-pub fn summary(result: &StreamResult, to: &Endpoint) -> String {
-    let mut lat: Vec<f64> = result.frames.iter().filter_map(|f| f.latency()).map(|l| l.as_secs_f64() * 1e3).collect();
-    lat.sort_by(f64::total_cmp);
-    let q = |p: f64| lat.get(((lat.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN);
-    let answered = result.frames.iter().filter(|f| f.stats.is_some()).count();
-    let last = result.frames.iter().rev().find_map(|f| f.stats);
-    let forecasts = result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
-    let mut compute: Vec<u32> = result.frames.iter().filter_map(|f| f.stats.map(|s| s.compute)).collect();
-    compute.sort_unstable();
-    let mut s = String::new();
-    let _ = writeln!(s, "edge {to}: {} frames sent, {answered} answered, {forecasts} forecasts", result.frames.len());
-    for n in &result.notices {
-        let _ = writeln!(s, "edge said: {n}");
-    }
-    let _ = writeln!(
-        s,
-        "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}",
-        q(0.5),
-        q(0.95),
-        q(1.0)
-    );
-    if let Some(l) = last {
-        let med = compute.get(compute.len() / 2).copied().unwrap_or(0);
-        let max = compute.last().copied().unwrap_or(0);
-        let _ = writeln!(s, "edge compute per frame ({}): median {med}, max {max}", unit_name(l.unit));
-        let _ = writeln!(
-            s,
-            "edge losses: frames lost {}, objects dropped {}, tracks dropped {}, bytes dropped {}",
-            l.frames_lost, l.objects_dropped, l.tracks_dropped, l.bytes_dropped
-        );
-    }
-    match result.edge_link {
-        Some(l) => {
-            let r = l.received;
-            let _ = writeln!(
-                s,
-                "edge link: {} of our {} frames received intact, {} rejected, {} bytes dropped",
-                r.frames_ok,
-                result.frames_sent,
-                r.frames_rejected(),
-                r.bytes_discarded
-            );
-        }
-        None => s.push_str("edge link: no goodbye from the edge (it stopped or timed out)\n"),
-    }
-    let r = result.received;
-    let _ = writeln!(s, "host link: {} frames rejected, {} bytes dropped", r.frames_rejected(), r.bytes_discarded);
-    s
 }

@@ -92,20 +92,45 @@ pub struct HyperArgs {
     #[arg(long, default_value_t = Hyper::default().seed, value_name = "N")]
     pub seed: u64,
     /// Adam's initial learning rate (decays by 0.9999 per step).
-    #[arg(long, value_parser = crate::cli::numbers::positive, default_value_t = Hyper::default().learning_rate, value_name = "RATE")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::positive,
+        default_value_t = Hyper::default().learning_rate,
+        value_name = "RATE",
+    )]
     pub lr: f64,
     /// AdamW's decoupled weight decay.
-    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = Hyper::default().weight_decay, value_name = "DECAY")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::non_negative,
+        default_value_t = Hyper::default().weight_decay,
+        value_name = "DECAY",
+    )]
     pub weight_decay: f64,
     /// Standard deviation of the position noise floor of the likelihood, metres: error the
     /// controls need not explain (label or estimator noise).
-    #[arg(long, value_parser = crate::cli::numbers::positive_f32, default_value_t = LossConfig::default().position_floor_m, value_name = "METRES")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::positive_f32,
+        default_value_t = LossConfig::default().position_floor_m,
+        value_name = "METRES",
+    )]
     pub position_floor: f32,
     /// Weight of the CVAE objective (0: train on the position error alone).
-    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = LossConfig::default().likelihood_weight, value_name = "W")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::non_negative_f32,
+        default_value_t = LossConfig::default().likelihood_weight,
+        value_name = "W",
+    )]
     pub likelihood_weight: f32,
     /// Weight of the p(z|x)-weighted ADE of the mean forecasts, per metre.
-    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = LossConfig::default().ade_weight, value_name = "W")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::non_negative_f32,
+        default_value_t = LossConfig::default().ade_weight,
+        value_name = "W",
+    )]
     pub ade_weight: f32,
     /// After training, scale the mean-control outputs by the factor (0.25, 0.5, 0.75 or 1)
     /// with the best validation ADE: true or false.
@@ -113,14 +138,24 @@ pub struct HyperArgs {
     pub shrink: bool,
     /// Decay per step of the moving average of the weights that is validated and kept (0: the
     /// last step's weights).
-    #[arg(long, value_parser = crate::cli::numbers::fraction, default_value_t = Hyper::default().ema_decay, value_name = "DECAY")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::fraction,
+        default_value_t = Hyper::default().ema_decay,
+        value_name = "DECAY",
+    )]
     pub ema_decay: f64,
     /// Independent trainings from different seeds; the one with the best validation ADE is
     /// kept.
     #[arg(long, default_value_t = Hyper::default().restarts, value_name = "N")]
     pub restarts: usize,
     /// Share of the training runs held out for early stopping and model selection.
-    #[arg(long, value_parser = crate::cli::numbers::fraction_f32, default_value_t = DEFAULT_VALIDATION_FRACTION, value_name = "SHARE")]
+    #[arg(
+        long,
+        value_parser = crate::cli::numbers::fraction_f32,
+        default_value_t = DEFAULT_VALIDATION_FRACTION,
+        value_name = "SHARE",
+    )]
     pub val_fraction: f32,
     /// Hold out whole training sequences (at least --val-fraction of the instances) for
     /// validation instead of runs of every sequence: true or false.

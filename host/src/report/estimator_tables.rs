@@ -5,9 +5,10 @@
 use dynotraj_core::estimate::EstimatorStats;
 
 use super::{Table, fmt_opt};
+use crate::estimate::bench::BenchResult;
 use crate::estimate::evaluate::SequenceResult;
 use crate::estimate::score::{moving_objects, object_rpe};
-use crate::estimate::{Kind, RunScores};
+use crate::estimate::{EstimatorRun, Kind, RunScores};
 
 /// The paper's Table III: DynoSAM's averages on real KITTI.
 pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
@@ -272,4 +273,41 @@ pub fn nonzero_counters(stats: &dynotraj_core::estimate::EstimatorStats) -> Stri
         .filter(|kv| !kv.ends_with(": 0") && !kv.is_empty())
         .collect();
     nonzero.join(" ")
+}
+
+/// The tables of a run on a recorded tracks file (`source` names it): what was followed and how
+/// long it took, then the non-zero counters. There is no truth, so no RPE.
+#[must_use]
+pub fn replay_tables(source: &str, frames: usize, run: &EstimatorRun, estimate_seconds: f64) -> (Table, Table) {
+    let objects = |k: Kind| objects_followed(run.of(k));
+    let mut t =
+        Table::new(["tracks file", "frames", "objects (causal)", "objects (smoothed)", "estimate time (s)", "RPE"]);
+    t.push([
+        source.to_string(),
+        frames.to_string(),
+        objects(Kind::Causal).to_string(),
+        objects(Kind::Smoothed).to_string(),
+        format!("{estimate_seconds:.2}"),
+        "not available: a tracks file carries no truth".to_string(),
+    ]);
+    let mut c = Table::new(["tracks file", "counters (non-zero)"]);
+    c.push([source.to_string(), nonzero_counters(&run.stats)]);
+    (t, c)
+}
+
+/// The estimator's compute benchmark as a table.
+#[must_use]
+pub fn bench_table(r: &BenchResult) -> Table {
+    let mut t = Table::new(["quantity", "value"]);
+    let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
+    t.push(["build".to_string(), profile.to_string()]);
+    t.push(["frames timed".to_string(), r.frames.to_string()]);
+    t.push(["tracks per frame (mean)".to_string(), format!("{:.0}", r.tracks_per_frame)]);
+    t.push(["objects estimated per frame (mean)".to_string(), format!("{:.1}", r.objects_per_frame)]);
+    t.push(["time per frame, mean (us)".to_string(), format!("{:.0}", r.mean())]);
+    t.push(["time per frame, median (us)".to_string(), format!("{:.0}", r.quantile(0.5))]);
+    t.push(["time per frame, 95th percentile (us)".to_string(), format!("{:.0}", r.quantile(0.95))]);
+    t.push(["time per frame, max (us)".to_string(), format!("{:.0}", r.quantile(1.0))]);
+    t.push(["estimator state (bytes)".to_string(), r.state_bytes.to_string()]);
+    t
 }

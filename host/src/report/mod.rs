@@ -4,6 +4,7 @@ pub mod chart;
 pub mod estimator_tables;
 mod forecast_table;
 mod instances_table;
+pub mod stream_report;
 mod table;
 
 pub use forecast_table::{ArmScores, ReferenceRow, forecast_table};
