@@ -74,6 +74,10 @@ impl Histories {
     /// Takes the causal estimate of a frame: an object seen at the previous frame in the same
     /// segment extends its history, any other starts a new one; objects not in `estimate`
     /// are forgotten (their run ended, or a frame was lost).
+    ///
+    /// Never inlined: the new table (2 KiB) is built on the stack, which then holds it only
+    /// here, not under the estimator's deepest calls.
+    #[inline(never)]
     pub fn update(&mut self, estimate: &PoseEstimate) {
         let mut next = [History::EMPTY; MAX_OBJECTS];
         let mut n = 0;

@@ -5,23 +5,30 @@
 use dynotraj_core::wire::{DecoderStats, FrameDecoder, Message};
 
 /// Decodes the received byte stream.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct EdgeLoop {
     decoder: FrameDecoder,
+}
+
+impl Default for EdgeLoop {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl EdgeLoop {
     /// A fresh link.
     #[must_use]
-    pub fn new() -> Self {
-        Self::default()
+    pub const fn new() -> Self {
+        Self { decoder: FrameDecoder::new() }
     }
 
     /// Feeds received bytes through the decoder and hands each whole message to `f`, which
     /// returns whether to go on; the rest of `chunk` is dropped when it says no.
-    pub fn on_bytes_with(&mut self, chunk: &[u8], mut f: impl FnMut(Message) -> bool) {
+    pub fn on_bytes_with(&mut self, chunk: &[u8], mut f: impl FnMut(&Message) -> bool) {
+        // By reference: one copy of the (2 KiB) message on the stack, not one per move.
         for msg in self.decoder.feed(chunk) {
-            if !f(msg) {
+            if !f(&msg) {
                 break;
             }
         }

@@ -26,12 +26,12 @@ pub const EDGE_WINDOW: usize = EDGE_PROFILE.window;
 /// simulator the joint solve the host profile adds leaves object RPE unchanged (0.110 vs
 /// 0.105-0.110 m) for about three times the compute (docs/results.md), and under QEMU its extra
 /// stack did not fit beside the window in 128 KiB.
-fn edge_params(intrinsics: Intrinsics, dt: f32) -> EstimatorParams {
+const fn edge_params(intrinsics: Intrinsics, dt: f32) -> EstimatorParams {
     EDGE_PROFILE.params(intrinsics, dt)
 }
 
 /// The edge's own counters, beyond the estimator's and the decoder's.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct EdgeStats {
     /// Camera frames estimated.
     pub frames_estimated: u32,
@@ -49,6 +49,25 @@ pub struct EdgeStats {
     pub forecasts_failed: u32,
     /// Messages the edge does not consume (sent the wrong way, or a model after the frames).
     pub messages_ignored: u32,
+}
+
+impl EdgeStats {
+    /// Every counter at zero.
+    pub const ZERO: Self = Self {
+        frames_estimated: 0,
+        frames_lost: 0,
+        frames_without_camera: 0,
+        forecasts: 0,
+        forecasts_fallback: 0,
+        forecasts_failed: 0,
+        messages_ignored: 0,
+    };
+}
+
+impl Default for EdgeStats {
+    fn default() -> Self {
+        Self::ZERO
+    }
 }
 
 /// The estimator and the predictor over one stream, and what they keep between frames.
@@ -77,7 +96,7 @@ impl<const W: usize> Default for Edge<'_, W> {
 impl<'m, const W: usize> Edge<'m, W> {
     /// An edge with no camera model yet and no learned model (constant-velocity forecasts).
     #[must_use]
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         let dt = 1.0 / PAPER_FRAME_RATE_HZ;
         Self {
             estimator: Estimator::new(edge_params(Intrinsics::KITTI_0926, dt), ESTIMATOR_SEED),
@@ -86,7 +105,7 @@ impl<'m, const W: usize> Edge<'m, W> {
             estimate: PoseEstimate::new(),
             histories: Histories::new(),
             predictor: None,
-            stats: EdgeStats::default(),
+            stats: EdgeStats::ZERO,
             last_frame: None,
             pending_compute: 0,
         }
@@ -95,15 +114,17 @@ impl<'m, const W: usize> Edge<'m, W> {
     /// Back to the state of [`Edge::new`], in place (no second edge on the stack: the MCU
     /// keeps the edge in a static and has less stack than its size).
     pub fn reset(&mut self) {
-        self.dt = 1.0 / PAPER_FRAME_RATE_HZ;
-        self.estimator.reset(edge_params(Intrinsics::KITTI_0926, self.dt), ESTIMATOR_SEED);
-        self.camera = None;
-        self.estimate.reset(0, 0);
-        self.histories = Histories::new();
-        self.predictor = None;
-        self.stats = EdgeStats::default();
-        self.last_frame = None;
-        self.pending_compute = 0;
+        // Every field named (no `..`), as in `Estimator::reset`.
+        let Self { estimator, camera, dt, estimate, histories, predictor, stats, last_frame, pending_compute } = self;
+        *dt = 1.0 / PAPER_FRAME_RATE_HZ;
+        estimator.reset(edge_params(Intrinsics::KITTI_0926, *dt), ESTIMATOR_SEED);
+        *camera = None;
+        estimate.reset(0, 0);
+        *histories = Histories::new();
+        *predictor = None;
+        *stats = EdgeStats::ZERO;
+        *last_frame = None;
+        *pending_compute = 0;
     }
 
     /// Forecasts with the learned model in `blob` from now on.
@@ -173,6 +194,9 @@ impl<'m, const W: usize> Edge<'m, W> {
         self.pending_compute = 0;
     }
 
+    /// Never inlined, as the estimator's phases: its locals are on the stack only while a part
+    /// is handled, not under everything else the link does.
+    #[inline(never)]
     fn on_part<C: Clock, E>(
         &mut self,
         part: &FrameTracks,
@@ -196,9 +220,9 @@ impl<'m, const W: usize> Edge<'m, W> {
         self.histories.update(&self.estimate);
         let mut compute = core::mem::take(&mut self.pending_compute).saturating_add(clock.now().saturating_sub(t0));
         self.count_frame(self.estimate.frame);
-        out(&Message::ObjectStates(self.estimate.to_wire(EstimateKind::Causal)))?;
+        emit(out, || Message::ObjectStates(self.estimate.to_wire(EstimateKind::Causal)))?;
         if smoothed {
-            out(&Message::ObjectStates(self.estimator.smoothed().to_wire(EstimateKind::Smoothed)))?;
+            emit(out, || Message::ObjectStates(self.estimator.smoothed().to_wire(EstimateKind::Smoothed)))?;
         }
         let mut sent: u16 = 0;
         for i in 0..self.histories.current().len() {
@@ -206,7 +230,7 @@ impl<'m, const W: usize> Edge<'m, W> {
             let forecast = self.forecast(i);
             compute = compute.saturating_add(clock.now().saturating_sub(t0));
             if let Some(p) = forecast {
-                out(&Message::Prediction(p))?;
+                emit(out, || Message::Prediction(p))?;
                 sent = sent.saturating_add(1);
             }
         }
@@ -226,7 +250,7 @@ impl<'m, const W: usize> Edge<'m, W> {
             compute: u32::try_from(compute).unwrap_or(u32::MAX),
             unit: C::UNIT,
         };
-        out(&Message::FrameStats(stats))
+        emit(out, || Message::FrameStats(stats))
     }
 
     fn count_frame(&mut self, frame: u32) {
@@ -241,6 +265,7 @@ impl<'m, const W: usize> Edge<'m, W> {
 
     /// The forecast of the `i`-th current object, with the other objects as neighbours; `None`
     /// while its history is too short (a new object) or when no forecast can be made.
+    #[inline(never)]
     fn forecast(&mut self, i: usize) -> Option<Prediction> {
         let current = self.histories.current();
         let own = current.get(i)?;
@@ -276,4 +301,12 @@ impl<'m, const W: usize> Edge<'m, W> {
             points: Vec::from_slice(&points).ok()?,
         })
     }
+}
+
+/// Builds a message and hands it to `out`, in a stack frame of its own: a [`Message`] is as
+/// large as its largest variant (about 2 KiB), and built inline each would stay in the caller's
+/// frame for the whole camera frame (measured on the MCU: 7.3 KiB of stack in `on_part`).
+#[inline(never)]
+fn emit<E>(out: &mut impl FnMut(&Message) -> Result<(), E>, build: impl FnOnce() -> Message) -> Result<(), E> {
+    out(&build())
 }

@@ -75,7 +75,7 @@ impl ModelStatus {
 }
 
 /// Counters of the model load.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LoadStats {
     /// Chunks stored.
     pub chunks_stored: u32,
@@ -89,6 +89,18 @@ pub struct LoadStats {
     /// Complete blobs refused because their signature does not verify under the provisioned
     /// key (signed by another key, or changed after signing).
     pub bad_signatures: u32,
+}
+
+impl LoadStats {
+    /// Every counter at zero.
+    pub const ZERO: Self =
+        Self { chunks_stored: 0, chunks_rejected: 0, crc_mismatches: 0, unsigned: 0, bad_signatures: 0 };
+}
+
+impl Default for LoadStats {
+    fn default() -> Self {
+        Self::ZERO
+    }
 }
 
 /// Why [`Session::run`] stopped.
@@ -128,14 +140,14 @@ impl<const W: usize> Default for Session<'_, W> {
 impl<'m, const W: usize> Session<'m, W> {
     /// A session without a model and without room to load one.
     #[must_use]
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
             link: EdgeLoop::new(),
             edge: Edge::new(),
             #[cfg(feature = "model-over-link")]
             loader: None,
             model: ModelStatus::None,
-            load: LoadStats::default(),
+            load: LoadStats::ZERO,
             frames_sent: 0,
             ended: false,
             chunk_refusal_told: false,
@@ -144,17 +156,29 @@ impl<'m, const W: usize> Session<'m, W> {
 
     /// Back to the state of [`Session::new`], in place (see [`Edge::reset`]).
     pub fn reset(&mut self) {
-        self.link = EdgeLoop::new();
-        self.edge.reset();
+        // Every field named (no `..`), as in `Estimator::reset`.
+        let Self {
+            link,
+            edge,
+            #[cfg(feature = "model-over-link")]
+            loader,
+            model,
+            load,
+            frames_sent,
+            ended,
+            chunk_refusal_told,
+        } = self;
+        *link = EdgeLoop::new();
+        edge.reset();
         #[cfg(feature = "model-over-link")]
         {
-            self.loader = None;
+            *loader = None;
         }
-        self.model = ModelStatus::None;
-        self.load = LoadStats::default();
-        self.frames_sent = 0;
-        self.ended = false;
-        self.chunk_refusal_told = false;
+        *model = ModelStatus::None;
+        *load = LoadStats::ZERO;
+        *frames_sent = 0;
+        *ended = false;
+        *chunk_refusal_told = false;
     }
 
     /// Forecasts with the model `blob` (linked into the image) from now on.
@@ -233,6 +257,7 @@ impl<'m, const W: usize> Session<'m, W> {
     ///
     /// # Errors
     /// A transport failure, or a message that cannot be encoded.
+    #[inline(never)]
     pub fn on_bytes<T: Transport, C: Clock>(
         &mut self,
         chunk: &[u8],
@@ -255,7 +280,7 @@ impl<'m, const W: usize> Session<'m, W> {
         let mut result = Ok(());
         let dropped = link.decoder_stats().bytes_discarded;
         link.on_bytes_with(chunk, |msg| {
-            match &msg {
+            match msg {
                 Message::ModelChunk(c) => {
                     #[cfg(feature = "model-over-link")]
                     let outcome = on_chunk(c, loader, model, load, edge);
@@ -269,7 +294,7 @@ impl<'m, const W: usize> Session<'m, W> {
                         && !(*chunk_refusal_told && is_chunk_refusal(&notice))
                     {
                         *chunk_refusal_told |= is_chunk_refusal(&notice);
-                        if let Err(e) = send(io, frames_sent, &Message::Notice(notice)) {
+                        if let Err(e) = send_built(io, frames_sent, || Message::Notice(notice)) {
                             result = Err(e);
                             return false;
                         }
@@ -280,10 +305,11 @@ impl<'m, const W: usize> Session<'m, W> {
                     return false;
                 }
                 _ => {
-                    let mut send = |m: &Message| send(io, frames_sent, m);
-                    let mut handled = edge.handle(&msg, clock, dropped.saturating_add(lost), &mut send);
+                    let mut handled = edge
+                        .handle(&msg, clock, dropped.saturating_add(lost), &mut |m: &Message| send(io, frames_sent, m));
                     if handled.is_ok() && matches!(msg, Message::CameraInfo(_)) {
-                        handled = send(&Message::Notice(Notice::Forecasting(model.forecaster())));
+                        handled =
+                            send_built(io, frames_sent, || Message::Notice(Notice::Forecasting(model.forecaster())));
                     }
                     if let Err(e) = handled {
                         result = Err(e);
@@ -313,7 +339,7 @@ impl<'m, const W: usize> Session<'m, W> {
             self.on_bytes(chunk, io, clock)?;
         }
         let stats = self.link_stats();
-        send(io, &mut self.frames_sent, &Message::LinkStats(stats))
+        send_built(io, &mut self.frames_sent, || Message::LinkStats(stats))
     }
 }
 
@@ -400,14 +426,26 @@ fn accept_signed<'m, const W: usize>(
 /// # Errors
 /// A transport failure, or a message that cannot be encoded.
 pub fn send_notice<T: Transport>(io: &mut T, notice: Notice) -> Result<(), RunError<T::Error>> {
-    send(io, &mut 0, &Message::Notice(notice))
+    send_built(io, &mut 0, || Message::Notice(notice))
 }
 
-/// Encodes `msg` and writes it to `io`.
+/// Encodes `msg` and writes it to `io`. Never inlined: its frame buffer then lives on the
+/// stack only while a message is sent.
+#[inline(never)]
 fn send<T: Transport>(io: &mut T, frames_sent: &mut u32, msg: &Message) -> Result<(), RunError<T::Error>> {
     let mut frame: FrameBuf = [0; MAX_FRAME_LEN];
     let n = encode(msg, &mut frame).map_err(RunError::Wire)?;
     io.write_all(frame.get(..n).unwrap_or_default()).map_err(RunError::Transport)?;
     *frames_sent = frames_sent.saturating_add(1);
     Ok(())
+}
+
+/// Builds a message and sends it, in a stack frame of its own (a [`Message`] is about 2 KiB).
+#[inline(never)]
+fn send_built<T: Transport>(
+    io: &mut T,
+    frames_sent: &mut u32,
+    build: impl FnOnce() -> Message,
+) -> Result<(), RunError<T::Error>> {
+    send(io, frames_sent, &build())
 }

@@ -195,6 +195,13 @@ fn checked_elf(path: PathBuf) -> PathBuf {
     path
 }
 
+/// The int8 model blob of the default widths that `scripts/build-firmware.sh` links into the
+/// `dynotraj-firmware-model` image.
+#[must_use]
+pub fn default_model_blob() -> PathBuf {
+    crate::manifest_dir().join("../fixtures/data/models/default-dims.int8")
+}
+
 /// A free loopback port (free when this returns; QEMU binds it right after).
 #[must_use]
 pub fn free_port() -> u16 {
@@ -204,11 +211,17 @@ pub fn free_port() -> u16 {
 /// The firmware under QEMU via `scripts/qemu-edge.sh`, its UART0 on `port`, logs piped.
 #[must_use]
 pub fn spawn_qemu(port: u16) -> std::process::Child {
+    spawn_qemu_elf(port, &firmware_elf())
+}
+
+/// The firmware image `elf` under QEMU, as [`spawn_qemu`].
+#[must_use]
+pub fn spawn_qemu_elf(port: u16, elf: &std::path::Path) -> std::process::Child {
     let script = crate::manifest_dir().join("../scripts/qemu-edge.sh");
     std::process::Command::new("bash")
         .arg(script)
         .args(["--port", &port.to_string(), "--elf"])
-        .arg(firmware_elf())
+        .arg(elf)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

@@ -10,7 +10,7 @@ use super::measure::{
 };
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
-use crate::geometry::{Pose3, se3_log};
+use crate::geometry::{POSE3_IDENTITY, Pose3, se3_log};
 
 /// What one camera step produced.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,8 +43,8 @@ impl<const W: usize> Default for CameraTrack<W> {
 impl<const W: usize> CameraTrack<W> {
     /// A camera not yet started.
     #[must_use]
-    pub fn new() -> Self {
-        Self { path: SmoothedPath::new(), f2f: Pose3::identity(), increment: Pose3::identity(), started: false }
+    pub const fn new() -> Self {
+        Self { path: SmoothedPath::new(), f2f: POSE3_IDENTITY, increment: POSE3_IDENTITY, started: false }
     }
 
     /// Whether the first frame was seen.

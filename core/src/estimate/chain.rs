@@ -18,7 +18,7 @@
 
 use heapless::Deque;
 
-use super::lie::{Mat6, PackedSym6, Vec6, lin_to_pose, map_information, pose_to_lin};
+use super::lie::{Mat6, PackedSym6, VEC6_ZERO, Vec6, lin_to_pose, map_information, pose_to_lin};
 use super::params::SmootherParams;
 
 /// Information added to every diagonal block: keeps a window without any measurement solvable
@@ -51,6 +51,12 @@ pub struct SlotView {
     pub lin: [f32; 6],
 }
 
+/// The information `1 / sigma^2` of a standard deviation; 0 (no information) for a
+/// non-positive or non-finite one.
+const fn information_of(sigma: f32) -> f32 {
+    if sigma.is_finite() && sigma > 0.0 { 1.0 / (sigma * sigma) } else { 0.0 }
+}
+
 /// The diagonal information of the constant-motion prior.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Smoothness {
@@ -60,9 +66,8 @@ pub struct Smoothness {
 impl Smoothness {
     /// The prior of `p`. Non-positive or non-finite sigmas give no smoothing.
     #[must_use]
-    pub fn new(p: &SmootherParams) -> Self {
-        let inv = |s: f32| if s.is_finite() && s > 0.0 { 1.0 / (s * s) } else { 0.0 };
-        let (t, r) = (inv(p.sigma_translation), inv(p.sigma_rotation));
+    pub const fn new(p: &SmootherParams) -> Self {
+        let (t, r) = (information_of(p.sigma_translation), information_of(p.sigma_rotation));
         Self { diag: Vec6::new(t, t, t, r, r, r) }
     }
 
@@ -83,8 +88,8 @@ pub struct ChainScratch<const W: usize> {
 impl<const W: usize> ChainScratch<W> {
     /// Zeroed scratch.
     #[must_use]
-    pub fn new() -> Self {
-        Self { d_inv: [PackedSym6::ZERO; W], y: [Vec6::zeros(); W] }
+    pub const fn new() -> Self {
+        Self { d_inv: [PackedSym6::ZERO; W], y: [VEC6_ZERO; W] }
     }
 
     /// The solution of the last solve, oldest slot first.

@@ -191,6 +191,9 @@ impl FrameAssembler {
     /// completes, each list is sorted by track id and a repeated id (within the static list or
     /// within one object) keeps one copy, the smallest by (pixel, depth), whatever the arrival
     /// order; repeats count against the capacity until then.
+    ///
+    /// Never inlined: its locals (the sorts') are off the stack before the frame is estimated.
+    #[inline(never)]
     pub fn accept(
         &mut self,
         part: &FrameTracks,

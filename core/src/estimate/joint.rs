@@ -44,7 +44,7 @@
 //! couple all chains' priors.
 
 use super::chain::{ChainScratch, ChainSmoother, SlotView, Smoothness};
-use super::lie::{Mat6, PackedSym6, Vec6, ad_matrix, adjoint, lin_to_pose};
+use super::lie::{Mat6, PackedSym6, VEC6_ZERO, Vec6, ad_matrix, adjoint, lin_to_pose};
 pub use super::params::JOINT_SWEEPS;
 
 /// The coupling `B` of an object slot to the camera motion `c_bar` it was measured against.
@@ -78,12 +78,12 @@ impl<const W: usize> Default for JointScratch<W> {
 impl<const W: usize> JointScratch<W> {
     /// Empty scratch (no camera: objects are solved alone).
     #[must_use]
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
-            camera_x: [Vec6::zeros(); W],
-            c_bar: [Vec6::zeros(); W],
+            camera_x: [VEC6_ZERO; W],
+            c_bar: [VEC6_ZERO; W],
             acc_info: [PackedSym6::ZERO; W],
-            acc_rhs: [Vec6::zeros(); W],
+            acc_rhs: [VEC6_ZERO; W],
             n: 0,
             first_step: 0,
         }
@@ -182,23 +182,33 @@ impl<const W: usize> JointScratch<W> {
     }
 }
 
-/// Block Gauss-Seidel over the window: the camera chain alone first, then `sweeps` sweeps of
-/// (every object chain with the camera held, the camera chain with the objects held). Each
-/// object is `(chain, step of its oldest slot)`; `objects` is called once per sweep. Leaves the
-/// camera's solution in `joint`, or an empty one if the camera's solve failed.
-#[allow(clippy::too_many_arguments)]
+/// How the joint solve weighs and iterates: the constant-motion priors of the camera and of
+/// the objects, and the number of sweeps.
+#[derive(Debug, Clone, Copy)]
+pub struct JointSettings<'p> {
+    /// The camera chain's prior.
+    pub camera_prior: &'p Smoothness,
+    /// Every object chain's prior.
+    pub object_prior: &'p Smoothness,
+    /// Gauss-Seidel sweeps after the camera's first solve.
+    pub sweeps: u8,
+}
+
+/// Block Gauss-Seidel over the window: the camera chain alone first, then `settings.sweeps`
+/// sweeps of (every object chain with the camera held, the camera chain with the objects held).
+/// Each object is `(chain, step of its oldest slot)`; `objects` is called once per sweep. Leaves
+/// the camera's solution in `joint`, or an empty one if the camera's solve failed.
 pub fn solve_joint<'a, const W: usize, I>(
     joint: &mut JointScratch<W>,
     camera: &ChainSmoother<W>,
     camera_first_step: u32,
-    camera_prior: &Smoothness,
-    object_prior: &Smoothness,
+    settings: JointSettings<'_>,
     scratch: &mut ChainScratch<W>,
-    sweeps: u8,
     mut objects: impl FnMut() -> I,
 ) where
     I: Iterator<Item = (&'a ChainSmoother<W>, u32)>,
 {
+    let JointSettings { camera_prior, object_prior, sweeps } = settings;
     match camera.solve(camera_prior, scratch) {
         Some(n) => joint.load_camera(camera, camera_first_step, scratch.solution(n)),
         None => {
@@ -286,7 +296,8 @@ mod tests {
         let mut joint = JointScratch::<N>::new();
         let mut scratch = ChainScratch::<N>::new();
         let objects = || objs.iter().map(|c| (c, 1u32));
-        solve_joint(&mut joint, &cam, 1, &cam_s, &obj_s, &mut scratch, 60, objects);
+        let settings = JointSettings { camera_prior: &cam_s, object_prior: &obj_s, sweeps: 60 };
+        solve_joint(&mut joint, &cam, 1, settings, &mut scratch, objects);
         let gs_cam: [Vec6; N] = core::array::from_fn(|j| joint.camera_solution()[j]);
 
         // Dense: variables [c_1..c_N, xi^0_1..xi^0_N, xi^1_1..xi^1_N].

@@ -11,6 +11,9 @@ pub type Mat6 = Matrix6<f32>;
 /// A twist or a 6-vector.
 pub type Vec6 = Vector6<f32>;
 
+/// The zero twist as a constant (nalgebra's `zeros()` is not `const`).
+pub const VEC6_ZERO: Vec6 = Vec6::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+
 /// Entries of the upper triangle of a symmetric 6x6 matrix.
 pub const PACKED6: usize = 21;
 

@@ -21,7 +21,7 @@ use super::path::{Emitted, SmoothedPath};
 use super::point_model::PointModel;
 use super::rng::Pcg32;
 use super::stats::EndCause;
-use crate::geometry::{Point2, Pose3, se3_log};
+use crate::geometry::{POSE3_IDENTITY, Point2, Pose3, se3_log};
 use crate::wire::ObjectClass;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 
@@ -154,17 +154,17 @@ fn yaw(angle: f32) -> Pose3 {
 impl<const W: usize> ObjectRun<W> {
     /// A free slot.
     #[must_use]
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
             state: RunState::Free,
             object_id: 0,
             class: ObjectClass::Misc,
-            provisional: Pose3::identity(),
+            provisional: POSE3_IDENTITY,
             first_step: 0,
             path: SmoothedPath::new(),
-            f2f: Pose3::identity(),
-            f2f_motion: Pose3::identity(),
-            last_delta: Pose3::identity(),
+            f2f: POSE3_IDENTITY,
+            f2f_motion: POSE3_IDENTITY,
+            last_delta: POSE3_IDENTITY,
             origin: Point2::new(0.0, 0.0),
             heading_known: false,
             held: 0,

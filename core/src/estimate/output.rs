@@ -9,7 +9,7 @@ use heapless::Vec;
 use nalgebra::Vector3;
 
 use super::lie::{Vec6, omega};
-use crate::geometry::{BevState, Pose3, se3_exp, wrap_angle};
+use crate::geometry::{BevState, POSE3_IDENTITY, Pose3, se3_exp, wrap_angle};
 use crate::limits::MAX_OBJECTS;
 use crate::wire::{CameraPose, EstimateKind, ObjectClass, ObjectState, ObjectStates};
 
@@ -53,8 +53,8 @@ pub struct PoseEstimate {
 impl PoseEstimate {
     /// An empty estimate.
     #[must_use]
-    pub fn new() -> Self {
-        Self { frame: 0, timestamp_us: 0, camera: Pose3::identity(), objects: Vec::new() }
+    pub const fn new() -> Self {
+        Self { frame: 0, timestamp_us: 0, camera: POSE3_IDENTITY, objects: Vec::new() }
     }
 
     /// Empties it for `frame`.

@@ -12,8 +12,8 @@
 //! estimate is revised with every frame, and pairs of it would carry those revisions).
 
 use super::chain::{ChainScratch, ChainSmoother, Smoothness};
-use super::lie::{Mat6, Vec6, adjoint, normalised};
-use crate::geometry::{Pose3, se3_exp};
+use super::lie::{Mat6, VEC6_ZERO, Vec6, adjoint, normalised};
+use crate::geometry::{POSE3_IDENTITY, Pose3, se3_exp};
 
 /// A pose leaving the window.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,15 +50,15 @@ impl<const W: usize> Default for SmoothedPath<W> {
 impl<const W: usize> SmoothedPath<W> {
     /// An empty path at the identity.
     #[must_use]
-    pub fn new() -> Self {
+    pub const fn new() -> Self {
         Self {
-            anchor: Pose3::identity(),
+            anchor: POSE3_IDENTITY,
             anchor_step: 0,
             anchor_emitted: false,
             chain: ChainSmoother::new(),
-            current: Pose3::identity(),
-            causal: Pose3::identity(),
-            causal_xi: Vec6::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+            current: POSE3_IDENTITY,
+            causal: POSE3_IDENTITY,
+            causal_xi: VEC6_ZERO,
         }
     }
 

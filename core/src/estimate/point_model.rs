@@ -39,7 +39,7 @@ pub struct PointModel {
 impl PointModel {
     /// The model of `params`.
     #[must_use]
-    pub fn new(params: &EstimatorParams) -> Self {
+    pub const fn new(params: &EstimatorParams) -> Self {
         let i = params.intrinsics;
         let fb = if i.stereo_fb.is_finite() && i.stereo_fb > 0.0 { i.stereo_fb } else { 0.0 };
         let w = params.pixel_sigma / params.disparity_sigma;

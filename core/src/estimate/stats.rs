@@ -2,7 +2,7 @@
 //! nothing is lost silently. Counters saturate instead of wrapping.
 
 /// What the estimator has seen and done. See [`super`] for the rule behind each counter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct EstimatorStats {
     /// Frames whose every part arrived and which were processed.
     pub frames_processed: u32,
@@ -66,6 +66,47 @@ pub struct EstimatorStats {
     pub smoothed_frames_lost: u32,
     /// Numerical failures (singular or non-finite systems) caught and answered with a hold.
     pub numerical_failures: u32,
+}
+
+impl EstimatorStats {
+    /// Every counter at zero.
+    pub const ZERO: Self = Self {
+        frames_processed: 0,
+        frames_incomplete: 0,
+        parts_malformed: 0,
+        parts_duplicate: 0,
+        parts_stale: 0,
+        tracks_bad_depth: 0,
+        tracks_too_far: 0,
+        tracks_bad_pixel: 0,
+        tracks_duplicate: 0,
+        static_tracks_dropped: 0,
+        object_points_dropped: 0,
+        object_tracks_dropped: 0,
+        frames_with_objects_dropped: 0,
+        timestamps_replaced: 0,
+        camera_motion_held: 0,
+        object_motion_held: 0,
+        objects_initialised: 0,
+        runs_tracked: 0,
+        objects_returned: 0,
+        objects_not_initialised: 0,
+        objects_reoriented: 0,
+        object_frames_coasted: 0,
+        objects_resumed: 0,
+        runs_ended_lost: 0,
+        runs_ended_fit_failed: 0,
+        runs_ended_out_of_range: 0,
+        runs_evicted: 0,
+        smoothed_frames_lost: 0,
+        numerical_failures: 0,
+    };
+}
+
+impl Default for EstimatorStats {
+    fn default() -> Self {
+        Self::ZERO
+    }
 }
 
 impl EstimatorStats {

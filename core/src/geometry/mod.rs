@@ -15,4 +15,4 @@ pub mod trig;
 pub use angle::{angle_diff, wrap_angle};
 pub use bev::{BevState, Point2, bev_heading_of_rotation_y, bev_point};
 pub use norm_bound::NormBound;
-pub use se3::{Pose3, rotation_angle, rotation_of_scaled_axis, se2_of_bev, se3_exp, se3_log};
+pub use se3::{POSE3_IDENTITY, Pose3, rotation_angle, rotation_of_scaled_axis, se2_of_bev, se3_exp, se3_log};

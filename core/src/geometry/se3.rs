@@ -7,6 +7,13 @@ use super::BevState;
 /// A rigid pose or motion in 3D.
 pub type Pose3 = Isometry3<f32>;
 
+/// The identity pose as a constant, so that state holding poses has `const fn` constructors
+/// (nalgebra's `identity()` is not `const`).
+pub const POSE3_IDENTITY: Pose3 = Isometry3::from_parts(
+    Translation3::new(0.0, 0.0, 0.0),
+    UnitQuaternion::new_unchecked(Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+);
+
 /// Rotation angle of a pose, radians in [0, pi] (the angle of its axis-angle form).
 #[must_use]
 pub fn rotation_angle(p: &Pose3) -> f32 {

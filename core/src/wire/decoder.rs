@@ -100,7 +100,10 @@ impl FrameDecoder {
         }
     }
 
-    /// Ends the current frame at a delimiter; returns its message if it is valid.
+    /// Ends the current frame at a delimiter; returns its message if it is valid. Never
+    /// inlined: the deserializer's temporaries (several messages' worth) are on the stack only
+    /// while a frame is decoded, not while the caller handles the message.
+    #[inline(never)]
     fn end_frame(&mut self) -> Option<Message> {
         let len = core::mem::take(&mut self.len);
         if core::mem::take(&mut self.overflowed) {

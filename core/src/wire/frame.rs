@@ -2,6 +2,8 @@
 
 use crc::{CRC_32_ISO_HDLC, Crc};
 use postcard::experimental::max_size::MaxSize;
+use postcard::ser_flavors::crc::CrcModifier;
+use postcard::ser_flavors::{Cobs, Slice};
 
 use super::{Message, PROTOCOL_VERSION, WireError};
 
@@ -45,19 +47,23 @@ pub fn crc32(bytes: &[u8]) -> u32 {
 /// # Errors
 /// [`WireError::BufferTooSmall`] when `out` is too short for this frame.
 pub fn encode(msg: &Message, out: &mut [u8]) -> Result<usize, WireError> {
-    let mut payload = [0u8; MAX_PAYLOAD_LEN];
-    let (version, body) = payload.split_first_mut().ok_or(WireError::Encode)?;
-    *version = PROTOCOL_VERSION;
-    let body_len = postcard::to_slice(msg, body).map_err(|_| WireError::Encode)?.len();
-    let crc_at = VERSION_LEN + body_len;
-    let crc = crc32(payload.get(..crc_at).ok_or(WireError::Encode)?);
-    payload.get_mut(crc_at..crc_at + CRC_LEN).ok_or(WireError::Encode)?.copy_from_slice(&crc.to_le_bytes());
-    let payload = payload.get(..crc_at + CRC_LEN).ok_or(WireError::Encode)?;
+    // postcard's flavors in a stack: the CRC sees the plain bytes and appends its trailer, COBS
+    // stuffs everything into `out` as it comes. No payload buffer of its own (1.4 KiB of stack).
     let (lead, rest) = out.split_first_mut().ok_or(WireError::BufferTooSmall)?;
     *lead = DELIMITER;
-    let n = cobs::try_encode(payload, rest).map_err(|_| WireError::BufferTooSmall)?;
-    *rest.get_mut(n).ok_or(WireError::BufferTooSmall)? = DELIMITER;
-    Ok(n + 2)
+    let cobs = Cobs::try_new(Slice::new(rest)).map_err(encode_error)?;
+    let flavor = CrcModifier::new(cobs, CRC32.digest());
+    let written = postcard::serialize_with_flavor(&(PROTOCOL_VERSION, msg), flavor).map_err(encode_error)?;
+    Ok(written.len() + 1)
+}
+
+/// A postcard error while encoding: out of room in the caller's buffer, or a message postcard
+/// cannot encode.
+const fn encode_error(e: postcard::Error) -> WireError {
+    match e {
+        postcard::Error::SerializeBufferFull => WireError::BufferTooSmall,
+        _ => WireError::Encode,
+    }
 }
 
 /// Decodes one frame, in place: `frame` holds the COBS bytes of exactly one frame, with or

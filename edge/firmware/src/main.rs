@@ -12,13 +12,12 @@
 
 mod uart;
 
-use core::mem::MaybeUninit;
-
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use dynotraj_edge::{ModelStatus, Session};
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
 use dynotraj_firmware::{clock, stack};
+use static_cell::ConstStaticCell;
 
 /// The model linked into flash (empty: none).
 static MODEL: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/model.bin"));
@@ -36,10 +35,10 @@ unsafe extern "C" fn uart0_rx() {
     uart::uart0_rx();
 }
 
-/// The session lives in .bss: it is most of the RAM budget. It starts as zero bytes and is
-/// initialised in place by [`Session::reset`]: building it by value would need a stack
-/// temporary of its own size (about 100 KiB), which the stack does not have.
-static mut SESSION: MaybeUninit<Session<'static>> = MaybeUninit::zeroed();
+/// The session, most of the RAM budget, built at compile time by the `const` [`Session::new`]:
+/// the startup code copies its image into RAM, so no stack temporary of its size (about
+/// 100 KiB, more than the stack) is ever built, and no `unsafe` is needed to reach it.
+static SESSION: ConstStaticCell<Session<'static>> = ConstStaticCell::new(Session::new());
 
 #[entry]
 fn main() -> ! {
@@ -48,13 +47,7 @@ fn main() -> ! {
     clock::start(&mut cp.SYST);
     clock::check("dynotraj-firmware");
 
-    // SAFETY: the only reference to SESSION, taken once. All-zero bytes are a valid value of
-    // every field of a session (integers, floats, bools, arrays, heapless containers of length
-    // zero, enums whose first variant has no data, and options of references, whose None is
-    // null), and `reset` then writes the session's initial state over it.
-    let slot = &raw mut SESSION;
-    let session: &'static mut Session<'static> = unsafe { (*slot).assume_init_mut() };
-    session.reset();
+    let Some(session) = SESSION.try_take() else { fail("session taken twice") };
     if !MODEL.is_empty()
         && let Err(e) = session.set_model(MODEL)
     {

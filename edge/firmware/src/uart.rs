@@ -20,8 +20,10 @@ use cortex_m::interrupt::InterruptNumber;
 use cortex_m::peripheral::NVIC;
 use dynotraj_edge::Transport;
 
-/// Bytes of the receive ring: a few wire frames (1380 bytes at most each).
-pub const RX_RING_LEN: usize = 4096;
+/// Bytes of the receive ring: what a 1 Mbit/s line delivers in about 20 ms, the time a 200 MHz
+/// M4 spends on a 16-object frame (edge_qemu: about 4.5 million instructions). A faster line
+/// or a slower part needs more, or flow control (which the ring uses when full).
+pub const RX_RING_LEN: usize = 2048;
 
 const BASE: usize = 0x4000_4000;
 const DATA: usize = 0x00;
