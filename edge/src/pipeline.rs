@@ -182,7 +182,9 @@ impl<'m, const W: usize> Edge<'m, W> {
         }
     }
 
-    /// A (new) camera model starts a new stream: the estimator starts afresh with it.
+    /// A (new) camera model starts a new stream: the estimator starts afresh with it. Never
+    /// inlined: the fresh histories (2 KiB) are built on its own stack frame.
+    #[inline(never)]
     fn start_stream(&mut self, info: &CameraInfo) {
         let rate = info.frame_rate_hz;
         self.dt = if rate.is_finite() && rate > 0.0 { 1.0 / rate } else { 1.0 / PAPER_FRAME_RATE_HZ };

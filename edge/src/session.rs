@@ -181,10 +181,12 @@ impl<'m, const W: usize> Session<'m, W> {
         *chunk_refusal_told = false;
     }
 
-    /// Forecasts with the model `blob` (linked into the image) from now on.
+    /// Forecasts with the model `blob` (linked into the image) from now on. Never inlined: the
+    /// blob's parse runs once, on a stack frame of its own.
     ///
     /// # Errors
     /// When `blob` is not a valid model blob; the session keeps its previous model.
+    #[inline(never)]
     pub fn set_model(&mut self, blob: &'m [u8]) -> Result<(), BlobError> {
         self.edge.set_model(ModelBlob::parse(blob)?);
         self.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };

@@ -106,6 +106,10 @@ impl<const W: usize> Estimator<W> {
     /// Starts afresh with `params` and `seed`, in place: the same state as
     /// `Estimator::new(params, seed)` without building a second estimator on the stack (an MCU
     /// keeps the estimator in a static and has a few KiB of stack, less than this struct).
+    ///
+    /// Never inlined: the fresh parts it writes are built on its own stack frame, which is gone
+    /// before the next frame is estimated.
+    #[inline(never)]
     pub fn reset(&mut self, params: EstimatorParams, seed: u64) {
         let () = Self::WINDOW_OK;
         // Every field named (no `..`): a field added later fails to compile here until its reset
