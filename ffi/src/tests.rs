@@ -231,3 +231,31 @@ fn the_header_states_this_builds_session_layout() {
     assert_eq!(size, core::mem::size_of::<DynotrajSession>(), "header size for {guard}");
     assert_eq!(align, core::mem::align_of::<DynotrajSession>(), "header alignment");
 }
+
+#[test]
+fn a_model_blob_is_taken_and_a_bad_one_leaves_it_in_use() {
+    use dynotraj_core::model::Dims;
+    use dynotraj_core::model::blob::{Precision, write_blob};
+    let dims = Dims { enc: 4, edge: 3, k: 2, dec: 5 };
+    let weights: Vec<Vec<f32>> = dims
+        .tensors()
+        .into_iter()
+        .enumerate()
+        .map(|(t, (rows, cols))| (0..rows * cols).map(|j| ((t * 31 + j) as f32).sin() * 0.5).collect())
+        .collect();
+    let tensors: Vec<&[f32]> = weights.iter().map(Vec::as_slice).collect();
+    let mut blob = std::vec![0u8; 1 << 16];
+    let len = write_blob(&dims, Precision::Int8, 0.05, &tensors, &mut blob).unwrap();
+    let model = Notice::Forecasting(Forecaster::Model { len: u32::try_from(len).unwrap() });
+
+    let mut h = Harness::new();
+    let config = h.config();
+    assert_eq!(h.init(&config), DynotrajStatus::Ok);
+    // SAFETY: an initialised session; `blob` outlives it and is not changed meanwhile.
+    unsafe {
+        assert_eq!(dynotraj_session_set_model(h.session(), blob.as_ptr(), len), DynotrajStatus::Ok);
+        assert_eq!(dynotraj_session_set_model(h.session(), blob.as_ptr(), len - 1), DynotrajStatus::InvalidModel);
+    }
+    assert_eq!(h.feed(&wire(&[camera()])), DynotrajStatus::Ok);
+    assert_eq!(h.messages(), [Message::Notice(model)]);
+}
