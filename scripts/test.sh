@@ -21,6 +21,7 @@ cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmw
 echo "== clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy -p dynotraj-ffi --all-targets -- -D warnings
+cargo clippy -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 echo "== tests"
 log=$(mktemp)
