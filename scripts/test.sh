@@ -11,13 +11,17 @@ echo "== rustfmt (workspace, firmware, fuzz)"
 cargo fmt --all --check
 (cd edge/firmware && cargo fmt --all --check)
 (cd fuzz && cargo fmt --all --check)
+echo "== the ffi crate's C header is current"
+bash scripts/gen-header.sh --check
 echo "== core for thumbv7em-none-eabihf"
-cargo build -p dynotraj-core -p dynotraj-edge --lib --target thumbv7em-none-eabihf --release
+cargo build -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thumbv7em-none-eabihf --release
 echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"
 bash scripts/build-firmware.sh
 cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
 echo "== clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
+cargo clippy -p dynotraj-ffi --all-targets -- -D warnings
+cargo clippy -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 echo "== tests"
 log=$(mktemp)

@@ -335,10 +335,22 @@ impl<'m, const W: usize> Session<'m, W> {
             let n = io.read(&mut buf).map_err(RunError::Transport)?;
             let chunk = buf.get(..n).unwrap_or_default();
             if chunk.is_empty() {
-                self.link.end_of_stream();
                 break;
             }
             self.on_bytes(chunk, io, clock)?;
+        }
+        self.finish(io)
+    }
+
+    /// Ends the session: unless the host said goodbye, the stream ended and an unfinished
+    /// frame's bytes are counted as dropped; then the edge's [`LinkStats`] go to the peer. For
+    /// callers that feed bytes themselves ([`Session::on_bytes`]); [`Session::run`] ends with it.
+    ///
+    /// # Errors
+    /// A transport failure, or a message that cannot be encoded.
+    pub fn finish<T: Transport>(&mut self, io: &mut T) -> Result<(), RunError<T::Error>> {
+        if !self.ended {
+            self.link.end_of_stream();
         }
         let stats = self.link_stats();
         send_built(io, &mut self.frames_sent, || Message::LinkStats(stats))
