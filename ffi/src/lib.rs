@@ -164,16 +164,15 @@ impl From<RunError<i32>> for DynotrajStatus {
     }
 }
 
-/// Writes a new session at `slot`. Needs the constant constructor to build it in place without
-/// a stack temporary of the session's size (about 100 KiB, more than an ECU's stack):
-/// `slot.write(const { Session::new() })`; until `Session::new` is a `const fn` this form
-/// leaves eliding the temporary to the optimiser, so the caller's stack must hold one session.
+/// Writes a new session at `slot`: a copy of the session [`Session::new`] builds at compile
+/// time, so no stack temporary of the session's size (about 100 KiB, more than an ECU's
+/// stack) is ever built; the image it is copied from is read-only data of the library.
 ///
 /// # Safety
 /// `slot` is valid for writes of a session and aligned.
 unsafe fn write_new_session(slot: *mut Session<'static>) {
     // SAFETY: the caller's promise.
-    unsafe { slot.write(Session::new()) }
+    unsafe { slot.write(const { Session::new() }) }
 }
 
 /// The session behind `session`, checked for null and alignment.
