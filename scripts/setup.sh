@@ -25,4 +25,9 @@ if command -v rustup >/dev/null 2>&1; then
   rustup component list --installed | grep -q '^clippy' || rustup component add clippy
   rustup component list --installed | grep -q '^rustfmt' || rustup component add rustfmt
 fi
+# The firmware's linker (.cargo/config.toml): stack overflows fault instead of corrupting statics.
+if ! command -v flip-link >/dev/null 2>&1; then
+  echo "setup: installing flip-link"
+  cargo install flip-link --locked
+fi
 echo "setup: ok"
