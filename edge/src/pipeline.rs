@@ -1,6 +1,8 @@
 //! The edge's work per message: tracks -> estimator -> histories -> predictor -> messages out.
 
-use dynotraj_core::estimate::{EDGE_PROFILE, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::estimate::{
+    EDGE_PROFILE, Estimator, EstimatorParams, EstimatorStats, Intrinsics, PoseEstimate, Pushed,
+};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
 use dynotraj_core::model::LearnedPredictor;
@@ -171,6 +173,15 @@ impl<'m, const W: usize> Edge<'m, W> {
         self.histories = Histories::new();
         self.last_frame = None;
         self.pending_compute = 0;
+        // In hundredths of a hertz: formatting a float would cost the firmware 10 KB of flash.
+        let centi_hz = (rate * 100.0) as u32;
+        log::info!(
+            "stream start: camera {}x{} at {}.{:02} Hz",
+            info.width,
+            info.height,
+            centi_hz / 100,
+            centi_hz % 100
+        );
     }
 
     fn on_part<C: Clock, E>(
@@ -183,12 +194,20 @@ impl<'m, const W: usize> Edge<'m, W> {
         if self.camera.is_none() {
             if part.part == 0 {
                 self.stats.frames_without_camera = self.stats.frames_without_camera.saturating_add(1);
+                if self.stats.frames_without_camera == 1 {
+                    log::warn!(
+                        "frame {} arrived before any camera model: not estimated (nor any until one)",
+                        part.frame
+                    );
+                }
             }
             return Ok(());
         }
+        let before = *self.estimator.stats();
         let t0 = clock.now();
         let pushed = self.estimator.push(part);
         self.pending_compute = self.pending_compute.saturating_add(clock.now().saturating_sub(t0));
+        log_capacity(part.frame, &before, self.estimator.stats());
         let Pushed::Frame { smoothed } = pushed else { return Ok(()) };
 
         let t0 = clock.now();
@@ -212,6 +231,13 @@ impl<'m, const W: usize> Edge<'m, W> {
         }
         self.stats.forecasts = self.stats.forecasts.saturating_add(u32::from(sent));
         let e = self.estimator.stats();
+        log::debug!(
+            "frame {} objects {} forecasts {} compute {}",
+            self.estimate.frame,
+            self.estimate.objects.len(),
+            sent,
+            compute
+        );
         let stats = FrameStats {
             frame: self.estimate.frame,
             frames_lost: self.stats.frames_lost,
@@ -234,6 +260,14 @@ impl<'m, const W: usize> Edge<'m, W> {
             && frame > last
         {
             self.stats.frames_lost = self.stats.frames_lost.saturating_add(frame - last - 1);
+            if frame - last > 1 {
+                log::warn!(
+                    "frames lost: {} before frame {} ({} in all)",
+                    frame - last - 1,
+                    frame,
+                    self.stats.frames_lost
+                );
+            }
         }
         self.last_frame = Some(frame);
         self.stats.frames_estimated = self.stats.frames_estimated.saturating_add(1);
@@ -259,14 +293,20 @@ impl<'m, const W: usize> Edge<'m, W> {
             self.predictor.as_mut().map(|p| p.predict_with_neighbours(history, &neighbours, self.dt, &mut points));
         let ok = match learned {
             Some(Ok(())) => true,
-            Some(Err(_)) => {
+            Some(Err(e)) => {
                 self.stats.forecasts_fallback = self.stats.forecasts_fallback.saturating_add(1);
+                if self.stats.forecasts_fallback == 1 {
+                    log::warn!("learned model failed ({e:?}): constant velocity instead (counted, not logged again)");
+                }
                 constant_velocity(history, self.dt, &mut points).is_ok()
             }
             None => constant_velocity(history, self.dt, &mut points).is_ok(),
         };
         if !ok {
             self.stats.forecasts_failed = self.stats.forecasts_failed.saturating_add(1);
+            if self.stats.forecasts_failed == 1 {
+                log::warn!("object {}: no forecast (non-finite states; counted, not logged again)", own.object_id);
+            }
             return None;
         }
         Some(Prediction {
@@ -275,5 +315,28 @@ impl<'m, const W: usize> Edge<'m, W> {
             dt: self.dt,
             points: Vec::from_slice(&points).ok()?,
         })
+    }
+}
+
+/// Says when a capacity of the estimator was first reached in a stream (warning: the first
+/// drop of each kind; every later one at debug level, so not a line per frame at warning).
+fn log_capacity(frame: u32, before: &EstimatorStats, after: &EstimatorStats) {
+    if !log::log_enabled!(log::Level::Warn) {
+        return;
+    }
+    let drops = [
+        ("static tracks dropped (static capacity)", before.static_tracks_dropped, after.static_tracks_dropped),
+        ("object points dropped (per-object capacity)", before.object_points_dropped, after.object_points_dropped),
+        ("object tracks dropped (object capacity)", before.object_tracks_dropped, after.object_tracks_dropped),
+        ("runs evicted (run capacity)", before.runs_evicted, after.runs_evicted),
+    ];
+    for (what, was, now) in drops {
+        if now > was {
+            if was == 0 {
+                log::warn!("capacity reached at frame {frame}: {} {what}; later drops only counted", now - was);
+            } else {
+                log::debug!("frame {frame}: {} {what}", now - was);
+            }
+        }
     }
 }
