@@ -7,6 +7,7 @@ use std::cell::RefCell;
 
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::wire::{STATIC_OBJECT_ID, Track, frame_parts};
 use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_tests::edge_fixture::{encode_all, host_messages, run_in_process, scene_tracks};
@@ -89,4 +90,30 @@ fn a_model_is_logged_as_accepted_or_refused_with_the_reason() {
     println!("{accepted:#?}");
     assert!(has(&accepted, Level::Info, &format!("model accepted len={}", blob.len())), "{accepted:#?}");
     assert!(!accepted.iter().any(|(l, _)| *l == Level::Warn), "{accepted:#?}");
+}
+
+#[test]
+fn a_capacity_reached_is_logged_once_not_every_frame() {
+    // Every frame swaps one car's tracks for 40 more static tracks than the edge keeps.
+    let mut tracks = scene_tracks(4);
+    for f in &mut tracks.frames {
+        let mut all: Vec<Track> = f.parts.iter().flat_map(|p| p.tracks.iter().copied()).collect();
+        let last_car = all.iter().filter(|t| !t.is_static()).map(|t| t.object_id).max().unwrap();
+        all.retain(|t| t.object_id != last_car);
+        let extra: Vec<Track> = all
+            .iter()
+            .filter(|t| t.is_static())
+            .take(40)
+            .map(|t| Track { track_id: t.track_id + 1_000_000, ..*t })
+            .collect();
+        assert_eq!((extra.len(), extra[0].object_id), (40, STATIC_OBJECT_ID));
+        all.extend(extra);
+        f.parts = frame_parts(f.frame, f.timestamp_us, &all).unwrap().collect();
+    }
+    let records = logged(&encode_all(&host_messages(&tracks, None)));
+    println!("{records:#?}");
+    let warnings: Vec<&String> = records.iter().filter(|(l, _)| *l == Level::Warn).map(|(_, m)| m).collect();
+    assert_eq!(warnings.len(), 1, "one warning for a capacity exceeded in every frame: {warnings:#?}");
+    assert!(warnings[0].starts_with("capacity reached at frame 0:"), "{warnings:?}");
+    assert!(warnings[0].contains("static tracks dropped (static capacity)"), "{warnings:?}");
 }
