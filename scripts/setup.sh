@@ -35,4 +35,9 @@ if ! cbindgen --version 2>/dev/null | grep -qx "cbindgen $CBINDGEN_VERSION"; the
   echo "setup: installing cbindgen $CBINDGEN_VERSION"
   cargo install cbindgen --locked --version "$CBINDGEN_VERSION" --quiet
 fi
+# The firmware's linker (.cargo/config.toml): stack overflows fault instead of corrupting statics.
+if ! command -v flip-link >/dev/null 2>&1; then
+  echo "setup: installing flip-link"
+  cargo install flip-link --locked
+fi
 echo "setup: ok"

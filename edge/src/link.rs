@@ -26,15 +26,16 @@ impl EdgeLoop {
     /// Feeds received bytes through the decoder and hands each whole message to `f`, which
     /// returns whether to go on; the rest of `chunk` is dropped when it says no.
     pub fn on_bytes_with(&mut self, chunk: &[u8], mut f: impl FnMut(&Message) -> bool) {
-        // Borrowed where the decoder put it: moving it out of the `Option` (as `for` does) puts
-        // a second copy of the 1.3 KiB message on the MCU's stack.
+        // Borrowed where the decoder put it, in a binding made afresh each time: moving it out
+        // of the `Option` (as `for` does), or assigning over an old one, puts a second copy of
+        // the 1.3 KiB message on the MCU's stack.
         let mut feed = self.decoder.feed(chunk);
-        let mut next = feed.next();
-        while let Some(msg) = &next {
+        loop {
+            let next = feed.next();
+            let Some(msg) = &next else { break };
             if !f(msg) {
                 break;
             }
-            next = feed.next();
         }
     }
 

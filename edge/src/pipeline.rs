@@ -1,10 +1,13 @@
 //! The edge's work per message: tracks -> estimator -> histories -> predictor -> messages out.
 
-use dynotraj_core::estimate::{EDGE_PROFILE, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
+use dynotraj_core::estimate::{
+    EDGE_PROFILE, Estimator, EstimatorParams, EstimatorStats, Intrinsics, PoseEstimate, Pushed,
+};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
-use dynotraj_core::model::LearnedPredictor;
 use dynotraj_core::model::blob::ModelBlob;
+use dynotraj_core::model::kernel::Kernel;
+use dynotraj_core::model::{Scratch, forecast};
 use dynotraj_core::predict::{Forecast, constant_velocity};
 use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
 use dynotraj_dsp::DspDot;
@@ -80,7 +83,11 @@ pub struct Edge<'m, const W: usize = EDGE_WINDOW> {
     dt: f32,
     estimate: PoseEstimate,
     histories: Histories,
-    predictor: Option<LearnedPredictor<'m, DspDot>>,
+    /// The learned model, if any: only this small view changes with the model.
+    model: Option<Kernel<'m, DspDot>>,
+    /// The learned model's working memory, built with the edge (a predictor built when a model
+    /// arrives would put its 8 KiB of scratch on the stack for a moment).
+    scratch: Scratch,
     stats: EdgeStats,
     last_frame: Option<u32>,
     /// Compute spent on parts of the frame being assembled.
@@ -104,7 +111,8 @@ impl<'m, const W: usize> Edge<'m, W> {
             dt,
             estimate: PoseEstimate::new(),
             histories: Histories::new(),
-            predictor: None,
+            model: None,
+            scratch: Scratch::ZERO,
             stats: EdgeStats::ZERO,
             last_frame: None,
             pending_compute: 0,
@@ -115,13 +123,15 @@ impl<'m, const W: usize> Edge<'m, W> {
     /// keeps the edge in a static and has less stack than its size).
     pub fn reset(&mut self) {
         // Every field named (no `..`), as in `Estimator::reset`.
-        let Self { estimator, camera, dt, estimate, histories, predictor, stats, last_frame, pending_compute } = self;
+        // The scratch is working memory, written before it is read by every forecast.
+        let Self { estimator, camera, dt, estimate, histories, model, scratch: _, stats, last_frame, pending_compute } =
+            self;
         *dt = 1.0 / PAPER_FRAME_RATE_HZ;
         estimator.reset(edge_params(Intrinsics::KITTI_0926, *dt), ESTIMATOR_SEED);
         *camera = None;
         estimate.reset(0, 0);
         *histories = Histories::new();
-        *predictor = None;
+        *model = None;
         *stats = EdgeStats::ZERO;
         *last_frame = None;
         *pending_compute = 0;
@@ -129,13 +139,13 @@ impl<'m, const W: usize> Edge<'m, W> {
 
     /// Forecasts with the learned model in `blob` from now on.
     pub fn set_model(&mut self, blob: ModelBlob<'m>) {
-        self.predictor = Some(LearnedPredictor::with_dot(blob));
+        self.model = Some(Kernel::with_dot(blob));
     }
 
     /// Whether a learned model is in use.
     #[must_use]
     pub const fn has_model(&self) -> bool {
-        self.predictor.is_some()
+        self.model.is_some()
     }
 
     /// The edge's counters.
@@ -194,6 +204,15 @@ impl<'m, const W: usize> Edge<'m, W> {
         self.histories = Histories::new();
         self.last_frame = None;
         self.pending_compute = 0;
+        // In hundredths of a hertz: formatting a float would cost the firmware 10 KB of flash.
+        let centi_hz = (rate * 100.0) as u32;
+        log::info!(
+            "stream start: camera {}x{} at {}.{:02} Hz",
+            info.width,
+            info.height,
+            centi_hz / 100,
+            centi_hz % 100
+        );
     }
 
     /// Never inlined, as the estimator's phases: its locals are on the stack only while a part
@@ -209,12 +228,20 @@ impl<'m, const W: usize> Edge<'m, W> {
         if self.camera.is_none() {
             if part.part == 0 {
                 self.stats.frames_without_camera = self.stats.frames_without_camera.saturating_add(1);
+                if self.stats.frames_without_camera == 1 {
+                    log::warn!(
+                        "frame {} arrived before any camera model: not estimated (nor any until one)",
+                        part.frame
+                    );
+                }
             }
             return Ok(());
         }
+        let before = *self.estimator.stats();
         let t0 = clock.now();
         let pushed = self.estimator.push(part);
         self.pending_compute = self.pending_compute.saturating_add(clock.now().saturating_sub(t0));
+        log_capacity(part.frame, &before, self.estimator.stats());
         let Pushed::Frame { smoothed } = pushed else { return Ok(()) };
 
         let t0 = clock.now();
@@ -238,6 +265,13 @@ impl<'m, const W: usize> Edge<'m, W> {
         }
         self.stats.forecasts = self.stats.forecasts.saturating_add(u32::from(sent));
         let e = self.estimator.stats();
+        log::debug!(
+            "frame {} objects {} forecasts {} compute {}",
+            self.estimate.frame,
+            self.estimate.objects.len(),
+            sent,
+            compute
+        );
         let stats = FrameStats {
             frame: self.estimate.frame,
             frames_lost: self.stats.frames_lost,
@@ -260,6 +294,14 @@ impl<'m, const W: usize> Edge<'m, W> {
             && frame > last
         {
             self.stats.frames_lost = self.stats.frames_lost.saturating_add(frame - last - 1);
+            if frame - last > 1 {
+                log::warn!(
+                    "frames lost: {} before frame {} ({} in all)",
+                    frame - last - 1,
+                    frame,
+                    self.stats.frames_lost
+                );
+            }
         }
         self.last_frame = Some(frame);
         self.stats.frames_estimated = self.stats.frames_estimated.saturating_add(1);
@@ -283,17 +325,23 @@ impl<'m, const W: usize> Edge<'m, W> {
         }
         let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
         let learned =
-            self.predictor.as_mut().map(|p| p.predict_with_neighbours(history, &neighbours, self.dt, &mut points));
+            self.model.as_ref().map(|k| forecast(k, &mut self.scratch, history, &neighbours, self.dt, &mut points));
         let ok = match learned {
             Some(Ok(())) => true,
-            Some(Err(_)) => {
+            Some(Err(e)) => {
                 self.stats.forecasts_fallback = self.stats.forecasts_fallback.saturating_add(1);
+                if self.stats.forecasts_fallback == 1 {
+                    log::warn!("learned model failed ({e:?}): constant velocity instead (counted, not logged again)");
+                }
                 constant_velocity(history, self.dt, &mut points).is_ok()
             }
             None => constant_velocity(history, self.dt, &mut points).is_ok(),
         };
         if !ok {
             self.stats.forecasts_failed = self.stats.forecasts_failed.saturating_add(1);
+            if self.stats.forecasts_failed == 1 {
+                log::warn!("object {}: no forecast (non-finite states; counted, not logged again)", own.object_id);
+            }
             return None;
         }
         Some(Prediction {
@@ -311,4 +359,27 @@ impl<'m, const W: usize> Edge<'m, W> {
 #[inline(never)]
 fn emit<E>(out: &mut impl FnMut(&Message) -> Result<(), E>, build: impl FnOnce() -> Message) -> Result<(), E> {
     out(&build())
+}
+
+/// Says when a capacity of the estimator was first reached in a stream (warning: the first
+/// drop of each kind; every later one at debug level, so not a line per frame at warning).
+fn log_capacity(frame: u32, before: &EstimatorStats, after: &EstimatorStats) {
+    if !log::log_enabled!(log::Level::Warn) {
+        return;
+    }
+    let drops = [
+        ("static tracks dropped (static capacity)", before.static_tracks_dropped, after.static_tracks_dropped),
+        ("object points dropped (per-object capacity)", before.object_points_dropped, after.object_points_dropped),
+        ("object tracks dropped (object capacity)", before.object_tracks_dropped, after.object_tracks_dropped),
+        ("runs evicted (run capacity)", before.runs_evicted, after.runs_evicted),
+    ];
+    for (what, was, now) in drops {
+        if now > was {
+            if was == 0 {
+                log::warn!("capacity reached at frame {frame}: {} {what}; later drops only counted", now - was);
+            } else {
+                log::debug!("frame {frame}: {} {what}", now - was);
+            }
+        }
+    }
 }

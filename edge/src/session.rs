@@ -188,8 +188,13 @@ impl<'m, const W: usize> Session<'m, W> {
     /// When `blob` is not a valid model blob; the session keeps its previous model.
     #[inline(never)]
     pub fn set_model(&mut self, blob: &'m [u8]) -> Result<(), BlobError> {
-        self.edge.set_model(ModelBlob::parse(blob)?);
+        let parsed = ModelBlob::parse(blob);
+        if let Err(e) = &parsed {
+            log::warn!("model refused: linked-in blob {e:?}");
+        }
+        self.edge.set_model(parsed?);
         self.model = ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) };
+        log::info!("model linked in len={}", blob.len());
         #[cfg(feature = "model-over-link")]
         {
             self.loader = None;
@@ -295,6 +300,10 @@ impl<'m, const W: usize> Session<'m, W> {
                     if let Some(notice) = outcome
                         && !(*chunk_refusal_told && is_chunk_refusal(&notice))
                     {
+                        if is_chunk_refusal(&notice) {
+                            // Once a session, as the host is told; every chunk at debug level.
+                            log::warn!("{notice} (further chunks refused silently)");
+                        }
                         *chunk_refusal_told |= is_chunk_refusal(&notice);
                         if let Err(e) = send_built(io, frames_sent, || Message::Notice(notice)) {
                             result = Err(e);
@@ -330,6 +339,7 @@ impl<'m, const W: usize> Session<'m, W> {
     /// # Errors
     /// A transport failure, or a message that cannot be encoded.
     pub fn run<T: Transport, C: Clock>(&mut self, io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>> {
+        log::info!("session start: forecasting with {}", self.model.forecaster());
         let mut buf = [0u8; READ_CHUNK];
         while !self.ended {
             let n = io.read(&mut buf).map_err(RunError::Transport)?;
@@ -352,8 +362,29 @@ impl<'m, const W: usize> Session<'m, W> {
         if !self.ended {
             self.link.end_of_stream();
         }
+        self.log_totals(io.bytes_lost());
         let stats = self.link_stats();
         send_built(io, &mut self.frames_sent, || Message::LinkStats(stats))
+    }
+
+    /// The session's totals, at its end: what an integrator checks first.
+    fn log_totals(&self, bytes_lost: u32) {
+        let e = self.edge.stats();
+        let r = self.link.decoder_stats();
+        log::info!(
+            "session end: frames {} lost {} | forecasts {} fallback {} failed {} | link frames {} rejected {} \
+                bytes dropped {} lost {} | {}",
+            e.frames_estimated,
+            e.frames_lost,
+            e.forecasts,
+            e.forecasts_fallback,
+            e.forecasts_failed,
+            r.frames_ok,
+            r.frames_rejected(),
+            r.bytes_discarded,
+            bytes_lost,
+            if self.ended { "host said goodbye" } else { "stream ended" }
+        );
     }
 }
 
@@ -368,6 +399,7 @@ fn on_chunk<'m, const W: usize>(
     edge: &mut Edge<'m, W>,
 ) -> Option<Notice> {
     let Some((l, _)) = loader.as_mut().filter(|_| edge.stats().frames_estimated == 0) else {
+        log::debug!("model chunk at {} refused: not accepted now", chunk.offset);
         load.chunks_rejected += 1;
         return Some(Notice::ModelRefused(ModelRefusal::NotAccepted));
     };
@@ -377,10 +409,12 @@ fn on_chunk<'m, const W: usize>(
             None
         }
         ChunkOutcome::Rejected(why) => {
+            log::debug!("model chunk at {} refused: {why}", chunk.offset);
             load.chunks_rejected += 1;
             Some(Notice::ModelRefused(why))
         }
         ChunkOutcome::CrcMismatch => {
+            log::warn!("model refused: CRC mismatch over {} B, the load starts over", chunk.blob_len);
             load.crc_mismatches += 1;
             Some(Notice::ModelRefused(ModelRefusal::Crc))
         }
@@ -422,16 +456,20 @@ fn accept_signed<'m, const W: usize>(
             } else {
                 load.bad_signatures = load.bad_signatures.saturating_add(1);
             }
-            log::warn!("model: refused {e:?}");
+            log::warn!("model refused: signature {e:?}");
             return ModelStatus::SignatureRejected(e);
         }
     };
     match ModelBlob::parse_exact(blob) {
         Ok(b) => {
             edge.set_model(b);
+            log::info!("model accepted len={}", blob.len());
             ModelStatus::Loaded { len: u32::try_from(blob.len()).unwrap_or(u32::MAX) }
         }
-        Err(e) => ModelStatus::Rejected(e),
+        Err(e) => {
+            log::warn!("model refused: signed but not a valid blob {e:?}");
+            ModelStatus::Rejected(e)
+        }
     }
 }
 

@@ -4,7 +4,8 @@
 //! the image against the ECU budgets of DESIGN.md (flash <= 512 KiB; .data + .bss + the peak
 //! stack measured by painting <= 128 KiB) and against the golden figures in
 //! `edge/firmware/memory.golden` (`DYNOTRAJ_BLESS=1` rewrites them after a deliberate change),
-//! and reports the instructions per frame (QEMU -icount) against 20 frames/s at 200 MHz.
+//! and reports the instructions per frame (QEMU -icount) against 20 frames/s at 200 MHz, and
+//! checks that the firmware's logger prints the edge's session totals.
 
 use std::io::Read as _;
 use std::path::Path;
@@ -86,7 +87,27 @@ fn run_and_compare(elf: &Path, model: Option<&[u8]>) -> String {
         steady.last().unwrap(),
         f64::from(median) / f64::from(budget)
     );
+    // The images log at info (the firmware's `log-info` feature); another one named in
+    // DYNOTRAJ_FIRMWARE may log at another level.
+    if std::env::var_os("DYNOTRAJ_FIRMWARE").is_none() {
+        check_log_lines(&log, frames);
+    }
     log
+}
+
+/// The firmware's logger prints `LEVEL INSTRUCTIONS CRATE: MESSAGE`, the edge's session totals
+/// among them.
+fn check_log_lines(log: &str, frames: usize) {
+    let end = log
+        .lines()
+        .find(|l| l.contains(" edge: session end: "))
+        .unwrap_or_else(|| panic!("the edge logs its session totals: {log}"));
+    let mut fields = end.splitn(3, ' ');
+    assert_eq!(fields.next(), Some("I"), "at info level: {end}");
+    assert!(fields.next().is_some_and(|t| t.parse::<u64>().is_ok()), "an instruction-clock timestamp: {end}");
+    let message = fields.next().unwrap_or_default();
+    assert!(message.starts_with(&format!("edge: session end: frames {frames} lost 0 |")), "{end}");
+    assert!(!log.lines().any(|l| l.starts_with("D ")), "nothing at debug level in the default image: {log}");
 }
 
 /// First frame of the compute figure: after the edge's smoothing window (8 frames) and the

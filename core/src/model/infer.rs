@@ -39,20 +39,26 @@ pub struct Scratch {
 
 impl Default for Scratch {
     fn default() -> Self {
-        Self {
-            own: [[0.0; FEATURES]; super::arch::MAX_STEPS],
-            neighbours: [[0.0; FEATURES]; super::arch::MAX_STEPS],
-            h: [0.0; MAX_DEC],
-            gates_x: [0.0; MAX_GATES],
-            gates_h: [0.0; MAX_GATES],
-            gru_fixed: [0.0; 3 * MAX_DEC],
-            cond: [0.0; MAX_COND],
-            input: [0.0; MAX_AFFINE_IN],
-            pz: [0.0; PZ_HIDDEN],
-            logits: [0.0; MAX_K],
-            out: [0.0; OUTPUTS],
-        }
+        Self::ZERO
     }
+}
+
+impl Scratch {
+    /// Zeroed working memory, as a constant: an edge keeps one in a static, built at compile
+    /// time (a value built at run time would need 8 KiB of stack for a moment).
+    pub const ZERO: Self = Self {
+        own: [[0.0; FEATURES]; super::arch::MAX_STEPS],
+        neighbours: [[0.0; FEATURES]; super::arch::MAX_STEPS],
+        h: [0.0; MAX_DEC],
+        gates_x: [0.0; MAX_GATES],
+        gates_h: [0.0; MAX_GATES],
+        gru_fixed: [0.0; 3 * MAX_DEC],
+        cond: [0.0; MAX_COND],
+        input: [0.0; MAX_AFFINE_IN],
+        pz: [0.0; PZ_HIDDEN],
+        logits: [0.0; MAX_K],
+        out: [0.0; OUTPUTS],
+    };
 }
 
 /// The learned predictor over a blob, unimodal: the most likely latent mode and the mean
@@ -98,24 +104,40 @@ impl<'a, D: Int8Dot> LearnedPredictor<'a, D> {
         dt: f32,
         out: &mut Forecast,
     ) -> Result<(), PredictError> {
-        let history = checked_history(history, dt)?;
-        let trained = self.kernel.blob().frame_period_s();
-        if (dt - trained).abs() > 1e-4 * trained {
-            return Err(PredictError::BadFramePeriod);
-        }
-        let Some((frame, speed)) = rollout_start(history, dt) else { return Err(PredictError::HistoryTooShort) };
-        let s = &mut self.scratch;
-        let n = state_features(history, &frame, dt, &mut s.own);
-        neighbour_sum(neighbours, &frame, n, dt, &mut s.neighbours);
-        let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
-        forward(&self.kernel, s, n, u0, speed, dt, |k, p| {
-            if let Some(o) = out.get_mut(k) {
-                *o = frame.to_world(&p);
-            }
-        })
-        .map_err(|ShapeError| PredictError::NonFinite)?;
-        if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
+        forecast(&self.kernel, &mut self.scratch, history, neighbours, dt, out)
     }
+}
+
+/// [`LearnedPredictor::predict_with_neighbours`] over a kernel and working memory held apart:
+/// an edge keeps its [`Scratch`] in its static state and only the small kernel changes with the
+/// model.
+///
+/// # Errors
+/// See [`LearnedPredictor::predict_with_neighbours`].
+pub fn forecast<D: Int8Dot>(
+    kernel: &Kernel<'_, D>,
+    s: &mut Scratch,
+    history: &[BevState],
+    neighbours: &[&[BevState]],
+    dt: f32,
+    out: &mut Forecast,
+) -> Result<(), PredictError> {
+    let history = checked_history(history, dt)?;
+    let trained = kernel.blob().frame_period_s();
+    if (dt - trained).abs() > 1e-4 * trained {
+        return Err(PredictError::BadFramePeriod);
+    }
+    let Some((frame, speed)) = rollout_start(history, dt) else { return Err(PredictError::HistoryTooShort) };
+    let n = state_features(history, &frame, dt, &mut s.own);
+    neighbour_sum(neighbours, &frame, n, dt, &mut s.neighbours);
+    let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
+    forward(kernel, s, n, u0, speed, dt, |k, p| {
+        if let Some(o) = out.get_mut(k) {
+            *o = frame.to_world(&p);
+        }
+    })
+    .map_err(|ShapeError| PredictError::NonFinite)?;
+    if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
 }
 
 impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {

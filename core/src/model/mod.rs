@@ -18,4 +18,4 @@ pub mod signed;
 
 pub use arch::Dims;
 pub use dot::{Int8Dot, PortableDot};
-pub use infer::{LearnedPredictor, Scratch};
+pub use infer::{LearnedPredictor, Scratch, forecast};

@@ -65,18 +65,19 @@ impl Clock for Instructions {
 const CALIBRATION_LOOPS: u32 = 1_000_000;
 
 /// Checks at boot that SysTick counts instructions (QEMU under `-icount shift=0`) and logs the
-/// outcome as `program`.
-pub fn check(program: &str) {
+/// outcome.
+pub fn check() {
     let ticks = calibrate(CALIBRATION_LOOPS);
     let expected = u64::from(2 * CALIBRATION_LOOPS) / INSTRUCTIONS_PER_TICK;
-    let exact = ticks.abs_diff(expected) * 100 <= expected;
-    cortex_m_semihosting::hprintln!(
-        "{}: clock check: {} instructions in {} SysTick counts ({})",
-        program,
-        2 * CALIBRATION_LOOPS,
-        ticks,
-        if exact { "instruction counting exact within 1%" } else { "NOT instructions: run under -icount shift=0" }
-    );
+    if ticks.abs_diff(expected) * 100 <= expected {
+        log::info!("clock check: {} instructions in {} SysTick counts: exact within 1%", 2 * CALIBRATION_LOOPS, ticks);
+    } else {
+        log::warn!(
+            "clock check: {} instructions in {} SysTick counts: NOT instructions, run under -icount shift=0",
+            2 * CALIBRATION_LOOPS,
+            ticks
+        );
+    }
 }
 
 /// Runs a loop of exactly `2 * iterations` instructions (`subs`, `bne`) and returns the SysTick

@@ -1,7 +1,8 @@
 //! What the firmware's programs share on QEMU's mps2-an386: the instruction clock, stack
-//! painting, and the semihosting exit (a panic or a HardFault is exit status 1).
+//! painting, the semihosting logger, and the semihosting exit (a panic or a HardFault is exit status 1).
 #![no_std]
 
 pub mod clock;
 pub mod exit;
+pub mod logger;
 pub mod stack;

@@ -6,7 +6,9 @@
 //! status 0 after a clean session, 1 after a transport or encoding failure, a panic (the
 //! `panic-semihosting` exit feature) or a HardFault. The model blob named by
 //! `DYNOTRAJ_FW_MODEL` at build time is linked into flash; without one the edge forecasts
-//! with constant velocity. Logs go to the semihosting console (QEMU's stdout/stderr).
+//! with constant velocity. Logs go to the semihosting console (QEMU's stdout/stderr): the
+//! edge's events through the `log` facade ([`logger`]), the closing summary and peak stack as
+//! plain lines whatever the log level (tests/tests/edge_qemu.rs reads them).
 #![no_std]
 #![no_main]
 
@@ -16,7 +18,7 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use dynotraj_edge::{ModelStatus, Session};
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
-use dynotraj_firmware::{clock, stack};
+use dynotraj_firmware::{clock, logger, stack};
 use static_cell::ConstStaticCell;
 
 /// The model linked into flash (empty: none).
@@ -45,7 +47,8 @@ fn main() -> ! {
     stack::paint();
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
     clock::start(&mut cp.SYST);
-    clock::check("dynotraj-firmware");
+    logger::init();
+    clock::check();
 
     let Some(session) = SESSION.try_take() else { fail("session taken twice") };
     if !MODEL.is_empty()
@@ -54,10 +57,12 @@ fn main() -> ! {
         fail_with(format_args!("linked model rejected: {e:?}"));
     }
     let mut link = uart::Uart::new(&mut cp.NVIC);
-    hprintln!(
-        "dynotraj-firmware: ready, model {}, int8 products {}",
+    log::info!(
+        "ready: model {}, int8 products {}, stack {} B, log level {}",
         describe(session.model()),
-        if cfg!(feature = "dsp") { "on SMLAD" } else { "portable" }
+        if cfg!(feature = "dsp") { "on SMLAD" } else { "portable" },
+        stack::available(),
+        logger::level()
     );
 
     let result = session.run(&mut link, &mut clock::Instructions);

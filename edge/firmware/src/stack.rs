@@ -1,5 +1,12 @@
-//! Peak stack by painting: every free word between the statics and the stack pointer gets a
+//! Peak stack by painting: every free word of the stack region below the stack pointer gets a
 //! pattern at boot; the lowest word that lost it marks the deepest the stack has been.
+//!
+//! The firmware is linked with flip-link (../../.cargo/config.toml): the statics sit at the
+//! top of RAM and the stack grows down from just below them towards the start of RAM, so an
+//! overflow runs off RAM and faults instead of overwriting a static. The stack region is
+//! [`_stack_end`, `_stack_start`): flip-link sets them to the start of RAM and the start of
+//! `.data`; linked without it, cortex-m-rt sets them to the end of the statics and the end of
+//! RAM. Both layouts are measured the same way.
 
 /// The paint.
 const PAINT: u32 = 0x5EED_57AC;
@@ -7,18 +14,24 @@ const PAINT: u32 = 0x5EED_57AC;
 const MARGIN: usize = 64;
 
 unsafe extern "C" {
-    /// End of the statics (.bss and .uninit), from cortex-m-rt's link.x.
-    static mut __sheap: u32;
-    /// Top of RAM, where the stack starts.
+    /// Lowest address of the stack region (its limit).
+    static mut _stack_end: u32;
+    /// Highest address of the stack region, where the stack starts.
     static _stack_start: u32;
 }
 
 fn bottom() -> *mut u32 {
-    &raw mut __sheap
+    &raw mut _stack_end
 }
 
 fn top() -> usize {
     (&raw const _stack_start) as usize
+}
+
+/// Lowest address of the stack region: a stack pointer below it has overflowed.
+#[must_use]
+pub fn limit() -> usize {
+    bottom() as usize
 }
 
 /// Paints the free stack. Call first thing in `main`.
@@ -26,7 +39,7 @@ pub fn paint() {
     let sp = cortex_m::register::msp::read() as usize;
     let mut p = bottom();
     while (p as usize) < sp - MARGIN * 4 {
-        // SAFETY: words between the end of the statics and below the live stack belong to no one.
+        // SAFETY: words of the stack region below the live stack belong to no one.
         unsafe {
             p.write_volatile(PAINT);
             p = p.add(1);
@@ -34,16 +47,15 @@ pub fn paint() {
     }
 }
 
-/// Stack bytes available (top of RAM down to the statics).
+/// Stack bytes available (the whole stack region).
 pub fn available() -> usize {
     top() - bottom() as usize
 }
 
-/// Deepest stack use so far, bytes; equal to [`available`] when the stack reached the statics
-/// (an overflow: the budget was exceeded).
+/// Deepest stack use so far, bytes; equal to [`available`] when the stack reached its limit.
 pub fn peak() -> usize {
     let mut p = bottom() as *const u32;
-    // SAFETY: reads of RAM between the statics and the top of the stack.
+    // SAFETY: reads of RAM within the stack region.
     while (p as usize) < top() && unsafe { p.read_volatile() } == PAINT {
         p = unsafe { p.add(1) };
     }
