@@ -23,6 +23,8 @@ cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy -p dynotraj-ffi --all-targets -- -D warnings
 cargo clippy -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
+echo "== cargo doc (core, edge, ffi): no warnings"
+RUSTDOCFLAGS="-D warnings" cargo doc -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
 echo "== tests"
 log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG

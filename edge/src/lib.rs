@@ -33,6 +33,11 @@ pub mod provisioned {
 pub mod session;
 pub mod transport;
 
+/// docs/integration.md, whose Rust examples are compiled as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/integration.md")]
+pub struct IntegrationGuide;
+
 pub use link::EdgeLoop;
 pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
 pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
