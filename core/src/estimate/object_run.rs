@@ -337,7 +337,7 @@ impl<const W: usize> ObjectRun<W> {
     }
 
     /// Takes the window's solution `xs` (`None`: the solve failed, counted in `solve_failures`),
-    /// emits the frame leaving the window if it is this run's (see [`WindowExit`]), and, for a
+    /// emits the frame leaving the window if it is this run's (see `WindowExit`), and, for a
     /// run measured in this frame, fuses its points (`fuse_with`: the frame's points, the camera
     /// they were seen by, the point model, the inlier bound) into its landmarks. A draining run
     /// frees itself once nothing is pending.

@@ -88,8 +88,8 @@ impl PointModel {
     ///
     /// With p = R s + t and the projection's Jacobian D = dr/dp (five non-zero entries), a
     /// right perturbation moves p by R (rho + omega x s), so the Jacobian is
-    /// [D R | -D R [s]x]; row i of the second block is s x a_i for a_i row i of D R. That is
-    /// about a third of the multiplications of forming [R | -R [s]x] and multiplying by D.
+    /// `[D R | -D R [s]x]`; row i of the second block is s x a_i for a_i row i of D R. That is
+    /// about a third of the multiplications of forming `[R | -R [s]x]` and multiplying by D.
     #[must_use]
     pub fn linearise(
         &self,

@@ -52,13 +52,13 @@
 //!
 //! PyTorch conventions (which candle-nn follows): LSTM gates (i, f, g, o), GRU gates (r, z, n)
 //! with n = tanh(W_in x + b_in + r * (W_hn h + b_hn)).
-//! 1. enc LSTM: w_ih [4 enc, FEATURES], w_hh [4 enc, enc], b_ih [4 enc], b_hh [4 enc]
-//! 2. edge LSTM: w_ih [4 edge, 2 FEATURES], w_hh [4 edge, edge], b_ih [4 edge], b_hh [4 edge]
-//! 3. p(z|x) layer 1: w [PZ_HIDDEN, cond], b [PZ_HIDDEN]
-//! 4. p(z|x) layer 2: w [k, PZ_HIDDEN], b [k]
-//! 5. decoder initial state: w [dec, k + cond], b [dec]
-//! 6. decoder GRU cell: w_ih [3 dec, 2 + k + cond], w_hh [3 dec, dec], b_ih [3 dec], b_hh [3 dec]
-//! 7. decoder output: w [OUTPUTS, dec], b [OUTPUTS]
+//! 1. enc LSTM: w_ih `[4 enc, FEATURES]`, w_hh `[4 enc, enc]`, b_ih `[4 enc]`, b_hh `[4 enc]`
+//! 2. edge LSTM: w_ih `[4 edge, 2 FEATURES]`, w_hh `[4 edge, edge]`, b_ih `[4 edge]`, b_hh `[4 edge]`
+//! 3. p(z|x) layer 1: w `[PZ_HIDDEN, cond]`, b `[PZ_HIDDEN]`
+//! 4. p(z|x) layer 2: w `[k, PZ_HIDDEN]`, b `[k]`
+//! 5. decoder initial state: w `[dec, k + cond]`, b `[dec]`
+//! 6. decoder GRU cell: w_ih `[3 dec, 2 + k + cond]`, w_hh `[3 dec, dec]`, b_ih `[3 dec]`, b_hh `[3 dec]`
+//! 7. decoder output: w `[OUTPUTS, dec]`, b `[OUTPUTS]`
 //!
 //! Concatenation orders are exactly as written above: x = [h_edge, h_hist]; decoder initial
 //! input [z, x]; GRU input [u_prev, z, x].

@@ -135,7 +135,7 @@ impl Activation for Exact {
     }
 }
 
-/// int8 inference's activations: the interpolated table of [`super::lut`].
+/// int8 inference's activations: the interpolated table of `super::lut`.
 #[derive(Debug, Clone, Copy)]
 pub struct Table;
 
