@@ -317,7 +317,7 @@ impl<'m, const W: usize> Session<'m, W> {
                 }
                 _ => {
                     let mut handled = edge
-                        .handle(&msg, clock, dropped.saturating_add(lost), &mut |m: &Message| send(io, frames_sent, m));
+                        .handle(msg, clock, dropped.saturating_add(lost), &mut |m: &Message| send(io, frames_sent, m));
                     if handled.is_ok() && matches!(msg, Message::CameraInfo(_)) {
                         handled =
                             send_built(io, frames_sent, || Message::Notice(Notice::Forecasting(model.forecaster())));
