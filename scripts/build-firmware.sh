@@ -4,7 +4,8 @@
 # links an int8 model blob into flash (unset: constant-velocity forecasts). Without it and
 # without arguments, the image with the default-size model of fixtures/data/models linked in is
 # built first and kept beside it as dynotraj-firmware-model (tests/tests/edge_qemu.rs measures
-# its RAM); the second build redoes only the firmware crate.
+# its RAM); the second build redoes only the firmware crate. Without arguments the Embassy example
+# (dynotraj-embassy, feature `embassy`) is built last.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/env.sh
@@ -16,3 +17,6 @@ if [ -z "${DYNOTRAJ_FW_MODEL:-}" ] && [ $# -eq 0 ]; then
   cp "$release/dynotraj-firmware" "$release/dynotraj-firmware-model"
 fi
 cargo build --release --target thumbv7em-none-eabihf --manifest-path "$manifest" "$@"
+if [ $# -eq 0 ]; then
+  cargo build --release --target thumbv7em-none-eabihf --manifest-path "$manifest" --features embassy --bin dynotraj-embassy
+fi

@@ -18,8 +18,10 @@ cargo build -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thu
 echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"
 bash scripts/build-firmware.sh
 cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
+cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml --features embassy -- -D warnings
 echo "== clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
+cargo clippy -p dynotraj-edge --lib --features async -- -D warnings
 cargo clippy -p dynotraj-ffi --all-targets -- -D warnings
 cargo clippy -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing

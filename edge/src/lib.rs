@@ -7,7 +7,8 @@
 //! with the learned int8 model (or constant velocity when none is loaded) and sends back
 //! [`ObjectStates`], one [`Prediction`] per object and a [`FrameStats`].
 //!
-//! - [`transport`]: the [`Transport`] and [`Clock`] the platform provides;
+//! - [`transport`]: the [`Transport`] (any `embedded-io` byte stream, through [`Io`]) and
+//!   [`Clock`] the platform provides;
 //! - [`link`]: decoding ([`EdgeLoop`]; the estimator assembles the frame parts);
 //! - [`pipeline`]: the per-frame work ([`Edge`]);
 //! - [`model_load`]: a model blob over the link into a fixed buffer, checked by CRC;
@@ -38,7 +39,10 @@ pub mod transport;
 #[doc = include_str!("../../docs/integration.md")]
 pub struct IntegrationGuide;
 
+pub use embedded_io;
+#[cfg(feature = "async")]
+pub use embedded_io_async;
 pub use link::EdgeLoop;
 pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
 pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
-pub use transport::{Clock, NoClock, Transport};
+pub use transport::{Clock, Io, NoClock, Split, Transport};

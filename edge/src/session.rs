@@ -342,7 +342,40 @@ impl<'m, const W: usize> Session<'m, W> {
         log::info!("session start: forecasting with {}", self.model.forecaster());
         let mut buf = [0u8; READ_CHUNK];
         while !self.ended {
-            let n = io.read(&mut buf).map_err(RunError::Transport)?;
+            let n = embedded_io::Read::read(io, &mut buf).map_err(RunError::Transport)?;
+            let chunk = buf.get(..n).unwrap_or_default();
+            if chunk.is_empty() {
+                break;
+            }
+            self.on_bytes(chunk, io, clock)?;
+        }
+        self.finish(io)
+    }
+
+    /// [`Session::run`] with the reads awaited: `io` reads through [`embedded_io_async::Read`]
+    /// (an executor's UART or the pipe its receive interrupt fills) and writes the replies with
+    /// the blocking [`embedded_io::Write`] of its [`Transport`]. The future holds only the
+    /// [`READ_CHUNK`]-byte read buffer and references; the session stays where the caller keeps
+    /// it.
+    ///
+    /// Replies are not awaited because they are sent from inside a frame's work (a frame's
+    /// states, forecasts and statistics, each encoded when it is ready): awaiting them would
+    /// need that work itself to be a future, or a buffer for every reply of a frame.
+    ///
+    /// # Errors
+    /// A transport failure, or a message that cannot be encoded.
+    ///
+    /// [`embedded_io::Write`]: embedded_io::Write
+    #[cfg(feature = "async")]
+    pub async fn run_async<T, C>(&mut self, io: &mut T, clock: &mut C) -> Result<(), RunError<T::Error>>
+    where
+        T: Transport + embedded_io_async::Read,
+        C: Clock,
+    {
+        log::info!("session start: forecasting with {}", self.model.forecaster());
+        let mut buf = [0u8; READ_CHUNK];
+        while !self.ended {
+            let n = embedded_io_async::Read::read(io, &mut buf).await.map_err(RunError::Transport)?;
             let chunk = buf.get(..n).unwrap_or_default();
             if chunk.is_empty() {
                 break;
@@ -487,7 +520,9 @@ pub fn send_notice<T: Transport>(io: &mut T, notice: Notice) -> Result<(), RunEr
 fn send<T: Transport>(io: &mut T, frames_sent: &mut u32, msg: &Message) -> Result<(), RunError<T::Error>> {
     let mut frame: FrameBuf = [0; MAX_FRAME_LEN];
     let n = encode(msg, &mut frame).map_err(RunError::Wire)?;
-    io.write_all(frame.get(..n).unwrap_or_default()).map_err(RunError::Transport)?;
+    // Flushed frame by frame: a host waiting for the reply to its frame gets it now, not when
+    // a buffer fills.
+    io.write_all(frame.get(..n).unwrap_or_default()).and_then(|()| io.flush()).map_err(RunError::Transport)?;
     *frames_sent = frames_sent.saturating_add(1);
     Ok(())
 }

@@ -20,6 +20,7 @@ extern crate std;
 use core::ffi::c_void;
 
 use dynotraj_core::wire::ComputeUnit;
+use dynotraj_edge::embedded_io;
 use dynotraj_edge::{Clock, RunError, Session, Transport};
 
 /// Bytes of a `DynotrajSession` on targets with 32-bit pointers (Cortex-M).
@@ -118,25 +119,57 @@ struct Io {
 /// Replies through the C side's write callback.
 struct Link<'a>(&'a Io);
 
-impl Transport for Link<'_> {
-    /// The callback's non-zero return.
-    type Error = i32;
+/// The write callback's non-zero return.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct WriteFailed(i32);
 
+impl core::fmt::Display for WriteFailed {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "the write callback returned {}", self.0)
+    }
+}
+
+impl core::error::Error for WriteFailed {}
+
+impl embedded_io::Error for WriteFailed {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        embedded_io::ErrorKind::Other
+    }
+}
+
+impl embedded_io::ErrorType for Link<'_> {
+    type Error = WriteFailed;
+}
+
+impl embedded_io::Read for Link<'_> {
     /// The session is fed by [`dynotraj_session_feed`]; it never reads.
-    fn read(&mut self, _: &mut [u8]) -> Result<usize, i32> {
+    fn read(&mut self, _: &mut [u8]) -> Result<usize, WriteFailed> {
         Ok(0)
     }
+}
 
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), i32> {
+impl embedded_io::Write for Link<'_> {
+    /// Hands the whole of `bytes` to the callback: it takes a frame or fails.
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, WriteFailed> {
+        self.write_all(bytes).map(|()| bytes.len())
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), WriteFailed> {
         let io = self.0;
         // SAFETY: `write` and `write_ctx` are the pair the caller of dynotraj_session_init
         // promised to be callable for the session's life; `bytes` is valid for the call.
         match unsafe { (io.write)(io.write_ctx, bytes.as_ptr(), bytes.len()) } {
             0 => Ok(()),
-            e => Err(e),
+            e => Err(WriteFailed(e)),
         }
     }
 
+    fn flush(&mut self) -> Result<(), WriteFailed> {
+        Ok(())
+    }
+}
+
+impl Transport for Link<'_> {
     fn bytes_lost(&self) -> u32 {
         self.0.lost
     }
@@ -155,8 +188,8 @@ impl<const INSTRUCTIONS: bool> Clock for CallbackClock<'_, INSTRUCTIONS> {
     }
 }
 
-impl From<RunError<i32>> for DynotrajStatus {
-    fn from(e: RunError<i32>) -> Self {
+impl From<RunError<WriteFailed>> for DynotrajStatus {
+    fn from(e: RunError<WriteFailed>) -> Self {
         match e {
             RunError::Transport(_) => Self::WriteFailed,
             RunError::Wire(_) => Self::EncodeFailed,

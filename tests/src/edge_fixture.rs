@@ -2,6 +2,7 @@
 //! moving camera, 256 static tracks, 128 points per car) through the track simulator, and the
 //! host build of the edge run in process as the reference.
 
+use std::convert::Infallible;
 use std::path::PathBuf;
 
 use dynotraj_core::estimate::Intrinsics;
@@ -77,19 +78,30 @@ pub struct MemLink<'a> {
     pub output: Vec<u8>,
 }
 
-impl Transport for MemLink<'_> {
-    type Error = ();
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, ()> {
+impl embedded_io::ErrorType for MemLink<'_> {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for MemLink<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
         let n = self.input.len().min(buf.len()).min(self.chunk);
         buf[..n].copy_from_slice(&self.input[..n]);
         self.input = &self.input[n..];
         Ok(n)
     }
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), ()> {
+}
+
+impl embedded_io::Write for MemLink<'_> {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Infallible> {
         self.output.extend_from_slice(bytes);
+        Ok(bytes.len())
+    }
+    fn flush(&mut self) -> Result<(), Infallible> {
         Ok(())
     }
 }
+
+impl Transport for MemLink<'_> {}
 
 /// What the host build of the edge answers to `stream`, run in process (the reference).
 #[must_use]

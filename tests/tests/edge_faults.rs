@@ -3,6 +3,8 @@
 //! and is back in step at the next good frame: its estimates and forecasts then equal, bit for
 //! bit, those of an edge that was sent only the undamaged frames.
 
+use std::convert::Infallible;
+
 use dynotraj_core::wire::{FrameStats, Message};
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_tests::edge_fixture::{decode_all, encode_all, host_messages, outputs, scene_tracks};
@@ -49,21 +51,32 @@ impl FaultyLink {
     }
 }
 
-impl Transport for FaultyLink {
-    type Error = ();
-    fn read(&mut self, buf: &mut [u8]) -> Result<usize, ()> {
+impl embedded_io::ErrorType for FaultyLink {
+    type Error = Infallible;
+}
+
+impl embedded_io::Read for FaultyLink {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
         let n = self.rng.random_range(1..=buf.len()).min(self.bytes.len() - self.at);
         buf[..n].copy_from_slice(&self.bytes[self.at..self.at + n]);
         self.at += n;
         Ok(n)
     }
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), ()> {
+}
+
+impl embedded_io::Write for FaultyLink {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Infallible> {
         self.written.extend_from_slice(bytes);
+        Ok(bytes.len())
+    }
+    fn flush(&mut self) -> Result<(), Infallible> {
         Ok(())
     }
 }
 
-fn run(link: &mut impl Transport<Error = ()>) -> Box<Session<'static>> {
+impl Transport for FaultyLink {}
+
+fn run(link: &mut impl Transport<Error = Infallible>) -> Box<Session<'static>> {
     let mut s = Box::new(Session::new());
     s.run(link, &mut NoClock).unwrap();
     s

@@ -14,8 +14,11 @@ use serialport::{SerialPort, TTYPort};
 /// The master end of the pseudo-terminal as the edge's transport.
 struct Pty(TTYPort);
 
-impl Transport for Pty {
+impl embedded_io::ErrorType for Pty {
     type Error = std::io::Error;
+}
+
+impl embedded_io::Read for Pty {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         loop {
             match self.0.read(buf) {
@@ -24,11 +27,18 @@ impl Transport for Pty {
             }
         }
     }
-    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        Write::write_all(&mut self.0, bytes)?;
-        self.0.flush()
+}
+
+impl embedded_io::Write for Pty {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        Write::write(&mut self.0, bytes)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Write::flush(&mut self.0)
     }
 }
+
+impl Transport for Pty {}
 
 #[test]
 fn serial_pty_edge_matches_the_in_process_edge() {

@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use dynotraj_core::wire::ComputeUnit;
+use dynotraj_edge::embedded_io::{self, ErrorType};
 use dynotraj_edge::{Clock, Transport};
 
 /// How often a waiting read looks at the stop flag, the idle limit and (TCP) waiting clients.
@@ -29,6 +30,18 @@ impl std::fmt::Display for LinkError {
             Self::Io(e) => write!(f, "{e}"),
             Self::Idle(d) => write!(f, "nothing arrived for {} s (--idle-timeout)", d.as_secs_f64()),
             Self::Stopped => f.write_str("stopped by a signal"),
+        }
+    }
+}
+
+impl std::error::Error for LinkError {}
+
+impl embedded_io::Error for LinkError {
+    fn kind(&self) -> embedded_io::ErrorKind {
+        match self {
+            Self::Io(e) => e.kind().into(),
+            Self::Idle(_) => embedded_io::ErrorKind::TimedOut,
+            Self::Stopped => embedded_io::ErrorKind::Interrupted,
         }
     }
 }
@@ -62,8 +75,11 @@ pub struct Link<R, W, P> {
     pub poll: P,
 }
 
-impl<R: Read, W: Write, P: OnPoll> Transport for Link<R, W, P> {
+impl<R, W, P> ErrorType for Link<R, W, P> {
     type Error = LinkError;
+}
+
+impl<R: Read, W, P: OnPoll> embedded_io::Read for Link<R, W, P> {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
         let quiet_since = Instant::now();
         loop {
@@ -75,10 +91,21 @@ impl<R: Read, W: Write, P: OnPoll> Transport for Link<R, W, P> {
             }
         }
     }
+}
+
+impl<R, W: Write, P> embedded_io::Write for Link<R, W, P> {
+    fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
+        self.tx.write(bytes).map_err(LinkError::Io)
+    }
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
-        self.tx.write_all(bytes).and_then(|()| self.tx.flush()).map_err(LinkError::Io)
+        self.tx.write_all(bytes).map_err(LinkError::Io)
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        self.tx.flush().map_err(LinkError::Io)
     }
 }
+
+impl<R: Read, W: Write, P: OnPoll> Transport for Link<R, W, P> {}
 
 /// Nanoseconds since the edge started.
 pub struct WallClock(pub Instant);
