@@ -41,6 +41,16 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
     }
     let tum = std::fs::read_to_string(seq.join("camera_causal.tum")).expect("reads");
     assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), 120);
+    // The paper's 20 Hz unless --rate says otherwise: said in every pose file and the README.
+    assert!(
+        tum.lines().any(|l| l.starts_with("# timestamps: seconds at 20.000 Hz (one frame every 0.0500 s)")),
+        "{tum}"
+    );
+    let readme = std::fs::read_to_string(seq.join("README.txt")).expect("a README beside the pose files");
+    assert!(
+        readme.contains("20.000 Hz") && readme.contains("evo_rpe tum camera_truth.tum camera_smoothed.tum"),
+        "{readme}"
+    );
     let objects = std::fs::read_dir(seq.join("objects")).expect("objects folder").count();
     assert!(objects > 0);
     object_files_give_the_printed_rpe(&seq, &results[0]);
