@@ -17,6 +17,7 @@
 //! The rendered left camera plays KITTI's camera 0 and camera 2 at once (no offset between
 //! them), so labels, poses and images share one frame.
 
+use crate::on_step::{OnStep, step};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -117,6 +118,20 @@ fn calib_text(sim: &ImageSim) -> String {
 /// # Errors
 /// A file or folder that cannot be written, named.
 pub fn write_sequence(dir: &Path, seq: &str, sim: &ImageSim, frames: usize) -> anyhow::Result<()> {
+    write_sequence_with(dir, seq, sim, frames, None)
+}
+
+/// [`write_sequence`], telling `on_frame` the frames written after each.
+///
+/// # Errors
+/// As [`write_sequence`].
+pub fn write_sequence_with(
+    dir: &Path,
+    seq: &str,
+    sim: &ImageSim,
+    frames: usize,
+    on_frame: Option<&OnStep>,
+) -> anyhow::Result<()> {
     for folder in ["image_02", "image_03", "depth_02", "instance_02"] {
         let d = dir.join(folder).join(seq);
         std::fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
@@ -139,6 +154,7 @@ pub fn write_sequence(dir: &Path, seq: &str, sim: &ImageSim, frames: usize) -> a
     for k in 0..n {
         let f = sim.frame(k).with_context(|| format!("frame {k} is past the sequence"))?;
         write_frame_images(dir, seq, sim, &f)?;
+        step(on_frame, k as u64 + 1);
         labels.extend(label_rows(&f, sim.camera.width));
         row(&mut truth, k, 0, "Camera", &f.camera, [0.0; 3]);
         for o in &f.objects {

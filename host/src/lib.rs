@@ -11,6 +11,7 @@ pub mod kitti;
 pub mod link;
 pub mod model_file;
 pub mod model_signing;
+pub mod on_step;
 pub mod predictors;
 pub mod report;
 pub mod scene;

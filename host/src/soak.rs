@@ -9,6 +9,7 @@
 //! only counters (no replies), so a run of any length uses fixed host memory; the edge's
 //! resident memory is read from /proc at the start and the end when its process id is known.
 
+use crate::on_step::{OnStep, step};
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -37,6 +38,8 @@ pub struct SoakOptions {
     /// Send at most this many camera frames ahead of the last one answered (the edge then
     /// works through a bounded backlog instead of the operating system's socket buffers).
     pub max_in_flight: u64,
+    /// Told the number of camera frames sent, after each.
+    pub on_frame: Option<OnStep>,
 }
 
 impl Default for SoakOptions {
@@ -47,6 +50,7 @@ impl Default for SoakOptions {
             seed: 1,
             reply_timeout: Duration::from_secs(30),
             max_in_flight: 8,
+            on_frame: None,
         }
     }
 }
@@ -248,6 +252,7 @@ pub fn soak(
             *d = hit;
         }
         report.frames_sent += 1;
+        step(opt.on_frame.as_ref(), report.frames_sent);
         if k == 16 {
             edge_start = edge_pid.and_then(memory_of);
         }

@@ -7,6 +7,7 @@
 //! decodes the edge's replies as they arrive and timestamps them; a frame's latency is the
 //! time from sending its last part to receiving its [`FrameStats`].
 
+use crate::on_step::{OnStep, step};
 use std::io::Write;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -39,11 +40,20 @@ pub struct StreamOptions {
     /// Set (by a signal handler) to stop sending: the stream then ends as if the recording
     /// ended there, keeping what was received.
     pub stop: Option<Arc<AtomicBool>>,
+    /// Told the number of camera frames sent, after each.
+    pub on_frame: Option<OnStep>,
 }
 
 impl Default for StreamOptions {
     fn default() -> Self {
-        Self { rate_hz: None, lockstep: false, reply_timeout: Duration::from_secs(10), model: None, stop: None }
+        Self {
+            rate_hz: None,
+            lockstep: false,
+            reply_timeout: Duration::from_secs(10),
+            model: None,
+            stop: None,
+            on_frame: None,
+        }
     }
 }
 
@@ -182,6 +192,7 @@ impl Run<'_> {
                 sender.send(&Message::FrameTracks(part.clone()))?;
             }
             let sent = self.start.elapsed();
+            step(self.opt.on_frame.as_ref(), k as u64 + 1);
             self.out.frames.push(FrameReport {
                 frame: frame.frame,
                 sent,

@@ -112,13 +112,19 @@ fn the_estimator_simulator_and_front_end_commands_run() {
 
     let sim = dir.path().join("sim");
     let sim_s = sim.to_str().expect("utf-8");
-    ok(&["simulate", "--kitti", kitti, "--sequence", "0000", "--out", sim_s, "--scale", "0.25", "--frames", "8"]);
+    let t =
+        ok(&["simulate", "--kitti", kitti, "--sequence", "0000", "--out", sim_s, "--scale", "0.25", "--frames", "8"]);
+    // Off a terminal: a progress line with the elapsed time at the first and the last frame.
+    says(&t, "s] frames rendered 1/8");
+    says(&t, "s] frames rendered 8/8");
     let t = ok(&["simulate", "--kitti", kitti, "--sequence", "0000", "--scale", "0.25", "--frames", "8", "--e2e"]);
     says(&t, "RPE");
+    says(&t, "s] frames rendered and tracked 8/8");
     let tracked = dir.path().join("tracked.dtt");
     let tracked_s = tracked.to_str().expect("utf-8");
     let t = ok(&["track", "--kitti", sim_s, "--sequence", "0000", "--out", tracked_s]);
     assert!(dynotraj_host::tracks_file::read(&tracked).is_ok_and(|t| t.frames.len() == 8), "{t}");
+    says(&t, "s] frames tracked done: 8 steps");
     let t = ok(&["track", "--bench", "--frames", "2"]);
     says(&t, "stereo");
 }

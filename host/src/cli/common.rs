@@ -1,14 +1,13 @@
 //! Options and loading shared by the commands.
 
-use std::io::IsTerminal as _;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
-use indicatif::{ProgressBar, ProgressStyle};
 
+pub use super::progress::Progress;
 use crate::estimate::evaluate::EvalOptions;
 use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::jobs::{default_jobs, map_jobs, parse_jobs};
@@ -157,21 +156,10 @@ impl DataArgs {
             ..EstimateSettings::tracks(EvalOptions::kitti(dt))
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
-        let (start, terminal) = (std::time::Instant::now(), std::io::stderr().is_terminal());
         let out = map_jobs(&ids, self.ours.jobs, |id| {
             let s = load_sequence(&dir, id, dt, estimate.as_ref());
-            bar.set_message(id.clone());
+            bar.set_message(format!("sequence {id} {}", if s.is_ok() { "loaded" } else { "failed" }));
             bar.inc(1);
-            if !terminal {
-                // A log (no bar off a terminal) shows where a long load is.
-                let what = if s.is_ok() { "loaded" } else { "failed" };
-                eprintln!(
-                    "[{:>6.0} s] sequence {id} {what} ({}/{})",
-                    start.elapsed().as_secs_f64(),
-                    bar.position(),
-                    ids.len()
-                );
-            }
             s
         })?;
         bar.finish_and_clear();
@@ -179,15 +167,10 @@ impl DataArgs {
     }
 }
 
-/// A progress bar on stderr (hidden when stderr is not a terminal).
+/// Progress on stderr: a bar on a terminal, paced lines with the elapsed time elsewhere.
 #[must_use]
-pub fn progress(len: u64, what: &str) -> ProgressBar {
-    let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template(&format!("{what} {{bar:30}} {{pos}}/{{len}} {{msg}} [{{elapsed}}]"))
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
+pub fn progress(len: u64, what: &str) -> Progress {
+    Progress::new(len, what)
 }
 
 #[cfg(test)]

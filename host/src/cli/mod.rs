@@ -10,6 +10,7 @@ pub mod experiment;
 pub mod fold_run;
 pub mod interrupt;
 pub mod numbers;
+pub mod progress;
 pub mod sign;
 pub mod simulate;
 pub mod soak;

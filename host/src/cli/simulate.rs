@@ -3,6 +3,7 @@
 //! KITTI tracking layout with its truth (see `crate::image_sim_files`).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::Args;
@@ -11,10 +12,11 @@ use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
+use super::common::progress;
 use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
 use crate::frontend::StereoParams;
-use crate::image_sim_files::write_sequence;
+use crate::image_sim_files::write_sequence_with;
 use crate::kitti::TrackingDir;
 
 /// Options of `dynotraj simulate`.
@@ -106,7 +108,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         return end_to_end(args, &sim, n);
     }
     let out = args.out.as_ref().context("--out: the output folder is needed")?;
-    write_sequence(out, &args.sequence, &sim, n)?;
+    let bar = Arc::new(progress(n as u64, "frames rendered"));
+    write_sequence_with(out, &args.sequence, &sim, n, Some(&bar.hook()))?;
+    bar.finish_and_clear();
     eprintln!("wrote {n} frames of {}x{} to {}", sim.camera.width, sim.camera.height, out.display());
     Ok(())
 }
@@ -117,7 +121,9 @@ fn end_to_end(args: &SimulateArgs, sim: &ImageSim, n: usize) -> anyhow::Result<(
     let nd = ((128.0 * args.scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities: nd, downscale: args.stereo_downscale, ..StereoParams::kitti() };
     // The paper's 20 Hz for timestamps; RPE does not depend on it.
-    let r = end_to_end::run(sim, n, 0.05, stereo, 0.1)?;
+    let bar = Arc::new(progress(n as u64, "frames rendered and tracked"));
+    let r = end_to_end::run_with(sim, n, (0.05, stereo), 0.1, Some(&bar.hook()))?;
+    bar.finish_and_clear();
     let s = r.stats;
     println!(
         "{n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving objects",

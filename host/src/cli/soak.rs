@@ -10,6 +10,7 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 
+use super::common::progress;
 use crate::link::{Endpoint, connect};
 use crate::report::stream_report::soak_summary;
 use crate::soak::{SoakOptions, SoakReport, soak};
@@ -90,13 +91,16 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
     let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
     let addr = first.rsplit("tcp://").next().unwrap_or_default().trim().to_string();
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10))?;
+    let bar = std::sync::Arc::new(progress(args.frames, "frames sent"));
     let opt = SoakOptions {
         frames: args.frames,
         fault_probability: args.fault_probability,
         seed: args.seed,
+        on_frame: Some(bar.hook()),
         ..SoakOptions::default()
     };
     let report = soak(&base, rx, tx, &opt, Some(child.id()))?;
+    bar.finish_and_clear();
     // The edge's last words (its session summary) go to our stderr.
     for l in lines.map_while(Result::ok) {
         eprintln!("{l}");

@@ -11,6 +11,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::{Forecaster, Notice, ObjectClass, frame_parts};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
+use super::common::progress;
 use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
@@ -81,15 +82,18 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
     let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
     let stop = crate::cli::interrupt::stop_flag()?;
+    let bar = std::sync::Arc::new(progress(tracks.frames.len() as u64, "frames sent"));
     let opt = StreamOptions {
         rate_hz: (rate > 0.0).then_some(rate),
         lockstep: args.lockstep,
         reply_timeout: timeout,
         model,
         stop: Some(stop),
+        on_frame: Some(bar.hook()),
     };
     let (rx, tx) = connect(&args.to, timeout)?;
     let result = stream(&tracks, rx, tx, &opt);
+    bar.finish_and_clear();
     if let Some(p) = &args.out {
         std::fs::write(p, predictions_csv(&result)).with_context(|| format!("--out {}", p.display()))?;
     }

@@ -11,6 +11,7 @@ use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::CameraInfo;
 
+use super::common::progress;
 use crate::frontend::check::{odometry06, stereo2015_d1};
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
@@ -117,9 +118,13 @@ pub fn track_sequence(
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
+    let bar = progress(args.frames.map_or(0, |n| n as u64), "frames tracked");
     let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate), |frame, t_us, tracks| {
-        Ok(w.write_frame(frame, t_us, tracks)?)
+        w.write_frame(frame, t_us, tracks)?;
+        bar.inc(1);
+        Ok(())
     })?;
+    bar.finish_and_clear();
     w.finish()?;
     Ok((fe.times, fe.tracker.stats, n))
 }

@@ -10,9 +10,10 @@ use super::score::moving_objects;
 use super::{EstimatorRun, RunScores, run_estimator, score_run};
 use crate::frontend::error::FrontEndError;
 use crate::frontend::pipeline::StageTimes;
-use crate::frontend::rendered::{Tracked, intrinsics_of, track};
+use crate::frontend::rendered::{Tracked, intrinsics_of, track_with};
 use crate::frontend::stats::FrontEndStats;
 use crate::frontend::stereo::StereoParams;
+use crate::on_step::OnStep;
 
 /// What an end-to-end run gave.
 #[derive(Debug, Clone)]
@@ -42,7 +43,22 @@ pub fn run(
     stereo: StereoParams,
     min_step_m: f64,
 ) -> Result<EndToEnd, FrontEndError> {
-    let Tracked { frames: out, times, stats } = track(sim, frames, dt, stereo)?;
+    run_with(sim, frames, (dt, stereo), min_step_m, None)
+}
+
+/// [`run`] with its frame period and stereo settings as one pair, telling `on_frame` the frames
+/// tracked after each.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn run_with(
+    sim: &ImageSim,
+    frames: usize,
+    (dt, stereo): (f32, StereoParams),
+    min_step_m: f64,
+    on_frame: Option<&OnStep>,
+) -> Result<EndToEnd, FrontEndError> {
+    let Tracked { frames: out, times, stats } = track_with(sim, frames, dt, stereo, on_frame)?;
     let params = EstimatorParams::kitti(intrinsics_of(&sim.camera), dt);
     let run = run_estimator::<WINDOW>(&out, params, 1);
     let moving = moving_objects(&out, min_step_m);

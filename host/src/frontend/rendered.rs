@@ -1,6 +1,7 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are [`crate::estimate::end_to_end`]).
 
+use crate::on_step::{OnStep, step};
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -28,6 +29,20 @@ pub struct Tracked {
 /// # Errors
 /// An OpenCV failure.
 pub fn track(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams) -> Result<Tracked, FrontEndError> {
+    track_with(sim, frames, dt, stereo, None)
+}
+
+/// [`track`], telling `on_frame` the frames done after each.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn track_with(
+    sim: &ImageSim,
+    frames: usize,
+    dt: f32,
+    stereo: StereoParams,
+    on_frame: Option<&OnStep>,
+) -> Result<Tracked, FrontEndError> {
     let cam = sim.camera;
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
     let mut out = Vec::new();
@@ -36,6 +51,7 @@ pub fn track(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams) -> Re
         let tracks = fe.process(input_of(&f, &cam)?)?;
         let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
         out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
+        step(on_frame, out.len() as u64);
     }
     Ok(Tracked { frames: out, times: fe.times, stats: fe.tracker.stats })
 }

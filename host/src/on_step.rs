@@ -1,0 +1,34 @@
+//! A callback that a long loop of the library calls after each step (a frame rendered, tracked
+//! or sent), so that a command can show its progress: the library itself knows no terminal.
+
+use std::fmt;
+use std::sync::Arc;
+
+/// Called with the number of steps done so far.
+#[derive(Clone)]
+pub struct OnStep(Arc<dyn Fn(u64) + Send + Sync>);
+
+impl OnStep {
+    /// A hook calling `f`.
+    pub fn new(f: impl Fn(u64) + Send + Sync + 'static) -> Self {
+        Self(Arc::new(f))
+    }
+
+    /// Says that `done` steps are done.
+    pub fn step(&self, done: u64) {
+        (self.0)(done);
+    }
+}
+
+impl fmt::Debug for OnStep {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("OnStep(..)")
+    }
+}
+
+/// Calls `hook` (if any) with `done`.
+pub fn step(hook: Option<&OnStep>, done: u64) {
+    if let Some(h) = hook {
+        h.step(done);
+    }
+}
