@@ -128,3 +128,22 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     let t = ok(&["track", "--bench", "--frames", "2"]);
     says(&t, "stereo");
 }
+
+#[test]
+fn the_version_completions_manual_and_log_flags_work() {
+    let v = ok(&["--version"]);
+    assert!(v.starts_with("dynotraj ") && v.contains("(commit "), "{v}");
+    says(&ok(&["completions", "bash"]), "_dynotraj()");
+    says(&ok(&["completions", "zsh"]), "#compdef dynotraj");
+    let man = ok(&["man"]);
+    says(&man, ".TH dynotraj 1");
+    says(&man, "completions");
+    // -q silences progress; -v is accepted by every command (a global flag).
+    let dir = tempfile::tempdir().expect("temp dir");
+    let sim = dir.path().join("sim");
+    let sim_s = sim.to_str().expect("utf-8");
+    let quiet = ok(&["-q", "simulate", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
+    assert!(!quiet.contains("frames rendered"), "{quiet}");
+    let loud = ok(&["simulate", "-v", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
+    says(&loud, "frames rendered 3/3");
+}

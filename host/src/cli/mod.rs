@@ -19,18 +19,43 @@ pub mod track;
 pub mod train;
 pub mod train_progress;
 
+use anyhow::Context as _;
 use clap::{Parser, Subcommand};
+
+/// The version `--version` prints: the package's and the commit it was built from.
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("DYNOTRAJ_COMMIT"), ")");
 
 /// dynotraj: trajectory forecasting from a vehicle's cameras, trained without ground truth.
 ///
 /// Reads KITTI tracking data (labels, calibration, ego poses), builds the paper's trajectory
-/// sources and scores forecasts with ADE, FDE and ACE. Set RUST_LOG=info for more detail.
+/// sources and scores forecasts with ADE, FDE and ACE. -v, -vv for more detail (RUST_LOG, when
+/// set, chooses instead).
 #[derive(Debug, Parser)]
-#[command(name = "dynotraj", version, about, long_about)]
+#[command(name = "dynotraj", version = VERSION, about, long_about)]
 pub struct Cli {
+    /// More log detail: -v info, -vv debug, -vvv trace (the default shows warnings).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true, conflicts_with = "quiet")]
+    pub verbose: u8,
+    /// Errors only: no warnings and no progress lines.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+}
+
+impl Cli {
+    /// The log filter the flags ask for.
+    #[must_use]
+    pub const fn log_level(&self) -> log::LevelFilter {
+        match (self.quiet, self.verbose) {
+            (true, _) => log::LevelFilter::Error,
+            (false, 0) => log::LevelFilter::Warn,
+            (false, 1) => log::LevelFilter::Info,
+            (false, 2) => log::LevelFilter::Debug,
+            (false, _) => log::LevelFilter::Trace,
+        }
+    }
 }
 
 /// The subcommands.
@@ -66,6 +91,14 @@ pub enum Command {
     Sign(sign::SignArgs),
     /// Checks a signed model blob against a public key.
     Verify(sign::VerifyArgs),
+    /// Shell completions on standard output: `dynotraj completions bash > /etc/bash_completion.d/dynotraj`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// The manual page (roff) on standard output: `dynotraj man | man -l -`.
+    Man,
 }
 
 /// Runs the parsed command line.
@@ -73,6 +106,7 @@ pub enum Command {
 /// # Errors
 /// Whatever the command reports; the message names the file, line or field at fault.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    progress::set_quiet(cli.quiet);
     match cli.command {
         Command::Dataset(a) => dataset::run(&a),
         Command::Eval(a) => eval::run(&a),
@@ -88,5 +122,19 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Keygen(a) => sign::keygen(&a),
         Command::Sign(a) => sign::sign(&a),
         Command::Verify(a) => sign::verify(&a),
+        Command::Completions { shell } => {
+            clap_complete::generate(
+                shell,
+                &mut <Cli as clap::CommandFactory>::command(),
+                "dynotraj",
+                &mut std::io::stdout(),
+            );
+            Ok(())
+        }
+        Command::Man => {
+            let man = clap_mangen::Man::new(<Cli as clap::CommandFactory>::command());
+            man.render(&mut std::io::stdout()).context("writing the manual page")?;
+            Ok(())
+        }
     }
 }

@@ -3,6 +3,7 @@
 //! shows where a long run is without a line per frame.
 
 use std::io::IsTerminal as _;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -12,6 +13,14 @@ use crate::on_step::OnStep;
 
 /// Least time between two plain lines (the last step always gets one).
 pub const LINE_EVERY: Duration = Duration::from_secs(10);
+
+/// Set by `--quiet`: no bars and no lines.
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Silences every progress made from now on (`--quiet`).
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, Ordering::Relaxed);
+}
 
 /// A bar on a terminal, paced lines elsewhere. Shared by reference across worker threads.
 #[derive(Debug)]
@@ -27,7 +36,17 @@ impl Progress {
     /// Progress over `len` steps of `what` (0: the length is set later).
     #[must_use]
     pub fn new(len: u64, what: &str) -> Self {
+        if QUIET.load(Ordering::Relaxed) {
+            return Self::silent(len, what);
+        }
         Self::with_terminal(len, what, std::io::stderr().is_terminal())
+    }
+
+    /// Progress that shows nothing.
+    fn silent(len: u64, what: &str) -> Self {
+        let bar = ProgressBar::hidden();
+        bar.set_length(len);
+        Self { bar, what: what.to_string(), start: Instant::now(), last_line: None }
     }
 
     fn with_terminal(len: u64, what: &str, terminal: bool) -> Self {
