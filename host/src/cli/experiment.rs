@@ -9,7 +9,7 @@ use crate::experiment::figures::write_figures;
 use crate::experiment::report::write_report;
 use crate::experiment::sections::{RunSettings, experiment_report};
 use crate::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
-use crate::report::Table;
+use crate::report::{Format, Table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::Source;
 
@@ -93,11 +93,20 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// # Errors
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
+    args.run.check_table()?;
     let (result, summary, sequences) = experiment(args)?;
-    print!("{}", result.table.render(args.run.format));
-    if let Some((table, _)) = &result.common {
-        println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
-        print!("{}", table.render(args.run.format));
+    if args.run.format == Format::Md {
+        print!("{}", result.table.render(Format::Md));
+        if let Some((table, _)) = &result.common {
+            println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
+            print!("{}", table.render(Format::Md));
+        }
+    } else {
+        let mut named = vec![("table_iv", &result.table)];
+        if let Some((table, _)) = &result.common {
+            named.push(("table_iv_truth", table));
+        }
+        args.run.print_machine(&named)?;
     }
     eprint!("{summary}");
     if let Some(dir) = &args.run.out {
