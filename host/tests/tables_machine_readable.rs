@@ -257,6 +257,15 @@ fn the_dataset_eval_bench_and_estimate_tables_read_as_typed_data() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("--table: `nope`"), "{err}");
 
+    // The per-frame log the estimator writes beside its pose files.
+    let poses = dir.path().join("poses");
+    stdout(&[&estimate[..3], &["--sequence", "0000", "--out", poses.to_str().unwrap()], &TRACKS].concat());
+    assert!(check_folder(&poses).contains_key("log.csv"), "estimate --out writes log.csv");
+    let numeric = ["frame", "time_s", "tx", "ty", "tz", "qw"];
+    let log = std::fs::read_to_string(poses.join("0000").join("log.csv")).unwrap();
+    let read = read_csv("log.csv", &log, &numeric.iter().map(ToString::to_string).collect());
+    assert!(read.cells["frame"].iter().all(Option::is_some), "every log row names its frame");
+
     let b = ["estimate", "--bench", "--frames", "3"];
     let csv_text = stdout(&[&b[..], &["--format", "csv"]].concat());
     let t = check_both("estimate --bench", &csv_text, &stdout(&[&b[..], &["--format", "json"]].concat()));
