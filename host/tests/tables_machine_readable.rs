@@ -306,6 +306,16 @@ fn the_report_folders_and_printed_tables_of_experiment_and_benchmark_read_as_typ
     let bench_s = bench.to_str().expect("utf-8");
     let args = ["benchmark", "--kitti", kitti, "--arms", "gt", "--folds", "3", "--seeds", "1,2", "--out", bench_s];
     let args = [&args[..], &small].concat();
+    // A run can take hours: a --table that cannot be honoured is refused before it starts.
+    for (extra, says) in [
+        (&["--format", "csv"][..], "choose it with --table"),
+        (&["--format", "md", "--table", "goal"][..], "--table: chooses among"),
+        (&["--format", "json", "--table", "table_iv"][..], "--table: `table_iv` is not printed here"),
+    ] {
+        let out = run(&[&args[..], extra].concat());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says) && !bench.exists(), "{extra:?}: {err}");
+    }
     let printed = check_json("benchmark", &stdout(&[&args[..], &["--format", "json"]].concat()));
     assert_eq!(printed.keys().map(String::as_str).collect::<Vec<_>>(), ["goal", "weighted"]);
     let files = check_folder(&bench);

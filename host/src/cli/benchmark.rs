@@ -50,7 +50,7 @@ pub struct BenchmarkArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
-    args.run.check_table()?;
+    args.run.check_table(&["weighted", "goal"])?;
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let loaded_s = start.elapsed().as_secs_f64();

@@ -29,7 +29,7 @@ use crate::kitti::TrackingDir;
 use crate::report::estimator_tables::{
     bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
 };
-use crate::report::{Format, Table, render_tables};
+use crate::report::{Format, Table, check_table, render_tables};
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -227,10 +227,20 @@ impl EstimateArgs {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.table.is_none() || args.format != Format::Md,
-        "--table: chooses among the tables of --format csv or json (Markdown prints them all)"
-    );
+    let mut names = if args.bench {
+        vec!["bench"]
+    } else if args.tracks.is_some() {
+        vec!["replay"]
+    } else {
+        vec!["table_iii", "restarts", "smoothness"]
+    };
+    if args.counters && !args.bench {
+        names.push("counters");
+    }
+    if args.per_object && !args.bench && args.tracks.is_none() {
+        names.push("per_object");
+    }
+    check_table(args.format, args.table.as_deref(), &names)?;
     if args.bench {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
         let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);

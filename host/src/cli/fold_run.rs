@@ -9,7 +9,7 @@ use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs};
 use super::train::HyperArgs;
 use crate::experiment::ExperimentConfig;
-use crate::report::{Format, render_tables};
+use crate::report::{Format, check_table, render_tables};
 use crate::trajectory::Source;
 
 /// Training and report options of a run of folds.
@@ -43,16 +43,14 @@ pub struct FoldRunArgs {
 }
 
 impl FoldRunArgs {
-    /// A `--table` that can be honoured.
+    /// Checks `--table` before the run (which may take hours) against `names`, the tables the
+    /// command may print.
     ///
     /// # Errors
-    /// `--table` with Markdown.
-    pub fn check_table(&self) -> anyhow::Result<()> {
-        anyhow::ensure!(
-            self.table.is_none() || self.format != Format::Md,
-            "--table: chooses among the tables of --format csv or json (Markdown prints them all)"
-        );
-        Ok(())
+    /// `--table` with Markdown or naming another table; CSV without `--table` when several
+    /// tables may be printed.
+    pub fn check_table(&self, names: &[&str]) -> anyhow::Result<()> {
+        check_table(self.format, self.table.as_deref(), names)
     }
 
     /// Prints `named` tables in `--format` (CSV and JSON only; `--table` choosing one).

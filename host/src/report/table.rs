@@ -142,6 +142,30 @@ pub fn json_text(value: &serde_json::Value) -> String {
     s
 }
 
+/// Checks a `--table` choice before a command runs: `names` are the tables it may print in
+/// `format`.
+///
+/// # Errors
+/// A choice with Markdown (which prints every table) or naming no table of `names`; CSV without
+/// a choice when `names` has several.
+pub fn check_table(format: Format, choice: Option<&str>, names: &[&str]) -> anyhow::Result<()> {
+    let list = names.join(", ");
+    match (format, choice) {
+        (Format::Md, Some(_)) => {
+            anyhow::bail!("--table: chooses among the tables of --format csv or json (Markdown prints them all)")
+        }
+        (_, Some(c)) if !names.contains(&c) => {
+            anyhow::bail!("--table: `{c}` is not printed here (expected one of {list})")
+        }
+        (Format::Csv, None) if names.len() > 1 => anyhow::bail!(
+            "--format csv: this command prints {} tables ({list}) and CSV holds one; choose it with --table, or use \
+             --format json",
+            names.len()
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// The tables a command prints, `tables` (name, table), in `format`: Markdown prints them all
 /// one after another; JSON one array, or one object of arrays keyed by name when there are
 /// several; CSV one table, so with several `choice` (the `--table` flag) must name it.
@@ -168,12 +192,11 @@ pub fn render_tables(format: Format, choice: Option<&str>, tables: &[(&str, &Tab
                 chosen.iter().map(|(n, t)| ((*n).to_string(), t.data().json())).collect();
             json_text(&serde_json::Value::Object(obj))
         }
-        (Format::Csv, _) => anyhow::bail!(
-            "--format csv: this command prints {} tables and CSV holds one; choose it with --table (one of {}), or \
-             use --format json",
-            chosen.len(),
-            names()
-        ),
+        (Format::Csv, _) => {
+            let names: Vec<&str> = chosen.iter().map(|(n, _)| *n).collect();
+            check_table(format, None, &names)?;
+            String::new()
+        }
     })
 }
 
