@@ -66,8 +66,11 @@ fn the_benchmark_report_and_its_independence_of_the_jobs() {
     }
     assert!(md.contains("Folds (held out together): 0000, 0002 | 0001, 0003."), "{md}");
     let weighted = fs::read_to_string(one.join("weighted.csv")).unwrap();
-    assert!(weighted.starts_with("metric,row,seed 1,seed 2,mean,spread"), "{weighted}");
-    assert!(weighted.contains("ADE,learned int8 on estimated,") && weighted.contains("ACE,ctra on gt,"), "{weighted}");
+    assert!(weighted.starts_with("row_kind,arm,seed,ade,fde,ace\n"), "{weighted}");
+    assert!(
+        weighted.contains("data,learned int8 on estimated,2,") && weighted.contains("spread,ctra on gt,,"),
+        "{weighted}"
+    );
     let deployment = fs::read_to_string(one.join("deployment_weighted.csv")).unwrap();
     for row in ["learned int8 trained on gt", "learned int8 trained on estimated", "cv (no training)"] {
         assert!(deployment.contains(row), "{row}: {deployment}");

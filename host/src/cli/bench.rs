@@ -16,7 +16,7 @@ use dynotraj_core::{BevState, Point2};
 use super::common::DEFAULT_DIMS;
 use crate::evaluate::Forecaster;
 use crate::model_file::ModelFile;
-use crate::report::{Format, Table};
+use crate::report::{Cell, ColumnKind, Data, Format, Table};
 
 /// Options of `dynotraj bench`.
 #[derive(Debug, Args)]
@@ -107,8 +107,22 @@ fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
 /// A bad --dims or an unreadable model.
 pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
     let dt = 0.05;
+    use ColumnKind::{Int, Num, Text};
     let mut t =
         Table::new(["predictor", "dims enc,edge,k,dec", "parameters", "blob bytes", "scratch bytes", "us per object"]);
+    // Data: the predictor and the model it runs apart; the widths one column each.
+    let mut d = Data::new([
+        ("predictor", Text),
+        ("model", Text),
+        ("enc", Int),
+        ("edge", Int),
+        ("k", Int),
+        ("dec", Int),
+        ("parameters", Int),
+        ("blob_bytes", Int),
+        ("scratch_bytes", Int),
+        ("us_per_object", Num),
+    ]);
     let mut configs: Vec<(String, Dims, Vec<u8>, Vec<u8>)> = Vec::new();
     if let Some(path) = &args.model {
         let f = ModelFile::load(path)?;
@@ -147,22 +161,32 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
         for (precision, bytes) in [("f32", f32_blob), ("int8", int8_blob)] {
             let file = ModelFile::from_bytes(bytes.clone(), name)?;
             let mut p: LearnedPredictor<'_> = file.predictor();
-            let us = time_per_forecast(&mut p, dt, args.iterations);
-            t.push([
-                format!("{precision} ({name})"),
-                fmt_dims(dims),
-                dims.parameters().to_string(),
-                bytes.len().to_string(),
-                std::mem::size_of::<Scratch>().to_string(),
-                format!("{us:.1}"),
-            ]);
+            let us = Cell::num(time_per_forecast(&mut p, dt, args.iterations), 1);
+            let sizes = [dims.parameters(), bytes.len(), std::mem::size_of::<Scratch>()].map(Cell::int);
+            t.push(
+                [format!("{precision} ({name})"), fmt_dims(dims)]
+                    .into_iter()
+                    .chain(sizes.iter().map(Cell::md))
+                    .chain([us.md()]),
+            );
+            let widths = [dims.enc, dims.edge, dims.k, dims.dec].map(Cell::int);
+            d.push(
+                [Cell::text(precision), Cell::text(name.as_str())]
+                    .into_iter()
+                    .chain(widths)
+                    .chain(sizes)
+                    .chain([us])
+                    .collect(),
+            );
         }
     }
     for mut b in Baseline::ALL {
-        let us = time_per_forecast(&mut b, dt, args.iterations * 10);
-        t.push([b.name().to_string(), "-".into(), "0".into(), "0".into(), "0".into(), format!("{us:.2}")]);
+        let us = Cell::num(time_per_forecast(&mut b, dt, args.iterations * 10), 2);
+        t.push([b.name().to_string(), "-".into(), "0".into(), "0".into(), "0".into(), us.md()]);
+        let blank = [Cell::Blank, Cell::Blank, Cell::Blank, Cell::Blank, Cell::Blank];
+        d.push([Cell::text(b.name())].into_iter().chain(blank).chain([0, 0, 0].map(Cell::int)).chain([us]).collect());
     }
-    Ok(t)
+    Ok(t.with_data(d))
 }
 
 /// Prints the timings.

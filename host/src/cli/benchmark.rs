@@ -17,7 +17,7 @@ use crate::experiment::figures::Figure;
 use crate::experiment::report::{Report, Section, write_report};
 use crate::experiment::sections::{deployment_section, table_i_sources};
 use crate::report::chart::{Chart, Series, write_chart};
-use crate::report::instances_table;
+use crate::report::{Format, instances_table};
 use crate::trajectory::Source;
 
 /// Options of `dynotraj benchmark`.
@@ -50,6 +50,7 @@ pub struct BenchmarkArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
+    args.run.check_table(&["weighted", "goal"])?;
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let loaded_s = start.elapsed().as_secs_f64();
@@ -68,10 +69,16 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     let result = result?;
     let seconds = start.elapsed().as_secs_f64();
     let sections = sections(&result, &config, &sequences, args)?;
-    for s in sections.iter().take(2) {
-        println!("{}\n", s.title);
-        print!("{}", s.table.render(args.run.format));
-        println!();
+    if args.run.format == Format::Md {
+        for s in sections.iter().take(2) {
+            println!("{}\n", s.title);
+            print!("{}", s.table.render(Format::Md));
+            println!();
+        }
+    } else {
+        let named: Vec<(&str, &crate::report::Table)> =
+            sections.iter().take(2).map(|s| (s.stem.as_str(), &s.table)).collect();
+        args.run.print_machine(&named)?;
     }
     eprintln!(
         "loading and estimating {loaded_s:.0} s, training and scoring {:.0} s, total {seconds:.0} s",

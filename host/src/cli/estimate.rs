@@ -26,8 +26,10 @@ use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::settings::OursInput;
 use crate::jobs::map_jobs;
 use crate::kitti::TrackingDir;
-use crate::report::estimator_tables::{bench_table, counters_table, per_object_table, replay_tables, tables};
-use crate::report::{Format, Table};
+use crate::report::estimator_tables::{
+    bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
+};
+use crate::report::{Format, Table, check_table, render_tables};
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -133,9 +135,17 @@ pub struct EstimateArgs {
     /// Also print the RPE of every moving object (smoothed estimate).
     #[arg(long)]
     pub per_object: bool,
-    /// Output format of the tables.
+    /// Output format of the tables: md (for people), csv or json (one observation per row,
+    /// every profile in one table with a `profile` column; JSON of several tables is one object
+    /// keyed by table name).
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
+    /// With --format csv or json, print only this table: table_iii, restarts, smoothness,
+    /// counters (with --counters), per_object (with --per-object); replay (and counters) on a
+    /// tracks file; bench with --bench. CSV holds one table, so it needs this flag whenever
+    /// several tables are printed.
+    #[arg(long, value_name = "NAME")]
+    pub table: Option<String>,
     /// Instead of the KITTI sequences, time the estimator per frame on a synthetic scene at the
     /// ECU's full budget (16 objects x 128 points + 256 static tracks); `--frames` sets how many
     /// frames are timed (default 300). Build with `--release` for meaningful figures.
@@ -217,19 +227,32 @@ impl EstimateArgs {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
+    let mut names = if args.bench {
+        vec!["bench"]
+    } else if args.tracks.is_some() {
+        vec!["replay"]
+    } else {
+        vec!["table_iii", "restarts", "smoothness"]
+    };
+    if args.counters && !args.bench {
+        names.push("counters");
+    }
+    if args.per_object && !args.bench && args.tracks.is_none() {
+        names.push("per_object");
+    }
+    check_table(args.format, args.table.as_deref(), &names)?;
     if args.bench {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
         let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
-        println!("{}", bench_table(&r).render(args.format));
-        return Ok(());
+        return print_tables(args, vec![("bench", bench_table(&r))]);
     }
     if let Some(path) = &args.tracks {
         let (t, counters) = replay(args, path)?;
-        println!("{}", t.render(args.format));
+        let mut named = vec![("replay", t)];
         if args.counters {
-            println!("{}", counters.render(args.format));
+            named.push(("counters", counters));
         }
-        return Ok(());
+        return print_tables(args, named);
     }
     if args.write_tracks.is_some() {
         anyhow::ensure!(
@@ -244,15 +267,19 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
             .with_context(|| format!("--write-tracks {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
-    for t in tables(&results) {
-        println!("{}", t.render(args.format));
+    if args.format == Format::Md {
+        for t in tables(&results) {
+            println!("{}", t.render(args.format));
+        }
     }
+    let mut named = if args.format == Format::Md { Vec::new() } else { data_tables(&results) };
     if args.counters {
-        println!("{}", counters_table(&results).render(args.format));
+        named.push(("counters", counters_table(&results)));
     }
     if args.per_object {
-        println!("{}", per_object_table(&results).render(args.format));
+        named.push(("per_object", per_object_table(&results)));
     }
+    print_tables(args, named)?;
     if let Some(out) = &args.out {
         let several = args.profiles.len() > 1;
         for r in &results {
@@ -261,6 +288,20 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
             eprintln!("wrote {}", dir.display());
         }
     }
+    Ok(())
+}
+
+/// Prints `named` tables in `--format`: Markdown each followed by a blank line, CSV or JSON as
+/// [`render_tables`] does (`--table` choosing one).
+fn print_tables(args: &EstimateArgs, named: Vec<(&str, Table)>) -> anyhow::Result<()> {
+    if args.format == Format::Md {
+        for (_, t) in &named {
+            println!("{}", t.render(Format::Md));
+        }
+        return Ok(());
+    }
+    let refs: Vec<(&str, &Table)> = named.iter().map(|(n, t)| (*n, t)).collect();
+    print!("{}", render_tables(args.format, args.table.as_deref(), &refs)?);
     Ok(())
 }
 

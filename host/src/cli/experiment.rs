@@ -9,7 +9,7 @@ use crate::experiment::figures::write_figures;
 use crate::experiment::report::write_report;
 use crate::experiment::sections::{RunSettings, experiment_report};
 use crate::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
-use crate::report::Table;
+use crate::report::{Format, Table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::Source;
 
@@ -93,11 +93,25 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// # Errors
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
+    let names: &[&str] =
+        if args.arms.iter().any(Source::is_estimated) { &["table_iv", "table_iv_truth"] } else { &["table_iv"] };
+    args.run.check_table(names)?;
     let (result, summary, sequences) = experiment(args)?;
-    print!("{}", result.table.render(args.run.format));
-    if let Some((table, _)) = &result.common {
-        println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
-        print!("{}", table.render(args.run.format));
+    // A table that cannot be printed (a --table the run did not make) fails the command only
+    // once the report is written.
+    let mut printed = Ok(());
+    if args.run.format == Format::Md {
+        print!("{}", result.table.render(Format::Md));
+        if let Some((table, _)) = &result.common {
+            println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
+            print!("{}", table.render(Format::Md));
+        }
+    } else {
+        let mut named = vec![("table_iv", &result.table)];
+        if let Some((table, _)) = &result.common {
+            named.push(("table_iv_truth", table));
+        }
+        printed = args.run.print_machine(&named);
     }
     eprint!("{summary}");
     if let Some(dir) = &args.run.out {
@@ -115,5 +129,5 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
         let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
     }
-    Ok(())
+    printed
 }

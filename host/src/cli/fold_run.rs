@@ -9,7 +9,7 @@ use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs};
 use super::train::HyperArgs;
 use crate::experiment::ExperimentConfig;
-use crate::report::Format;
+use crate::report::{Format, check_table, render_tables};
 use crate::trajectory::Source;
 
 /// Training and report options of a run of folds.
@@ -30,12 +30,38 @@ pub struct FoldRunArgs {
     /// Estimate and train everything again even when the cache holds it.
     #[arg(long)]
     pub no_cache: bool,
-    /// Output format of the tables printed.
+    /// Output format of the tables printed: md, csv or json (one observation per row; JSON of
+    /// several tables is one object keyed by table name). The report folder has every table in
+    /// all three, one file each.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
+    /// With --format csv or json, print only this table (named as its file in the report
+    /// folder, e.g. table_iv). CSV holds one table, so it needs this flag whenever several
+    /// tables are printed.
+    #[arg(long, value_name = "NAME")]
+    pub table: Option<String>,
 }
 
 impl FoldRunArgs {
+    /// Checks `--table` before the run (which may take hours) against `names`, the tables the
+    /// command may print.
+    ///
+    /// # Errors
+    /// `--table` with Markdown or naming another table; CSV without `--table` when several
+    /// tables may be printed.
+    pub fn check_table(&self, names: &[&str]) -> anyhow::Result<()> {
+        check_table(self.format, self.table.as_deref(), names)
+    }
+
+    /// Prints `named` tables in `--format` (CSV and JSON only; `--table` choosing one).
+    ///
+    /// # Errors
+    /// See [`render_tables`].
+    pub fn print_machine(&self, named: &[(&str, &crate::report::Table)]) -> anyhow::Result<()> {
+        print!("{}", render_tables(self.format, self.table.as_deref(), named)?);
+        Ok(())
+    }
+
     /// The fold cache: the report's cache/, none with `--no-cache` or without `--out`.
     #[must_use]
     pub fn fold_cache(&self) -> Option<PathBuf> {

@@ -8,7 +8,7 @@ use std::time::Instant;
 use super::findings::total_of;
 use super::folds::{TrainProgress, train_folds};
 use super::{ExperimentConfig, ExperimentResult, FoldReport, check_inputs, fold_specs, score_seed};
-use crate::report::{ArmScores, Table, fmt_opt, forecast_table};
+use crate::report::{ArmScores, Cell, ColumnKind, Data, Table, forecast_table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::Source;
 
@@ -95,9 +95,19 @@ pub fn seeds_table(result: &BenchmarkResult, rows_of: impl Fn(&ExperimentResult)
     headers.extend(result.seeds.iter().map(|s| format!("seed {s}")));
     headers.extend(["mean".to_string(), "spread".to_string()]);
     let mut t = Table::new(headers);
-    let Some(first) = result.per_seed.first().and_then(&rows_of) else { return t };
+    // Data: per row label, one row per seed (then the mean and the spread) with its three metrics.
+    let mut d = Data::new([
+        ("row_kind", ColumnKind::Text),
+        ("arm", ColumnKind::Text),
+        ("seed", ColumnKind::Int),
+        ("ade", ColumnKind::Num),
+        ("fde", ColumnKind::Num),
+        ("ace", ColumnKind::Num),
+    ]);
+    let Some(first) = result.per_seed.first().and_then(&rows_of) else { return t.with_data(d) };
+    let mut cells: Vec<Vec<[Cell; 3]>> = vec![Vec::new(); first.len()];
     for (m, metric) in ["ADE", "FDE", "ACE"].into_iter().enumerate() {
-        for arm in first {
+        for (a, arm) in first.iter().enumerate() {
             let values: Vec<Option<f64>> = result
                 .per_seed
                 .iter()
@@ -108,14 +118,30 @@ pub fn seeds_table(result: &BenchmarkResult, rows_of: impl Fn(&ExperimentResult)
             let spread = (!known.is_empty()).then(|| {
                 known.iter().copied().fold(f64::MIN, f64::max) - known.iter().copied().fold(f64::MAX, f64::min)
             });
+            let row_cells: Vec<Cell> = values.iter().chain([&mean, &spread]).map(|v| Cell::opt(*v, 3)).collect();
             let mut row = vec![metric.to_string(), arm.label.clone()];
-            row.extend(values.iter().map(|v| fmt_opt(*v, 3)));
-            row.push(fmt_opt(mean, 3));
-            row.push(fmt_opt(spread, 3));
+            row.extend(row_cells.iter().map(Cell::md));
             t.push(row);
+            if let Some(per_arm) = cells.get_mut(a) {
+                per_arm.resize(row_cells.len(), [Cell::Missing, Cell::Missing, Cell::Missing]);
+                for (slot, c) in per_arm.iter_mut().zip(row_cells) {
+                    slot[m] = c;
+                }
+            }
         }
     }
-    t
+    for (arm, per_arm) in first.iter().zip(cells) {
+        let n = result.seeds.len();
+        for (i, metrics) in per_arm.into_iter().enumerate() {
+            let (kind, seed) = match i.checked_sub(n) {
+                None => ("data", result.seeds.get(i).map_or(Cell::Missing, |s| Cell::int(*s))),
+                Some(0) => ("mean", Cell::Blank),
+                Some(_) => ("spread", Cell::Blank),
+            };
+            d.push([Cell::text(kind), Cell::text(arm.label.as_str()), seed].into_iter().chain(metrics).collect());
+        }
+    }
+    t.with_data(d)
 }
 
 /// The goal, per arm and seed: the learned int8 model's weighted ADE and FDE against cv and
@@ -136,7 +162,20 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
         "cv-fit ACE",
         "goal met",
     ]);
-    let pct = |a: f64, b: f64| format!("{:+.1} %", 100.0 * (a / b - 1.0));
+    let mut d = Data::new([
+        ("arm", ColumnKind::Text),
+        ("seed", ColumnKind::Int),
+        ("int8_ade", ColumnKind::Num),
+        ("ade_change_vs_cv_pct", ColumnKind::Num),
+        ("ade_change_vs_cv_fit_pct", ColumnKind::Num),
+        ("int8_fde", ColumnKind::Num),
+        ("fde_change_vs_cv_pct", ColumnKind::Num),
+        ("fde_change_vs_cv_fit_pct", ColumnKind::Num),
+        ("int8_ace", ColumnKind::Num),
+        ("cv_fit_ace", ColumnKind::Num),
+        ("goal_met", ColumnKind::Text),
+    ]);
+    let pct = |a: f64, b: f64| Cell::num(100.0 * (a / b - 1.0), 1);
     for arm in arms {
         for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
             let (Some(l), Some(cv), Some(fit)) = (
@@ -148,22 +187,28 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
             };
             let better = |k: usize| l[k] <= (1.0 - GOAL_GAIN) * cv[k] && l[k] <= (1.0 - GOAL_GAIN) * fit[k];
             let met = better(0) && better(1) && l[2] <= fit[2];
-            t.push([
-                arm.to_string(),
-                seed.to_string(),
-                format!("{:.3}", l[0]),
+            let cells = vec![
+                Cell::text(arm.to_string()),
+                Cell::int(*seed),
+                Cell::num(l[0], 3),
                 pct(l[0], cv[0]),
                 pct(l[0], fit[0]),
-                format!("{:.3}", l[1]),
+                Cell::num(l[1], 3),
                 pct(l[1], cv[1]),
                 pct(l[1], fit[1]),
-                format!("{:.3}", l[2]),
-                format!("{:.3}", fit[2]),
-                if met { "yes" } else { "no" }.to_string(),
-            ]);
+                Cell::num(l[2], 3),
+                Cell::num(fit[2], 3),
+                Cell::text(if met { "yes" } else { "no" }),
+            ];
+            // Markdown shows the changes signed, in per cent.
+            t.push(cells.iter().enumerate().map(|(i, c)| match (i, c) {
+                (3 | 4 | 6 | 7, Cell::Num(v, _)) => format!("{v:+.1} %"),
+                _ => c.md(),
+            }));
+            d.push(cells);
         }
     }
-    t
+    t.with_data(d)
 }
 
 #[cfg(test)]

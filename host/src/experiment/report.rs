@@ -1,10 +1,11 @@
-//! The experiment's report folder: every table as Markdown and CSV, and a REPORT.md that
+//! The experiment's report folder: every table as Markdown, CSV and JSON, and a REPORT.md that
 //! embeds them with the fold summary and the run's time.
 //!
-//! Layout of `DIR`: `REPORT.md`; `table_i.{md,csv}` (eligible objects and test instances per
-//! source), `table_iii_<kind>.{md,csv}` (RPE of the estimator behind the Estimated arm, when it
-//! ran), `table_iv.{md,csv}` (ADE, FDE, ACE per arm), `table_iv_truth.{md,csv}` (against the
-//! simulator's truth), `folds.csv`; `figures/` (PNG and SVG, [`super::figures`]); `models/`
+//! Layout of `DIR`: `REPORT.md`; `table_i.{md,csv,json}` (eligible objects and test instances
+//! per source), `table_iii_<kind>.{md,csv,json}` (RPE of the estimator behind the Estimated arm,
+//! when it ran), `table_iv.{md,csv,json}` (ADE, FDE, ACE per arm), `table_iv_truth.{md,csv,json}`
+//! (against the simulator's truth), `folds.{csv,json}`; the CSV and JSON files hold one
+//! observation per row (see [`crate::report`]); `figures/` (PNG and SVG, [`super::figures`]); `models/`
 //! (each fold's blobs) and `cache/` (trained folds, see [`super::cache`]).
 
 use std::fmt::Write as _;
@@ -13,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 
 use super::FoldReport;
-use crate::report::{Format, Table};
+use crate::report::{Cell, ColumnKind, Data, Format, Table};
 
 /// One table of the report.
 #[derive(Debug, Clone)]
@@ -50,33 +51,36 @@ pub struct Report {
 /// The fold summary as a table.
 #[must_use]
 pub fn folds_table(folds: &[FoldReport]) -> Table {
-    let mut t = Table::new([
-        "arm",
-        "held-out sequences",
-        "seed",
-        "training instances",
-        "epoch kept",
-        "shrink",
-        "val ADE (m)",
-        "val cv ADE (m)",
-        "training s",
-        "cached",
-    ]);
+    use ColumnKind::{Int, Num, Text};
+    let columns = [
+        ("arm", "arm", Text),
+        ("held-out sequences", "held_out_sequences", Text),
+        ("seed", "seed", Int),
+        ("training instances", "training_instances", Int),
+        ("epoch kept", "epoch_kept", Int),
+        ("shrink", "shrink", Num),
+        ("val ADE (m)", "val_ade_m", Num),
+        ("val cv ADE (m)", "val_cv_ade_m", Num),
+        ("training s", "training_s", Num),
+        ("cached", "cached", Text),
+    ];
+    let mut d = Data::new(columns.map(|(_, n, k)| (n, k)));
     for f in folds {
-        t.push([
-            f.arm.to_string(),
-            f.sequence.clone(),
-            f.seed.to_string(),
-            f.train_instances.to_string(),
-            f.best_epoch.to_string(),
-            f.shrink.to_string(),
-            format!("{:.3}", f.val_ade),
-            format!("{:.3}", f.val_cv_ade),
-            format!("{:.1}", f.seconds),
-            if f.cached { "yes" } else { "no" }.to_string(),
+        d.push(vec![
+            Cell::text(f.arm.to_string()),
+            Cell::text(f.sequence.as_str()),
+            Cell::int(f.seed),
+            Cell::int(f.train_instances),
+            Cell::int(f.best_epoch),
+            // The shrink as the f32 prints it, not as its f64 widening would.
+            f.shrink.to_string().parse().map_or(Cell::Missing, Cell::Real),
+            Cell::num(f64::from(f.val_ade), 3),
+            Cell::num(f64::from(f.val_cv_ade), 3),
+            Cell::num(f64::from(f.seconds), 1),
+            Cell::text(if f.cached { "yes" } else { "no" }),
         ]);
     }
-    t
+    Table::of_data(columns.map(|(h, _, _)| h), d)
 }
 
 /// Writes the report into `dir`; returns the path of REPORT.md.
@@ -105,6 +109,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     for s in &report.sections {
         write(format!("{}.md", s.stem), &s.table.render(Format::Md))?;
         write(format!("{}.csv", s.stem), &s.table.render(Format::Csv))?;
+        write(format!("{}.json", s.stem), &s.table.render(Format::Json))?;
         let _ = writeln!(md, "## {}\n", s.title);
         if !s.caption.is_empty() {
             let _ = writeln!(md, "{}\n", s.caption);
@@ -113,6 +118,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     }
     let folds = folds_table(&report.folds);
     write("folds.csv".into(), &folds.render(Format::Csv))?;
+    write("folds.json".into(), &folds.render(Format::Json))?;
     let _ = writeln!(
         md,
         "## Folds\n\nEpoch 0 is the untrained model (cv-fit: constant velocity along the velocity of a parabola \

@@ -1,9 +1,13 @@
 //! The paper's Table IV layout: ADE, FDE and ACE per sequence and their weighted average (per
 //! forecast), one row per arm, optionally beside published reference rows.
+//!
+//! Its data (CSV, JSON) has one row per arm and sequence: `row_kind` (`data`, `weighted_average`
+//! over the sequences, `paper` and `paper_average` for published figures), `arm`, `sequence`
+//! (empty on averages), `ade`, `fde`, `ace`, `instances` (ADE/FDE), `ace_pairs`.
 
 use dynotraj_core::metrics::{ForecastScores, Mean};
 
-use super::{Table, fmt_opt};
+use super::{Cell, ColumnKind, Data, Table, fmt_opt};
 
 /// One arm's scores, one entry per sequence (in the table's column order).
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -42,6 +46,54 @@ pub struct ReferenceRow {
 /// instance (and ACE pair) counts: one row when all arms share them, else one per distinct set.
 #[must_use]
 pub fn forecast_table(ids: &[String], arms: &[ArmScores], references: &[ReferenceRow]) -> Table {
+    markdown(ids, arms, references).with_data(forecast_data(ids, arms, references))
+}
+
+/// One row per arm and sequence (then the arm's weighted average), the references after.
+fn forecast_data(ids: &[String], arms: &[ArmScores], references: &[ReferenceRow]) -> Data {
+    use ColumnKind::{Int, Num, Text};
+    let mut d = Data::new([
+        ("row_kind", Text),
+        ("arm", Text),
+        ("sequence", Text),
+        ("ade", Num),
+        ("fde", Num),
+        ("ace", Num),
+        ("instances", Int),
+        ("ace_pairs", Int),
+    ]);
+    let scores = |s: &ForecastScores| {
+        [s.ade.value(), s.fde.value(), s.ace.value()]
+            .map(|v| Cell::opt(v, 2))
+            .into_iter()
+            .chain([Cell::int(s.ade.count()), Cell::int(s.ace.count())])
+    };
+    for arm in arms {
+        let head = |kind: &str, seq: Cell| [Cell::text(kind), Cell::text(arm.label.as_str()), seq];
+        for (id, s) in ids.iter().zip(&arm.per_sequence) {
+            d.push(head("data", Cell::text(id.as_str())).into_iter().chain(scores(s)).collect());
+        }
+        d.push(head("weighted_average", Cell::Blank).into_iter().chain(scores(&arm.total())).collect());
+    }
+    for r in references {
+        let head = |kind: &str, seq: Cell| [Cell::text(kind), Cell::text(r.label.as_str()), seq];
+        for (id, v) in ids.iter().zip(&r.per_sequence) {
+            let m = |i: usize| Cell::opt(v.map(|v| v[i]), 2);
+            d.push(
+                head("paper", Cell::text(id.as_str()))
+                    .into_iter()
+                    .chain([m(0), m(1), m(2), Cell::Blank, Cell::Blank])
+                    .collect(),
+            );
+        }
+        let a = r.average.map(|v| Cell::num(v, 2));
+        d.push(head("paper_average", Cell::Blank).into_iter().chain(a).chain([Cell::Blank, Cell::Blank]).collect());
+    }
+    d
+}
+
+/// The Markdown layout: metrics down, sequences across.
+fn markdown(ids: &[String], arms: &[ArmScores], references: &[ReferenceRow]) -> Table {
     let mut headers = vec!["metric".to_string(), "arm".to_string()];
     headers.extend(ids.iter().cloned());
     headers.push("avg".into());

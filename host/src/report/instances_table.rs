@@ -1,6 +1,9 @@
 //! The paper's Table I layout: eligible objects and test instances per sequence, per source.
+//!
+//! Its data (CSV, JSON) has one row per source and sequence: `row_kind` (`data`, or `sum` over
+//! the sequences), `source`, `sequence` (empty on sums), `eligible_objects`, `test_instances`.
 
-use super::Table;
+use super::{Cell, ColumnKind, Data, Table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source, eligible_runs};
 
@@ -8,10 +11,18 @@ use crate::trajectory::{EligibilityRule, Source, eligible_runs};
 /// named in the row label unless `sources` is the labels alone), with totals.
 #[must_use]
 pub fn instances_table(seqs: &[SequenceTracks], sources: &[Source], rule: &EligibilityRule) -> Table {
+    use ColumnKind::{Int, Text};
     let mut headers = vec![String::new()];
     headers.extend(seqs.iter().map(|s| s.id.clone()));
     headers.push("sum".into());
     let mut t = Table::new(headers);
+    let mut d = Data::new([
+        ("row_kind", Text),
+        ("source", Text),
+        ("sequence", Text),
+        ("eligible_objects", Int),
+        ("test_instances", Int),
+    ]);
     let only_labels = sources == [Source::Gt];
     for &source in sources {
         let suffix = if only_labels { String::new() } else { format!(" ({source})") };
@@ -26,13 +37,27 @@ pub fn instances_table(seqs: &[SequenceTracks], sources: &[Source], rule: &Eligi
             let cell = |v: usize| if v == 0 { "-".to_string() } else { v.to_string() };
             objects.push(cell(ids.len()));
             instances.push(cell(n));
+            d.push(vec![
+                Cell::text("data"),
+                Cell::text(source.to_string()),
+                Cell::text(s.id.as_str()),
+                Cell::int(ids.len()),
+                Cell::int(n),
+            ]);
             total_objects += ids.len();
             total_instances += n;
         }
         objects.push(total_objects.to_string());
         instances.push(total_instances.to_string());
+        d.push(vec![
+            Cell::text("sum"),
+            Cell::text(source.to_string()),
+            Cell::Blank,
+            Cell::int(total_objects),
+            Cell::int(total_instances),
+        ]);
         t.push(objects);
         t.push(instances);
     }
-    t
+    t.with_data(d)
 }
