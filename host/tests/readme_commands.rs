@@ -125,8 +125,10 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     let t = ok(&["track", "--kitti", sim_s, "--sequence", "0000", "--out", tracked_s]);
     assert!(dynotraj_host::tracks_file::read(&tracked).is_ok_and(|t| t.frames.len() == 8), "{t}");
     says(&t, "s] frames tracked done: 8 steps");
-    let t = ok(&["track", "--bench", "--frames", "2"]);
+    let t = ok(&["track", "--bench", "--frames", "2", "--counters"]);
     says(&t, "stereo");
+    says(&t, "| counter");
+    says(&t, "| static_tracked");
 }
 
 #[test]

@@ -15,6 +15,8 @@ use super::common::progress;
 use crate::frontend::check::{odometry06, stereo2015_d1};
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
+use crate::report::data::{Cell, ColumnKind, Data};
+use crate::report::{Format, Table};
 use crate::tracks_file::TracksWriter;
 
 /// Options of `dynotraj track`.
@@ -79,7 +81,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
         print_times(&times, &stereo);
         if args.counters {
-            println!("{stats:#?}");
+            println!("{}", counters_table(&stats).render(Format::Md));
         }
         return Ok(());
     }
@@ -179,4 +181,13 @@ fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The front-end's counters as a table of (counter, value).
+fn counters_table(stats: &FrontEndStats) -> Table {
+    let mut data = Data::new([("counter", ColumnKind::Text), ("value", ColumnKind::Int)]);
+    for (name, value) in stats.named() {
+        data.push(vec![Cell::text(name), Cell::int(value)]);
+    }
+    Table::of_data(["counter", "value"], data)
 }

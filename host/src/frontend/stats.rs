@@ -40,6 +40,30 @@ pub struct FrontEndStats {
 }
 
 impl FrontEndStats {
+    /// Every counter with its name, in declaration order (for tables).
+    #[must_use]
+    pub const fn named(&self) -> [(&'static str, u64); 17] {
+        [
+            ("frames", self.frames),
+            ("static_tracked", self.static_tracked),
+            ("static_lost", self.static_lost),
+            ("static_failed_check", self.static_failed_check),
+            ("static_detected", self.static_detected),
+            ("static_no_depth", self.static_no_depth),
+            ("static_dropped", self.static_dropped),
+            ("object_points_tracked", self.object_points_tracked),
+            ("object_points_lost", self.object_points_lost),
+            ("object_points_failed_check", self.object_points_failed_check),
+            ("object_points_sampled", self.object_points_sampled),
+            ("object_points_no_depth", self.object_points_no_depth),
+            ("object_points_dropped", self.object_points_dropped),
+            ("objects_dropped", self.objects_dropped),
+            ("empty_masks", self.empty_masks),
+            ("textureless_objects", self.textureless_objects),
+            ("textureless_cells", self.textureless_cells),
+        ]
+    }
+
     pub(crate) fn count_lost(&mut self, is_static: bool) {
         if is_static {
             self.static_lost += 1;
