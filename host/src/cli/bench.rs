@@ -56,30 +56,7 @@ pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
     Ok(d)
 }
 
-/// A blob of `dims` with seeded pseudo-random weights: the same arithmetic as a trained one.
-#[must_use]
-pub fn random_blob(dims: &Dims, precision: Precision, dt: f32) -> Vec<u8> {
-    let mut state = 0x2545_f491_u32;
-    let tensors: Vec<Vec<f32>> = dims
-        .tensors()
-        .iter()
-        .map(|(r, c)| {
-            (0..r * c)
-                .map(|_| {
-                    state ^= state << 13;
-                    state ^= state >> 17;
-                    state ^= state << 5;
-                    (state as f32 / u32::MAX as f32 - 0.5) * 0.4
-                })
-                .collect()
-        })
-        .collect();
-    let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-    let mut buf = vec![0; blob_len(dims, precision)];
-    // The tensors have the shapes of `dims` by construction.
-    write_blob(dims, precision, dt, &slices, &mut buf).unwrap_or_else(|e| unreachable!("{e}"));
-    buf
-}
+pub use dynotraj_fixtures::bench_inputs::random_blob;
 
 fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
     let history: [BevState; 7] = std::array::from_fn(|i| BevState {

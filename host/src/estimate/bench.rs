@@ -8,9 +8,8 @@
 use std::time::Instant;
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
-use dynotraj_core::wire::{FrameTracks, ObjectClass, frame_parts};
-use dynotraj_fixtures::track_sim::{LabelBox, SimSpec, simulate};
-use nalgebra::{Isometry3, Point3};
+use dynotraj_core::wire::{FrameTracks, frame_parts};
+use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use super::evaluate::WINDOW;
 use super::input::KITTI_IMAGE_SIZE;
@@ -45,30 +44,7 @@ impl BenchResult {
     }
 }
 
-/// The benchmark scene: camera poses and 16 car boxes per frame.
-#[must_use]
-pub fn scene(frames: usize) -> (Vec<Isometry3<f64>>, Vec<LabelBox>) {
-    let ego = 1.0; // metres per frame
-    let cams: Vec<Isometry3<f64>> = (0..frames).map(|k| Isometry3::translation(0.0, 0.0, ego * k as f64)).collect();
-    let mut boxes = Vec::new();
-    for k in 0..frames {
-        for i in 0..16u16 {
-            let (row, col) = (f64::from(i / 4), f64::from(i % 4));
-            let speed = ego + 0.01 * (f64::from(i % 5) - 2.0);
-            let x = -6.0 + 4.0 * col + 0.5 * (0.05 * k as f64 + f64::from(i)).sin();
-            let z = 9.0 + 6.0 * row + (speed - ego) * k as f64;
-            boxes.push(LabelBox {
-                frame: k as u32,
-                object_id: i + 1,
-                class: ObjectClass::Car,
-                size: [1.5, 1.7, 4.2],
-                bottom_centre: Point3::new(x, 1.65, z),
-                rotation_y: -std::f64::consts::FRAC_PI_2 + 0.05 * (0.05 * k as f64 + f64::from(i)).cos(),
-            });
-        }
-    }
-    (cams, boxes)
-}
+pub use dynotraj_fixtures::bench_inputs::estimator_scene as scene;
 
 /// Runs the benchmark over `frames` frames (after `warmup` untimed ones), with `joint_sweeps`
 /// sweeps of the joint camera-object solve per frame.
