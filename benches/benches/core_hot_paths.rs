@@ -65,14 +65,7 @@ fn estimator_frame(c: &mut Criterion) {
 }
 
 fn forecasts(c: &mut Criterion) {
-    let history: [BevState; 7] = std::array::from_fn(|i| BevState {
-        x: 0.5 * i as f32,
-        y: 0.02 * (i * i) as f32,
-        heading: 0.05 * i as f32,
-        speed: 10.0,
-    });
-    let other: [BevState; 7] =
-        std::array::from_fn(|i| BevState { x: 0.4 * i as f32, y: 4.0, heading: 0.0, speed: 8.0 });
+    let (history, other) = dynotraj_fixtures::bench_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut g = quick(c);
     for (name, precision) in

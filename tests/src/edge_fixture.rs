@@ -284,3 +284,29 @@ pub fn elf_sections(path: &std::path::Path) -> Vec<(String, u32)> {
         })
         .collect()
 }
+
+/// Streams `tracks` in lockstep to the firmware image `elf` under QEMU and waits for it to
+/// exit: what the host received, the firmware's exit status and its log (also printed).
+#[must_use]
+pub fn stream_to_qemu(
+    elf: &std::path::Path,
+    tracks: &Tracks,
+) -> (dynotraj_host::stream::StreamResult, std::process::ExitStatus, String) {
+    use std::io::Read as _;
+    use std::time::Duration;
+
+    use dynotraj_host::link::{Endpoint, connect};
+    use dynotraj_host::stream::{StreamOptions, stream};
+
+    let port = free_port();
+    let mut qemu = spawn_qemu_elf(port, elf);
+    let (rx, tx) = connect(&Endpoint::Tcp(format!("127.0.0.1:{port}")), Duration::from_secs(20)).unwrap();
+    let opt = StreamOptions { lockstep: true, reply_timeout: Duration::from_secs(60), ..StreamOptions::default() };
+    let result = stream(tracks, rx, tx, &opt);
+    let status = wait_for_firmware(&mut qemu, Duration::from_secs(120));
+    let mut log = String::new();
+    qemu.stdout.take().unwrap().read_to_string(&mut log).unwrap();
+    qemu.stderr.take().unwrap().read_to_string(&mut log).unwrap();
+    println!("{log}");
+    (result, status, log)
+}

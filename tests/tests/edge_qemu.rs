@@ -7,16 +7,12 @@
 //! and reports the instructions per frame (QEMU -icount) against 20 frames/s at 200 MHz, and
 //! checks that the firmware's logger prints the edge's session totals.
 
-use std::io::Read as _;
 use std::path::Path;
-use std::time::Duration;
 
 use dynotraj_core::wire::{ComputeUnit, Message};
-use dynotraj_host::link::{Endpoint, connect};
-use dynotraj_host::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{
-    default_model_blob, elf_sections, encode_all, firmware_elf, firmware_program, free_port, host_messages, outputs,
-    reference_replies, scene_tracks, spawn_qemu_elf, wait_for_firmware,
+    default_model_blob, elf_sections, encode_all, firmware_elf, firmware_program, host_messages, outputs,
+    reference_replies, scene_tracks, stream_to_qemu,
 };
 
 #[test]
@@ -54,16 +50,7 @@ fn run_and_compare(elf: &Path, model: Option<&[u8]>) -> String {
     let tracks = scene_tracks(frames);
     let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), model);
 
-    let port = free_port();
-    let mut qemu = spawn_qemu_elf(port, elf);
-    let (rx, tx) = connect(&Endpoint::Tcp(format!("127.0.0.1:{port}")), Duration::from_secs(20)).unwrap();
-    let opt = StreamOptions { lockstep: true, reply_timeout: Duration::from_secs(60), ..StreamOptions::default() };
-    let result = stream(&tracks, rx, tx, &opt);
-    let status = wait_for_firmware(&mut qemu, Duration::from_secs(120));
-    let mut log = String::new();
-    qemu.stdout.take().unwrap().read_to_string(&mut log).unwrap();
-    qemu.stderr.take().unwrap().read_to_string(&mut log).unwrap();
-    println!("{log}");
+    let (result, status, log) = stream_to_qemu(elf, &tracks);
     assert!(status.success(), "firmware exit {status}: {log}");
 
     let forecasts = result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();

@@ -3,15 +3,9 @@
 //! host's streaming client: its replies equal, byte for byte, what the host build of the edge
 //! answers to the same stream, and it ends with status 0 on the host's goodbye.
 
-use std::io::Read as _;
-use std::time::Duration;
-
 use dynotraj_core::wire::{ComputeUnit, Message};
-use dynotraj_host::link::{Endpoint, connect};
-use dynotraj_host::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{
-    encode_all, firmware_program, free_port, host_messages, outputs, reference_replies, scene_tracks, spawn_qemu_elf,
-    wait_for_firmware,
+    encode_all, firmware_program, host_messages, outputs, reference_replies, scene_tracks, stream_to_qemu,
 };
 
 #[test]
@@ -21,16 +15,7 @@ fn embassy_example_under_qemu_matches_the_host_edge_byte_for_byte() {
     let tracks = scene_tracks(frames);
     let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), None);
 
-    let port = free_port();
-    let mut qemu = spawn_qemu_elf(port, &elf);
-    let (rx, tx) = connect(&Endpoint::Tcp(format!("127.0.0.1:{port}")), Duration::from_secs(20)).unwrap();
-    let opt = StreamOptions { lockstep: true, reply_timeout: Duration::from_secs(60), ..StreamOptions::default() };
-    let result = stream(&tracks, rx, tx, &opt);
-    let status = wait_for_firmware(&mut qemu, Duration::from_secs(120));
-    let mut log = String::new();
-    qemu.stdout.take().unwrap().read_to_string(&mut log).unwrap();
-    qemu.stderr.take().unwrap().read_to_string(&mut log).unwrap();
-    println!("{log}");
+    let (result, status, log) = stream_to_qemu(&elf, &tracks);
     assert!(status.success(), "embassy example exit {status}: {log}");
     assert_eq!(result.link_error, None, "the link held");
 

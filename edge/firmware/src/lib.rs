@@ -5,5 +5,6 @@
 pub mod clock;
 pub mod exit;
 pub mod logger;
+pub mod session;
 pub mod stack;
 pub mod uart0;

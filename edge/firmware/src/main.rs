@@ -15,10 +15,8 @@
 mod uart;
 
 use cortex_m_rt::entry;
-use cortex_m_semihosting::hprintln;
 use dynotraj_edge::{ModelStatus, Session};
-use dynotraj_firmware::exit::{fail, fail_with, succeed};
-use dynotraj_firmware::{clock, logger, stack};
+use dynotraj_firmware::{clock, logger, session, stack};
 use static_cell::ConstStaticCell;
 
 /// The model linked into flash (empty: none).
@@ -44,18 +42,7 @@ static SESSION: ConstStaticCell<Session<'static>> = ConstStaticCell::new(Session
 
 #[entry]
 fn main() -> ! {
-    stack::paint();
-    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
-    clock::start(&mut cp.SYST);
-    logger::init();
-    clock::check();
-
-    let Some(session) = SESSION.try_take() else { fail("session taken twice") };
-    if !MODEL.is_empty()
-        && let Err(e) = session.set_model(MODEL)
-    {
-        fail_with(format_args!("linked model rejected: {e:?}"));
-    }
+    let (mut cp, session) = session::boot(&SESSION, MODEL);
     let mut link = uart::Uart::new(&mut cp.NVIC);
     log::info!(
         "ready: model {}, int8 products {}, stack {} B, log level {}",
@@ -64,34 +51,9 @@ fn main() -> ! {
         stack::available(),
         logger::level()
     );
-
     let result = session.run(&mut link, &mut clock::Instructions);
-
-    let e = session.edge().stats();
-    let l = session.link_stats();
-    hprintln!(
-        "dynotraj-firmware: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received \
-            {} rejected {} | bytes dropped {} | uart overruns {} | rx ring high water {} B",
-        e.frames_estimated,
-        e.frames_lost,
-        e.forecasts,
-        e.forecasts_fallback,
-        e.forecasts_failed,
-        l.received.frames_ok,
-        l.received.frames_rejected(),
-        l.received.bytes_discarded,
-        dynotraj_edge::Transport::bytes_lost(&link),
-        link.high_water()
-    );
-    let peak = stack::peak();
-    hprintln!("dynotraj-firmware: peak stack {} B of {} B", peak, stack::available());
-    if peak >= stack::available() {
-        fail("stack overflow: the stack reached the statics");
-    }
-    match result {
-        Ok(()) => succeed(),
-        Err(err) => fail_with(format_args!("session stopped: {err:?}")),
-    }
+    let lost = dynotraj_edge::Transport::bytes_lost(&link);
+    session::close("dynotraj-firmware", session, (lost, "rx ring", link.high_water()), result)
 }
 
 fn describe(m: ModelStatus) -> &'static str {

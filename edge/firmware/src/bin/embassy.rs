@@ -14,10 +14,9 @@ use core::convert::Infallible;
 use core::sync::atomic::{AtomicBool, AtomicU32, AtomicUsize, Ordering};
 
 use cortex_m_rt::entry;
-use cortex_m_semihosting::hprintln;
 use dynotraj_edge::{Session, Transport, embedded_io, embedded_io_async};
-use dynotraj_firmware::exit::{fail, fail_with, succeed};
-use dynotraj_firmware::{clock, logger, stack, uart0};
+use dynotraj_firmware::exit::fail_with;
+use dynotraj_firmware::{clock, logger, session, stack, uart0};
 use embassy_executor::Executor;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
@@ -136,18 +135,7 @@ impl Transport for Uart {
 
 #[entry]
 fn main() -> ! {
-    stack::paint();
-    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
-    clock::start(&mut cp.SYST);
-    logger::init();
-    clock::check();
-
-    let Some(session) = SESSION.try_take() else { fail("session taken twice") };
-    if !MODEL.is_empty()
-        && let Err(e) = session.set_model(MODEL)
-    {
-        fail_with(format_args!("linked model rejected: {e:?}"));
-    }
+    let (mut cp, session) = session::boot(&SESSION, MODEL);
     uart0::enable(&mut cp.NVIC);
     log::info!("ready on embassy: stack {} B, log level {}", stack::available(), logger::level());
 
@@ -163,30 +151,6 @@ fn main() -> ! {
 #[embassy_executor::task]
 async fn serve(session: &'static mut Session<'static>, mut link: Uart) {
     let result = session.run_async(&mut link, &mut clock::Instructions).await;
-
-    let e = session.edge().stats();
-    let l = session.link_stats();
-    hprintln!(
-        "dynotraj-embassy: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received {} \
-            rejected {} | bytes dropped {} | uart overruns {} | rx pipe high water {} B",
-        e.frames_estimated,
-        e.frames_lost,
-        e.forecasts,
-        e.forecasts_fallback,
-        e.forecasts_failed,
-        l.received.frames_ok,
-        l.received.frames_rejected(),
-        l.received.bytes_discarded,
-        link.bytes_lost(),
-        HIGH_WATER.load(Ordering::Relaxed)
-    );
-    let peak = stack::peak();
-    hprintln!("dynotraj-embassy: peak stack {} B of {} B", peak, stack::available());
-    if peak >= stack::available() {
-        fail("stack overflow: the stack reached the statics");
-    }
-    match result {
-        Ok(()) => succeed(),
-        Err(err) => fail_with(format_args!("session stopped: {err:?}")),
-    }
+    let high_water = HIGH_WATER.load(Ordering::Relaxed);
+    session::close("dynotraj-embassy", session, (link.bytes_lost(), "rx pipe", high_water), result)
 }
