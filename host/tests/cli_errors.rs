@@ -43,7 +43,7 @@ fn float_flags_are_checked_when_parsed() {
     refused(&["estimate", "--outliers", "2"], 2, "expected a fraction in [0, 1]");
     refused(&["dataset", "--kitti", ".", "--rate", "0"], 2, "expected a frame rate in Hz");
     refused(
-        &["train", "--kitti", ".", "--source", "gt", "--out", "m.blob", "--lr=-0.1"],
+        &["train", "--kitti", ".", "--source", "gt", "--out", "model", "--lr=-0.1"],
         2,
         "expected a positive number",
     );
@@ -61,7 +61,7 @@ fn sequences_given_twice_and_unknown_exclusions_are_errors() {
     synthetic_kitti(dir.path());
     let kitti = dir.path().to_str().expect("utf-8");
     refused(&["dataset", "--kitti", kitti, "--sequences", "0000,0000"], 1, "--sequences: 0000 is given twice");
-    let out = dir.path().join("m.blob");
+    let out = dir.path().join("model");
     let out = out.to_str().expect("utf-8");
     refused(
         &["train", "--kitti", kitti, "--source", "gt", "--exclude", "9999", "--out", out],
@@ -108,19 +108,24 @@ fn a_blob_with_bytes_after_it_is_refused_by_sign_and_verify() {
     let dir = tempfile::tempdir().expect("temp dir");
     synthetic_kitti(dir.path());
     let kitti = dir.path().to_str().expect("utf-8");
-    let blob = dir.path().join("m.blob");
+    let model = dir.path().join("model");
+    let blob = model.join("model.blob");
     let blob_s = blob.to_str().expect("utf-8");
-    let train = ["train", "--kitti", kitti, "--source", "gt", "--exclude", "0001", "--out", blob_s];
+    let train = ["train", "--kitti", kitti, "--source", "gt", "--exclude", "0001", "--out", model.to_str().unwrap()];
     let (code, err) = run(&[&train[..], &["--dims", "8,8,2,16", "--epochs", "1", "--rate", "10"]].concat());
     assert_eq!(code, 0, "{err}");
-    let signed = dir.path().join("m.blob.signed");
-    let signed_s = signed.to_str().expect("utf-8");
-    let (code, err) = run(&["sign", "--key", "dev", "--model", blob_s, "--out", signed_s]);
+    let signed_dir = dir.path().join("signed");
+    let signed_dir_s = signed_dir.to_str().expect("utf-8");
+    let (code, err) = run(&["sign", "--key", "dev", "--model", blob_s, "--out", signed_dir_s]);
     assert_eq!(code, 0, "{err}");
-    // Signing the signed file again: its trailer is bytes after the blob.
-    let twice = dir.path().join("m.blob.signed.signed");
+    let signed = signed_dir.join("model.blob.signed");
+    let signed_s = signed.to_str().expect("utf-8");
+    // Signing the signed file again (beside it, the default): its trailer is bytes after the
+    // blob.
+    let twice = signed_dir.join("model.blob.signed.signed");
     let twice_s = twice.to_str().expect("utf-8");
-    refused(&["sign", "--key", "dev", "--model", signed_s, "--out", twice_s], 1, "bytes after the model blob's CRC");
+    refused(&["sign", "--key", "dev", "--model", signed_s], 1, "bytes after the model blob's CRC");
+    assert!(!twice.exists(), "a refused blob is not signed");
     // A doubly signed file made anyway verifies as a signature, and is refused as a blob.
     let key = dynotraj_host::model_signing::development_signing_key().expect("dev key");
     let bytes = std::fs::read(&signed).expect("reads");

@@ -45,27 +45,29 @@ fn the_data_training_and_evaluation_commands_run() {
             .concat());
     says(&t, "eligible objects");
     let t = ok(&[
-        &["eval", "--kitti", kitti, "--sequences", "0000,0001", "--source", "gt,gt-ekf,estimated"][..],
+        &["eval", "--kitti", kitti, "--tests", "0000,0001", "--source", "gt,gt-ekf,estimated"][..],
         &["--predictor", "cv,cv-fit,ctra"][..],
         &tracks,
     ]
     .concat());
     says(&t, "ADE");
 
-    let blob = dir.path().join("m.blob");
+    let model_dir = dir.path().join("model");
+    let model_s = model_dir.to_str().expect("utf-8");
+    let blob = model_dir.join("model.blob");
     let blob_s = blob.to_str().expect("utf-8");
     let t = ok(&[
-        &["train", "--kitti", kitti, "--source", "gt", "--exclude", "0000", "--out", blob_s, "--rate", "10"][..],
+        &["train", "--kitti", kitti, "--source", "gt", "--exclude", "0000", "--out", model_s, "--rate", "10"][..],
         &SMALL_NET,
     ]
     .concat());
     says(&t, "trained gt on 0001,0002");
     for ext in ["", ".int8", ".safetensors"] {
-        assert!(Path::new(&format!("{blob_s}{ext}")).is_file(), "train writes m.blob{ext}");
+        assert!(Path::new(&format!("{blob_s}{ext}")).is_file(), "train writes model.blob{ext}");
     }
     let predictors = format!("cv,model:{blob_s},model:{blob_s}.int8");
-    let t = ok(&["eval", "--kitti", kitti, "--sequences", "0000", "--predictor", &predictors, "--rate", "10"]);
-    says(&t, "model m.blob.int8 on gt");
+    let t = ok(&["eval", "--kitti", kitti, "--tests", "0000", "--predictor", &predictors, "--rate", "10"]);
+    says(&t, "model model.blob.int8 on gt");
 
     let t = ok(&["bench", "--dims", "8,8,2,16"]);
     says(&t, "int8");
@@ -103,9 +105,12 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     let t =
         ok(&["estimate", "--kitti", kitti, "--sequence", "0000", "--ours-input", "tracks", "--profile", "host,edge"]);
     says(&t, "object RPE_t");
-    let dtt = dir.path().join("t.dtt");
+    let recorded = dir.path().join("recorded");
+    let recorded_s = recorded.to_str().expect("utf-8");
+    let args = ["--ours-input", "tracks", "--write-tracks", "--out", recorded_s];
+    ok(&[&["estimate", "--kitti", kitti, "--sequences", "0000"][..], &args].concat());
+    let dtt = recorded.join("0000.dtt");
     let dtt_s = dtt.to_str().expect("utf-8");
-    ok(&["estimate", "--kitti", kitti, "--sequence", "0000", "--ours-input", "tracks", "--write-tracks", dtt_s]);
     let poses = dir.path().join("poses");
     let t = ok(&["estimate", "--tracks", dtt_s, "--out", poses.to_str().expect("utf-8")]);
     assert!(std::fs::read_dir(&poses).expect("pose files written").count() > 0, "{t}");
@@ -115,15 +120,18 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     let t =
         ok(&["simulate", "--kitti", kitti, "--sequence", "0000", "--out", sim_s, "--scale", "0.25", "--frames", "8"]);
     // Off a terminal: a progress line with the elapsed time at the first and the last frame.
-    says(&t, "s] frames rendered 1/8");
-    says(&t, "s] frames rendered 8/8");
+    says(&t, "s] sequence 0000: frames rendered 1/8");
+    says(&t, "s] sequence 0000: frames rendered 8/8");
     let t = ok(&["simulate", "--kitti", kitti, "--sequence", "0000", "--scale", "0.25", "--frames", "8", "--e2e"]);
     says(&t, "RPE");
-    says(&t, "s] frames rendered and tracked 8/8");
-    let tracked = dir.path().join("tracked.dtt");
+    says(&t, "s] sequence 0000: frames rendered and tracked 8/8");
+    let tracked = dir.path().join("tracked");
     let tracked_s = tracked.to_str().expect("utf-8");
-    let t = ok(&["track", "--kitti", sim_s, "--sequence", "0000", "--out", tracked_s]);
-    assert!(dynotraj_host::tracks_file::read(&tracked).is_ok_and(|t| t.frames.len() == 8), "{t}");
+    // Without --sequences: every sequence with images, here the one rendered.
+    let t = ok(&["track", "--kitti", sim_s, "--out", tracked_s, "--counters"]);
+    let dtt = tracked.join("0000.dtt");
+    assert!(dynotraj_host::tracks_file::read(&dtt).is_ok_and(|t| t.frames.len() == 8), "{t}");
+    says(&t, "| static_tracked");
     says(&t, "s] frames tracked done: 8 steps");
     let t = ok(&["track", "--bench", "--frames", "2", "--counters"]);
     says(&t, "stereo");
@@ -144,8 +152,8 @@ fn the_version_completions_manual_and_log_flags_work() {
     let dir = tempfile::tempdir().expect("temp dir");
     let sim = dir.path().join("sim");
     let sim_s = sim.to_str().expect("utf-8");
-    let quiet = ok(&["-q", "simulate", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
+    let quiet = ok(&["-q", "simulate", "--drive", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
     assert!(!quiet.contains("frames rendered"), "{quiet}");
-    let loud = ok(&["simulate", "-v", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
+    let loud = ok(&["simulate", "-v", "--drive", "--out", sim_s, "--scale", "0.25", "--frames", "3"]);
     says(&loud, "frames rendered 3/3");
 }

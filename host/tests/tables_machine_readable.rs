@@ -217,7 +217,7 @@ fn the_dataset_eval_bench_and_estimate_tables_read_as_typed_data() {
     assert_eq!(kinds, BTreeSet::from(["data".to_string(), "sum".to_string()]), "Table I's rows are data or sums");
     assert_eq!(t.cells["row_kind"].len(), 6, "two sources x (two sequences + sum)");
 
-    let eval = ["eval", "--kitti", kitti, "--sequences", "0000,0001", "--source", "gt,estimated"];
+    let eval = ["eval", "--kitti", kitti, "--tests", "0000,0001", "--source", "gt,estimated"];
     let eval = [&eval[..], &["--predictor", "cv,ctra"]].concat();
     let t = check_both("eval", &with(&eval, "csv"), &with(&eval, "json"));
     // Four arms, each two sequences and its weighted average; counts are whole numbers.

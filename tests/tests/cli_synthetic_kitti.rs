@@ -35,17 +35,9 @@ fn dataset_and_eval_on_a_synthetic_drive() {
     assert_eq!(cell(&t, 0, "0001"), "-");
     assert_eq!(cell(&t, 1, "sum"), "38");
 
-    let Command::Eval(args) = cli(&[
-        "eval",
-        "--kitti",
-        root,
-        "--sequences",
-        "0000",
-        "--source",
-        "gt,gt-ekf",
-        "--predictor",
-        "cv,cv-fit,ctra",
-    ]) else {
+    let Command::Eval(args) =
+        cli(&["eval", "--kitti", root, "--tests", "0000", "--source", "gt,gt-ekf", "--predictor", "cv,cv-fit,ctra"])
+    else {
         panic!()
     };
     let t = eval::table(&args).unwrap();

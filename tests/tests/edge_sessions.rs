@@ -100,7 +100,8 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     std::fs::write(&blob, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
     let (mut edge, _lines, addr) = spawn_listening_edge(&["--listen", "tcp://localhost:0", "--sessions", "2"]);
     let to = format!("tcp://{addr}");
-    let (out, report) = (dir.path().join("forecasts.csv"), dir.path().join("frames.csv"));
+    let out_dir = dir.path().join("stream");
+    let (out, report) = (out_dir.join("forecasts.csv"), out_dir.join("frames.csv"));
 
     let refused = dynotraj()
         .args(["stream", "--tracks"])
@@ -108,9 +109,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
         .args(["--frames", "6", "--rate", "0", "--lockstep", "--to", &to, "--model"])
         .arg(&blob)
         .arg("--out")
-        .arg(&out)
-        .arg("--report")
-        .arg(&report)
+        .arg(&out_dir)
         .output()
         .unwrap();
     let (stdout, stderr) = (String::from_utf8_lossy(&refused.stdout), String::from_utf8_lossy(&refused.stderr));
@@ -128,7 +127,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
         .args(["stream", "--tracks"])
         .arg(&dtt)
         .args(["--rate", "5", "--to", &to, "--out"])
-        .arg(&out)
+        .arg(&out_dir)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -15,7 +15,7 @@ fn a_faulty_link_loses_only_damaged_frames_and_memory_stays_flat() {
     let args = SoakArgs {
         tracks: None,
         kitti: Some(dir.path().to_path_buf()),
-        sequence: "0000".into(),
+        sequences: vec!["0000".into()],
         frames: 2000,
         fault_probability: 0.02,
         seed: 7,

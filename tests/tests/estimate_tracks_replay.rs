@@ -20,10 +20,11 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("kitti");
     write_sequence(&root, "0000", &generate(&DriveSpec::default()));
-    let tracks = dir.path().join("0000.dtt");
-    let (root_s, tracks_s) = (root.to_str().unwrap(), tracks.to_str().unwrap());
     let direct_out = dir.path().join("direct");
     let replay_out = dir.path().join("replay");
+    // --write-tracks writes into --out, named as `dynotraj track` names its files.
+    let tracks = direct_out.join("0000.dtt");
+    let (root_s, tracks_s) = (root.to_str().unwrap(), tracks.to_str().unwrap());
 
     // The command itself: writes the tracks file and the direct run's files.
     let direct_args = args(&[
@@ -36,7 +37,6 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
         "--seed",
         "3",
         "--write-tracks",
-        tracks_s,
         "--out",
         direct_out.to_str().unwrap(),
     ]);

@@ -62,7 +62,7 @@ fn fixture_loads_and_the_front_end_tracks_it() {
 fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
     use clap::Parser as _;
     let out = tempfile::tempdir().unwrap();
-    let file = out.path().join("fixture.dtt");
+    let file = out.path().join("0000.dtt");
     let cli = dynotraj_host::cli::Cli::try_parse_from([
         "dynotraj",
         "track",
@@ -71,7 +71,7 @@ fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
         "--sequence",
         "0000",
         "--out",
-        file.to_str().unwrap(),
+        out.path().to_str().unwrap(),
         "--frames",
         "6",
         "--depth",

@@ -20,7 +20,8 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     let root = dir.path().join("kitti");
     write_sequence(&root, "0000", &generate(&DriveSpec::default()));
     write_sequence(&root, "0001", &generate(&DriveSpec { seed: 8, label_noise_m: 0.05, ..DriveSpec::default() }));
-    let out = dir.path().join("model.blob");
+    let model_dir = dir.path().join("model");
+    let out = model_dir.join("model.blob");
     let args = [
         "dynotraj",
         "train",
@@ -31,7 +32,7 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
         "--exclude",
         "0001",
         "--out",
-        out.to_str().unwrap(),
+        model_dir.to_str().unwrap(),
         "--dims",
         "8,8,2,16",
         "--epochs",
@@ -48,9 +49,9 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     let f32_bytes = fs::read(&out).unwrap();
     let blob = ModelBlob::parse(&f32_bytes).unwrap();
     assert_eq!((blob.dims(), blob.precision(), blob.frame_period_s()), (dims, Precision::F32, 0.1));
-    let int8_bytes = fs::read(dir.path().join("model.blob.int8")).unwrap();
+    let int8_bytes = fs::read(model_dir.join("model.blob.int8")).unwrap();
     assert_eq!(ModelBlob::parse(&int8_bytes).unwrap().precision(), Precision::Int8);
-    let (net, _, dt) = load_checkpoint(&dir.path().join("model.blob.safetensors")).unwrap();
+    let (net, _, dt) = load_checkpoint(&model_dir.join("model.blob.safetensors")).unwrap();
     assert_eq!((net.dims, dt), (dims, 0.1));
 
     // The trained model forecasts a straight drive at 10 m/s as something finite and moving.
@@ -68,7 +69,7 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     // (it used to give a table of "-" and exit 0).
     let predictor = format!("model:{}", out.display());
     let eval_at = |rate: &str| {
-        let argv = ["dynotraj", "eval", "--kitti", root.to_str().unwrap(), "--sequences", "0001", "--predictor"];
+        let argv = ["dynotraj", "eval", "--kitti", root.to_str().unwrap(), "--tests", "0001", "--predictor"];
         let argv: Vec<&str> = argv.iter().copied().chain([predictor.as_str(), "--rate", rate]).collect();
         let Command::Eval(a) = Cli::try_parse_from(argv).unwrap().command else { panic!("not the eval command") };
         dynotraj_host::cli::eval::table(&a)

@@ -34,10 +34,10 @@ pub struct BenchArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
-    /// Also write each --dims set's seeded random int8 blob as DIR/random-ENC,EDGE,K,DEC.int8,
+    /// Folder for each --dims set's seeded random int8 blob, `<DIR>/random-ENC,EDGE,K,DEC.int8`,
     /// to link into the firmware (`DYNOTRAJ_FW_MODEL`) and count its instructions per frame.
     #[arg(long, value_name = "DIR")]
-    pub write_blobs: Option<PathBuf>,
+    pub out: Option<PathBuf>,
 }
 
 /// Parses `enc,edge,k,dec`.
@@ -112,7 +112,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
     } else {
         for d in args.dims.split(';') {
             let dims = parse_dims(d)?;
-            if let Some(dir) = &args.write_blobs {
+            if let Some(dir) = &args.out {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
                 let path = dir.join(format!("random-{},{},{},{}.int8", dims.enc, dims.edge, dims.k, dims.dec));
                 std::fs::write(&path, random_blob(&dims, Precision::Int8, dt))

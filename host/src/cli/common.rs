@@ -1,6 +1,6 @@
 //! Options and loading shared by the commands.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
@@ -55,12 +55,41 @@ pub struct DataArgs {
 /// # Errors
 /// A sequence given twice (it would count twice), or a folder that cannot be listed.
 pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
-    let ids: Vec<String> = if given.is_empty() { dir.sequences()? } else { given.to_vec() };
+    distinct_ids(if given.is_empty() { dir.sequences()? } else { given.to_vec() })
+}
+
+/// `ids` when no sequence is in it twice.
+///
+/// # Errors
+/// A sequence given twice (it would count twice), named.
+pub fn distinct_ids(ids: Vec<String>) -> anyhow::Result<Vec<String>> {
     if let Some(twice) = ids.iter().enumerate().find_map(|(i, id)| ids[..i].contains(id).then_some(id)) {
         anyhow::bail!("--sequences: {twice} is given twice (each sequence counts once)");
     }
     Ok(ids)
 }
+
+/// The one sequence of a command that works on one stream: `given` must hold exactly one id.
+///
+/// # Errors
+/// None or several ids, named.
+pub fn one_sequence(given: &[String]) -> anyhow::Result<&str> {
+    match given {
+        [one] => Ok(one),
+        [] => anyhow::bail!("--sequences: expected the id of the sequence to send, e.g. --sequences 0000"),
+        more => anyhow::bail!("--sequences: this command sends one stream; expected one id, found {}", more.join(",")),
+    }
+}
+
+/// The KITTI tracking folder: `given`, else `$DYNOTRAJ_KITTI`. For the commands where the
+/// folder is one of several inputs, so that clap's conflict rules see only what was typed.
+#[must_use]
+pub fn kitti_or_env(given: Option<&Path>) -> Option<PathBuf> {
+    given.map(Path::to_path_buf).or_else(|| std::env::var_os(KITTI_ENV).map(PathBuf::from))
+}
+
+/// The environment variable naming the KITTI tracking folder.
+pub const KITTI_ENV: &str = "DYNOTRAJ_KITTI";
 
 /// Where the estimated source (Ours) takes its feature tracks, where renderings are kept, and
 /// how many sequences are worked on at once: shared by every command that estimates.

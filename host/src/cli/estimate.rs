@@ -16,6 +16,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::{OursArgs, progress, sequence_ids};
+use super::track::tracks_path;
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
@@ -45,7 +46,7 @@ pub struct EstimateArgs {
     )]
     pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
-    #[arg(long = "sequence", visible_alias = "sequences", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
     /// The feature tracks' source (rendered by default, as every command; `tracks`: the
     /// track-level simulator with the noise below), the renderings' cache and the jobs.
@@ -58,10 +59,10 @@ pub struct EstimateArgs {
     /// reproduce a simulated run bit for bit). A tracks file has no truth: no RPE is printed.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["bench", "write_tracks"])]
     pub tracks: Option<PathBuf>,
-    /// Also write the simulated tracks of the (single) sequence as a tracks file (`.dtt`), for
-    /// `--tracks` replay.
-    #[arg(long, value_name = "FILE")]
-    pub write_tracks: Option<PathBuf>,
+    /// Also write each sequence's simulated tracks into --out as a tracks file,
+    /// `<DIR>/<sequence>.dtt` (as `dynotraj track` names them), for `--tracks` replay.
+    #[arg(long, requires = "out")]
+    pub write_tracks: bool,
     /// Folder for pose files (TUM and KITTI, camera and objects) and the per-frame CSV log, one
     /// sub-folder per sequence (with several profiles, per profile and sequence; with
     /// `--tracks`: the folder itself).
@@ -254,18 +255,17 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         }
         return print_tables(args, named);
     }
-    if args.write_tracks.is_some() {
-        anyhow::ensure!(
-            args.sequences.len() == 1,
-            "--write-tracks: give exactly one --sequence (found {})",
-            args.sequences.len()
-        );
-    }
     let results = evaluate(args)?;
-    if let (Some(path), Some(r)) = (&args.write_tracks, results.first()) {
-        write_tracks(path, &camera_info(&r.intrinsics, args.rate), &r.sim)
-            .with_context(|| format!("--write-tracks {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+    if let (true, Some(dir)) = (args.write_tracks, &args.out) {
+        std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
+        // Every profile estimates the same simulated tracks: write them once.
+        let first_profile = results.first().map(|r| r.profile);
+        for r in results.iter().filter(|r| Some(r.profile) == first_profile) {
+            let path = tracks_path(dir, &r.id);
+            write_tracks(&path, &camera_info(&r.intrinsics, args.rate), &r.sim)
+                .with_context(|| format!("--write-tracks {}", path.display()))?;
+            eprintln!("wrote {}", path.display());
+        }
     }
     if args.format == Format::Md {
         for t in tables(&results) {

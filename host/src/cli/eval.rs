@@ -28,9 +28,10 @@ pub struct EvalArgs {
     /// the same --rate).
     #[arg(long, value_delimiter = ',', default_value = "cv", value_name = "LIST")]
     pub predictor: Vec<PredictorSpec>,
-    /// Test sequences, comma-separated (default: the paper's 0000,0003,0005,0018,0020).
+    /// Test sequences, comma-separated (default: the paper's 0000,0003,0005,0018,0020), as
+    /// `experiment --tests`.
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
-    pub sequences: Vec<String>,
+    pub tests: Vec<String>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -52,10 +53,10 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
 pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
     let dt = args.data.dt()?;
-    let ids: Vec<String> = if args.sequences.is_empty() {
+    let ids: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
-        args.sequences.clone()
+        args.tests.clone()
     };
     let seqs = args.data.load_for(&ids, &args.source)?;
 

@@ -31,8 +31,9 @@ pub struct SignArgs {
     /// The model blob to sign (from `dynotraj train`).
     #[arg(long, value_name = "FILE")]
     pub model: PathBuf,
-    /// Where the signed blob goes (default: the model's path with `.signed` appended).
-    #[arg(long, value_name = "FILE")]
+    /// Folder for the signed blob, named as the model with `.signed` appended (default: the
+    /// model's folder).
+    #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
 
@@ -74,11 +75,16 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
     ModelBlob::parse_exact(&blob).map_err(|e| {
         anyhow::anyhow!("model blob {}: {e} (sign the blob `dynotraj train` wrote)", args.model.display())
     })?;
-    let out = args.out.clone().unwrap_or_else(|| {
-        let mut p = args.model.clone().into_os_string();
-        p.push(".signed");
-        PathBuf::from(p)
-    });
+    let name = args.model.file_name().with_context(|| format!("--model {}: not a file", args.model.display()))?;
+    let mut name = name.to_os_string();
+    name.push(".signed");
+    let out = match &args.out {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
+            dir.join(name)
+        }
+        None => args.model.with_file_name(name),
+    };
     let signed = model_signing::sign(&blob, &key);
     std::fs::write(&out, &signed).with_context(|| format!("writing {}", out.display()))?;
     println!(

@@ -12,7 +12,7 @@ use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
-use super::common::progress;
+use super::common::{self, progress};
 use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
 use crate::frontend::StereoParams;
@@ -29,9 +29,10 @@ pub struct SimulateArgs {
     /// Use the built-in synthetic drive even when --kitti / DYNOTRAJ_KITTI is set.
     #[arg(long)]
     pub drive: bool,
-    /// The KITTI sequence to follow (and the sequence name written).
-    #[arg(long, default_value = "0000")]
-    pub sequence: String,
+    /// Sequences to render, comma-separated (default: every sequence in the folder). The
+    /// synthetic drive is one sequence, written as 0000 unless one id is given.
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    pub sequences: Vec<String>,
     /// Output folder (KITTI tracking layout).
     #[arg(long, value_name = "DIR", required_unless_present = "e2e")]
     pub out: Option<PathBuf>,
@@ -60,11 +61,30 @@ pub struct SimulateArgs {
     pub classes: Vec<String>,
 }
 
-/// The simulator for `args`: a KITTI sequence's geometry or the synthetic drive.
+/// The sequences `args` asks for: those of the KITTI folder, or the synthetic drive's one.
+///
+/// # Errors
+/// A folder that cannot be listed, a sequence given twice, several ids for the drive.
+pub fn sequence_ids(args: &SimulateArgs) -> anyhow::Result<Vec<String>> {
+    match (&args.kitti, args.drive) {
+        (Some(dir), false) => common::sequence_ids(&TrackingDir::open(dir)?, &args.sequences),
+        _ => match args.sequences.as_slice() {
+            [] => Ok(vec!["0000".to_string()]),
+            [one] => Ok(vec![one.clone()]),
+            more => anyhow::bail!(
+                "--sequences: the synthetic drive is one sequence; expected at most one id, found {}",
+                more.join(",")
+            ),
+        },
+    }
+}
+
+/// The simulator for sequence `id` of `args`: a KITTI sequence's geometry or the synthetic
+/// drive.
 ///
 /// # Errors
 /// Loading errors, named; a bad scale or class.
-pub fn build(args: &SimulateArgs) -> anyhow::Result<ImageSim> {
+pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
     anyhow::ensure!(
         args.scale.is_finite() && (0.05..=2.0).contains(&args.scale),
         "--scale: expected 0.05..=2, found {}",
@@ -83,8 +103,8 @@ pub fn build(args: &SimulateArgs) -> anyhow::Result<ImageSim> {
                 })
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let data = TrackingDir::open(dir)?
-                .load_sequence(&args.sequence)
-                .with_context(|| format!("loading KITTI tracking sequence {}", args.sequence))?;
+                .load_sequence(id)
+                .with_context(|| format!("loading KITTI tracking sequence {id}"))?;
             let input = sim_input(&data, &classes);
             let n = args.frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
             let boxes: Vec<LabelBox> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
@@ -102,31 +122,39 @@ pub fn build(args: &SimulateArgs) -> anyhow::Result<ImageSim> {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
-    let sim = build(args)?;
-    let n = args.frames.unwrap_or(sim.len()).min(sim.len());
-    if args.e2e {
-        return end_to_end(args, &sim, n);
+    for id in sequence_ids(args)? {
+        let sim = build(args, &id)?;
+        let n = args.frames.unwrap_or(sim.len()).min(sim.len());
+        if args.e2e {
+            end_to_end(args, &id, &sim, n)?;
+            continue;
+        }
+        let out = args.out.as_ref().context("--out: the output folder is needed")?;
+        let bar = Arc::new(progress(n as u64, &format!("sequence {id}: frames rendered")));
+        write_sequence_with(out, &id, &sim, n, Some(&bar.hook()))?;
+        bar.finish_and_clear();
+        eprintln!(
+            "wrote {n} frames of {}x{} of sequence {id} to {}",
+            sim.camera.width,
+            sim.camera.height,
+            out.display()
+        );
     }
-    let out = args.out.as_ref().context("--out: the output folder is needed")?;
-    let bar = Arc::new(progress(n as u64, "frames rendered"));
-    write_sequence_with(out, &args.sequence, &sim, n, Some(&bar.hook()))?;
-    bar.finish_and_clear();
-    eprintln!("wrote {n} frames of {}x{} to {}", sim.camera.width, sim.camera.height, out.display());
     Ok(())
 }
 
 /// `--e2e`: front-end and estimator on the rendered frames, scored against the truth.
-fn end_to_end(args: &SimulateArgs, sim: &ImageSim, n: usize) -> anyhow::Result<()> {
+fn end_to_end(args: &SimulateArgs, id: &str, sim: &ImageSim, n: usize) -> anyhow::Result<()> {
     // Disparities scale with the image: 128 at full resolution reaches 3 m.
     let nd = ((128.0 * args.scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities: nd, downscale: args.stereo_downscale, ..StereoParams::kitti() };
     // The paper's 20 Hz for timestamps; RPE does not depend on it.
-    let bar = Arc::new(progress(n as u64, "frames rendered and tracked"));
+    let bar = Arc::new(progress(n as u64, &format!("sequence {id}: frames rendered and tracked")));
     let r = end_to_end::run_with(sim, n, (0.05, stereo), 0.1, Some(&bar.hook()))?;
     bar.finish_and_clear();
     let s = r.stats;
     println!(
-        "{n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving objects",
+        "sequence {id}, {n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving objects",
         sim.camera.width,
         sim.camera.height,
         100.0 * s.static_survival(),

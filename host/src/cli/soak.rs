@@ -11,23 +11,25 @@ use anyhow::Context as _;
 use clap::Args;
 
 use super::common::progress;
+use super::stream::input_tracks;
 use crate::link::{Endpoint, connect};
 use crate::report::stream_report::soak_summary;
 use crate::soak::{SoakOptions, SoakReport, soak};
-use crate::tracks_file::{self, Tracks};
+use crate::tracks_file::Tracks;
 
 /// Options of `dynotraj soak`.
 #[derive(Debug, Args)]
 pub struct SoakArgs {
     /// A tracks file (.dtt) whose frames are looped.
-    #[arg(long, value_name = "FILE", conflicts_with = "kitti", required_unless_present = "kitti")]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
     pub tracks: Option<PathBuf>,
-    /// A KITTI tracking split folder: the sequence's simulated tracks are looped.
-    #[arg(long, value_name = "DIR", env = "DYNOTRAJ_KITTI")]
+    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's simulated
+    /// tracks are looped.
+    #[arg(long, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
-    /// The KITTI sequence to simulate.
-    #[arg(long, default_value = "0000", value_name = "ID")]
-    pub sequence: String,
+    /// The KITTI sequence to simulate, e.g. 0000 (one: a stream is one sequence).
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    pub sequences: Vec<String>,
     /// Camera frames to send.
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub frames: u64,
@@ -65,14 +67,7 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         "--fault-probability: expected 0..=1, found {}",
         args.fault_probability
     );
-    let base: Tracks = match &args.tracks {
-        Some(p) => tracks_file::read(p)?,
-        None => super::stream::simulated(
-            args.kitti.as_ref().context("--tracks or --kitti is needed")?,
-            &args.sequence,
-            None,
-        )?,
-    };
+    let base: Tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, None)?;
     let edge = match &args.edge {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),

@@ -2,7 +2,7 @@
 //! serial port, paced at the camera rate, and collects its object states, forecasts and
 //! per-frame statistics.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::Context as _;
@@ -11,12 +11,13 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::{Forecaster, Notice, ObjectClass, frame_parts};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
-use super::common::progress;
+use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
 use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
 use crate::report::stream_report::{frames_csv, predictions_csv, summary};
+
 use crate::stream::{StreamOptions, StreamResult, stream};
 use crate::tracks_file::{self, Tracks, TracksFrame};
 
@@ -24,15 +25,16 @@ use crate::tracks_file::{self, Tracks, TracksFrame};
 #[derive(Debug, Args)]
 pub struct StreamArgs {
     /// A tracks file (.dtt) to send, as `dynotraj track` writes it.
-    #[arg(long, value_name = "FILE", conflicts_with = "kitti", required_unless_present = "kitti")]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
     pub tracks: Option<PathBuf>,
-    /// A KITTI tracking split folder: the sequence's labels and ego poses drive the track-level
-    /// simulator (as `dynotraj estimate` does) and its tracks are sent.
-    #[arg(long, value_name = "DIR", requires = "sequence")]
+    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's labels and ego
+    /// poses drive the track-level simulator (as `dynotraj estimate` does) and its tracks are
+    /// sent.
+    #[arg(long, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
-    /// The KITTI sequence to simulate, e.g. 0000.
-    #[arg(long, value_name = "ID")]
-    pub sequence: Option<String>,
+    /// The KITTI sequence to simulate and send, e.g. 0000 (one: a stream is one sequence).
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    pub sequences: Vec<String>,
     /// Only the first N frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
@@ -49,15 +51,11 @@ pub struct StreamArgs {
     /// refuses, and counts, one not signed by the key it was built with.
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
-    /// Write the forecasts as CSV: frame, object_id, step, x, y (world bird's-eye, metres).
-    #[arg(long, value_name = "FILE")]
+    /// Folder for what came back: `forecasts.csv` (frame, object_id, step, x, y: world
+    /// bird's-eye, metres), `frames.csv` (per-frame latency, compute and losses) and
+    /// `replies.bin` (the edge's replies as received, wire frames).
+    #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Write the edge's replies as received (wire frames).
-    #[arg(long, value_name = "FILE")]
-    pub raw: Option<PathBuf>,
-    /// Write per-frame latency, compute and losses as CSV.
-    #[arg(long, value_name = "FILE")]
-    pub report: Option<PathBuf>,
     /// Seconds to wait for the edge: to connect, per answer in lockstep, for its goodbye.
     #[arg(long, value_parser = crate::cli::numbers::seconds, default_value_t = 30.0, value_name = "S")]
     pub timeout: f64,
@@ -94,14 +92,8 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let (rx, tx) = connect(&args.to, timeout)?;
     let result = stream(&tracks, rx, tx, &opt);
     bar.finish_and_clear();
-    if let Some(p) = &args.out {
-        std::fs::write(p, predictions_csv(&result)).with_context(|| format!("--out {}", p.display()))?;
-    }
-    if let Some(p) = &args.raw {
-        std::fs::write(p, &result.raw).with_context(|| format!("--raw {}", p.display()))?;
-    }
-    if let Some(p) = &args.report {
-        std::fs::write(p, frames_csv(&result)).with_context(|| format!("--report {}", p.display()))?;
+    if let Some(dir) = &args.out {
+        write_outputs(dir, &result)?;
     }
     print!("{}", summary(&result, &args.to));
     anyhow::ensure!(!result.busy(), "edge {to}: {}; try again when its session ends", Notice::Busy, to = args.to);
@@ -163,26 +155,65 @@ fn unanswered(result: &StreamResult, to: &Endpoint, lockstep: bool, timeout_s: f
     Ok(())
 }
 
+/// Names of the files `--out` holds.
+pub const FORECASTS_CSV: &str = "forecasts.csv";
+/// Per-frame latency, compute and losses.
+pub const FRAMES_CSV: &str = "frames.csv";
+/// The edge's replies as received.
+pub const REPLIES_BIN: &str = "replies.bin";
+
+/// Writes what came back into the folder `dir`: forecasts and per-frame CSVs, raw replies.
+///
+/// # Errors
+/// A file that cannot be written, named.
+fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
+    let files: [(&str, Vec<u8>); 3] = [
+        (FORECASTS_CSV, predictions_csv(result).into_bytes()),
+        (FRAMES_CSV, frames_csv(result).into_bytes()),
+        (REPLIES_BIN, result.raw.clone()),
+    ];
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).with_context(|| format!("--out: writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
 /// The tracks to send.
 pub(crate) fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
-    let mut tracks = if let Some(path) = &args.tracks {
-        tracks_file::read(path)?
-    } else {
-        let dir = args.kitti.as_ref().context("--tracks or --kitti is needed")?;
-        let id = args.sequence.as_deref().context("--sequence is needed with --kitti")?;
-        simulated(dir, id, args.frames)?
-    };
+    let mut tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, args.frames)?;
     if let Some(n) = args.frames {
         tracks.frames.truncate(n);
     }
     Ok(tracks)
 }
 
+/// The stream a one-stream command (stream, soak) sends: the tracks file when one is given,
+/// else the track-level simulator's stream of the one sequence of the KITTI folder (`kitti`,
+/// else `$DYNOTRAJ_KITTI`; simulated up to `frames`).
+///
+/// # Errors
+/// No input, not exactly one sequence, or loading errors, named.
+pub fn input_tracks(
+    tracks: Option<&Path>,
+    kitti: Option<&Path>,
+    sequences: &[String],
+    frames: Option<usize>,
+) -> anyhow::Result<Tracks> {
+    if let Some(path) = tracks {
+        return Ok(tracks_file::read(path)?);
+    }
+    let dir = kitti_or_env(kitti)
+        .with_context(|| format!("--tracks FILE, or a KITTI folder (--kitti DIR or ${KITTI_ENV}), is needed"))?;
+    simulated(&dir, one_sequence(sequences)?, frames)
+}
+
 /// The track-level simulator's stream for a KITTI sequence at the paper's 20 Hz.
 ///
 /// # Errors
 /// Loading errors, named.
-pub fn simulated(dir: &std::path::Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
+pub fn simulated(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
     let data =
         TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
     let classes = [

@@ -24,13 +24,14 @@ use crate::tracks_file::TracksWriter;
 pub struct TrackArgs {
     /// A folder in the KITTI tracking layout (image_02/, image_03/, calib/, label_02/; see
     /// `dynotraj simulate` for the optional depth_02/ and instance_02/).
-    #[arg(long, value_name = "DIR", required_unless_present_any = ["bench", "check"])]
+    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["bench", "check"])]
     pub kitti: Option<PathBuf>,
-    /// The sequence.
-    #[arg(long, default_value = "0000")]
-    pub sequence: String,
-    /// The tracks file to write (.dtt).
-    #[arg(long, value_name = "FILE", required_unless_present_any = ["bench", "check"])]
+    /// Sequences to track, comma-separated (default: every sequence with images in
+    /// image_02/).
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    pub sequences: Vec<String>,
+    /// Folder for the tracks files, one per sequence: `<DIR>/<sequence>.dtt`.
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["bench", "check"])]
     pub out: Option<PathBuf>,
     /// Depth from stereo matching or from the given depth maps (depth_02/).
     #[arg(long, value_enum, default_value_t = DepthMode::Stereo)]
@@ -86,13 +87,43 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let (Some(dir), Some(out)) = (&args.kitti, &args.out) else { anyhow::bail!("--kitti and --out are needed") };
-    let (times, stats, frames) = track_sequence(dir, &args.sequence, out, args, stereo)?;
-    eprintln!("wrote {frames} frames to {}", out.display());
-    print_times(&times, &stereo);
-    if args.counters {
-        println!("{stats:#?}");
+    std::fs::create_dir_all(out).with_context(|| format!("creating the output folder {}", out.display()))?;
+    for id in image_sequences(dir, &args.sequences)? {
+        let file = tracks_path(out, &id);
+        let (times, stats, frames) = track_sequence(dir, &id, &file, args, stereo)?;
+        eprintln!("wrote {frames} frames of sequence {id} to {}", file.display());
+        print_times(&times, &stereo);
+        if args.counters {
+            println!("{}", counters_table(&stats).render(Format::Md));
+        }
     }
     Ok(())
+}
+
+/// The tracks file of sequence `id` in the output folder `out`.
+#[must_use]
+pub fn tracks_path(out: &Path, id: &str) -> PathBuf {
+    out.join(format!("{id}.dtt"))
+}
+
+/// `given`, or every sequence with a folder of left images in `dir`/image_02/, in order.
+///
+/// # Errors
+/// A sequence given twice, or no image_02/ folder to list.
+fn image_sequences(dir: &Path, given: &[String]) -> anyhow::Result<Vec<String>> {
+    if !given.is_empty() {
+        return super::common::distinct_ids(given.to_vec());
+    }
+    let images = dir.join("image_02");
+    let mut ids: Vec<String> = std::fs::read_dir(&images)
+        .with_context(|| format!("listing {} (expected one folder of PNGs per sequence)", images.display()))?
+        .filter_map(Result::ok)
+        .filter(|e| e.path().is_dir())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .collect();
+    ids.sort();
+    anyhow::ensure!(!ids.is_empty(), "{}: no sequence folders", images.display());
+    Ok(ids)
 }
 
 /// Tracks sequence `seq` of `dir` into the tracks file `out`.

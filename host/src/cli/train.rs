@@ -12,8 +12,8 @@ use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs, progress};
 use crate::train::loss::LossConfig;
 use crate::train::{
-    DEFAULT_MIRROR, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper, TrainConfig,
-    train_fold_with,
+    DEFAULT_MIRROR, DEFAULT_SHRINK, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper,
+    TrainConfig, train_fold_with,
 };
 use crate::trajectory::Source;
 
@@ -34,6 +34,9 @@ impl From<PrecisionArg> for Precision {
         }
     }
 }
+
+/// The model blob's name in `train --out`'s folder.
+pub const MODEL_FILE: &str = "model.blob";
 
 /// Options of `dynotraj train`.
 #[derive(Debug, Args)]
@@ -56,11 +59,12 @@ pub struct TrainArgs {
     pub exclude: Vec<String>,
     /// Sequences to load, comma-separated (default: every sequence in the folder); the
     /// excluded ones are then dropped.
-    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
     pub sequences: Vec<String>,
-    /// Output model blob. Also written: PATH.int8 (the int8 blob) and PATH.safetensors (the
-    /// checkpoint: every parameter, training-only ones too, and the f32 blob).
-    #[arg(long, value_name = "PATH")]
+    /// Folder for the model: `model.blob` (at --precision), `model.blob.int8` (the int8 blob)
+    /// and `model.blob.safetensors` (the checkpoint: every parameter, training-only ones too,
+    /// and the f32 blob).
+    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Network widths: history encoder, edge encoder, latent modes, decoder.
     #[arg(long, default_value = DEFAULT_DIMS, value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
@@ -68,7 +72,7 @@ pub struct TrainArgs {
     /// Optimisation and loss settings.
     #[command(flatten)]
     pub hyper: HyperArgs,
-    /// Precision of the blob written to PATH (PATH.int8 is always int8).
+    /// Precision of `model.blob` (`model.blob.int8` is always int8).
     #[arg(long, value_enum, default_value_t = PrecisionArg::F32)]
     pub precision: PrecisionArg,
 }
@@ -132,9 +136,9 @@ pub struct HyperArgs {
         value_name = "W",
     )]
     pub ade_weight: f32,
-    /// After training, scale the mean-control outputs by the factor (0.25, 0.5, 0.75 or 1)
-    /// with the best validation ADE: true or false.
-    #[arg(long, default_value_t = Hyper::default().shrink, value_name = "BOOL", action = clap::ArgAction::Set)]
+    /// Keep the trained mean-control outputs as they are. By default they are scaled, after
+    /// training, by the factor (0.25, 0.5, 0.75 or 1) with the best validation ADE.
+    #[arg(long = "no-shrink", action = clap::ArgAction::SetFalse)]
     pub shrink: bool,
     /// Decay per step of the moving average of the weights that is validated and kept (0: the
     /// last step's weights).
@@ -157,14 +161,18 @@ pub struct HyperArgs {
         value_name = "SHARE",
     )]
     pub val_fraction: f32,
-    /// Hold out whole training sequences (at least --val-fraction of the instances) for
-    /// validation instead of runs of every sequence: true or false.
-    #[arg(long, default_value_t = DEFAULT_VALIDATE_ON_SEQUENCES, value_name = "BOOL", action = clap::ArgAction::Set)]
+    /// Validate on runs of every training sequence. By default whole training sequences (at
+    /// least --val-fraction of the instances) are held out for validation.
+    #[arg(long = "no-val-sequences", action = clap::ArgAction::SetFalse)]
     pub val_sequences: bool,
-    /// Also train on every training instance reflected left-right: true or false.
-    #[arg(long, default_value_t = DEFAULT_MIRROR, value_name = "BOOL", action = clap::ArgAction::Set)]
+    /// Train on the instances as recorded only. By default every training instance is also
+    /// trained reflected left-right.
+    #[arg(long = "no-mirror", action = clap::ArgAction::SetFalse)]
     pub mirror: bool,
 }
+
+// The three switches above turn a default off; they would mean nothing if a default were off.
+const _: () = assert!(DEFAULT_SHRINK && DEFAULT_VALIDATE_ON_SEQUENCES && DEFAULT_MIRROR);
 
 impl HyperArgs {
     /// The settings, checked.
@@ -275,7 +283,8 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         }
     })?;
     bar.finish_and_clear();
-    let files = model.save(&args.out)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("--out: creating {}", args.out.display()))?;
+    let files = model.save(&args.out.join(MODEL_FILE))?;
     if args.precision != PrecisionArg::F32 {
         let path = &files.f32_blob;
         std::fs::write(path, model.blob(args.precision.into())?)

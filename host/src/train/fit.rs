@@ -67,6 +67,9 @@ pub struct Hyper {
 /// gain: docs/decisions.md).
 pub const DEFAULT_EMA_DECAY: f64 = 0.0;
 
+/// Whether training shrinks the mean-control outputs towards constant velocity by default.
+pub const DEFAULT_SHRINK: bool = true;
+
 /// [`Hyper::restarts`] by default.
 pub const DEFAULT_RESTARTS: usize = 1;
 
@@ -90,7 +93,7 @@ impl Default for Hyper {
             keep_untrained_if_better: true,
             ema_decay: DEFAULT_EMA_DECAY,
             restarts: DEFAULT_RESTARTS,
-            shrink: true,
+            shrink: DEFAULT_SHRINK,
         }
     }
 }

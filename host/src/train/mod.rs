@@ -45,7 +45,7 @@ use dynotraj_core::model::blob::Precision;
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source};
 pub use dataset::{Sample, Split, sample_at, sequence_samples, split_by_run, split_by_sequence};
-pub use fit::{EpochReport, Event, Hyper};
+pub use fit::{DEFAULT_SHRINK, EpochReport, Event, Hyper};
 pub use model::Network;
 
 /// Default share of a fold's training runs held out for early stopping and model selection
