@@ -16,7 +16,7 @@ use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
-use crate::report::stream_report::{frames_csv, predictions_csv, summary};
+use crate::report::stream_report::{frames_data, predictions_data, summary};
 use crate::stream::{StreamOptions, StreamResult, stream};
 use crate::tracks_file::{self, Tracks, TracksFrame};
 
@@ -49,13 +49,15 @@ pub struct StreamArgs {
     /// refuses, and counts, one not signed by the key it was built with.
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
-    /// Write the forecasts as CSV: frame, object_id, step, x, y (world bird's-eye, metres).
+    /// Write the forecasts, one row per point: frame, object_id, step, x, y (world bird's-eye,
+    /// metres); as JSON when FILE ends in .json, else CSV.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
     /// Write the edge's replies as received (wire frames).
     #[arg(long, value_name = "FILE")]
     pub raw: Option<PathBuf>,
-    /// Write per-frame latency, compute and losses as CSV.
+    /// Write per-frame latency, compute and losses, one row per frame; as JSON when FILE ends
+    /// in .json, else CSV.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
     /// Seconds to wait for the edge: to connect, per answer in lockstep, for its goodbye.
@@ -95,13 +97,13 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let result = stream(&tracks, rx, tx, &opt);
     bar.finish_and_clear();
     if let Some(p) = &args.out {
-        std::fs::write(p, predictions_csv(&result)).with_context(|| format!("--out {}", p.display()))?;
+        std::fs::write(p, predictions_data(&result).file_text(p)).with_context(|| format!("--out {}", p.display()))?;
     }
     if let Some(p) = &args.raw {
         std::fs::write(p, &result.raw).with_context(|| format!("--raw {}", p.display()))?;
     }
     if let Some(p) = &args.report {
-        std::fs::write(p, frames_csv(&result)).with_context(|| format!("--report {}", p.display()))?;
+        std::fs::write(p, frames_data(&result).file_text(p)).with_context(|| format!("--report {}", p.display()))?;
     }
     print!("{}", summary(&result, &args.to));
     anyhow::ensure!(!result.busy(), "edge {to}: {}; try again when its session ends", Notice::Busy, to = args.to);

@@ -2,7 +2,11 @@
 //! rendered as CSV or JSON. Numbers carry the decimals their Markdown cell shows, so the three
 //! formats print the same figures.
 
+use std::path::Path;
+
 use serde_json::{Map, Number, Value};
+
+use super::table::json_text;
 
 /// What a column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,6 +53,14 @@ impl Cell {
     #[must_use]
     pub fn opt(v: Option<f64>, digits: usize) -> Self {
         v.map_or(Self::Missing, |v| Self::num(v, digits))
+    }
+
+    /// A single-precision number in its shortest exact form (the digits `f32` prints, not
+    /// those of its `f64` widening); missing when not finite.
+    #[must_use]
+    pub fn real32(v: f32) -> Self {
+        // The shortest decimal of the f32 read as an f64 prints as the same decimal.
+        if v.is_finite() { v.to_string().parse().map_or(Self::Missing, Self::Real) } else { Self::Missing }
     }
 
     /// Text.
@@ -193,6 +205,13 @@ impl Data {
         out
     }
 
+    /// The text of a file at `path` holding the table: JSON (pretty, as `--format json` prints
+    /// it) when the name ends in `.json`, else CSV.
+    #[must_use]
+    pub fn file_text(&self, path: &Path) -> String {
+        if is_json_path(path) { json_text(&self.json()) } else { self.csv() }
+    }
+
     /// An array of objects, one per row, keyed by column name.
     #[must_use]
     pub fn json(&self) -> Value {
@@ -207,6 +226,13 @@ impl Data {
             .collect();
         Value::Array(rows)
     }
+}
+
+/// Whether a table written to `path` is written as JSON (the file name ends in `.json`, in
+/// any case) rather than CSV.
+#[must_use]
+pub fn is_json_path(path: &Path) -> bool {
+    path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
 
 /// `label` as a column name: lower case, runs of anything but letters and digits as one `_`.
@@ -240,6 +266,8 @@ mod tests {
         );
         assert_eq!(Cell::num(f64::NAN, 2), Cell::Missing);
         assert_eq!(Cell::num(0.5, 3).md(), "0.500");
+        assert_eq!(Cell::real32(1.1).md(), "1.1");
+        assert_eq!(Cell::real32(f32::NAN), Cell::Missing);
     }
 
     #[test]
@@ -247,6 +275,15 @@ mod tests {
     fn a_cell_of_the_wrong_kind_is_refused() {
         let mut d = Data::new([("n", ColumnKind::Int)]);
         d.push(vec![Cell::text("x")]);
+    }
+
+    #[test]
+    fn a_file_named_json_gets_json_and_any_other_csv() {
+        let mut d = Data::new([("n", ColumnKind::Int)]);
+        d.push(vec![Cell::int(3)]);
+        assert_eq!(d.file_text(Path::new("a/frames.csv")), "n\n3\n");
+        assert_eq!(d.file_text(Path::new("frames")), "n\n3\n");
+        assert_eq!(d.file_text(Path::new("frames.JSON")), "[\n  {\n    \"n\": 3\n  }\n]\n");
     }
 
     #[test]
