@@ -3,6 +3,8 @@
 //! no header is empty or repeated, and every column that holds numbers (declared so by its JSON
 //! twin, or known to) parses as a number in every row; JSON is an array of flat objects with
 //! the same keys, a column never mixing numbers and text. Runs on a small synthetic KITTI layout.
+//! The tables of `dynotraj stream`, which needs an edge, are read in
+//! tests/tests/stream_csv_machine_readable.rs.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;

@@ -163,6 +163,33 @@ pub fn edge_binary() -> PathBuf {
     path
 }
 
+/// The `dynotraj` command beside the test binaries (`cargo test --workspace` builds it), on
+/// one rayon thread as the scripts run it.
+///
+/// # Panics
+/// When the binary is missing.
+#[must_use]
+pub fn dynotraj_command() -> std::process::Command {
+    let exe = std::env::current_exe().unwrap();
+    let path = exe.parent().unwrap().parent().unwrap().join("dynotraj");
+    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-host`", path.display());
+    let mut cmd = std::process::Command::new(path);
+    cmd.env("RAYON_NUM_THREADS", "1");
+    cmd
+}
+
+/// Writes `tracks` as a tracks file (.dtt) at `path`, as `dynotraj track` would.
+///
+/// # Panics
+/// On a write error.
+pub fn write_tracks_file(tracks: &Tracks, path: &std::path::Path) {
+    let mut w = dynotraj_host::tracks_file::TracksWriter::create(path, &tracks.camera).unwrap();
+    for f in &tracks.frames {
+        w.write_frame(f.frame, f.timestamp_us, &f.tracks().copied().collect::<Vec<_>>()).unwrap();
+    }
+    w.finish().unwrap();
+}
+
 /// The host build of the edge started with `args` (a `--listen` among them), its stderr piped:
 /// the child, the rest of its stderr lines, and the address it listens on (`HOST:PORT`, from
 /// its first line).

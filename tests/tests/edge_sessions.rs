@@ -15,9 +15,10 @@ use dynotraj_edge::{NoClock, Session};
 use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
-use dynotraj_host::tracks_file::{Tracks, TracksWriter};
+use dynotraj_host::tracks_file::Tracks;
 use dynotraj_tests::edge_fixture::{
-    MemLink, encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
+    MemLink, dynotraj_command, encode_all, host_messages, outputs, reference_replies, scene_tracks,
+    spawn_listening_edge, write_tracks_file,
 };
 
 fn lockstep(tracks: &Tracks, addr: &str) -> StreamResult {
@@ -76,26 +77,12 @@ fn the_edge_serves_sessions_in_a_row_survives_an_idle_client_and_stops_on_sigter
     assert_eq!(rest.iter().filter(|l| l.contains("ended by the host's goodbye")).count(), 3, "{rest:#?}");
 }
 
-/// The `dynotraj` command beside the test binaries (`cargo test --workspace` builds it).
-fn dynotraj() -> Command {
-    let exe = std::env::current_exe().unwrap();
-    let path = exe.parent().unwrap().parent().unwrap().join("dynotraj");
-    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-host`", path.display());
-    let mut cmd = Command::new(path);
-    cmd.env("RAYON_NUM_THREADS", "1");
-    cmd
-}
-
 #[test]
 fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_an_interrupted_stream_got() {
     let dir = tempfile::tempdir().unwrap();
     let tracks = scene_tracks(30);
     let dtt = dir.path().join("scene.dtt");
-    let mut w = TracksWriter::create(&dtt, &tracks.camera).unwrap();
-    for f in &tracks.frames {
-        w.write_frame(f.frame, f.timestamp_us, &f.tracks().copied().collect::<Vec<_>>()).unwrap();
-    }
-    w.finish().unwrap();
+    write_tracks_file(&tracks, &dtt);
     let blob = dir.path().join("unsigned.blob");
     std::fs::write(&blob, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
     let (mut edge, _lines, addr) = spawn_listening_edge(&["--listen", "tcp://localhost:0", "--sessions", "2"]);
@@ -103,7 +90,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     let out_dir = dir.path().join("stream");
     let (out, report) = (out_dir.join("forecasts.csv"), out_dir.join("frames.csv"));
 
-    let refused = dynotraj()
+    let refused = dynotraj_command()
         .args(["stream", "--tracks"])
         .arg(&dtt)
         .args(["--frames", "6", "--rate", "0", "--lockstep", "--to", &to, "--model"])
@@ -123,7 +110,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
 
     // Interrupted at 5 frames a second: what arrived is written, and the exit says so.
     std::fs::remove_file(&out).unwrap();
-    let slow = dynotraj()
+    let slow = dynotraj_command()
         .args(["stream", "--tracks"])
         .arg(&dtt)
         .args(["--rate", "5", "--to", &to, "--out"])

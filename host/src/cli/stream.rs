@@ -16,8 +16,8 @@ use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
-use crate::report::stream_report::{frames_csv, predictions_csv, summary};
-
+use crate::report::json_text;
+use crate::report::stream_report::{frames_data, predictions_data, summary};
 use crate::stream::{StreamOptions, StreamResult, stream};
 use crate::tracks_file::{self, Tracks, TracksFrame};
 
@@ -155,24 +155,25 @@ fn unanswered(result: &StreamResult, to: &Endpoint, lockstep: bool, timeout_s: f
     Ok(())
 }
 
-/// Names of the files `--out` holds.
-pub const FORECASTS_CSV: &str = "forecasts.csv";
-/// Per-frame latency, compute and losses.
-pub const FRAMES_CSV: &str = "frames.csv";
+/// The forecasts' file stem in `--out` (`.csv` and `.json`).
+pub const FORECASTS: &str = "forecasts";
+/// Per-frame latency, compute and losses (`.csv` and `.json`).
+pub const FRAMES: &str = "frames";
 /// The edge's replies as received.
 pub const REPLIES_BIN: &str = "replies.bin";
 
-/// Writes what came back into the folder `dir`: forecasts and per-frame CSVs, raw replies.
+/// Writes what came back into the folder `dir`: the forecasts and per-frame tables as CSV and
+/// JSON, the raw replies.
 ///
 /// # Errors
 /// A file that cannot be written, named.
 fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
-    let files: [(&str, Vec<u8>); 3] = [
-        (FORECASTS_CSV, predictions_csv(result).into_bytes()),
-        (FRAMES_CSV, frames_csv(result).into_bytes()),
-        (REPLIES_BIN, result.raw.clone()),
-    ];
+    let mut files = vec![(REPLIES_BIN.to_string(), result.raw.clone())];
+    for (stem, data) in [(FORECASTS, predictions_data(result)), (FRAMES, frames_data(result))] {
+        files.push((format!("{stem}.csv"), data.csv().into_bytes()));
+        files.push((format!("{stem}.json"), json_text(&data.json()).into_bytes()));
+    }
     for (name, bytes) in files {
         let path = dir.join(name);
         std::fs::write(&path, bytes).with_context(|| format!("--out: writing {}", path.display()))?;

@@ -51,6 +51,14 @@ impl Cell {
         v.map_or(Self::Missing, |v| Self::num(v, digits))
     }
 
+    /// A single-precision number in its shortest exact form (the digits `f32` prints, not
+    /// those of its `f64` widening); missing when not finite.
+    #[must_use]
+    pub fn real32(v: f32) -> Self {
+        // The shortest decimal of the f32 read as an f64 prints as the same decimal.
+        if v.is_finite() { v.to_string().parse().map_or(Self::Missing, Self::Real) } else { Self::Missing }
+    }
+
     /// Text.
     #[must_use]
     pub fn text(s: impl Into<String>) -> Self {
@@ -240,6 +248,8 @@ mod tests {
         );
         assert_eq!(Cell::num(f64::NAN, 2), Cell::Missing);
         assert_eq!(Cell::num(0.5, 3).md(), "0.500");
+        assert_eq!(Cell::real32(1.1).md(), "1.1");
+        assert_eq!(Cell::real32(f32::NAN), Cell::Missing);
     }
 
     #[test]

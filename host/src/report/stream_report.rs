@@ -1,61 +1,89 @@
-//! What `dynotraj stream` and `dynotraj soak` write: the forecasts and per-frame figures as
-//! CSV, and the closing summaries.
+//! What `dynotraj stream` and `dynotraj soak` report: the forecasts and per-frame figures as
+//! typed tables (written as CSV or JSON), and the closing summaries.
 
 use std::fmt::Write as _;
 
 use dynotraj_core::wire::{ComputeUnit, Forecaster, Message};
 
+use super::data::{Cell, ColumnKind, Data};
 use crate::link::Endpoint;
 use crate::soak::SoakReport;
 use crate::stream::StreamResult;
 
-/// The forecasts as CSV.
+/// The forecasts, one row per forecast point: `frame`, `object_id`, `step` (1 = the next
+/// frame), `x`, `y` (world bird's-eye, metres).
 #[must_use]
-pub fn predictions_csv(result: &StreamResult) -> String {
-    let mut s = String::from("frame,object_id,step,x,y\n");
+pub fn predictions_data(result: &StreamResult) -> Data {
+    let mut d = Data::new([
+        ("frame", ColumnKind::Int),
+        ("object_id", ColumnKind::Int),
+        ("step", ColumnKind::Int),
+        ("x", ColumnKind::Num),
+        ("y", ColumnKind::Num),
+    ]);
     for msg in &result.replies {
         if let Message::Prediction(p) = msg {
             for (k, q) in p.points.iter().enumerate() {
-                let _ = writeln!(s, "{},{},{},{},{}", p.frame, p.object_id, k + 1, q.x, q.y);
+                d.push(vec![
+                    Cell::int(p.frame),
+                    Cell::int(p.object_id),
+                    Cell::int(k + 1),
+                    Cell::real32(q.x),
+                    Cell::real32(q.y),
+                ]);
             }
         }
     }
-    s
+    d
 }
 
-/// Per-frame latency, compute and losses as CSV.
+/// One row per frame sent: when it was sent, its latency, what forecast it and the edge's
+/// statistics of it (compute in `unit`, counts, the edge's loss counters so far). A frame the
+/// edge did not answer has only `frame` and `sent_ms`.
 #[must_use]
-pub fn frames_csv(result: &StreamResult) -> String {
-    let mut s = String::from(
-        "frame,sent_ms,latency_ms,forecaster,compute,unit,objects,predictions,frames_lost,objects_dropped,tracks_dropped,bytes_dropped\n",
-    );
+pub fn frames_data(result: &StreamResult) -> Data {
+    let mut d = Data::new([
+        ("frame", ColumnKind::Int),
+        ("sent_ms", ColumnKind::Num),
+        ("latency_ms", ColumnKind::Num),
+        ("forecaster", ColumnKind::Text),
+        ("compute", ColumnKind::Int),
+        ("unit", ColumnKind::Text),
+        ("objects", ColumnKind::Int),
+        ("predictions", ColumnKind::Int),
+        ("frames_lost", ColumnKind::Int),
+        ("objects_dropped", ColumnKind::Int),
+        ("tracks_dropped", ColumnKind::Int),
+        ("bytes_dropped", ColumnKind::Int),
+    ]);
     for f in &result.frames {
-        let lat = f.latency().map_or(String::new(), |l| format!("{:.3}", l.as_secs_f64() * 1e3));
         let by = match f.forecaster {
-            Some(Forecaster::Model { .. }) => "model",
-            Some(Forecaster::ConstantVelocity) => "constant_velocity",
-            None => "",
+            Some(Forecaster::Model { .. }) => Cell::text("model"),
+            Some(Forecaster::ConstantVelocity) => Cell::text("constant_velocity"),
+            None => Cell::Missing,
         };
-        let _ = write!(s, "{},{:.3},{lat},{by},", f.frame, f.sent.as_secs_f64() * 1e3);
+        let mut row = vec![
+            Cell::int(f.frame),
+            Cell::num(f.sent.as_secs_f64() * 1e3, 3),
+            Cell::opt(f.latency().map(|l| l.as_secs_f64() * 1e3), 3),
+            by,
+        ];
         match &f.stats {
-            Some(st) => {
-                let _ = writeln!(
-                    s,
-                    "{},{},{},{},{},{},{},{}",
-                    st.compute,
-                    unit_name(st.unit),
-                    st.objects,
-                    st.predictions,
-                    st.frames_lost,
-                    st.objects_dropped,
-                    st.tracks_dropped,
-                    st.bytes_dropped
-                );
-            }
-            None => s.push_str(",,,,,,,\n"),
+            Some(st) => row.extend([
+                Cell::int(st.compute),
+                Cell::text(unit_name(st.unit)),
+                Cell::int(st.objects),
+                Cell::int(st.predictions),
+                Cell::int(st.frames_lost),
+                Cell::int(st.objects_dropped),
+                Cell::int(st.tracks_dropped),
+                Cell::int(st.bytes_dropped),
+            ]),
+            None => row.resize(d.columns.len(), Cell::Missing),
         }
+        d.push(row);
     }
-    s
+    d
 }
 
 const fn unit_name(u: ComputeUnit) -> &'static str {
