@@ -214,3 +214,51 @@ fn the_readers_refuse_a_ragged_row_a_word_for_a_number_and_another_header() {
     let word = catch_unwind(|| read_csv("frames", "frame,forecaster\n0,cv\n", &[FRAMES[0], FRAMES[3]]));
     assert!(word.is_err(), "an unknown forecaster is refused");
 }
+
+/// `soak.csv`, as `soak --out`'s help and the README document it.
+const SOAK: [(&str, Kind); 18] = [
+    ("seconds", Kind::Num),
+    ("frames_sent", Kind::Count),
+    ("wire_frames_sent", Kind::Count),
+    ("bytes_flipped", Kind::Count),
+    ("tails_dropped", Kind::Count),
+    ("frames_duplicated", Kind::Count),
+    ("damaged_frames", Kind::Count),
+    ("answered", Kind::Count),
+    ("clean_unanswered", Kind::Count),
+    ("edge_frames_lost", Kind::Count),
+    ("edge_wire_frames_ok", Kind::Count),
+    ("edge_wire_frames_rejected", Kind::Count),
+    ("edge_bytes_discarded", Kind::Count),
+    ("host_wire_frames_rejected", Kind::Count),
+    ("host_bytes_discarded", Kind::Count),
+    ("edge_rss_start_kib", Kind::Count),
+    ("edge_rss_end_kib", Kind::Count),
+    ("edge_rss_peak_kib", Kind::Count),
+];
+
+#[test]
+fn the_soak_table_reads_as_one_typed_row_in_csv_and_json() {
+    const FRAMES_SENT: u64 = 40;
+    let dir = tempfile::tempdir().unwrap();
+    let dtt = dir.path().join("scene.dtt");
+    write_tracks_file(&scene_tracks(8), &dtt);
+    let out = dir.path().join("soak");
+    let run = dynotraj_command()
+        .args(["soak", "--tracks"])
+        .arg(&dtt)
+        .args(["--frames", &FRAMES_SENT.to_string(), "--fault-probability", "0.2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&run.stdout), String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success(), "dynotraj soak exited {}:\n{stdout}{stderr}", run.status);
+    let text = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+    let rows = read_csv("soak.csv", &text("soak.csv"), &SOAK);
+    let [row] = rows.as_slice() else { panic!("soak.csv has one row, not {}", rows.len()) };
+    assert_eq!(count(row, &SOAK, "frames_sent"), FRAMES_SENT);
+    assert_eq!(count(row, &SOAK, "clean_unanswered"), 0, "{row:?}");
+    assert!(count(row, &SOAK, "damaged_frames") > 0, "a fifth of the wire frames are damaged: {row:?}");
+    let json = read_json("soak.json", &text("soak.json"), &SOAK);
+    assert_eq!(json, normalised(&rows, &SOAK), "soak.json against soak.csv");
+}

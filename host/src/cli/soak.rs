@@ -13,7 +13,8 @@ use clap::Args;
 use super::common::progress;
 use super::stream::input_tracks;
 use crate::link::{Endpoint, connect};
-use crate::report::stream_report::soak_summary;
+use crate::report::stream_report::{soak_data, soak_summary};
+use crate::report::write_table_files;
 use crate::soak::{SoakOptions, SoakReport, soak};
 use crate::tracks_file::Tracks;
 
@@ -40,6 +41,9 @@ pub struct SoakArgs {
     /// Seed of the faults.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Folder for the soak's figures as a one-row table, `soak.csv` and `soak.json`.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
     /// The edge binary to start (default: `dynotraj-edge` beside this program; build both with
     /// `cargo build --release --bins`).
     #[arg(long, value_name = "PATH")]
@@ -53,6 +57,9 @@ pub struct SoakArgs {
 pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
     let report = soak_edge(args)?;
     print!("{}", soak_summary(&report));
+    if let Some(dir) = &args.out {
+        write_table_files(dir, "soak", &soak_data(&report))?;
+    }
     anyhow::ensure!(report.clean_unanswered == 0, "{} clean frames were not answered", report.clean_unanswered);
     Ok(())
 }

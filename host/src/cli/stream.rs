@@ -16,8 +16,8 @@ use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
 use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
-use crate::report::json_text;
 use crate::report::stream_report::{frames_data, predictions_data, summary};
+use crate::report::write_table_files;
 use crate::stream::{StreamOptions, StreamResult, stream};
 use crate::tracks_file::{self, Tracks, TracksFrame};
 
@@ -168,17 +168,10 @@ pub const REPLIES_BIN: &str = "replies.bin";
 /// # Errors
 /// A file that cannot be written, named.
 fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
-    let mut files = vec![(REPLIES_BIN.to_string(), result.raw.clone())];
-    for (stem, data) in [(FORECASTS, predictions_data(result)), (FRAMES, frames_data(result))] {
-        files.push((format!("{stem}.csv"), data.csv().into_bytes()));
-        files.push((format!("{stem}.json"), json_text(&data.json()).into_bytes()));
-    }
-    for (name, bytes) in files {
-        let path = dir.join(name);
-        std::fs::write(&path, bytes).with_context(|| format!("--out: writing {}", path.display()))?;
-    }
-    Ok(())
+    write_table_files(dir, FORECASTS, &predictions_data(result))?;
+    write_table_files(dir, FRAMES, &frames_data(result))?;
+    let path = dir.join(REPLIES_BIN);
+    std::fs::write(&path, &result.raw).with_context(|| format!("--out: writing {}", path.display()))
 }
 
 /// The tracks to send.

@@ -11,4 +11,4 @@ mod table;
 pub use data::{Cell, ColumnKind, Data};
 pub use forecast_table::{ArmScores, ReferenceRow, forecast_table};
 pub use instances_table::instances_table;
-pub use table::{Format, Table, check_table, fmt_opt, json_text, render_tables};
+pub use table::{Format, Table, check_table, fmt_opt, json_text, render_tables, write_table_files};

@@ -10,6 +10,60 @@ use crate::link::Endpoint;
 use crate::soak::SoakReport;
 use crate::stream::StreamResult;
 
+/// A soak's figures as one row: what was sent and damaged, what was answered and lost, both
+/// decoders' rejects, the edge's resident memory after the first frames and at the end (KiB;
+/// empty when they could not be read).
+#[must_use]
+pub fn soak_data(r: &SoakReport) -> Data {
+    let mut d = Data::new([
+        ("seconds", ColumnKind::Num),
+        ("frames_sent", ColumnKind::Int),
+        ("wire_frames_sent", ColumnKind::Int),
+        ("bytes_flipped", ColumnKind::Int),
+        ("tails_dropped", ColumnKind::Int),
+        ("frames_duplicated", ColumnKind::Int),
+        ("damaged_frames", ColumnKind::Int),
+        ("answered", ColumnKind::Int),
+        ("clean_unanswered", ColumnKind::Int),
+        ("edge_frames_lost", ColumnKind::Int),
+        ("edge_wire_frames_ok", ColumnKind::Int),
+        ("edge_wire_frames_rejected", ColumnKind::Int),
+        ("edge_bytes_discarded", ColumnKind::Int),
+        ("host_wire_frames_rejected", ColumnKind::Int),
+        ("host_bytes_discarded", ColumnKind::Int),
+        ("edge_rss_start_kib", ColumnKind::Int),
+        ("edge_rss_end_kib", ColumnKind::Int),
+        ("edge_rss_peak_kib", ColumnKind::Int),
+    ]);
+    let edge = r.edge_link.map(|l| l.received);
+    let edge_cell =
+        |f: fn(&dynotraj_core::wire::DecoderStats) -> u32| edge.as_ref().map_or(Cell::Missing, |s| Cell::int(f(s)));
+    let mem = |f: fn(&(crate::soak::Memory, crate::soak::Memory)) -> u64| {
+        r.edge_memory.as_ref().map_or(Cell::Missing, |m| Cell::int(f(m)))
+    };
+    d.push(vec![
+        Cell::num(r.seconds, 1),
+        Cell::int(r.frames_sent),
+        Cell::int(r.wire_frames_sent),
+        Cell::int(r.faults[0]),
+        Cell::int(r.faults[1]),
+        Cell::int(r.faults[2]),
+        Cell::int(r.damaged_frames),
+        Cell::int(r.answered),
+        Cell::int(r.clean_unanswered),
+        Cell::int(r.edge_frames_lost),
+        edge_cell(|s| s.frames_ok),
+        edge_cell(dynotraj_core::wire::DecoderStats::frames_rejected),
+        edge_cell(|s| s.bytes_discarded),
+        Cell::int(r.host_received.frames_rejected()),
+        Cell::int(r.host_received.bytes_discarded),
+        mem(|(a, _)| a.rss_kib),
+        mem(|(_, b)| b.rss_kib),
+        mem(|(_, b)| b.peak_kib),
+    ]);
+    d
+}
+
 /// The forecasts, one row per forecast point: `frame`, `object_id`, `step` (1 = the next
 /// frame), `x`, `y` (world bird's-eye, metres).
 #[must_use]

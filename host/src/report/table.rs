@@ -134,7 +134,21 @@ impl Table {
     }
 }
 
-/// `value` as pretty JSON ending in a newline.
+/// Writes `data` into the folder `dir` (made if missing) as `STEM.csv` and `STEM.json`.
+///
+/// # Errors
+/// A folder or file that cannot be written, named.
+pub fn write_table_files(dir: &std::path::Path, stem: &str, data: &super::Data) -> anyhow::Result<()> {
+    use anyhow::Context as _;
+    std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
+    for (ext, text) in [("csv", data.csv()), ("json", json_text(&data.json()))] {
+        let path = dir.join(format!("{stem}.{ext}"));
+        std::fs::write(&path, text).with_context(|| format!("--out: writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// `value` as pretty JSON ending in a newline: the text of a JSON file or of `--format json`.
 #[must_use]
 pub fn json_text(value: &serde_json::Value) -> String {
     let mut s = serde_json::to_string_pretty(value).unwrap_or_default();
