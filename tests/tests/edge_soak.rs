@@ -19,6 +19,7 @@ fn a_faulty_link_loses_only_damaged_frames_and_memory_stays_flat() {
         frames: 2000,
         fault_probability: 0.02,
         seed: 7,
+        out: None,
         edge: Some(dynotraj_tests::edge_fixture::edge_binary()),
     };
     let r = soak_edge(&args).unwrap();
