@@ -11,8 +11,26 @@ use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{ObjectTrack, Source};
 
-/// Image size, pixels: a wide plot (most tracks run along the road) and the legend band.
-const SIZE: (u32, u32) = (1100, 700);
+/// Image height, pixels.
+const HEIGHT: u32 = 720;
+/// Width of the plot itself, pixels, at most and at least: the image is as wide as the path's
+/// shape needs between these, so that a path along the road does not sit in a wide empty plot.
+const PLOT_WIDTH: (f64, f64) = (420.0, 1000.0);
+/// Width of the axes' labels and of the legend band beside the plot, pixels.
+const BESIDE: u32 = 340;
+
+/// The image size for `paths`: [`HEIGHT`] high, wide enough for their shape at one scale.
+fn size_for(paths: &[PathLine]) -> (u32, u32) {
+    let (mut x, mut y) = ((f64::INFINITY, f64::NEG_INFINITY), (f64::INFINITY, f64::NEG_INFINITY));
+    for &(px, py) in paths.iter().flat_map(|p| p.segments.iter().flatten()) {
+        x = (x.0.min(px), x.1.max(px));
+        y = (y.0.min(py), y.1.max(py));
+    }
+    let aspect = (x.1 - x.0) / (y.1 - y.0).max(1.0);
+    // The plot's height is the image's less its title and x axis labels.
+    let plot = (aspect * f64::from(HEIGHT - 110)).clamp(PLOT_WIDTH.0, PLOT_WIDTH.1);
+    (plot as u32 + BESIDE, HEIGHT)
+}
 
 /// The sources drawn for `seq`: the labels' and the arms', and both estimator outputs where it
 /// ran, each once, in that order.
@@ -78,8 +96,8 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
         title: format!("bird's-eye trajectory: {}", subject.name()),
         x_label: "world x (m)".into(),
         y_label: "world y (m, forward at the first frame)".into(),
+        size: size_for(&paths),
         panels: vec![Panel { title: String::new(), paths }],
-        size: SIZE,
     };
     let [png, _] = write_paths(&figure, &dir.join(format!("birdseye_{}", subject.stem())))?;
     let truth_note = if has_truth {

@@ -32,6 +32,12 @@ fn table_value(scores: Option<&RunScores>, kind: Kind, camera: bool) -> Option<f
     if camera { s.camera } else { s.object }.map(|r| r.translation)
 }
 
+/// `v` to three significant digits (a camera's RPE is millimetres, an object's centimetres).
+fn significant(v: f64) -> String {
+    let decimals = if v > 0.0 && v.is_finite() { (2 - v.log10().floor() as i32).max(0) as usize } else { 3 };
+    format!("{v:.decimals$}")
+}
+
 /// The camera and object RPE over time of `seq`'s estimator run; nothing when it has no
 /// per-frame RPE (no estimated arm, or real images without truth).
 ///
@@ -73,7 +79,7 @@ pub fn write(dir: &Path, seq: &SequenceTracks, dt: f32) -> anyhow::Result<Vec<Fi
             .iter()
             .map(|(k, frames)| {
                 let label = match table_value(est.rpe.as_ref(), *k, camera) {
-                    Some(v) => format!("{} (RPE_t {v:.3} m)", k.name()),
+                    Some(v) => format!("{} (RPE_t {} m)", k.name(), significant(v)),
                     None => k.name().to_string(),
                 };
                 Series::new(label, frames.iter().filter_map(|f| Some((seconds(f.frame, dt), value(f)?))).collect())
@@ -100,4 +106,17 @@ pub fn write(dir: &Path, seq: &SequenceTracks, dt: f32) -> anyhow::Result<Vec<Fi
         });
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn legend_values_keep_three_significant_digits() {
+        assert_eq!(significant(0.00213), "0.00213");
+        assert_eq!(significant(0.0245), "0.0245");
+        assert_eq!(significant(1.5), "1.50");
+        assert_eq!(significant(0.0), "0.000");
+    }
 }

@@ -6,7 +6,7 @@ use plotters::prelude::*;
 
 use super::legend::{self, Entry};
 use super::ticks::{LABELS, decimals_for, format_tick};
-use super::{Chart, Drawing, LINE_CHART_SIZE, bounds, err, finite};
+use super::{Chart, Drawing, LINE_CHART_SIZE, bounds, err, finite, stroke_width};
 
 impl Drawing for Chart {
     fn size(&self) -> (u32, u32) {
@@ -56,7 +56,7 @@ impl Drawing for Chart {
             .map_err(|x| err(&x))?;
         for (s, e) in self.series.iter().zip(&entries) {
             let pts = finite(&s.points);
-            let style = e.colour.stroke_width(2);
+            let style = e.colour.stroke_width(stroke_width(pts.len()));
             if s.style.dashed {
                 c.draw_series(std::iter::once(DashedPathElement::new(pts, 6, 4, style))).map_err(|x| err(&x))?;
             } else {

@@ -129,6 +129,16 @@ impl Colour {
     }
 }
 
+/// Points a line may have and still be drawn 2 pixels wide.
+const WIDE_LINE_POINTS: usize = 250;
+
+/// The stroke width of a line of `points` points: plotters draws a wide line as a polygon
+/// with mitred joins, which spike far past the data (and across the axes) where a dense,
+/// jagged line turns sharply; a dense line is drawn 1 pixel wide instead.
+fn stroke_width(points: usize) -> u32 {
+    if points > WIDE_LINE_POINTS { 1 } else { 2 }
+}
+
 /// The points of `points` that can be drawn.
 fn finite(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect()

@@ -8,7 +8,7 @@ use plotters::prelude::*;
 
 use super::legend::{self, Entry};
 use super::ticks::{LABELS, decimals_for, format_tick};
-use super::{Drawing, Style, bounds, err, finite};
+use super::{Drawing, Style, bounds, err, finite, stroke_width};
 
 /// A dot on a path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -132,27 +132,28 @@ impl PathFigure {
             .axis_desc_style(("sans-serif", 14))
             .draw()
             .map_err(|x| err(&x))?;
+        // Lines first, then the dots, so that no line hides where a path starts or a forecast is
+        // made.
+        let mut dots = Vec::new();
         for p in &panel.paths {
             let Some(entry) = entries.iter().find(|e| e.label == p.label) else { continue };
-            let style = entry.colour.stroke_width(2);
             for segment in &p.segments {
                 let pts = finite(segment);
-                if p.style.dashed {
-                    c.draw_series(std::iter::once(DashedPathElement::new(pts.clone(), 6, 4, style)))
-                        .map_err(|x| err(&x))?;
-                } else {
-                    c.draw_series(LineSeries::new(pts.clone(), style)).map_err(|x| err(&x))?;
-                }
+                let style = entry.colour.stroke_width(stroke_width(pts.len()));
                 let dot = match p.marker {
                     Marker::None => None,
                     Marker::Start => pts.first(),
                     Marker::End => pts.last(),
                 };
-                if let Some(&at) = dot {
-                    c.draw_series(std::iter::once(Circle::new(at, 4, entry.colour.filled()))).map_err(|x| err(&x))?;
+                dots.extend(dot.map(|&at| Circle::new(at, 4, entry.colour.filled())));
+                if p.style.dashed {
+                    c.draw_series(std::iter::once(DashedPathElement::new(pts, 6, 4, style))).map_err(|x| err(&x))?;
+                } else {
+                    c.draw_series(LineSeries::new(pts, style)).map_err(|x| err(&x))?;
                 }
             }
         }
+        c.draw_series(dots).map_err(|x| err(&x))?;
         Ok(())
     }
 }
