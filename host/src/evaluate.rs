@@ -13,7 +13,7 @@
 //! the yaw between its camera and the true camera at the forecast's frame.
 
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::metrics::{ForecastScores, ace, ade, fde};
+use dynotraj_core::metrics::{ForecastScores, ace, ade, fde, step_errors};
 use dynotraj_core::model::LearnedPredictor;
 use dynotraj_core::predict::{Baseline, Forecast, PredictError, Predictor};
 use dynotraj_core::{BevState, Point2};
@@ -73,6 +73,68 @@ pub struct InstanceScore {
     pub ace: Option<f32>,
 }
 
+/// Displacement errors per step of the horizon, summed over scored forecasts: the mean at step
+/// k is the FDE of a k-step horizon, and the mean of the first k of those means is its ADE (at
+/// k = `HORIZON`, the scores' FDE and ADE).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct HorizonErrors {
+    sums: [f64; HORIZON],
+    count: u32,
+}
+
+impl HorizonErrors {
+    /// Adds one forecast's errors against `truth` (both `HORIZON` points; others are left out).
+    pub fn push(&mut self, forecast: &[Point2], truth: &[Point2]) {
+        if forecast.len() != HORIZON {
+            return;
+        }
+        let Some(errors) = step_errors(forecast, truth) else { return };
+        for (sum, e) in self.sums.iter_mut().zip(errors) {
+            *sum += f64::from(e);
+        }
+        self.count += 1;
+    }
+
+    /// Adds another's forecasts.
+    pub fn merge(&mut self, other: &Self) {
+        for (a, b) in self.sums.iter_mut().zip(&other.sums) {
+            *a += b;
+        }
+        self.count += other.count;
+    }
+
+    /// Forecasts added.
+    #[must_use]
+    pub const fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// The mean error at each step k = 1..=`HORIZON` (FDE of a k-step horizon), metres; empty
+    /// before any forecast.
+    #[must_use]
+    pub fn fde_by_step(&self) -> Vec<f64> {
+        if self.count == 0 {
+            return Vec::new();
+        }
+        self.sums.iter().map(|s| s / f64::from(self.count)).collect()
+    }
+
+    /// The ADE of each horizon k = 1..=`HORIZON` (the mean error over steps 1..=k), metres;
+    /// empty before any forecast.
+    #[must_use]
+    pub fn ade_by_step(&self) -> Vec<f64> {
+        let mut total = 0.0;
+        self.fde_by_step()
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                total += e;
+                total / (i + 1) as f64
+            })
+            .collect()
+    }
+}
+
 /// Scores of one run.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunScores {
@@ -82,6 +144,8 @@ pub struct RunScores {
     pub instances: Vec<InstanceScore>,
     /// Instances the predictor refused (see [`PredictError`]); they are not scored.
     pub failed: u32,
+    /// The scored forecasts' errors per horizon step.
+    pub horizon: HorizonErrors,
 }
 
 /// What forecasts are scored against.
@@ -137,6 +201,26 @@ impl Reference<'_> {
     }
 }
 
+/// The forecast of `forecaster` at instance `s` (an index into `run.states`) as scoring makes
+/// it: the history is `run.states[..=s]` (the predictor keeps the newest frames it uses), the
+/// neighbours the other runs of `scene` present at that frame.
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn forecast_at(
+    run: &SourcedRun,
+    s: usize,
+    scene: &Scene,
+    forecaster: &mut dyn Forecaster,
+    dt: f32,
+) -> Result<Forecast, PredictError> {
+    let history = run.states.get(..=s).ok_or(PredictError::HistoryTooShort)?;
+    let neighbours = scene.neighbours_at(run.track_id, run.first_frame + s as u32);
+    let mut forecast = [Point2::default(); HORIZON];
+    forecaster.forecast(history, &neighbours, dt, &mut forecast)?;
+    Ok(forecast)
+}
+
 /// Forecasts every test instance (indices into `run.states`) and scores each against the same
 /// source's future. The history of instance s is `run.states[..=s]` (the predictor keeps the
 /// newest frames it uses); neighbours are the other runs of `scene` present at the frame. ACE
@@ -172,13 +256,12 @@ pub fn score_run_against(
             previous = None;
             continue;
         };
-        let neighbours = scene.neighbours_at(run.track_id, frame);
-        let mut forecast = [Point2::default(); HORIZON];
-        match forecaster.forecast(&run.states[..=s], &neighbours, dt, &mut forecast) {
-            Ok(()) => {
+        match forecast_at(run, s, scene, forecaster, dt) {
+            Ok(forecast) => {
                 let (Some(a), Some(f)) = (ade(&forecast, &truth), fde(&forecast, &truth)) else { continue };
                 out.scores.ade.push(a);
                 out.scores.fde.push(f);
+                out.horizon.push(&forecast, &truth);
                 let c = previous.as_ref().and_then(|p| ace(p, &forecast));
                 if let Some(c) = c {
                     out.scores.ace.push(c);
@@ -220,6 +303,7 @@ pub fn score_sequence_against(
         let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
         let r = score_run_against(sourced, run.instances(), scene, forecaster, dt, reference);
         total.scores.merge(&r.scores);
+        total.horizon.merge(&r.horizon);
         total.instances.extend(r.instances);
         total.failed += r.failed;
     }
@@ -247,6 +331,28 @@ mod tests {
         assert_eq!(r.instances.len(), 9);
         assert!(r.scores.ade.value().unwrap_or(1.0) < 1e-4);
         assert!(r.scores.ace.value().unwrap_or(1.0) < 1e-4);
+    }
+
+    #[test]
+    fn errors_by_horizon_step_end_at_the_scores_ade_and_fde() {
+        let frames: Vec<u32> = (0..60).collect();
+        // A bend: cv's error grows with the horizon.
+        let states: Vec<BevState> = frames
+            .iter()
+            .map(|&k| BevState { x: 0.5 * k as f32, y: 0.004 * (k * k) as f32, heading: 0.0, speed: 0.0 })
+            .collect();
+        let scene =
+            Scene::new(&[ObjectTrack { track_id: 1, class: ObjectClass::Car, frames, states }], Source::Gt, 0.1);
+        let r = score_run(&scene.runs[0], 1..25, &scene, &mut Baseline::ConstantVelocity, 0.1);
+        assert_eq!(r.horizon.count(), r.scores.fde.count());
+        let (fde, ade) = (r.horizon.fde_by_step(), r.horizon.ade_by_step());
+        assert_eq!((fde.len(), ade.len()), (HORIZON, HORIZON));
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-4 * b.abs().max(1.0);
+        assert!(close(fde[HORIZON - 1], r.scores.fde.value().unwrap_or(f64::NAN)), "{fde:?}");
+        assert!(close(ade[HORIZON - 1], r.scores.ade.value().unwrap_or(f64::NAN)), "{ade:?}");
+        assert!(fde.windows(2).all(|w| w[0] < w[1]), "a bend's error grows with the horizon: {fde:?}");
+        assert!(close(ade[0], fde[0]) && ade[HORIZON - 1] < fde[HORIZON - 1]);
+        assert!(HorizonErrors::default().fde_by_step().is_empty());
     }
 
     #[test]

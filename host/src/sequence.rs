@@ -95,7 +95,7 @@ fn estimated_cached(
         // from the estimator's settings and code, and the estimator runs on them in seconds.
         let r = estimate_rendered(id, data, &e.options, e.render_scale, e.cache.as_deref())
             .with_context(|| format!("sequence {id}: rendered front-end"))?;
-        return Ok(rendered_estimated_tracks(&r));
+        return Ok(rendered_estimated_tracks(&r, e.options.min_step_m));
     }
     let key = match &e.cache {
         Some(_) if images => {

@@ -178,3 +178,30 @@ fn the_command_runs_as_one_process_so_killing_it_leaves_nothing_running() {
     child.wait().expect("reaps");
     assert_eq!(children.trim(), "", "dynotraj started child processes: {children}");
 }
+
+#[test]
+fn a_bad_object_is_refused_naming_the_flag_before_anything_is_trained() {
+    for (value, says) in
+        [("0000", "expected SEQ:ID"), ("0000:x", "found the object `x`"), ("0000:0", "object numbers start at 1")]
+    {
+        refused(&["experiment", "--kitti", ".", "--object", value], 2, says);
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().expect("utf-8");
+    let out = dir.path().join("report");
+    let out_s = out.to_str().expect("utf-8");
+    let experiment = ["experiment", "--kitti", kitti, "--tests", "0000", "--out", out_s];
+    refused(
+        &[&experiment[..], &["--object", "0000:2,0007:1"]].concat(),
+        1,
+        "--object 0007:1: sequence 0007 is not loaded (loaded: 0000, 0001)",
+    );
+    // The drive's objects are KITTI tracks 1-3: objects 2-4.
+    refused(
+        &[&experiment[..], &["--object", "0001:1"]].concat(),
+        1,
+        "--object 0001:1: sequence 0001 has no object 1 (object numbers are KITTI track id + 1; its objects: 2, 3, 4)",
+    );
+    assert!(!out.join("models").exists(), "nothing trained");
+}

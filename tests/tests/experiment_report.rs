@@ -67,8 +67,21 @@ fn the_report_folder_and_a_cached_rerun() {
         assert!(csv.lines().count() > 2, "{stem}.csv: {csv}");
         assert!(out.join(format!("{stem}.md")).is_file());
     }
-    // The paper's figures 2-5 for the drive's longest-seen mover (no sequence 0018 here).
-    for fig in ["fig2_distance_0000", "fig3_speed_0000", "fig4_heading_0000", "fig5_ace_0000"] {
+    // The paper's figures 2-5 for the drive's longest-seen mover, KITTI track 1: object 2 (no
+    // sequence 0018 here), its bird's-eye trajectory and forecasts, the errors against the
+    // horizon and the estimator's RPE over time.
+    for fig in [
+        "fig2_distance_0000_object2",
+        "fig3_speed_0000_object2",
+        "fig4_heading_0000_object2",
+        "fig5_ace_0000_object2",
+        "birdseye_0000_object2",
+        "forecasts_0000_object2",
+        "ade_horizon",
+        "fde_horizon",
+        "rpe_camera_0000",
+        "rpe_objects_0000",
+    ] {
         assert!(
             out.join(format!("figures/{fig}.png")).is_file() && out.join(format!("figures/{fig}.svg")).is_file(),
             "{fig}"

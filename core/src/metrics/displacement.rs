@@ -6,11 +6,18 @@ use crate::geometry::Point2;
 /// and true positions. `None` when the slices are empty or differ in length.
 #[must_use]
 pub fn ade(pred: &[Point2], truth: &[Point2]) -> Option<f32> {
+    let sum: f32 = step_errors(pred, truth)?.sum();
+    Some(sum / pred.len() as f32)
+}
+
+/// The L2 distance between predicted and true positions at each step of the horizon, in order
+/// (their mean is the ADE, the last the FDE). `None` when the slices are empty or differ in
+/// length.
+pub fn step_errors<'a>(pred: &'a [Point2], truth: &'a [Point2]) -> Option<impl Iterator<Item = f32> + 'a> {
     if pred.is_empty() || pred.len() != truth.len() {
         return None;
     }
-    let sum: f32 = pred.iter().zip(truth).map(|(p, t)| p.distance(t)).sum();
-    Some(sum / pred.len() as f32)
+    Some(pred.iter().zip(truth).map(|(p, t)| p.distance(t)))
 }
 
 /// Final displacement error: the L2 distance at the last step of the horizon. `None` when the

@@ -8,6 +8,6 @@ mod displacement;
 mod mean;
 mod rpe;
 
-pub use displacement::{ace, ade, fde};
+pub use displacement::{ace, ade, fde, step_errors};
 pub use mean::{ForecastScores, Mean};
-pub use rpe::{RpeAccumulator, RpeResult};
+pub use rpe::{PairError, RpeAccumulator, RpeResult};

@@ -15,6 +15,15 @@ pub struct RpeResult {
     pub pairs: u32,
 }
 
+/// The relative pose error of one pair of consecutive frames.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairError {
+    /// |trans(E_i)|, metres.
+    pub translation: f64,
+    /// angle(E_i), radians.
+    pub rotation: f64,
+}
+
 /// Streaming RPE over pairs of consecutive poses. Call [`RpeAccumulator::break_segment`] at a
 /// gap so that no pair spans it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -32,8 +41,11 @@ impl RpeAccumulator {
         Self::default()
     }
 
-    /// Adds the next frame's reference and estimated pose.
-    pub fn push(&mut self, reference: &Pose3, estimate: &Pose3) {
+    /// Adds the next frame's reference and estimated pose; returns the error of the pair it
+    /// closes (with the previous frame), when there is one and it is finite (what is counted),
+    /// so that a caller can follow the error over time.
+    pub fn push(&mut self, reference: &Pose3, estimate: &Pose3) -> Option<PairError> {
+        let mut counted = None;
         if let Some((q0, p0)) = &self.prev {
             let dq = q0.inv_mul(reference);
             let dp = p0.inv_mul(estimate);
@@ -44,9 +56,11 @@ impl RpeAccumulator {
                 self.sum_t2 += t * t;
                 self.sum_r2 += r * r;
                 self.pairs = self.pairs.saturating_add(1);
+                counted = Some(PairError { translation: t, rotation: r });
             }
         }
         self.prev = Some((*reference, *estimate));
+        counted
     }
 
     /// Ends the current run of consecutive frames.
@@ -107,6 +121,13 @@ mod tests {
         }
         let r = acc.result().unwrap();
         assert!((r.translation - 0.1).abs() < 1e-4 && r.rotation < 1e-6, "{r:?}");
+        // Each pair's own error is what the RMSE averages.
+        let mut acc = RpeAccumulator::new();
+        assert_eq!(acc.push(&pose(0.0, 0.0), &pose(0.0, 0.0)), None, "no pair before the second frame");
+        let pair = acc.push(&pose(1.0, 0.0), &pose(1.3, 0.0)).unwrap();
+        assert!((pair.translation - 0.3).abs() < 1e-5 && pair.rotation < 1e-6, "{pair:?}");
+        acc.break_segment();
+        assert_eq!(acc.push(&pose(2.0, 0.0), &pose(2.0, 0.0)), None, "no pair across a gap");
         let mut acc = RpeAccumulator::new();
         for k in 0..5 {
             // The estimate turns 0.02 rad per frame where the reference stands still.

@@ -219,7 +219,7 @@ fn write_figures(dir: &Path, result: &BenchmarkResult, config: &ExperimentConfig
                 }
             }
             points.sort_by(|a, b| a.0.total_cmp(&b.0));
-            series.push(Series { label, points });
+            series.push(Series::new(label, points));
         }
     }
     let chart = Chart {

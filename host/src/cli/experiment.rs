@@ -5,7 +5,7 @@ use clap::Args;
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use crate::experiment::figures::write_figures;
+use crate::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
 use crate::experiment::report::write_report;
 use crate::experiment::sections::{RunSettings, experiment_report};
 use crate::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
@@ -31,6 +31,12 @@ pub struct ExperimentArgs {
     /// Test sequences, each held out in turn (default: the paper's 0000, 0003, 0005, 0018, 0020).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub tests: Vec<String>,
+    /// Objects the per-object figures draw, as SEQ:ID with ID the object number (the KITTI
+    /// track id plus 1, as in the pose files and `estimate --per-object`); repeatable or
+    /// comma-separated (default: the longest eligible moving object of 0000, and of 0018 for
+    /// its heading).
+    #[arg(long = "object", value_delimiter = ',', value_parser = parse_object_choice, value_name = "SEQ:ID")]
+    pub objects: Vec<ObjectChoice>,
     /// Widths, training settings, report folder and format.
     #[command(flatten)]
     pub run: FoldRunArgs,
@@ -52,6 +58,8 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
+    // A bad --object fails before the folds are trained, not after.
+    subjects(&args.objects, &sequences, &args.data.rule()?)?;
     let test_sequences: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
@@ -124,8 +132,8 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
         let run =
             RunSettings { arms: &args.arms, render_scale: args.data.ours.render_scale, jobs: args.data.ours.jobs };
         let mut r = experiment_report(&run, command, &result, &sequences, &rule);
-        r.figures =
-            write_figures(&dir.join("figures"), &sequences, &args.arms, &rule, args.data.dt()?, &dir.join("models"))?;
+        let (figures, models) = (dir.join("figures"), dir.join("models"));
+        r.figures = write_figures(&figures, &sequences, &args.arms, &rule, args.data.dt()?, &models, &args.objects)?;
         let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
     }

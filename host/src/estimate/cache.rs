@@ -22,8 +22,8 @@ use crate::trajectory::EstimatedTracks;
 /// Version of what estimation computes; part of every key. Bump it with every change to the
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
 /// hypotheses by TRIAD instead of an SVD, and a step whose promised decrease is below the stop
-/// is not evaluated, 2026-12-01).
-pub const ESTIMATE_CACHE_VERSION: u32 = 4;
+/// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame).
+pub const ESTIMATE_CACHE_VERSION: u32 = 5;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
@@ -117,6 +117,11 @@ mod tests {
             rpe: Some(crate::estimate::RunScores::default()),
             truth: vec![track],
             world_yaw: [(4, 0.01), (5, -0.02)].into(),
+            rpe_frames: [
+                vec![],
+                vec![crate::estimate::score::FrameRpe { frame: 5, camera: Some(0.02), objects: None, object_pairs: 0 }],
+                vec![],
+            ],
             frames: 6,
         };
         store(dir.path(), "0003", 9, &tracks).unwrap();

@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use dynotraj_core::BevState;
 use dynotraj_core::estimate::{ObjectEstimate, PoseEstimate};
 use dynotraj_core::geometry::angle_diff;
-use dynotraj_core::metrics::{RpeAccumulator, RpeResult};
+use dynotraj_core::metrics::{PairError, RpeAccumulator, RpeResult};
 use dynotraj_fixtures::track_sim::SimFrame;
 
 use super::runner::{EstimatorRun, Kind};
@@ -68,39 +68,118 @@ pub fn moving_objects(frames: &[SimFrame], min_step_m: f64) -> BTreeSet<u16> {
 pub fn score_run(frames: &[SimFrame], run: &EstimatorRun, moving: &BTreeSet<u16>) -> RunScores {
     let mut out = RunScores { moving_objects: moving.len(), ..RunScores::default() };
     for (slot, kind) in out.kinds.iter_mut().zip(Kind::ALL) {
-        let est = run.of(kind);
-        let mut cam = RpeAccumulator::new();
-        for (f, e) in frames.iter().zip(est) {
-            match e {
-                Some(e) => cam.push(&f.camera.cast::<f32>(), &e.camera),
-                None => cam.break_segment(),
-            }
-        }
-        let mut all = RpeAccumulator::new();
-        let mut objects = 0;
-        for &id in moving {
-            let acc = object_rpe(frames, est, id);
-            if acc.result().is_some() {
-                objects += 1;
-                all.merge(&acc);
-            }
-        }
-        *slot = KindScores { camera: cam.result(), object: all.result(), objects };
+        *slot = score_kind(frames, run.of(kind), moving, &mut |_, _, _| {});
     }
     out
+}
+
+/// Whose pair of frames an error is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Entity {
+    Camera,
+    Object,
+}
+
+/// RPE of one kind's estimates `est` against the truth in `frames`, objects restricted to
+/// `moving`; tells `on_pair` every pair it counts: (index into `frames` of the pair's later
+/// frame, whose pair, its error).
+fn score_kind(
+    frames: &[SimFrame],
+    est: &[Option<PoseEstimate>],
+    moving: &BTreeSet<u16>,
+    on_pair: &mut dyn FnMut(usize, Entity, PairError),
+) -> KindScores {
+    let mut cam = RpeAccumulator::new();
+    for (k, (f, e)) in frames.iter().zip(est).enumerate() {
+        match e {
+            Some(e) => {
+                if let Some(pair) = cam.push(&f.camera.cast::<f32>(), &e.camera) {
+                    on_pair(k, Entity::Camera, pair);
+                }
+            }
+            None => cam.break_segment(),
+        }
+    }
+    let mut all = RpeAccumulator::new();
+    let mut objects = 0;
+    for &id in moving {
+        let acc = object_rpe_with(frames, est, id, &mut |k, pair| on_pair(k, Entity::Object, pair));
+        if acc.result().is_some() {
+            objects += 1;
+            all.merge(&acc);
+        }
+    }
+    KindScores { camera: cam.result(), object: all.result(), objects }
+}
+
+/// The translational RPE of the pairs of frames that end at one frame: what Table III's RPE
+/// averages, followed over time.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrameRpe {
+    /// Frame index (the pairs' later frame).
+    pub frame: u32,
+    /// The camera's pair error, metres, when the camera has a pair ending here.
+    pub camera: Option<f64>,
+    /// Root mean square of the moving objects' pair errors ending here, metres.
+    pub objects: Option<f64>,
+    /// Object pairs ending here.
+    pub object_pairs: u32,
+}
+
+/// Per frame, the translational errors of the pairs [`score_run`] counts for `est` (one kind's
+/// estimates) against the truth in `frames`, objects restricted to `moving`; frames with no
+/// pair are left out. Table III's camera RPE_t is the root mean square of `camera` over the
+/// frames, its object RPE_t that of `objects` weighted by `object_pairs`.
+#[must_use]
+pub fn rpe_over_time(frames: &[SimFrame], est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> Vec<FrameRpe> {
+    let mut by_frame: BTreeMap<usize, (Option<f64>, f64, u32)> = BTreeMap::new();
+    score_kind(frames, est, moving, &mut |k, entity, pair| {
+        let slot = by_frame.entry(k).or_insert((None, 0.0, 0));
+        match entity {
+            Entity::Camera => slot.0 = Some(pair.translation),
+            Entity::Object => {
+                slot.1 += pair.translation * pair.translation;
+                slot.2 += 1;
+            }
+        }
+    });
+    by_frame
+        .into_iter()
+        .filter_map(|(k, (camera, sum2, n))| {
+            Some(FrameRpe {
+                frame: frames.get(k)?.frame,
+                camera,
+                objects: (n > 0).then(|| (sum2 / f64::from(n)).sqrt()),
+                object_pairs: n,
+            })
+        })
+        .collect()
 }
 
 /// RPE of object `id` in `est`: the pairs of consecutive frames within each of its
 /// [`object_runs`], with the truth of `frames`.
 #[must_use]
 pub fn object_rpe(frames: &[SimFrame], est: &[Option<PoseEstimate>], id: u16) -> RpeAccumulator {
+    object_rpe_with(frames, est, id, &mut |_, _| {})
+}
+
+/// [`object_rpe`], telling `on_pair` each pair it counts: (index into `frames` of the pair's
+/// later frame, its error).
+fn object_rpe_with(
+    frames: &[SimFrame],
+    est: &[Option<PoseEstimate>],
+    id: u16,
+    on_pair: &mut dyn FnMut(usize, PairError),
+) -> RpeAccumulator {
     let mut acc = RpeAccumulator::new();
     let truth = |k: usize| frames.get(k).and_then(|f| f.objects.iter().find(|o| o.object_id == id));
     for run in object_runs(est, id, |k| truth(k).is_some()) {
         acc.break_segment();
         for (k, _, o) in run {
-            if let Some(t) = truth(k) {
-                acc.push(&t.pose.cast::<f32>(), &o.pose);
+            if let Some(t) = truth(k)
+                && let Some(pair) = acc.push(&t.pose.cast::<f32>(), &o.pose)
+            {
+                on_pair(k, pair);
             }
         }
     }
@@ -208,4 +287,37 @@ pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (Smoo
         }
     }
     (sum, pairs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
+    use crate::kitti::TrackingDir;
+    use crate::kitti::synthetic::write_sequence;
+    use dynotraj_fixtures::drive::{DriveSpec, generate};
+
+    #[test]
+    fn the_rpe_over_time_is_the_pairs_table_iii_averages() {
+        let dir = tempfile::tempdir().unwrap();
+        write_sequence(dir.path(), "0000", &generate(&DriveSpec::default())).unwrap();
+        let data = TrackingDir::open(dir.path()).unwrap().load_sequence("0000").unwrap();
+        let r = evaluate_sequence("0000", &data, &EvalOptions::kitti(0.1));
+        let moving = moving_objects(&r.sim, r.min_step_m);
+        for (kind, scores) in Kind::ALL.iter().zip(&r.scores.kinds) {
+            let frames = rpe_over_time(&r.sim, r.run.of(*kind), &moving);
+            let camera: Vec<f64> = frames.iter().filter_map(|f| f.camera).collect();
+            let want = scores.camera.unwrap();
+            assert_eq!(camera.len(), want.pairs as usize, "{}", kind.name());
+            let rms = (camera.iter().map(|t| t * t).sum::<f64>() / camera.len() as f64).sqrt();
+            assert!((rms - want.translation).abs() < 1e-9, "{}: {rms} vs {}", kind.name(), want.translation);
+            let want = scores.object.unwrap();
+            let pairs: u32 = frames.iter().map(|f| f.object_pairs).sum();
+            let sum2: f64 =
+                frames.iter().filter_map(|f| Some(f.objects? * f.objects? * f64::from(f.object_pairs))).sum();
+            assert_eq!(pairs, want.pairs, "{}", kind.name());
+            assert!(((sum2 / f64::from(pairs)).sqrt() - want.translation).abs() < 1e-9, "{}", kind.name());
+            assert!(frames.windows(2).all(|w| w[0].frame < w[1].frame), "in frame order");
+        }
+    }
 }

@@ -26,6 +26,7 @@ use dynotraj_core::wire::ObjectClass;
 
 use super::ObjectTrack;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
+use crate::estimate::score::{FrameRpe, moving_objects, rpe_over_time};
 use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
 use dynotraj_fixtures::track_sim::SimFrame;
@@ -64,6 +65,9 @@ pub struct EstimatedTracks {
     /// forecast at frame s is turned by this before it is held to the true one. Empty on real
     /// images.
     pub world_yaw: std::collections::BTreeMap<u32, f32>,
+    /// Per output kind, in [`Kind::ALL`] order: the translational RPE of each frame against the
+    /// simulator's truth (the pairs behind `rpe`, over time); empty on real images.
+    pub rpe_frames: [Vec<FrameRpe>; 3],
     /// Frames estimated.
     pub frames: usize,
 }
@@ -72,25 +76,33 @@ pub struct EstimatedTracks {
 #[must_use]
 pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> EstimatedTracks {
     let r = evaluate_sequence(id, data, opt);
-    EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim)
+    EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim, r.min_step_m)
 }
 
-/// The tracks of the front-end and estimator on a rendering of the sequence, with its truth.
+/// The tracks of the front-end and estimator on a rendering of the sequence, with its truth;
+/// objects moving at least `min_step_m` per frame are scored (as for `e.scores`).
 #[must_use]
-pub fn rendered_estimated_tracks(e: &crate::estimate::from_images::RenderedRun) -> EstimatedTracks {
-    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames)
+pub fn rendered_estimated_tracks(e: &crate::estimate::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
+    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m)
 }
 
 /// The tracks of an estimator run on real images (no truth, no RPE).
 #[must_use]
 pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
-    EstimatedTracks::of_run(EstimateInput::Images, run, None, &[])
+    EstimatedTracks::of_run(EstimateInput::Images, run, None, &[], 0.0)
 }
 
 impl EstimatedTracks {
     /// Both variants' tracks of `run`, with what is known of its accuracy and the truth of the
-    /// simulated frames `sim` it ran on (empty for real images).
-    fn of_run(input: EstimateInput, run: &EstimatorRun, rpe: Option<RunScores>, sim: &[SimFrame]) -> Self {
+    /// simulated frames `sim` it ran on (empty for real images); objects moving at least
+    /// `min_step_m` a frame are the ones RPE scores.
+    fn of_run(
+        input: EstimateInput,
+        run: &EstimatorRun,
+        rpe: Option<RunScores>,
+        sim: &[SimFrame],
+        min_step_m: f64,
+    ) -> Self {
         let world_yaw = sim
             .iter()
             .zip(run.of(Kind::Causal))
@@ -100,6 +112,9 @@ impl EstimatedTracks {
                 Some((f.frame, dynotraj_core::geometry::angle_diff(truth, bev_heading(&e.camera))))
             })
             .collect();
+        let moving = moving_objects(sim, min_step_m);
+        let rpe_frames =
+            Kind::ALL.map(|k| if sim.is_empty() { Vec::new() } else { rpe_over_time(sim, run.of(k), &moving) });
         Self {
             input,
             causal: tracks_of_estimates(run.of(Kind::Causal)),
@@ -107,6 +122,7 @@ impl EstimatedTracks {
             rpe,
             truth: truth_tracks(sim),
             world_yaw,
+            rpe_frames,
             frames: run.causal.len(),
         }
     }

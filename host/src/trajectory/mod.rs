@@ -5,6 +5,7 @@
 mod eligibility;
 pub mod estimated;
 mod ground_truth;
+mod object_number;
 mod source;
 
 pub use eligibility::{EligibilityRule, EligibleRun, MovingRule, eligible_runs, instance_frames};
@@ -13,4 +14,5 @@ pub use estimated::{
     tracks_of_estimates,
 };
 pub use ground_truth::{LabelledObservation, ObjectTrack, ground_truth_tracks, label_tracks};
+pub use object_number::{object_number, track_id_of};
 pub use source::{RTS_WINDOW, Source};

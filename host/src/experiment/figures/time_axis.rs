@@ -1,0 +1,44 @@
+//! Time on the figures' x axes: seconds (frame x the frame period the run used), labelled with
+//! that rate, because readers think in seconds while the data is in frames, and the paper's
+//! 20 Hz is not KITTI's recorded 10 Hz.
+
+use dynotraj_core::limits::HORIZON;
+
+/// The rate of frame period `dt`, as few decimals as it needs ("20", "12.5").
+#[must_use]
+pub fn rate_text(dt: f32) -> String {
+    let hz = 1.0 / f64::from(dt);
+    let text = format!("{hz:.2}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The x label of a chart over frames: "time (s; frames at 20 Hz)".
+#[must_use]
+pub fn time_label(dt: f32) -> String {
+    format!("time (s; frames at {} Hz)", rate_text(dt))
+}
+
+/// The x label of a chart over horizon steps: "horizon (s; 30 steps at 20 Hz)".
+#[must_use]
+pub fn horizon_label(dt: f32) -> String {
+    format!("horizon (s; {HORIZON} steps at {} Hz)", rate_text(dt))
+}
+
+/// Frame `frame` in seconds at frame period `dt`.
+#[must_use]
+pub fn seconds(frame: u32, dt: f32) -> f64 {
+    f64::from(frame) * f64::from(dt)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn axes_say_seconds_and_the_rate() {
+        assert_eq!(time_label(0.05), "time (s; frames at 20 Hz)");
+        assert_eq!(time_label(0.1), "time (s; frames at 10 Hz)");
+        assert_eq!(horizon_label(0.08), "horizon (s; 30 steps at 12.5 Hz)");
+        assert!((seconds(154, 0.05) - 7.7).abs() < 1e-6);
+    }
+}
