@@ -5,8 +5,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::legend::{self, Entry};
-use super::ticks::{LABELS, decimals_for, format_tick};
-use super::{Chart, Drawing, LINE_CHART_SIZE, bounds, err, finite, stroke_width};
+use super::{Chart, Drawing, LINE_CHART_SIZE, bounds, draw_axes, err, finite, stroke_width};
 
 impl Drawing for Chart {
     fn size(&self) -> (u32, u32) {
@@ -40,20 +39,7 @@ impl Drawing for Chart {
             .y_label_area_size(64)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|x| err(&x))?;
-        let (dx, dy) = (decimals_for((x0, x1), LABELS), decimals_for((y0, y1), LABELS));
-        let fx = |v: &f64| format_tick(*v, dx);
-        let fy = |v: &f64| format_tick(*v, dy);
-        c.configure_mesh()
-            .x_desc(self.x_label.as_str())
-            .y_desc(self.y_label.as_str())
-            .x_labels(LABELS)
-            .y_labels(LABELS)
-            .x_label_formatter(&fx)
-            .y_label_formatter(&fy)
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 15))
-            .draw()
-            .map_err(|x| err(&x))?;
+        draw_axes(&mut c, (self.x_label.as_str(), self.y_label.as_str()), ((x0, x1), (y0, y1)), 14)?;
         for (s, e) in self.series.iter().zip(&entries) {
             let pts = finite(&s.points);
             let style = e.colour.stroke_width(stroke_width(pts.len()));

@@ -162,6 +162,34 @@ fn bounds<'a>(points: impl Iterator<Item = &'a (f64, f64)>) -> Option<((f64, f64
     Some(((x0 - px, x1 + px), (y0 - py, y1 + py)))
 }
 
+/// Draws the grid and both axes with their descriptions (`labels`: x, y) and tick labels with
+/// only the decimals each axis's step needs, in `font` px (descriptions one px larger).
+fn draw_axes<DB: DrawingBackend>(
+    c: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    labels: (&str, &str),
+    (x, y): ((f64, f64), (f64, f64)),
+    font: u32,
+) -> Result<(), String> {
+    let (dx, dy) = (ticks::decimals_for(x, ticks::LABELS), ticks::decimals_for(y, ticks::LABELS));
+    let fx = |v: &f64| ticks::format_tick(*v, dx);
+    let fy = |v: &f64| ticks::format_tick(*v, dy);
+    c.configure_mesh()
+        .x_desc(labels.0)
+        .y_desc(labels.1)
+        .x_labels(ticks::LABELS)
+        .y_labels(ticks::LABELS)
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .label_style(("sans-serif", font))
+        .axis_desc_style(("sans-serif", font + 1))
+        .draw()
+        .map_err(|x| err(&x))
+}
+
 /// A plotters error as text (the backends' error types differ).
 fn err(e: &dyn std::fmt::Display) -> String {
     e.to_string()

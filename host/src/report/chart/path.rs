@@ -7,8 +7,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use super::legend::{self, Entry};
-use super::ticks::{LABELS, decimals_for, format_tick};
-use super::{Drawing, Style, bounds, err, finite, stroke_width};
+use super::{Drawing, Style, bounds, draw_axes, err, finite, stroke_width};
 
 /// A dot on a path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -118,20 +117,7 @@ impl PathFigure {
             builder().build_cartesian_2d(0f64..1f64, 0f64..1f64).map_err(|x| err(&x))?.plotting_area().dim_in_pixel();
         let ((x0, x1), (y0, y1)) = equal_scale(data, pixels);
         let mut c = builder().build_cartesian_2d(x0..x1, y0..y1).map_err(|x| err(&x))?;
-        let (dx, dy) = (decimals_for((x0, x1), LABELS), decimals_for((y0, y1), LABELS));
-        let fx = |v: &f64| format_tick(*v, dx);
-        let fy = |v: &f64| format_tick(*v, dy);
-        c.configure_mesh()
-            .x_desc(self.x_label.as_str())
-            .y_desc(self.y_label.as_str())
-            .x_labels(LABELS)
-            .y_labels(LABELS)
-            .x_label_formatter(&fx)
-            .y_label_formatter(&fy)
-            .label_style(("sans-serif", 13))
-            .axis_desc_style(("sans-serif", 14))
-            .draw()
-            .map_err(|x| err(&x))?;
+        draw_axes(&mut c, (self.x_label.as_str(), self.y_label.as_str()), ((x0, x1), (y0, y1)), 13)?;
         // Lines first, then the dots, so that no line hides where a path starts or a forecast is
         // made.
         let mut dots = Vec::new();
