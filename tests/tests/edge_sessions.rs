@@ -85,7 +85,7 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     write_tracks_file(&tracks, &dtt);
     let blob = dir.path().join("unsigned.blob");
     std::fs::write(&blob, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
-    let (mut edge, _lines, addr) = spawn_listening_edge(&["--listen", "tcp://localhost:0", "--sessions", "2"]);
+    let (mut edge, edge_lines, addr) = spawn_listening_edge(&["--listen", "tcp://localhost:0", "--sessions", "2"]);
     let to = format!("tcp://{addr}");
     let out_dir = dir.path().join("stream");
     let (out, report) = (out_dir.join("forecasts.csv"), out_dir.join("frames.csv"));
@@ -128,6 +128,9 @@ fn the_stream_command_fails_with_the_reason_for_a_refused_model_and_keeps_what_a
     let forecasts = std::fs::read_to_string(&out).unwrap();
     assert!(forecasts.lines().count() > 1, "the forecasts received before the interrupt are written");
     assert!(edge.wait().unwrap().success(), "the edge served its two sessions");
+    // The edge logs the refusal on its own stderr too, in the firmware's terse form.
+    let edge_log: Vec<String> = edge_lines.map_while(Result::ok).collect();
+    assert!(edge_log.iter().any(|l| l.starts_with("W dynotraj_edge::session: model refused")), "{edge_log:#?}");
 }
 
 #[test]

@@ -64,6 +64,40 @@ struct Args {
     /// Exit after serving this many sessions (default: serve until SIGINT or SIGTERM).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..), value_name = "N")]
     sessions: Option<u32>,
+    /// More log detail on stderr: -v info (sessions, models), -vv debug (every frame).
+    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    verbose: u8,
+    /// Errors only (the default shows warnings: refused models, capacity reached).
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+impl Args {
+    /// The log level the flags ask for (`RUST_LOG`, when set, chooses instead).
+    const fn log_level(&self) -> log::LevelFilter {
+        match (self.quiet, self.verbose) {
+            (true, _) => log::LevelFilter::Error,
+            (false, 0) => log::LevelFilter::Warn,
+            (false, 1) => log::LevelFilter::Info,
+            (false, 2) => log::LevelFilter::Debug,
+            (false, _) => log::LevelFilter::Trace,
+        }
+    }
+}
+
+/// The edge's log lines in the firmware's terse form: level letter, target, message
+/// (`W dynotraj_edge::session: model refused: …`).
+fn init_log(level: log::LevelFilter) {
+    use std::io::Write as _;
+    let mut logger = env_logger::Builder::new();
+    logger.filter_level(level).format(|f, r| {
+        let letter = r.level().as_str().chars().next().unwrap_or('?');
+        writeln!(f, "{letter} {}: {}", r.target(), r.args())
+    });
+    if let Ok(filters) = std::env::var("RUST_LOG") {
+        logger.parse_filters(&filters);
+    }
+    logger.init();
 }
 
 /// Parses `--idle-timeout`: seconds, a finite number above zero and at most a day.
@@ -76,6 +110,7 @@ fn idle_seconds(text: &str) -> Result<Duration, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    init_log(args.log_level());
     match serve(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
