@@ -326,3 +326,20 @@ fn the_report_folders_and_printed_tables_of_experiment_and_benchmark_read_as_typ
     assert_eq!(kinds, BTreeSet::from(["data", "mean", "spread"]));
     assert!(files.contains_key("table_i.csv") && files.contains_key("per_sequence_seed2.csv"), "{:?}", files.keys());
 }
+
+#[test]
+fn the_committed_report_folders_read_as_typed_data_each_csv_beside_its_json() {
+    let reports = Path::new(env!("CARGO_MANIFEST_DIR")).join("../reports");
+    let mut folders: Vec<_> =
+        std::fs::read_dir(&reports).unwrap().map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect();
+    folders.sort();
+    assert!(folders.len() >= 5, "{folders:?}");
+    for dir in folders {
+        let read = check_folder(&dir);
+        assert!(!read.is_empty(), "{}: no CSV", dir.display());
+        for name in read.keys() {
+            let twin = dir.join(Path::new(name).with_extension("json"));
+            assert!(twin.is_file(), "{}: {name} has no JSON twin (old layout?)", dir.display());
+        }
+    }
+}
