@@ -11,9 +11,10 @@ use std::path::Path;
 
 use dynotraj_core::wire::{ComputeUnit, Message};
 use dynotraj_tests::edge_fixture::{
-    default_model_blob, elf_sections, encode_all, firmware_elf, firmware_program, host_messages, outputs,
-    reference_replies, scene_tracks, stream_to_qemu,
+    default_model_blob, encode_all, firmware_elf, firmware_program, host_messages, outputs, reference_replies,
+    scene_tracks, stream_to_qemu,
 };
+use dynotraj_tests::firmware_memory::{KIB, check_memory};
 
 #[test]
 fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
@@ -101,59 +102,3 @@ fn check_log_lines(log: &str, frames: usize) {
 /// forecast histories have filled (measured over 40 frames: the cost rises until about frame 12
 /// and stays within 2% from there on).
 const STEADY_FROM: usize = 12;
-
-const KIB: u32 = 1024;
-
-/// Prints the image's sections and peak stack, checks flash against the budget and the figures
-/// against `golden` (a file beside the firmware crate) when given, and returns the RAM used
-/// (.data + .bss + peak stack).
-fn check_memory(elf: &Path, log: &str, golden: Option<&str>) -> u32 {
-    let peak: u32 = log
-        .lines()
-        .find_map(|l| l.strip_prefix("dynotraj-firmware: peak stack "))
-        .and_then(|l| l.split(' ').next())
-        .and_then(|n| n.parse().ok())
-        .expect("the firmware reports its peak stack");
-    let sections = elf_sections(elf);
-    let size = |name: &str| sections.iter().find(|(n, _)| n == name).map_or(0, |(_, s)| *s);
-    let figures = [
-        ("vector_table", size(".vector_table")),
-        ("text", size(".text")),
-        ("rodata", size(".rodata")),
-        ("data", size(".data")),
-        ("bss", size(".bss") + size(".uninit")),
-        ("peak_stack", peak),
-    ];
-    let flash = size(".vector_table") + size(".text") + size(".rodata") + size(".data");
-    let ram = size(".data") + size(".bss") + size(".uninit") + peak;
-    for (n, v) in figures {
-        println!("{n:<12} {v:>7} B");
-    }
-    println!("flash {flash} B of {} B; RAM {ram} B of {} B", 512 * KIB, 128 * KIB);
-    assert!(flash <= 512 * KIB, "flash {flash} B over the 512 KiB budget");
-
-    let Some(golden) = golden else { return ram };
-    let golden_path = dynotraj_tests::manifest_dir().join("../edge/firmware").join(golden);
-    let now: String = figures.iter().map(|(n, v)| format!("{n} {v}\n")).collect();
-    if std::env::var_os("DYNOTRAJ_BLESS").is_some() {
-        std::fs::write(
-            &golden_path,
-            format!("# bytes; checked by tests/tests/edge_qemu.rs (DYNOTRAJ_BLESS=1 rewrites it)\n{now}"),
-        )
-        .unwrap();
-        return ram;
-    }
-    let golden = std::fs::read_to_string(&golden_path).unwrap();
-    for line in golden.lines().filter(|l| !l.starts_with('#')) {
-        let (name, value) = line.split_once(' ').unwrap();
-        let want: f64 = value.trim().parse().unwrap();
-        let got = f64::from(figures.iter().find(|(n, _)| *n == name).unwrap().1);
-        // 2% or 256 B either way: a change to core that moves a figure further must be looked
-        // at, and blessed.
-        assert!(
-            (got - want).abs() <= (0.02 * want).max(256.0),
-            "{name}: {got} B, golden {want} B (DYNOTRAJ_BLESS=1 after a deliberate change)"
-        );
-    }
-    ram
-}

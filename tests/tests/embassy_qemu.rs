@@ -7,6 +7,7 @@ use dynotraj_core::wire::{ComputeUnit, Message};
 use dynotraj_tests::edge_fixture::{
     encode_all, firmware_program, host_messages, outputs, reference_replies, scene_tracks, stream_to_qemu,
 };
+use dynotraj_tests::firmware_memory::check_memory;
 
 #[test]
 fn embassy_example_under_qemu_matches_the_host_edge_byte_for_byte() {
@@ -33,4 +34,6 @@ fn embassy_example_under_qemu_matches_the_host_edge_byte_for_byte() {
     assert_eq!(link.received.bytes_discarded, 0);
     assert!(log.contains(&format!("dynotraj-embassy: frames estimated {frames} lost 0")), "its summary: {log}");
     assert!(log.contains("uart overruns 0"), "no byte lost at the UART: {log}");
+    let ram = check_memory(&elf, &log, Some("memory-embassy.golden"));
+    println!("embassy example: RAM {ram} B");
 }
