@@ -16,8 +16,9 @@ use dynotraj_core::predict::{Baseline, Forecast};
 
 use super::choice::Subject;
 use super::time_axis::{rate_text, seconds};
-use super::{Figure, FigureInputs, load_int8};
+use super::{Figure, FigureInputs};
 use crate::evaluate::{Forecaster, forecast_at};
+use crate::model_file::ModelFile;
 use crate::report::chart::{Colour, Marker, Panel, PathFigure, PathLine, Style, write_paths};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
@@ -80,12 +81,8 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
         .flat_map(|r| r.instances().map(move |s| r.first_frame + s as u32))
         .collect();
     let chosen = evenly_spaced(&frames, INSTANCES);
-    let mut models = Vec::new();
-    for &arm in inputs.arms.iter().filter(|a| seq.has(**a)) {
-        if let Some(m) = load_int8(inputs.models, arm, &seq.id)? {
-            models.push((arm, m));
-        }
-    }
+    let models: Vec<(Source, &ModelFile)> =
+        inputs.arms.iter().filter_map(|&arm| Some((arm, inputs.models.get(arm, &seq.id)?))).collect();
     if chosen.is_empty() || models.is_empty() {
         return Ok(Vec::new());
     }

@@ -9,7 +9,7 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::Baseline;
 
 use super::time_axis::horizon_label;
-use super::{Figure, FigureInputs, load_int8};
+use super::{Figure, FigureInputs};
 use crate::evaluate::{HorizonErrors, score_sequence};
 use crate::report::chart::{Chart, Colour, Series, Style, write_chart};
 use crate::scene::Scene;
@@ -24,13 +24,13 @@ struct ArmErrors {
 }
 
 /// The errors of every arm with at least one fold model among the loaded sequences.
-fn arm_errors(inputs: &FigureInputs<'_>) -> anyhow::Result<Vec<ArmErrors>> {
+fn arm_errors(inputs: &FigureInputs<'_>) -> Vec<ArmErrors> {
     let mut out = Vec::new();
     for &arm in inputs.arms {
         let mut e =
             ArmErrors { arm, learned: HorizonErrors::default(), cv: HorizonErrors::default(), sequences: vec![] };
-        for seq in inputs.sequences.iter().filter(|s| s.has(arm)) {
-            let Some(model) = load_int8(inputs.models, arm, &seq.id)? else { continue };
+        for seq in inputs.sequences {
+            let Some(model) = inputs.models.get(arm, &seq.id) else { continue };
             let tracks = seq.tracks_for(arm);
             let runs = eligible_runs(tracks, inputs.rule);
             let scene = Scene::new(tracks, arm, inputs.dt);
@@ -42,7 +42,7 @@ fn arm_errors(inputs: &FigureInputs<'_>) -> anyhow::Result<Vec<ArmErrors>> {
             out.push(e);
         }
     }
-    Ok(out)
+    out
 }
 
 /// One chart: its file stem, title, y unit, the curve of an arm's errors and what it shows.
@@ -62,9 +62,9 @@ fn over_horizon(values: &[f64], dt: f32) -> Vec<(f64, f64)> {
 /// The ADE and FDE against the horizon charts; nothing when no arm has a fold model.
 ///
 /// # Errors
-/// A fold model that does not load, or a chart that cannot be written, named.
+/// A chart that cannot be written, named.
 pub fn write(dir: &Path, inputs: &FigureInputs<'_>) -> anyhow::Result<Vec<Figure>> {
-    let arms = arm_errors(inputs)?;
+    let arms = arm_errors(inputs);
     if arms.is_empty() {
         return Ok(Vec::new());
     }

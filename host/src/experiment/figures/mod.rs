@@ -53,20 +53,40 @@ pub struct FigureInputs<'a> {
     pub rule: &'a EligibilityRule,
     /// Frame period, seconds.
     pub dt: f32,
-    /// The folder of the fold models, `<arm>-<seq>.blob.int8` for the fold holding out `seq`.
-    pub models: &'a Path,
+    /// The int8 fold models there are, read once for every figure.
+    pub models: &'a FoldModels,
 }
 
-/// The int8 model of `arm` trained without sequence `seq`, when `models` holds one.
-///
-/// # Errors
-/// A model file that is there but does not load, named.
-pub fn load_int8(models: &Path, arm: Source, seq: &str) -> anyhow::Result<Option<ModelFile>> {
-    let path = models.join(format!("{arm}-{seq}.blob.int8"));
-    if !path.is_file() {
-        return Ok(None);
+/// The int8 fold models of a run: per arm and loaded sequence, the model trained without that
+/// sequence, where the models folder holds one (`<arm>-<seq>.blob.int8`).
+#[derive(Debug, Default)]
+pub struct FoldModels(Vec<(Source, String, ModelFile)>);
+
+impl FoldModels {
+    /// Reads every fold model of `arms` for the `sequences` that have the arm's source.
+    ///
+    /// # Errors
+    /// A model file that is there but does not load, named.
+    pub fn load(dir: &Path, arms: &[Source], sequences: &[SequenceTracks]) -> anyhow::Result<Self> {
+        let mut out = Vec::new();
+        for &arm in arms {
+            for seq in sequences.iter().filter(|s| s.has(arm)) {
+                let path = dir.join(format!("{arm}-{}.blob.int8", seq.id));
+                if path.is_file() {
+                    let model = ModelFile::load(&path)
+                        .with_context(|| format!("figures: the fold model {}", path.display()))?;
+                    out.push((arm, seq.id.clone(), model));
+                }
+            }
+        }
+        Ok(Self(out))
     }
-    ModelFile::load(&path).map(Some).with_context(|| format!("figures: the fold model {}", path.display()))
+
+    /// The model of `arm` trained without sequence `seq`, if there is one.
+    #[must_use]
+    pub fn get(&self, arm: Source, seq: &str) -> Option<&ModelFile> {
+        self.0.iter().find(|(a, s, _)| *a == arm && s == seq).map(|(_, _, m)| m)
+    }
 }
 
 /// Writes the figures into `dir` for what `sequences` hold: per object of `objects` (or the
@@ -87,7 +107,8 @@ pub fn write_figures(
     objects: &[ObjectChoice],
 ) -> anyhow::Result<Vec<Figure>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let inputs = FigureInputs { sequences, arms, rule, dt, models };
+    let models = FoldModels::load(models, arms, sequences)?;
+    let inputs = FigureInputs { sequences, arms, rule, dt, models: &models };
     let chosen = subjects(objects, sequences, rule)?;
     let mut out = Vec::new();
     for subject in &chosen {

@@ -9,7 +9,7 @@ use dynotraj_core::geometry::angle_diff;
 
 use super::choice::{Extent, Subject};
 use super::time_axis::{seconds, time_label};
-use super::{Figure, FigureInputs, load_int8};
+use super::{Figure, FigureInputs};
 use crate::evaluate::score_sequence;
 use crate::report::chart::{Chart, Series, write_chart};
 use crate::scene::Scene;
@@ -43,13 +43,13 @@ fn heading_deg(_: Option<&BevState>, _: &BevState, unwrapped: f64) -> Option<f64
     Some(unwrapped.to_degrees())
 }
 
-/// One series per source of `f(previous, current)` over consecutive frames (or of the current
-/// state alone when `f` ignores the previous one), x in seconds.
-fn per_source(seq: &SequenceTracks, sources: &[Source], track_id: i32, dt: f32, f: Measure) -> Vec<Series> {
-    sources
+/// One series per source (with its states, as [`states_of`] gives them) of `f(previous,
+/// current)` over consecutive frames (or of the current state alone when `f` ignores the
+/// previous one), x in seconds.
+fn per_source(states_by_source: &[(Source, Vec<(u32, BevState)>)], dt: f32, f: Measure) -> Vec<Series> {
+    states_by_source
         .iter()
-        .map(|&src| {
-            let states = states_of(seq, src, track_id, dt);
+        .map(|(src, states)| {
             let mut points = Vec::new();
             let mut unwrapped = 0.0;
             for (i, (frame, s)) in states.iter().enumerate() {
@@ -109,6 +109,8 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
         ("speed", "speed", "m/s", speed),
         ("heading", "heading", "degrees", heading_deg),
     ];
+    let states: Vec<(Source, Vec<(u32, BevState)>)> =
+        sources.iter().map(|&src| (src, states_of(seq, src, track, dt))).collect();
     let mut out = Vec::new();
     for (name, long, unit, f) in charts {
         if subject.extent == Extent::Heading && name != "heading" {
@@ -118,7 +120,7 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
             title: format!("{long}: {what}"),
             x_label: time_label(dt),
             y_label: unit.into(),
-            series: per_source(seq, &sources, track, dt, f),
+            series: per_source(&states, dt, f),
         };
         let [png, _] = write_chart(&chart, &dir.join(stem(subject, name)))?;
         out.push(Figure {
@@ -144,8 +146,8 @@ fn ace_figure(
 ) -> anyhow::Result<Option<Figure>> {
     let (seq, dt) = (subject.seq, inputs.dt);
     let mut series = Vec::new();
-    for &arm in inputs.arms.iter().filter(|a| seq.has(**a)) {
-        let Some(model) = load_int8(inputs.models, arm, &seq.id)? else { continue };
+    for &arm in inputs.arms {
+        let Some(model) = inputs.models.get(arm, &seq.id) else { continue };
         let mut predictor = model.predictor();
         let tracks = seq.tracks_for(arm);
         let runs: Vec<_> =
