@@ -7,6 +7,12 @@
 pub const HORIZON: usize = 30;
 /// Most history frames (before the current one) fed to a predictor.
 pub const MAX_HISTORY: usize = 6;
+/// Most history frames (before the current one) the motion prior reads: its acceleration and
+/// turn rate need a longer memory than the network's input (21 states are 2 s of KITTI's real
+/// 10 Hz; [`crate::predict::prior`]).
+pub const MAX_PRIOR_HISTORY: usize = 20;
+/// States a motion-prior history holds at most: [`MAX_PRIOR_HISTORY`] and the current one.
+pub const PRIOR_STATES: usize = MAX_PRIOR_HISTORY + 1;
 /// Fewest history frames (before the current one) a forecast needs.
 pub const MIN_HISTORY: usize = 1;
 /// Shortest run of consecutive frames that makes an object eligible: one history frame, the

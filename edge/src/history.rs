@@ -1,11 +1,15 @@
 //! Per-object state histories: the forecast inputs, kept from the estimator's causal output.
 
 use dynotraj_core::estimate::PoseEstimate;
-use dynotraj_core::geometry::BevState;
-use dynotraj_core::limits::{MAX_HISTORY, MAX_OBJECTS};
+use dynotraj_core::geometry::{BevState, Point2};
+use dynotraj_core::limits::{MAX_HISTORY, MAX_OBJECTS, PRIOR_STATES};
 
-/// States kept per object: the history the predictor reads plus the current frame.
+/// States kept whole per object: the history the network reads plus the current frame.
 pub const HISTORY_LEN: usize = MAX_HISTORY + 1;
+/// Older positions kept per object for the motion prior's long memory. The prior reads positions
+/// only, so a state older than the network's window keeps its position alone (8 bytes instead
+/// of 16: the long memory costs 1.8 KiB for 16 objects, not 3.6).
+pub const OLDER_LEN: usize = PRIOR_STATES - HISTORY_LEN;
 
 /// One object's consecutive causal states, oldest first.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,6 +25,10 @@ pub struct History {
     len: usize,
     /// `states[..len]`, oldest first.
     states: [BevState; HISTORY_LEN],
+    /// Older positions in use.
+    older_len: usize,
+    /// `older[..older_len]`, oldest first: the positions of the states that left `states`.
+    older: [Point2; OLDER_LEN],
 }
 
 impl History {
@@ -30,6 +38,8 @@ impl History {
         last_frame: 0,
         len: 0,
         states: [BevState { x: 0.0, y: 0.0, heading: 0.0, speed: 0.0 }; HISTORY_LEN],
+        older_len: 0,
+        older: [Point2 { x: 0.0, y: 0.0 }; OLDER_LEN],
     };
 
     /// The states, oldest first, current last.
@@ -38,8 +48,33 @@ impl History {
         self.states.get(..self.len).unwrap_or(&[])
     }
 
+    /// The long history the motion prior reads, written to `buf`, oldest first: the older
+    /// positions (heading and speed 0: the prior reads positions only, the network only the
+    /// newest [`HISTORY_LEN`] states), then [`History::states`].
+    pub fn long_states<'b>(&self, buf: &'b mut [BevState; PRIOR_STATES]) -> &'b [BevState] {
+        let older = self.older.get(..self.older_len).unwrap_or(&[]);
+        let states = self.states();
+        for (b, p) in buf.iter_mut().zip(older) {
+            *b = BevState { x: p.x, y: p.y, heading: 0.0, speed: 0.0 };
+        }
+        for (b, s) in buf.iter_mut().skip(older.len()).zip(states) {
+            *b = *s;
+        }
+        buf.get(..older.len() + states.len()).unwrap_or(&[])
+    }
+
     fn push(&mut self, state: BevState) {
         if self.len == HISTORY_LEN {
+            if let Some(oldest) = self.states.first().map(BevState::position) {
+                if self.older_len == OLDER_LEN {
+                    self.older.rotate_left(1);
+                    self.older_len -= 1;
+                }
+                if let Some(o) = self.older.get_mut(self.older_len) {
+                    *o = oldest;
+                    self.older_len += 1;
+                }
+            }
             self.states.rotate_left(1);
             self.len -= 1;
         }
@@ -75,24 +110,60 @@ impl Histories {
     /// segment extends its history, any other starts a new one; objects not in `estimate`
     /// are forgotten (their run ended, or a frame was lost).
     ///
-    /// Never inlined: the new table (2 KiB) is built on the stack, which then holds it only
-    /// here, not under the estimator's deepest calls.
-    #[inline(never)]
+    /// In place: slot i is brought to hold the estimate's i-th object by swapping, so no second
+    /// table (5.6 KiB) is ever on the stack.
     pub fn update(&mut self, estimate: &PoseEstimate) {
-        let mut next = [History::EMPTY; MAX_OBJECTS];
+        // needed[k]: old slot k holds a history some object of this frame will claim.
+        let mut needed = [false; MAX_OBJECTS];
+        for (flag, h) in needed.iter_mut().zip(self.current()) {
+            *flag = estimate.objects.iter().any(|o| o.object_id == h.object_id);
+        }
+        // Slots i..pending hold old histories not yet claimed; slots past it are free.
+        let mut pending = self.used;
         let mut n = 0;
-        for (o, slot) in estimate.objects.iter().zip(next.iter_mut()) {
-            let old = self.current().iter().find(|h| h.object_id == o.object_id);
-            *slot = match old {
-                Some(h) if h.segment == o.segment && h.last_frame.wrapping_add(1) == estimate.frame => *h,
-                _ => History { object_id: o.object_id, segment: o.segment, ..History::EMPTY },
+        for (i, o) in estimate.objects.iter().enumerate().take(MAX_OBJECTS) {
+            let claimed = (i..pending).find(|&j| self.slots.get(j).is_some_and(|h| h.object_id == o.object_id));
+            let continues = match claimed {
+                Some(j) => {
+                    self.swap(i, j, &mut needed);
+                    self.slots
+                        .get(i)
+                        .is_some_and(|h| h.segment == o.segment && h.last_frame.wrapping_add(1) == estimate.frame)
+                }
+                None => {
+                    // A new object: a history a later object claims moves to a free slot first
+                    // (one exists: fewer objects are left than slots).
+                    if i < pending && needed.get(i).copied().unwrap_or(false) {
+                        let free =
+                            (i + 1..pending).find(|&j| !needed.get(j).copied().unwrap_or(true)).unwrap_or(pending);
+                        if free == pending {
+                            pending += 1;
+                        }
+                        self.swap(i, free, &mut needed);
+                    }
+                    false
+                }
             };
+            if let Some(flag) = needed.get_mut(i) {
+                *flag = false;
+            }
+            let Some(slot) = self.slots.get_mut(i) else { break };
+            if !continues {
+                *slot = History { object_id: o.object_id, segment: o.segment, ..History::EMPTY };
+            }
             slot.last_frame = estimate.frame;
             slot.push(o.bev);
-            n += 1;
+            n = i + 1;
         }
-        self.slots = next;
         self.used = n;
+    }
+
+    /// Swaps slots `a` and `b` and their flags (nothing when either is out of range).
+    fn swap(&mut self, a: usize, b: usize, needed: &mut [bool; MAX_OBJECTS]) {
+        if a < MAX_OBJECTS && b < MAX_OBJECTS {
+            self.slots.swap(a, b);
+            needed.swap(a, b);
+        }
     }
 
     /// The histories of the newest frame's objects, in the estimate's order.

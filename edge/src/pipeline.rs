@@ -4,7 +4,7 @@ use dynotraj_core::estimate::{
     EDGE_PROFILE, Estimator, EstimatorParams, EstimatorStats, Intrinsics, PoseEstimate, Pushed,
 };
 use dynotraj_core::geometry::{BevState, Point2};
-use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ};
+use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ, PRIOR_STATES};
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::model::kernel::Kernel;
 use dynotraj_core::model::{Scratch, forecast};
@@ -324,8 +324,10 @@ impl<'m, const W: usize> Edge<'m, W> {
             }
         }
         let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
+        let mut long = [BevState { x: 0.0, y: 0.0, heading: 0.0, speed: 0.0 }; PRIOR_STATES];
+        let long = own.long_states(&mut long);
         let learned =
-            self.model.as_ref().map(|k| forecast(k, &mut self.scratch, history, &neighbours, self.dt, &mut points));
+            self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &neighbours, self.dt, &mut points));
         let ok = match learned {
             Some(Ok(())) => true,
             Some(Err(e)) => {

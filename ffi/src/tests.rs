@@ -245,7 +245,9 @@ fn a_model_blob_is_taken_and_a_bad_one_leaves_it_in_use() {
         .collect();
     let tensors: Vec<&[f32]> = weights.iter().map(Vec::as_slice).collect();
     let mut blob = std::vec![0u8; 1 << 16];
-    let len = write_blob(&dims, Precision::Int8, 0.05, &tensors, &mut blob).unwrap();
+    let len =
+        write_blob(&dims, Precision::Int8, 0.05, &dynotraj_core::predict::PriorSettings::DEFAULT, &tensors, &mut blob)
+            .unwrap();
     let model = Notice::Forecasting(Forecaster::Model { len: u32::try_from(len).unwrap() });
 
     let mut h = Harness::new();

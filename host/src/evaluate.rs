@@ -15,7 +15,7 @@
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, ace, ade, fde, step_errors};
 use dynotraj_core::model::LearnedPredictor;
-use dynotraj_core::predict::{Baseline, Forecast, PredictError, Predictor};
+use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PredictError, Predictor};
 use dynotraj_core::{BevState, Point2};
 
 use crate::scene::{Scene, SourcedRun};
@@ -37,6 +37,18 @@ pub trait Forecaster {
 }
 
 impl Forecaster for Baseline {
+    fn forecast(
+        &mut self,
+        history: &[BevState],
+        _neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
+        self.predict(history, dt, out)
+    }
+}
+
+impl Forecaster for MotionPrior {
     fn forecast(
         &mut self,
         history: &[BevState],

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use dynotraj_core::predict::Baseline;
+use dynotraj_core::predict::{Baseline, MotionPrior, PriorSettings};
 
 use crate::evaluate::Forecaster;
 use crate::model_file::ModelFile;
@@ -15,6 +15,9 @@ pub enum PredictorSpec {
     /// positions), cv-fit (along the fitted current velocity), ctra (constant turn rate and
     /// acceleration on the unicycle, within the paper's limits).
     Baseline(Baseline),
+    /// The motion prior (`prior`, with `PriorSettings::DEFAULT`) or the prior a trained model
+    /// holds (`prior:PATH`: the settings its training chose).
+    Prior(Option<PathBuf>),
     /// A trained model blob (f32 or int8) from `dynotraj train`.
     Model(PathBuf),
 }
@@ -25,10 +28,15 @@ impl std::str::FromStr for PredictorSpec {
         if let Some(b) = Baseline::ALL.into_iter().find(|b| b.name() == s) {
             return Ok(Self::Baseline(b));
         }
-        s.strip_prefix("model:")
-            .filter(|p| !p.is_empty())
-            .map(|p| Self::Model(PathBuf::from(p)))
-            .ok_or_else(|| format!("unknown predictor `{s}`: expected cv, cv-fit, ctra or model:PATH"))
+        if s == "prior" {
+            return Ok(Self::Prior(None));
+        }
+        if let Some(p) = s.strip_prefix("prior:").filter(|p| !p.is_empty()) {
+            return Ok(Self::Prior(Some(PathBuf::from(p))));
+        }
+        s.strip_prefix("model:").filter(|p| !p.is_empty()).map(|p| Self::Model(PathBuf::from(p))).ok_or_else(|| {
+            format!("unknown predictor `{s}`: expected cv, cv-fit, ctra, prior, prior:PATH or model:PATH")
+        })
     }
 }
 
@@ -38,6 +46,11 @@ impl PredictorSpec {
     pub fn label(&self) -> String {
         match self {
             Self::Baseline(b) => b.name().into(),
+            Self::Prior(None) => "prior".into(),
+            Self::Prior(Some(p)) => format!(
+                "prior of {}",
+                p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+            ),
             Self::Model(p) => format!(
                 "model {}",
                 p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
@@ -51,6 +64,8 @@ impl PredictorSpec {
 pub enum LoadedPredictor {
     /// A baseline.
     Baseline(Baseline),
+    /// The motion prior with these settings.
+    Prior(MotionPrior),
     /// A model blob.
     Model(ModelFile),
 }
@@ -64,6 +79,8 @@ impl LoadedPredictor {
     pub fn load(spec: &PredictorSpec, dt: f32) -> anyhow::Result<Self> {
         match spec {
             PredictorSpec::Baseline(b) => Ok(Self::Baseline(*b)),
+            PredictorSpec::Prior(None) => Ok(Self::Prior(MotionPrior(PriorSettings::DEFAULT))),
+            PredictorSpec::Prior(Some(path)) => Ok(Self::Prior(MotionPrior(*ModelFile::load(path)?.blob().prior()))),
             PredictorSpec::Model(path) => {
                 let m = ModelFile::load(path)?;
                 let trained = m.blob().frame_period_s();
@@ -85,6 +102,7 @@ impl LoadedPredictor {
     pub fn forecaster(&self) -> Box<dyn Forecaster + '_> {
         match self {
             Self::Baseline(b) => Box::new(*b),
+            Self::Prior(p) => Box::new(*p),
             Self::Model(m) => Box::new(m.predictor()),
         }
     }

@@ -149,7 +149,8 @@ fn write_seeds(root: &Path) {
     let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
     for (precision, name) in [(Precision::F32, "f32"), (Precision::Int8, "int8")] {
         let mut blob = vec![0u8; blob_len(&dims, precision)];
-        write_blob(&dims, precision, 0.05, &slices, &mut blob).unwrap();
+        write_blob(&dims, precision, 0.05, &dynotraj_core::predict::PriorSettings::DEFAULT, &slices, &mut blob)
+            .unwrap();
         // First byte: the target's mode (1 = repair the CRC).
         seed("model_blob", name, &[&[1u8][..], &blob].concat());
         // Signed by the development key; mode 0 keeps the trailer as it is.

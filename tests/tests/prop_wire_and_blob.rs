@@ -127,7 +127,8 @@ fn every_single_byte_change_of_a_blob_is_refused() {
     let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
     for precision in [Precision::F32, Precision::Int8] {
         let mut blob = vec![0u8; blob_len(&dims, precision)];
-        write_blob(&dims, precision, 0.05, &slices, &mut blob).unwrap();
+        write_blob(&dims, precision, 0.05, &dynotraj_core::predict::PriorSettings::DEFAULT, &slices, &mut blob)
+            .unwrap();
         assert!(ModelBlob::parse(&blob).is_ok());
         for i in 0..blob.len() {
             blob[i] ^= 0x5a;

@@ -51,7 +51,7 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     assert_eq!((blob.dims(), blob.precision(), blob.frame_period_s()), (dims, Precision::F32, 0.1));
     let int8_bytes = fs::read(model_dir.join("model.blob.int8")).unwrap();
     assert_eq!(ModelBlob::parse(&int8_bytes).unwrap().precision(), Precision::Int8);
-    let (net, _, dt) = load_checkpoint(&model_dir.join("model.blob.safetensors")).unwrap();
+    let (net, _, dt, _) = load_checkpoint(&model_dir.join("model.blob.safetensors")).unwrap();
     assert_eq!((net.dims, dt), (dims, 0.1));
 
     // The trained model forecasts a straight drive at 10 m/s as something finite and moving.

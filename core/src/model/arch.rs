@@ -12,16 +12,19 @@
 //! h_0 = Linear(k + cond -> dec)(concat(z, x))
 //! u_prev = features::initial_control(newest feature row): the current standardised
 //!          (turn rate / TURN_RATE_SCALE, longitudinal acceleration / ACCEL_SCALE)
+//! prior = predict::prior::plan(history, blob's prior settings): agent frame, speed, and
+//!         the prior's controls (w_t, a_t) for every step
 //! for t in 0..HORIZON:
 //!     h_t = GRUCell(2 + k + cond -> dec)(concat(u_prev, z, x), h_(t-1))
 //!     out = Linear(dec -> OUTPUTS)(h_t) = [mu_w, mu_a, log_sigma_w, log_sigma_a, rho_raw]
 //!     u_prev = (mu_w, mu_a)                     (standardised, unclamped: fed back as is)
-//!     control = clamp(mu_w * TURN_RATE_SCALE, +-0.7), clamp(mu_a * ACCEL_SCALE, +-4)
+//!     control = clamp(w_t + mu_w * TURN_RATE_SCALE, +-0.7), clamp(a_t + mu_a * ACCEL_SCALE, +-4)
 //!     state = unicycle_step(state, control, dt)  (agent frame, from (0, 0, 0, speed))
-//! where the agent frame and speed are `features::rollout_start`: along the current velocity of
-//! a parabola fitted through the history (`predict::fitted_velocity`), at its speed, so that zero
-//! controls reproduce the `cv-fit` baseline (`predict::constant_velocity_fit`).
 //! ```
+//!
+//! The network is a residual over the motion prior (`predict::prior`): at zero output it
+//! forecasts the prior exactly, bit for bit. With `PriorSettings::OFF` the prior is the
+//! `cv-fit` baseline and the network is the paper's setting (seven states, no prior).
 //!
 //! Training adds q(z|x,y) = Linear(cond + 2*FUTURE_ENC -> k) over a bidirectional LSTM of the
 //! future positions; it is not needed at inference and not exported.
@@ -36,13 +39,16 @@
 //! # Features
 //!
 //! For a history of states s_0..s_n (oldest first, s_n current; 1 <= n <= MAX_HISTORY), the
-//! agent frame (`features::rollout_start`) has its origin at s_n's position and its x axis along
-//! the fitted current velocity (along s_n's heading below 1 m/s). Per state:
+//! agent frame (`prior::plan`) has its origin at s_n's position and its x axis along
+//! the prior's fitted current velocity (along s_n's heading below 1 m/s). Per state:
 //! position p_i (agent frame), velocity v_i = (p_i - p_(i-1)) / dt (v_0 = v_1; 0 when n = 0),
 //! acceleration a_i = (v_i - v_(i-1)) / dt (a_0 = 0), relative heading wrap(h_i - h_n), heading
 //! rate r_i = wrap(h_i - h_(i-1)) / dt (r_0 = r_1). The feature vector is
 //! [p.x / POS_SCALE, p.y / POS_SCALE, v.x / VEL_SCALE, v.y / VEL_SCALE, a.x / ACC_SCALE,
-//! a.y / ACC_SCALE, dh / PI, rate / HEADING_RATE_SCALE], each clamped to +-FEATURE_CLAMP.
+//! a.y / ACC_SCALE, dh / PI, rate / HEADING_RATE_SCALE, trend speed / VEL_SCALE, trend
+//! acceleration / ACC_SCALE, trend turn rate / HEADING_RATE_SCALE], each clamped to
+//! +-FEATURE_CLAMP; the last three are the prior's long-window estimates (`prior::Trend`, the
+//! same in every row; zero for neighbours).
 //! Neighbour features use the same formulas with the neighbour's states, still in the *own*
 //! agent frame (so a neighbour's position says where it is relative to the agent); the edge
 //! LSTM's input at step i is [own features_i, sum over neighbours within NEIGHBOUR_RADIUS_M at
@@ -65,8 +71,9 @@
 
 use crate::limits::{HORIZON, MAX_ACCEL, MAX_HISTORY, MAX_TURN_RATE};
 
-/// Features per history state.
-pub const FEATURES: usize = 8;
+/// Features per history state: eight of the state itself, three of the motion prior's
+/// long-window estimates.
+pub const FEATURES: usize = 11;
 /// Most states in a history: MAX_HISTORY past frames and the current one.
 pub const MAX_STEPS: usize = MAX_HISTORY + 1;
 /// Hidden width of p(z|x).

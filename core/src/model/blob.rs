@@ -12,8 +12,12 @@
 //! 16     8     FEATURES, MAX_STEPS, HORIZON, OUTPUTS (u16 LE each): must match this build
 //! 24     4     frame period the model was trained at, seconds (f32 LE)
 //! 28     4     payload length, bytes (u32 LE)
-//! 32     n     payload: the tensors of `Dims::tensors`, in order
-//! 32+n   4     CRC-32/ISO-HDLC of bytes 0 .. 32+n (u32 LE)
+//! 32     1     motion prior: velocity window, states (u8)
+//! 33     1     motion prior: trend window, states (u8)
+//! 34     2     reserved, 0
+//! 36    16     motion prior: accel gain, turn gain, accel decay, turn decay (f32 LE each)
+//! 52     n     payload: the tensors of `Dims::tensors`, in order
+//! 52+n   4     CRC-32/ISO-HDLC of bytes 0 .. 52+n (u32 LE)
 //! ```
 //!
 //! Payload, f32: every tensor as little-endian f32, row-major. Int8: a weight matrix is its
@@ -22,16 +26,19 @@
 
 use super::arch::{Dims, FEATURES, MAX_STEPS, OUTPUTS, TENSORS};
 use crate::limits::HORIZON;
+use crate::predict::PriorSettings;
 use crate::wire::crc32;
 
 /// The blob's magic bytes.
 pub const BLOB_MAGIC: [u8; 4] = *b"DTJM";
 /// Version of the blob layout (and of the architecture it encodes, including where the rollout
 /// starts: a blob's controls are corrections to that start). 2: the rollout starts from the
-/// fitted current velocity (`features::rollout_start`) instead of the last displacement.
-pub const BLOB_VERSION: u16 = 2;
+/// fitted current velocity instead of the last displacement. 3: the controls are a residual
+/// over the motion prior whose settings the header holds, and the features include its
+/// long-window estimates; a version-2 blob is refused (its network never saw those inputs).
+pub const BLOB_VERSION: u16 = 3;
 /// Header length, bytes.
-pub const HEADER_LEN: usize = 32;
+pub const HEADER_LEN: usize = 52;
 /// CRC trailer length, bytes.
 const CRC_LEN: usize = 4;
 
@@ -90,6 +97,8 @@ pub enum BlobError {
     Crc,
     /// A weight, scale, bias or the frame period is not finite (or the period not positive).
     NonFinite,
+    /// The motion prior's settings are out of their ranges (`PriorSettings::is_valid`).
+    Prior,
     /// A tensor given to the writer has the wrong number of values, or too few tensors.
     TensorShape {
         /// Index of the tensor in layout order.
@@ -109,13 +118,17 @@ impl core::fmt::Display for BlobError {
         match self {
             Self::TooShort { need, have } => write!(f, "model blob too short: need {need} bytes, have {have}"),
             Self::BadMagic => f.write_str("not a model blob (magic is not DTJM)"),
-            Self::Version { found } => write!(f, "model blob version {found}, this build reads {BLOB_VERSION}"),
+            Self::Version { found } => write!(
+                f,
+                "model blob version {found}, this build reads {BLOB_VERSION} (retrain: version 3 adds the motion prior)"
+            ),
             Self::Precision { found } => write!(f, "unknown model precision code {found}"),
             Self::UnsupportedDims => f.write_str("model widths are zero or exceed this build's capacities"),
             Self::ShapeMismatch => f.write_str("model features, history, horizon or outputs differ from this build's"),
             Self::Length { expected, found } => write!(f, "model payload is {found} bytes, its widths need {expected}"),
             Self::Crc => f.write_str("model blob CRC mismatch: corrupt"),
             Self::NonFinite => f.write_str("model blob holds a non-finite value"),
+            Self::Prior => f.write_str("model blob's motion-prior settings are out of range"),
             Self::TensorShape { index } => write!(f, "tensor {index} has the wrong number of values"),
             Self::Trailing { extra } => write!(f, "{extra} bytes after the model blob's CRC, where it must end"),
             Self::BufferTooSmall => f.write_str("output buffer too small for the model blob"),
@@ -193,6 +206,7 @@ pub struct ModelBlob<'a> {
     dims: Dims,
     precision: Precision,
     frame_period_s: f32,
+    prior: PriorSettings,
     payload: &'a [u8],
     /// Where each tensor starts in the payload and its shape, computed once on parse: looking
     /// them up by walking the layout at every affine map was 5% of the firmware's instructions.
@@ -286,10 +300,22 @@ impl<'a> ModelBlob<'a> {
         if !(frame_period_s.is_finite() && frame_period_s > 0.0) {
             return Err(BlobError::NonFinite);
         }
+        let prior = PriorSettings {
+            velocity_window: header.get(32).copied().unwrap_or(0),
+            trend_window: header.get(33).copied().unwrap_or(0),
+            accel_gain: f32_at(header, 9),
+            turn_gain: f32_at(header, 10),
+            accel_decay: f32_at(header, 11),
+            turn_decay: f32_at(header, 12),
+        };
+        if !prior.is_valid() {
+            return Err(BlobError::Prior);
+        }
         let blob = Self {
             dims,
             precision,
             frame_period_s,
+            prior,
             payload: body.get(HEADER_LEN..).unwrap_or(&[]),
             layout: layout(&dims, precision),
         };
@@ -344,6 +370,12 @@ impl<'a> ModelBlob<'a> {
         self.frame_period_s
     }
 
+    /// The motion prior the network's controls are added to.
+    #[must_use]
+    pub const fn prior(&self) -> &PriorSettings {
+        &self.prior
+    }
+
     /// Tensor `index` in layout order (`None` past the last).
     #[must_use]
     pub fn tensor(&self, index: usize) -> Option<TensorView<'a>> {
@@ -369,6 +401,7 @@ pub fn write_blob(
     dims: &Dims,
     precision: Precision,
     frame_period_s: f32,
+    prior: &PriorSettings,
     tensors: &[&[f32]],
     out: &mut [u8],
 ) -> Result<usize, BlobError> {
@@ -377,6 +410,9 @@ pub fn write_blob(
     }
     if !(frame_period_s.is_finite() && frame_period_s > 0.0) {
         return Err(BlobError::NonFinite);
+    }
+    if !prior.is_valid() {
+        return Err(BlobError::Prior);
     }
     let total = blob_len(dims, precision);
     let out = out.get_mut(..total).ok_or(BlobError::BufferTooSmall)?;
@@ -397,6 +433,13 @@ pub fn write_blob(
         .get_mut(28..32)
         .unwrap_or(&mut [])
         .copy_from_slice(&u32::try_from(payload).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
+    if let Some([v, t]) = header.get_mut(32..34) {
+        (*v, *t) = (prior.velocity_window, prior.trend_window);
+    }
+    let floats = [prior.accel_gain, prior.turn_gain, prior.accel_decay, prior.turn_decay];
+    for (chunk, v) in header.get_mut(36..52).unwrap_or(&mut []).chunks_exact_mut(4).zip(floats) {
+        chunk.copy_from_slice(&v.to_le_bytes());
+    }
     out.get_mut(..HEADER_LEN).ok_or(BlobError::BufferTooSmall)?.copy_from_slice(&header);
 
     let mut at = HEADER_LEN;
@@ -463,7 +506,7 @@ mod tests {
             &w[t][..r * c]
         });
         // Leak-free: the slices borrow `w`, which lives to the end of this call.
-        write_blob(dims, precision, 0.05, &slices, buf).unwrap()
+        write_blob(dims, precision, 0.05, &PriorSettings::DEFAULT, &slices, buf).unwrap()
     }
 
     #[test]
@@ -552,10 +595,13 @@ mod tests {
         let mut buf = [0u8; 8192];
         let too_few: [&[f32]; 1] = [&[0.0; 3]];
         assert_eq!(
-            write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut buf),
+            write_blob(&SMALL, Precision::F32, 0.05, &PriorSettings::DEFAULT, &too_few, &mut buf),
             Err(BlobError::TensorShape { index: 0 })
         );
         let mut small = [0u8; 16];
-        assert_eq!(write_blob(&SMALL, Precision::F32, 0.05, &too_few, &mut small), Err(BlobError::BufferTooSmall));
+        assert_eq!(
+            write_blob(&SMALL, Precision::F32, 0.05, &PriorSettings::DEFAULT, &too_few, &mut small),
+            Err(BlobError::BufferTooSmall)
+        );
     }
 }

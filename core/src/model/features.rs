@@ -6,6 +6,7 @@ use super::arch::{
     POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
 };
 use crate::geometry::{BevState, Point2, angle_diff};
+use crate::predict::prior::Trend;
 
 /// Standardised features of up to [`MAX_STEPS`] states, oldest first.
 pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
@@ -46,6 +47,12 @@ impl AgentFrame {
         Point2::new(self.cos * dx + self.sin * dy, -self.sin * dx + self.cos * dy)
     }
 
+    /// A world vector (a velocity, an acceleration) in this frame's axes.
+    #[must_use]
+    pub fn rotate_to_agent(&self, v: &Point2) -> Point2 {
+        Point2::new(self.cos * v.x + self.sin * v.y, -self.sin * v.x + self.cos * v.y)
+    }
+
     /// A point of this frame in the world.
     #[must_use]
     pub fn to_world(&self, p: &Point2) -> Point2 {
@@ -57,27 +64,6 @@ impl AgentFrame {
 /// the source's heading.
 pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
 
-/// Where the decoder's rollout starts for a history (oldest first, at least two states): the
-/// agent frame, at the current position with its x axis along the current velocity of the
-/// least-squares parabola through the history ([`crate::predict::fitted_velocity`]; the
-/// source's heading when the object barely moves), and that velocity's magnitude as the initial
-/// speed. At zero controls the forecast is then the `cv-fit` baseline, and the network learns
-/// corrections to it. Trajectron++ starts its unicycle from atan2(vy, vx) and |v| of the current
-/// finite difference; the fit has its lag-free slope at half the noise (the tuning folds:
-/// docs/decisions.md). Starting from the source's own heading and speed instead would let a
-/// smoother's lag (the EKF trails turns and braking) leak straight into every forecast.
-#[must_use]
-pub fn rollout_start(history: &[BevState], dt: f32) -> Option<(AgentFrame, f32)> {
-    let cur = history.last()?;
-    let v = crate::predict::fitted_velocity(history, dt)?;
-    let speed = libm::hypotf(v.x, v.y);
-    if !speed.is_finite() {
-        return None;
-    }
-    let heading = if speed >= MOTION_HEADING_MIN_SPEED { libm::atan2f(v.y, v.x) } else { cur.heading };
-    Some((AgentFrame::new(cur.position(), heading), speed))
-}
-
 fn clamp(v: f32) -> f32 {
     if v.is_nan() { 0.0 } else { v.clamp(-FEATURE_CLAMP, FEATURE_CLAMP) }
 }
@@ -88,8 +74,16 @@ fn newest(states: &[BevState]) -> &[BevState] {
 }
 
 /// Features of `states` (oldest first; the newest [`MAX_STEPS`] are used) in `frame`, written to
-/// `out[..n]`; returns n. Rows past n are zeroed.
-pub fn state_features(states: &[BevState], frame: &AgentFrame, dt: f32, out: &mut StepFeatures) -> usize {
+/// `out[..n]`; returns n. Rows past n are zeroed. `trend` (the motion prior's long-window
+/// estimates of the agent) fills the last three columns of every row; neighbours have none
+/// (zeros).
+pub fn state_features(
+    states: &[BevState],
+    frame: &AgentFrame,
+    dt: f32,
+    trend: Option<&Trend>,
+    out: &mut StepFeatures,
+) -> usize {
     let states = newest(states);
     let n = states.len();
     let inv_dt = if dt > 0.0 && dt.is_finite() { 1.0 / dt } else { 0.0 };
@@ -115,6 +109,9 @@ pub fn state_features(states: &[BevState], frame: &AgentFrame, dt: f32, out: &mu
         *v0 = *v1;
         *r0 = *r1;
     }
+    let long = trend.map_or([0.0; 3], |t| {
+        [clamp(t.speed / VEL_SCALE), clamp(t.accel / ACC_SCALE), clamp(t.turn_rate / HEADING_RATE_SCALE)]
+    });
     let mut prev_v: Option<Point2> = None;
     for (((row, s), (p, v)), r) in out.iter_mut().zip(states).zip(pos.iter().zip(&vel)).zip(&turn) {
         let a = prev_v.map_or(Point2::default(), |pv| rate(*v, pv));
@@ -127,6 +124,9 @@ pub fn state_features(states: &[BevState], frame: &AgentFrame, dt: f32, out: &mu
             clamp(a.y / ACC_SCALE),
             clamp(angle_diff(s.heading, frame.heading()) / core::f32::consts::PI),
             clamp(r / HEADING_RATE_SCALE),
+            long[0],
+            long[1],
+            long[2],
         ];
         prev_v = Some(*v);
     }
@@ -140,7 +140,7 @@ pub fn state_features(states: &[BevState], frame: &AgentFrame, dt: f32, out: &mu
 /// agent, standardised as the decoder's outputs are, taken from the newest feature row.
 #[must_use]
 pub fn initial_control(current_row: &[f32; FEATURES]) -> [f32; 2] {
-    let [_, _, _, _, ax, _, _, rate] = *current_row;
+    let [_, _, _, _, ax, _, _, rate, ..] = *current_row;
     [clamp(rate * HEADING_RATE_SCALE / TURN_RATE_SCALE), clamp(ax * ACC_SCALE / ACCEL_SCALE)]
 }
 
@@ -184,7 +184,7 @@ pub fn neighbour_sum(
     let mut rows: StepFeatures = [[0.0; FEATURES]; MAX_STEPS];
     for (j, _) in chosen {
         let Some(h) = neighbours.get(*j) else { continue };
-        let m = state_features(h, frame, dt, &mut rows);
+        let m = state_features(h, frame, dt, None, &mut rows);
         // Align the newest rows: neighbour row m-1 adds to agent row n-1.
         for (dst, src) in
             out.get_mut(..n).unwrap_or(&mut []).iter_mut().rev().zip(rows.get(..m).unwrap_or(&[]).iter().rev())
@@ -215,8 +215,8 @@ mod tests {
             st(5.0 + c * base[i].x - s * base[i].y, -3.0 + s * base[i].x + c * base[i].y, base[i].heading + 1.0)
         });
         let (mut a, mut b) = ([[0.0; FEATURES]; MAX_STEPS], [[0.0; FEATURES]; MAX_STEPS]);
-        assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, &mut a), 4);
-        state_features(&moved, &AgentFrame::of(&moved[3]), dt, &mut b);
+        assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, None, &mut a), 4);
+        state_features(&moved, &AgentFrame::of(&moved[3]), dt, None, &mut b);
         for (ra, rb) in a.iter().zip(&b) {
             for (x, y) in ra.iter().zip(rb) {
                 assert!((x - y).abs() < 1e-4, "{a:?}\n{b:?}");

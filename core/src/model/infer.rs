@@ -7,11 +7,12 @@ use super::arch::{
 use super::blob::ModelBlob;
 use super::blob::Precision;
 use super::dot::{Int8Dot, PortableDot};
-use super::features::{StepFeatures, initial_control, neighbour_sum, rollout_start, state_features};
+use super::features::{StepFeatures, initial_control, neighbour_sum, state_features};
 use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
-use crate::geometry::{BevState, Point2};
+use crate::geometry::BevState;
 use crate::limits::HORIZON;
-use crate::predict::{Forecast, PredictError, Predictor, checked_history, unicycle_step};
+use crate::predict::prior::{PriorPlan, plan, roll_out};
+use crate::predict::{Forecast, PredictError, Predictor, checked_history_of};
 
 /// Largest gate vector: four LSTM gates of the widest encoder, or three GRU gates.
 const MAX_GATES: usize = if 4 * MAX_ENC > 3 * MAX_DEC { 4 * MAX_ENC } else { 3 * MAX_DEC };
@@ -35,6 +36,7 @@ pub struct Scratch {
     pz: [f32; PZ_HIDDEN],
     logits: [f32; MAX_K],
     out: [f32; OUTPUTS],
+    residual: [[f32; 2]; HORIZON],
 }
 
 impl Default for Scratch {
@@ -58,6 +60,7 @@ impl Scratch {
         pz: [0.0; PZ_HIDDEN],
         logits: [0.0; MAX_K],
         out: [0.0; OUTPUTS],
+        residual: [[0.0; 2]; HORIZON],
     };
 }
 
@@ -122,21 +125,28 @@ pub fn forecast<D: Int8Dot>(
     dt: f32,
     out: &mut Forecast,
 ) -> Result<(), PredictError> {
-    let history = checked_history(history, dt)?;
+    let prior = kernel.blob().prior();
+    let history = checked_history_of(history, dt, prior.states())?;
     let trained = kernel.blob().frame_period_s();
     if (dt - trained).abs() > 1e-4 * trained {
         return Err(PredictError::BadFramePeriod);
     }
-    let Some((frame, speed)) = rollout_start(history, dt) else { return Err(PredictError::HistoryTooShort) };
-    let n = state_features(history, &frame, dt, &mut s.own);
-    neighbour_sum(neighbours, &frame, n, dt, &mut s.neighbours);
+    let Some(plan) = plan(history, prior, dt) else { return Err(PredictError::HistoryTooShort) };
+    let n = state_features(history, &plan.frame, dt, Some(&plan.trend), &mut s.own);
+    neighbour_sum(neighbours, &plan.frame, n, dt, &mut s.neighbours);
     let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
-    forward(kernel, s, n, u0, speed, dt, |k, p| {
-        if let Some(o) = out.get_mut(k) {
-            *o = frame.to_world(&p);
-        }
-    })
-    .map_err(|ShapeError| PredictError::NonFinite)?;
+    forward(kernel, s, n, u0).map_err(|ShapeError| PredictError::NonFinite)?;
+    residual_rollout(&plan, &s.residual, dt, out)
+}
+
+/// The forecast of `plan` with the network's residual controls added (physical units).
+fn residual_rollout(
+    plan: &PriorPlan,
+    residual: &[[f32; 2]; HORIZON],
+    dt: f32,
+    out: &mut Forecast,
+) -> Result<(), PredictError> {
+    roll_out(plan, dt, |t| residual.get(t).copied().unwrap_or([0.0; 2]), out);
     if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
 }
 
@@ -196,16 +206,10 @@ struct LstmState<'s> {
     gates_h: &'s mut [f32],
 }
 
-/// The forward pass: encoders, latent, decoder rollout. Emits each agent-frame position.
-fn forward<D: Int8Dot>(
-    k: &Kernel<'_, D>,
-    s: &mut Scratch,
-    n: usize,
-    u0: [f32; 2],
-    speed: f32,
-    dt: f32,
-    mut emit: impl FnMut(usize, Point2),
-) -> Result<(), ShapeError> {
+/// The forward pass: encoders, latent, decoder. Leaves the residual controls of every step
+/// (physical units, unclamped: the rollout adds them to the prior's and clamps the sum) in
+/// `s.residual`.
+fn forward<D: Int8Dot>(k: &Kernel<'_, D>, s: &mut Scratch, n: usize, u0: [f32; 2]) -> Result<(), ShapeError> {
     let Dims { enc, edge, k: modes, dec } = k.blob().dims();
     let cond = enc + edge;
 
@@ -263,7 +267,6 @@ fn forward<D: Int8Dot>(
     let fixed = s.gru_fixed.get_mut(..3 * dec).ok_or(ShapeError)?;
     k.affine_columns(t::GRU_W_IH, 2, Some(t::GRU_B_IH), s.input.get(..modes + cond).ok_or(ShapeError)?, fixed, true)?;
     let mut u = u0;
-    let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed };
     for step in 0..HORIZON {
         gru_step(k, s, &u, dec)?;
         // Only the mean controls are read at inference: the spreads and correlation (the other
@@ -272,8 +275,7 @@ fn forward<D: Int8Dot>(
         k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, mean)?;
         let [mu_w, mu_a, ..] = s.out;
         u = [mu_w, mu_a];
-        state = unicycle_step(&state, mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE, dt);
-        emit(step, state.position());
+        *s.residual.get_mut(step).ok_or(ShapeError)? = [mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE];
     }
     Ok(())
 }
@@ -318,7 +320,10 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
+    use crate::geometry::Point2;
+    use crate::limits::PRIOR_STATES;
     use crate::model::blob::{Precision, blob_len, write_blob};
+    use crate::predict::{MotionPrior, PriorSettings};
 
     /// A blob of `dims` with small pseudo-random weights (a stand-in for a trained model).
     pub(crate) fn random_blob(dims: &Dims, precision: Precision, seed: u32) -> Vec<u8> {
@@ -331,7 +336,7 @@ mod tests {
             dims.tensors().iter().map(|(r, c)| (0..r * c).map(|_| 0.4 * next()).collect()).collect();
         let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
         let mut buf = vec![0u8; blob_len(dims, precision)];
-        write_blob(dims, precision, 0.05, &slices, &mut buf).unwrap();
+        write_blob(dims, precision, 0.05, &PriorSettings::DEFAULT, &slices, &mut buf).unwrap();
         buf
     }
 
@@ -382,18 +387,63 @@ mod tests {
         }
     }
 
-    #[test]
-    fn zero_controls_reproduce_constant_velocity_along_the_fitted_velocity() {
-        use crate::predict::constant_velocity_fit;
-        let dims = Dims::DEFAULT;
+    /// A blob of `dims` whose every weight is zero: its residual is zero.
+    fn zero_blob(dims: &Dims, precision: Precision, prior: &PriorSettings) -> Vec<u8> {
         let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| vec![0.0; r * c]).collect();
         let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-        let mut buf = vec![0u8; blob_len(&dims, Precision::F32)];
-        write_blob(&dims, Precision::F32, 0.05, &slices, &mut buf).unwrap();
+        let mut buf = vec![0u8; blob_len(dims, precision)];
+        write_blob(dims, precision, 0.05, prior, &slices, &mut buf).unwrap();
+        buf
+    }
+
+    /// A 21-state history that brakes and turns.
+    fn long_history() -> [BevState; PRIOR_STATES] {
+        let mut s = BevState { x: 40.0, y: 12.0, heading: -0.3, speed: 11.0 };
+        core::array::from_fn(|_| {
+            let now = s;
+            s = crate::predict::unicycle_step(&s, 0.2, -1.2, 0.05);
+            now
+        })
+    }
+
+    #[test]
+    fn zero_residual_reproduces_the_prior_bit_for_bit() {
+        let settings = [
+            PriorSettings::DEFAULT,
+            PriorSettings::OFF,
+            PriorSettings {
+                accel_gain: 1.5,
+                turn_gain: 0.7,
+                accel_decay: 0.8,
+                turn_decay: 1.0,
+                ..PriorSettings::DEFAULT
+            },
+        ];
+        for prior in settings {
+            for precision in [Precision::F32, Precision::Int8] {
+                for dims in [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }] {
+                    let buf = zero_blob(&dims, precision, &prior);
+                    let mut p = LearnedPredictor::new(ModelBlob::parse(&buf).unwrap());
+                    for h in [&long_history()[..], &long_history()[12..], &history()[..], &history()[4..]] {
+                        let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
+                        p.predict(h, 0.05, &mut a).unwrap();
+                        MotionPrior(prior).predict(h, 0.05, &mut b).unwrap();
+                        let bits = |f: &Forecast| f.map(|p| (p.x.to_bits(), p.y.to_bits()));
+                        assert_eq!(bits(&a), bits(&b), "{prior:?} {precision:?} {dims:?}, {} states", h.len());
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn zero_residual_without_a_prior_is_constant_velocity_along_the_fitted_velocity() {
+        use crate::predict::constant_velocity_fit;
+        let buf = zero_blob(&Dims::DEFAULT, Precision::F32, &PriorSettings::OFF);
         let mut p = LearnedPredictor::new(ModelBlob::parse(&buf).unwrap());
         let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
-        p.predict(&history(), 0.05, &mut a).unwrap();
-        constant_velocity_fit(&history(), 0.05, &mut b).unwrap();
+        p.predict(&long_history(), 0.05, &mut a).unwrap();
+        constant_velocity_fit(&long_history(), 0.05, &mut b).unwrap();
         for (x, y) in a.iter().zip(&b) {
             assert!(x.distance(y) < 1e-3, "{x:?} vs {y:?}");
         }

@@ -19,7 +19,30 @@ use crate::model::arch::MAX_STEPS;
 /// non-finite result.
 #[must_use]
 pub fn fitted_velocity(history: &[BevState], dt: f32) -> Option<Point2> {
-    let tail = history.get(history.len().saturating_sub(MAX_STEPS)..)?;
+    parabola_fit(history, MAX_STEPS, dt).map(|f| f.velocity)
+}
+
+/// The slope and curvature of a least-squares parabola through a history's positions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParabolaFit {
+    /// Velocity at the newest state, m/s.
+    pub velocity: Point2,
+    /// Velocity at the middle of the window, m/s: the direction the acceleration was measured
+    /// along (on a bend it differs from the newest velocity's).
+    pub mid_velocity: Point2,
+    /// Acceleration (the parabola's second derivative), m/s^2; zero with two states.
+    pub acceleration: Point2,
+    /// States the fit used.
+    pub states: usize,
+}
+
+/// [`fitted_velocity`] over the newest `window` states (at least two), with the acceleration of
+/// the same parabola. A longer window trades lag for noise: the motion prior fits its velocity
+/// over a short window and its acceleration and turn rate over a long one
+/// ([`super::prior`]).
+#[must_use]
+pub fn parabola_fit(history: &[BevState], window: usize, dt: f32) -> Option<ParabolaFit> {
+    let tail = history.get(history.len().saturating_sub(window)..)?;
     let cur = tail.last()?;
     let n = tail.len();
     if n < 2 || !(dt.is_finite() && dt > 0.0) {
@@ -42,8 +65,13 @@ pub fn fitted_velocity(history: &[BevState], dt: f32) -> Option<Point2> {
     // Slope at the newest index u = half: b1 + 2 b2 half; with two points there is no curvature.
     let curvature_gain = if sq2 > 0.0 { 2.0 * half / sq2 } else { 0.0 };
     let per_frame = |l: f32, c: f32| (l / su2 + curvature_gain * c) / dt;
-    let v = Point2::new(per_frame(lin.x, quad.x), per_frame(lin.y, quad.y));
-    (v.x.is_finite() && v.y.is_finite()).then_some(v)
+    let velocity = Point2::new(per_frame(lin.x, quad.x), per_frame(lin.y, quad.y));
+    // Second derivative 2 b2, per frame squared, in seconds.
+    let second = |c: f32| if sq2 > 0.0 { 2.0 * c / sq2 / (dt * dt) } else { 0.0 };
+    let acceleration = Point2::new(second(quad.x), second(quad.y));
+    let mid_velocity = Point2::new(lin.x / su2 / dt, lin.y / su2 / dt);
+    let finite = [velocity, acceleration, mid_velocity].iter().all(|p| p.x.is_finite() && p.y.is_finite());
+    finite.then_some(ParabolaFit { velocity, mid_velocity, acceleration, states: n })
 }
 
 #[cfg(test)]
@@ -68,6 +96,22 @@ mod tests {
         assert!((v.x - (10.0 - 3.0 * t_now)).abs() < 0.05 && (v.y - (2.0 + t_now)).abs() < 0.05, "{v:?}");
         let last = (track[8].x - track[7].x) / dt;
         assert!((last - (10.0 - 3.0 * t_now)).abs() > 0.07, "the last displacement lags half a frame: {last}");
+    }
+
+    #[test]
+    fn the_long_fit_recovers_a_constant_acceleration() {
+        let dt = 0.05;
+        let track: [BevState; 21] = core::array::from_fn(|k| {
+            let t = k as f32 * dt;
+            at(500.0 + 12.0 * t - 1.5 * t * t, 20.0 + 0.5 * t * t)
+        });
+        let f = parabola_fit(&track, 21, dt).unwrap();
+        assert_eq!(f.states, 21);
+        assert!((f.acceleration.x + 3.0).abs() < 0.05 && (f.acceleration.y - 1.0).abs() < 0.05, "{f:?}");
+        let t_now = 20.0 * dt;
+        assert!((f.velocity.x - (12.0 - 3.0 * t_now)).abs() < 0.05, "{f:?}");
+        assert_eq!(parabola_fit(&track, 7, dt).map(|f| f.velocity), fitted_velocity(&track, dt));
+        assert_eq!(parabola_fit(&track[..2], 21, dt).unwrap().acceleration, Point2::default());
     }
 
     #[test]

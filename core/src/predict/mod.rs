@@ -5,10 +5,12 @@
 
 mod baseline;
 mod fit;
+pub mod prior;
 mod unicycle;
 
 pub use baseline::{Baseline, constant_velocity, constant_velocity_fit, ctra};
-pub use fit::fitted_velocity;
+pub use fit::{ParabolaFit, fitted_velocity, parabola_fit};
+pub use prior::{MotionPrior, PriorPlan, PriorSettings};
 pub use unicycle::{clamp_controls, unicycle_step};
 
 use crate::geometry::{BevState, Point2};
@@ -33,7 +35,8 @@ pub enum PredictError {
 /// A forecaster of one object's future positions.
 pub trait Predictor {
     /// Fills `out` with the positions of the next [`HORIZON`] frames after the last state of
-    /// `history` (oldest first, current last; only the last `MAX_HISTORY + 1` states are used).
+    /// `history` (oldest first, current last; the network reads the last `MAX_HISTORY + 1`
+    /// states, the motion prior up to `PRIOR_STATES`).
     ///
     /// # Errors
     /// See [`PredictError`].
@@ -55,13 +58,22 @@ pub fn checked_forecast(out: &Forecast) -> Result<(), PredictError> {
 /// # Errors
 /// See [`PredictError`].
 pub fn checked_history(history: &[BevState], dt: f32) -> Result<&[BevState], PredictError> {
+    checked_history_of(history, dt, MAX_HISTORY + 1)
+}
+
+/// [`checked_history`] for a predictor that reads up to `states` states (the motion prior's long
+/// memory): the usable tail holds at most that many, and every one of them must be plausible.
+///
+/// # Errors
+/// See [`PredictError`].
+pub fn checked_history_of(history: &[BevState], dt: f32, states: usize) -> Result<&[BevState], PredictError> {
     if !(dt.is_finite() && dt > 0.0) {
         return Err(PredictError::BadFramePeriod);
     }
     if history.len() < MIN_HISTORY + 1 {
         return Err(PredictError::HistoryTooShort);
     }
-    let tail = history.get(history.len().saturating_sub(MAX_HISTORY + 1)..).unwrap_or(history);
+    let tail = history.get(history.len().saturating_sub(states.max(MIN_HISTORY + 1))..).unwrap_or(history);
     let plausible = |s: &BevState| {
         s.is_finite()
             && s.x.abs() <= MAX_ABS_POSITION

@@ -104,7 +104,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
             let tensors = crate::model_file::float_tensors(&f.blob());
             let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), &slices, &mut buf)
+            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
                 .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
             buf
         };

@@ -92,6 +92,7 @@ impl FoldRunArgs {
             hyper: self.hyper.hyper()?,
             validation_fraction: self.hyper.val_fraction,
             mirror: self.hyper.mirror,
+            prior: self.hyper.prior_choice(),
             validate_on_sequences: self.hyper.val_sequences,
             dt: data.dt()?,
             rule: data.rule()?,

@@ -7,13 +7,14 @@ use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::predict::PriorSettings;
 
 use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs, progress};
 use crate::train::loss::LossConfig;
 use crate::train::{
     DEFAULT_MIRROR, DEFAULT_SHRINK, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper,
-    TrainConfig, train_fold_with,
+    PriorChoice, TrainConfig, train_fold_with,
 };
 use crate::trajectory::Source;
 
@@ -169,6 +170,11 @@ pub struct HyperArgs {
     /// trained reflected left-right.
     #[arg(long = "no-mirror", action = clap::ArgAction::SetFalse)]
     pub mirror: bool,
+    /// The paper's setting: the network alone over the rollout start (seven states, no motion
+    /// prior). By default the network learns a residual over a motion prior whose settings are
+    /// chosen on the training sequences.
+    #[arg(long = "no-prior", action = clap::ArgAction::SetFalse)]
+    pub prior: bool,
 }
 
 // The three switches above turn a default off; they would mean nothing if a default were off.
@@ -236,7 +242,14 @@ impl HyperArgs {
         config.validation_fraction = self.val_fraction;
         config.mirror = self.mirror;
         config.validate_on_sequences = self.val_sequences;
+        config.prior = self.prior_choice();
         Ok(())
+    }
+
+    /// The fold's motion prior: chosen on the training sequences, or off (`--no-prior`).
+    #[must_use]
+    pub fn prior_choice(&self) -> PriorChoice {
+        if self.prior { PriorChoice::Tuned } else { PriorChoice::Fixed(PriorSettings::OFF) }
     }
 }
 

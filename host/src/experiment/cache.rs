@@ -22,7 +22,7 @@ use super::FoldReport;
 use crate::train::TrainConfig;
 
 /// Version of what training computes; part of every key.
-pub const CACHE_VERSION: u32 = 3;
+pub const CACHE_VERSION: u32 = 4;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]
@@ -47,7 +47,7 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     let settings = format!(
-        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {}",
+        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {} {:?}",
         train.source,
         train.exclude,
         train.dt,
@@ -57,7 +57,8 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
         train.validation_fraction,
         train.validate_on_sequences,
         train.mirror,
-        train.split_seed
+        train.split_seed,
+        train.prior
     );
     d.update(settings.as_bytes());
     for seq in train.sequences.iter().filter(|s| !train.exclude.contains(&s.id)) {

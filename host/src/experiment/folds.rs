@@ -63,6 +63,7 @@ impl FoldSpec {
         train.hyper.seed = self.seed;
         train.validation_fraction = config.validation_fraction;
         train.mirror = config.mirror;
+        train.prior = config.prior;
         train.validate_on_sequences = config.validate_on_sequences;
         train
     }
@@ -158,6 +159,7 @@ mod tests {
             validation_fraction: 0.3,
             validate_on_sequences: true,
             mirror: true,
+            prior: crate::train::PriorChoice::Tuned,
             dt: 0.05,
             rule: EligibilityRule::default(),
             out: None,

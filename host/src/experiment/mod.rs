@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use dynotraj_core::model::Dims;
-use dynotraj_core::predict::Baseline;
+use dynotraj_core::predict::{Baseline, MotionPrior};
 
 use crate::evaluate::{Forecaster, Reference, instance_keys, score_sequence, score_sequence_against};
 use crate::model_file::ModelFile;
@@ -53,6 +53,8 @@ pub struct ExperimentConfig {
     pub validate_on_sequences: bool,
     /// Train on reflected copies too ([`crate::train::Sample::mirrored`]).
     pub mirror: bool,
+    /// The motion prior of every fold ([`crate::train::PriorChoice`]).
+    pub prior: crate::train::PriorChoice,
     /// Frame period, seconds.
     pub dt: f32,
     /// Eligibility.
@@ -329,6 +331,18 @@ pub fn score_seed(
         if truths.is_some() {
             common_arms.extend(learned_common);
         }
+        // The motion prior alone, with the settings each fold chose on its training sequences.
+        let mut prior = ArmScores { label: format!("prior on {source}"), per_sequence: Vec::new() };
+        let mut prior_common = prior.clone();
+        for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
+            let [f32_file, _] = models_for(config, &models, source, &test.id)?;
+            let mut p = MotionPrior(*f32_file.blob().prior());
+            score_both(seq_runs, scene, &mut p, config.dt, *reference, &mut prior, &mut prior_common);
+        }
+        arms.push(prior);
+        if truths.is_some() {
+            common_arms.push(prior_common);
+        }
         for mut baseline in Baseline::ALL {
             let mut own = ArmScores { label: format!("{} on {source}", baseline.name()), per_sequence: Vec::new() };
             let mut common = own.clone();
@@ -361,6 +375,14 @@ pub fn score_seed(
                     }
                 }
                 rows.extend(row);
+                let mut prior = ArmScores { label: format!("prior chosen on {source}"), per_sequence: Vec::new() };
+                for (((test, r), sc), rf) in tests.iter().zip(&runs_by_arm[e]).zip(&scenes_by_arm[e]).zip(&references) {
+                    let [f32_file, _] = models_for(config, &models, source, &test.id)?;
+                    let reference = rf.context("deployment needs the simulator's truth")?;
+                    let mut p = MotionPrior(*f32_file.blob().prior());
+                    prior.per_sequence.push(score_sequence_against(r, sc, &mut p, config.dt, reference).scores);
+                }
+                rows.push(prior);
             }
             for mut baseline in Baseline::ALL {
                 let mut row =

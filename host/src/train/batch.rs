@@ -24,6 +24,8 @@ pub struct Batch {
     pub initial_control: Tensor,
     /// Current speed [B, 1].
     pub speed: Tensor,
+    /// The motion prior's controls [B, HORIZON, 2] (turn rate, acceleration; physical units).
+    pub prior: Tensor,
     /// Future positions [B, HORIZON, 2], metres, agent frame.
     pub future: Tensor,
     /// Future positions / POS_SCALE [B, HORIZON, 2]: the future encoder's input.
@@ -46,6 +48,7 @@ impl Batch {
         let mut current = Vec::with_capacity(b * FEATURES);
         let (mut u0, mut speed, mut future) =
             (Vec::with_capacity(2 * b), Vec::with_capacity(b), Vec::with_capacity(2 * b * HORIZON));
+        let mut prior: Vec<f32> = Vec::with_capacity(2 * b * HORIZON);
         for s in samples {
             for (t, (o, n)) in s.own.iter().zip(&s.neighbours).enumerate() {
                 own.extend_from_slice(o);
@@ -56,6 +59,7 @@ impl Batch {
             current.extend_from_slice(&s.current_row());
             u0.extend_from_slice(&s.initial_control);
             speed.push(s.speed);
+            prior.extend(s.prior.iter().flatten());
             future.extend(s.future.iter().flat_map(|p| [p.x, p.y]));
         }
         let future = Tensor::from_vec(future, (b, HORIZON, 2), device)?;
@@ -67,6 +71,7 @@ impl Batch {
             current: Tensor::from_vec(current, (b, FEATURES), device)?,
             initial_control: Tensor::from_vec(u0, (b, 2), device)?,
             speed: Tensor::from_vec(speed, (b, 1), device)?,
+            prior: Tensor::from_vec(prior, (b, HORIZON, 2), device)?,
             future_std: (&future / f64::from(POS_SCALE))?,
             future,
         })

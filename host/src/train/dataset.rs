@@ -5,15 +5,18 @@
 //! [`HORIZON`] positions in the agent frame. Each source is trained on its own future, as the
 //! paper scores it.
 //!
-//! Histories: at instance s the agent's history is states[s - MAX_HISTORY ..= s], clipped at
-//! the run start (2 to 7 states, oldest first). Neighbours are every other track of the
+//! Histories: at instance s the agent's history is states[s - MAX_PRIOR_HISTORY ..= s], clipped
+//! at the run start (2 to 21 states, oldest first): the motion prior reads up to all of it, the
+//! network's rows the newest seven. Neighbours are every other track of the
 //! sequence through the same source, split at gaps ([`crate::scene::Scene`], which evaluation
 //! uses too), each contributing its states over the same frames if it is present at frame s;
 //! `neighbour_sum` keeps the closest within the radius.
 
-use dynotraj_core::limits::{HORIZON, MAX_HISTORY, MIN_HISTORY};
+use dynotraj_core::limits::{HORIZON, MAX_PRIOR_HISTORY, MIN_HISTORY};
 use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
-use dynotraj_core::model::features::{StepFeatures, initial_control, neighbour_sum, rollout_start, state_features};
+use dynotraj_core::model::features::{StepFeatures, initial_control, neighbour_sum, state_features};
+use dynotraj_core::predict::prior::{Controls, plan};
+use dynotraj_core::predict::{PriorSettings, unicycle_step};
 use dynotraj_core::{BevState, Point2};
 use rand::SeedableRng as _;
 use rand::rngs::SmallRng;
@@ -37,8 +40,11 @@ pub struct Sample {
     pub neighbours: StepFeatures,
     /// The decoder's first control input (`initial_control` of the newest row).
     pub initial_control: [f32; 2],
-    /// The unicycle's initial speed, m/s (`rollout_start`: the fitted current velocity's).
+    /// The unicycle's initial speed, m/s (the motion prior's start).
     pub speed: f32,
+    /// The motion prior's controls (turn rate, acceleration) per step: the network's output
+    /// is added to them.
+    pub prior: Controls,
     /// Future positions, frames s+1 ..= s+HORIZON, agent frame, metres.
     pub future: [Point2; HORIZON],
 }
@@ -59,12 +65,20 @@ impl Sample {
         self.straight_line_ade(Point2::new(-prev[0] * POS_SCALE, -prev[1] * POS_SCALE))
     }
 
-    /// ADE (metres) of the forecast at zero controls: constant speed along the agent frame's x
-    /// axis, which is the rollout start (`rollout_start`, the cv-fit forecast), at frame period
-    /// `dt`.
+    /// ADE (metres) of the forecast at zero residual: the motion prior's, at frame period `dt`.
     #[must_use]
-    pub fn start_ade(&self, dt: f32) -> f32 {
-        self.straight_line_ade(Point2::new(self.speed * dt, 0.0))
+    pub fn prior_ade(&self, dt: f32) -> f32 {
+        let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed: self.speed };
+        let sum: f32 = self
+            .prior
+            .iter()
+            .zip(&self.future)
+            .map(|([w, a], p)| {
+                state = unicycle_step(&state, *w, *a, dt);
+                (state.x - p.x).hypot(state.y - p.y)
+            })
+            .sum();
+        sum / HORIZON as f32
     }
 
     /// ADE (metres) of the forecast that moves by `step` (agent frame) every frame.
@@ -92,6 +106,7 @@ impl Sample {
             own: flip(&self.own),
             neighbours: flip(&self.neighbours),
             initial_control: [-w, a],
+            prior: self.prior.map(|[w, a]| [-w, a]),
             future: self.future.map(|p| Point2::new(p.x, -p.y)),
             ..self.clone()
         }
@@ -99,25 +114,33 @@ impl Sample {
 }
 
 /// Feature columns that change sign under a reflection across the agent's x axis: y, vy, ay,
-/// relative heading and heading rate (see `state_features`).
-const MIRRORED_FEATURES: [usize; 5] = [1, 3, 5, 6, 7];
+/// relative heading, heading rate and the prior's turn rate (see `state_features`).
+const MIRRORED_FEATURES: [usize; 6] = [1, 3, 5, 6, 7, 10];
 
 /// The sample of instance `s` of `states` (one source's consecutive states), with neighbour
-/// histories `neighbours` ending at the same frame. `None` when s has no earlier frame or fewer
-/// than [`HORIZON`] later ones, or a state is not finite.
+/// histories `neighbours` ending at the same frame, over motion prior `prior`. `None` when s has
+/// no earlier frame or fewer than [`HORIZON`] later ones, or a state is not finite.
 #[must_use]
-pub fn sample_at(states: &[BevState], s: usize, neighbours: &[&[BevState]], dt: f32, group: usize) -> Option<Sample> {
+pub fn sample_at(
+    states: &[BevState],
+    s: usize,
+    neighbours: &[&[BevState]],
+    dt: f32,
+    group: usize,
+    prior: &PriorSettings,
+) -> Option<Sample> {
     if s < MIN_HISTORY {
         return None;
     }
-    let history = states.get(s.saturating_sub(MAX_HISTORY)..=s)?;
+    let history = states.get(s.saturating_sub(MAX_PRIOR_HISTORY)..=s)?;
     let future_states = states.get(s + 1..=s + HORIZON)?;
     if !history.iter().chain(future_states).all(BevState::is_finite) {
         return None;
     }
-    let (frame, speed) = rollout_start(history, dt)?;
+    let plan = plan(history, prior, dt)?;
+    let frame = plan.frame;
     let mut own = [[0.0; FEATURES]; MAX_STEPS];
-    let steps = state_features(history, &frame, dt, &mut own);
+    let steps = state_features(history, &frame, dt, Some(&plan.trend), &mut own);
     let mut summed = [[0.0; FEATURES]; MAX_STEPS];
     let finite: Vec<&[BevState]> = neighbours.iter().copied().filter(|h| h.iter().all(BevState::is_finite)).collect();
     neighbour_sum(&finite, &frame, steps, dt, &mut summed);
@@ -126,7 +149,16 @@ pub fn sample_at(states: &[BevState], s: usize, neighbours: &[&[BevState]], dt: 
         *f = frame.to_agent(&st.position());
     }
     let initial_control = initial_control(own.get(steps - 1)?);
-    Some(Sample { group, steps, own, neighbours: summed, initial_control, speed, future })
+    Some(Sample {
+        group,
+        steps,
+        own,
+        neighbours: summed,
+        initial_control,
+        speed: plan.speed,
+        prior: plan.controls,
+        future,
+    })
 }
 
 /// The samples of every eligible run of `seq` under `rule`, through `source` at frame period
@@ -139,6 +171,7 @@ pub fn sequence_samples(
     dt: f32,
     rule: &EligibilityRule,
     first_group: usize,
+    prior: &PriorSettings,
 ) -> (Vec<Sample>, usize) {
     let tracks = seq.tracks_for(source);
     let scene = Scene::new(tracks, source, dt);
@@ -149,7 +182,7 @@ pub fn sequence_samples(
         for s in run.instances() {
             let frame = run.first_frame + s as u32;
             let neighbours = scene.neighbours_at(run.track_id, frame);
-            out.extend(sample_at(&states, s, &neighbours, dt, first_group + k));
+            out.extend(sample_at(&states, s, &neighbours, dt, first_group + k, prior));
         }
     }
     (out, runs.len())
@@ -219,16 +252,16 @@ mod tests {
     fn samples_follow_the_instance_rules() {
         let dt = 0.05;
         let states = line(40, 10.0, dt);
-        assert!(sample_at(&states, 0, &[], dt, 0).is_none(), "no history frame");
-        assert!(sample_at(&states, 10, &[], dt, 0).is_none(), "no full horizon");
-        let s = sample_at(&states, 3, &[], dt, 7).unwrap();
+        assert!(sample_at(&states, 0, &[], dt, 0, &PriorSettings::DEFAULT).is_none(), "no history frame");
+        assert!(sample_at(&states, 10, &[], dt, 0, &PriorSettings::DEFAULT).is_none(), "no full horizon");
+        let s = sample_at(&states, 3, &[], dt, 7, &PriorSettings::DEFAULT).unwrap();
         assert_eq!((s.steps, s.group), (4, 7));
         assert_eq!(s.own[4], [0.0; FEATURES]);
         // One frame ahead along the heading: 0.5 m.
         assert!((s.future[0].x - 0.5).abs() < 1e-4 && s.future[0].y.abs() < 1e-5);
         assert!((s.future[HORIZON - 1].x - 15.0).abs() < 1e-3);
         assert!((s.speed - 10.0).abs() < 1e-3);
-        assert_eq!(sample_at(&states, 9, &[], dt, 0).unwrap().steps, MAX_STEPS);
+        assert_eq!(sample_at(&states, 9, &[], dt, 0, &PriorSettings::DEFAULT).unwrap().steps, MAX_STEPS);
         assert!(s.constant_velocity_ade() < 1e-3);
     }
 
@@ -237,10 +270,12 @@ mod tests {
         let dt = 0.05;
         let states = line(40, 10.0, dt);
         let other: Vec<BevState> = line(40, 10.0, dt).iter().map(|s| BevState { y: s.y + 3.0, ..*s }).collect();
-        let s = sample_at(&states, 8, &[&other[2..=8]], dt, 0).unwrap();
+        let s = sample_at(&states, 8, &[&other[2..=8]], dt, 0, &PriorSettings::DEFAULT).unwrap();
         assert!((s.neighbours[6][1] - 0.3).abs() < 1e-5, "{:?}", s.neighbours[6]);
         let samples: Vec<Sample> = (0..10)
-            .flat_map(|g| (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g)))
+            .flat_map(|g| {
+                (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g, &PriorSettings::DEFAULT))
+            })
             .flatten()
             .collect();
         let split = split_by_run(samples, 10, 0.2, 1);
@@ -253,7 +288,9 @@ mod tests {
     fn the_sequence_split_holds_out_whole_sequences_and_never_all() {
         let dt = 0.05;
         let seq = |g: usize, n: usize| {
-            (0..n).filter_map(|k| sample_at(&line(40, 5.0, dt), 1 + k % 8, &[], dt, g)).collect::<Vec<_>>()
+            (0..n)
+                .filter_map(|k| sample_at(&line(40, 5.0, dt), 1 + k % 8, &[], dt, g, &PriorSettings::DEFAULT))
+                .collect::<Vec<_>>()
         };
         let split = split_by_sequence(vec![seq(0, 10), seq(1, 10), seq(2, 10), seq(3, 10)], 0.3, 2);
         assert_eq!((split.validation.len(), split.train.len()), (20, 20), "two whole sequences reach 30%");
@@ -276,8 +313,8 @@ mod tests {
         let reflected: Vec<BevState> = turn.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
         let other: Vec<BevState> = turn.iter().map(|s| BevState { x: s.x + 4.0, y: s.y + 3.0, ..*s }).collect();
         let other_r: Vec<BevState> = other.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
-        let a = sample_at(&turn, 6, &[&other[..=6]], dt, 0).unwrap().mirrored();
-        let b = sample_at(&reflected, 6, &[&other_r[..=6]], dt, 0).unwrap();
+        let a = sample_at(&turn, 6, &[&other[..=6]], dt, 0, &PriorSettings::DEFAULT).unwrap().mirrored();
+        let b = sample_at(&reflected, 6, &[&other_r[..=6]], dt, 0, &PriorSettings::DEFAULT).unwrap();
         let close = |x: f32, y: f32| (x - y).abs() < 1e-3;
         assert!(
             a.own.iter().flatten().zip(b.own.iter().flatten()).all(|(x, y)| close(*x, *y)),

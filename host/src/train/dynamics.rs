@@ -38,15 +38,15 @@ use dynotraj_core::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
 const STRAIGHT_TURN_RATE: f32 = 0.01;
 
 /// Physical controls from the decoder's standardised means [R, T, 2] (turn rate,
-/// acceleration), clamped to the paper's limits: two [R, T] tensors. The clamp passes no
-/// gradient outside the limits.
+/// acceleration) added to the motion prior's `prior` [R, T, 2], clamped to the paper's limits:
+/// two [R, T] tensors. The clamp passes no gradient outside the limits.
 ///
 /// # Errors
 /// Shape errors.
-pub fn controls(mu: &Tensor) -> Result<(Tensor, Tensor)> {
-    let w = (mu.narrow(D::Minus1, 0, 1)?.squeeze(D::Minus1)? * f64::from(TURN_RATE_SCALE))?
-        .clamp(-MAX_TURN_RATE, MAX_TURN_RATE)?;
-    let a = (mu.narrow(D::Minus1, 1, 1)?.squeeze(D::Minus1)? * f64::from(ACCEL_SCALE))?.clamp(-MAX_ACCEL, MAX_ACCEL)?;
+pub fn controls(mu: &Tensor, prior: &Tensor) -> Result<(Tensor, Tensor)> {
+    let part = |t: &Tensor, i: usize| t.narrow(D::Minus1, i, 1)?.squeeze(D::Minus1);
+    let w = ((part(mu, 0)? * f64::from(TURN_RATE_SCALE))? + part(prior, 0)?)?.clamp(-MAX_TURN_RATE, MAX_TURN_RATE)?;
+    let a = ((part(mu, 1)? * f64::from(ACCEL_SCALE))? + part(prior, 1)?)?.clamp(-MAX_ACCEL, MAX_ACCEL)?;
     Ok((w, a))
 }
 
@@ -201,7 +201,7 @@ mod tests {
             2,
         )
         .unwrap();
-        let (wc, ac) = controls(&mu).unwrap();
+        let (wc, ac) = controls(&mu, &mu.zeros_like().unwrap()).unwrap();
         let speed = Tensor::from_vec(speeds.clone(), (rows, 1), &dev).unwrap();
         let (pos, _) = integrate(&wc, &ac, &speed, f64::from(dt)).unwrap();
         let pos = pos.to_vec3::<f32>().unwrap();

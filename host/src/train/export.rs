@@ -9,6 +9,8 @@
 //! under its PyTorch-style name (`enc.weight_ih_l0`, `gru.bias_hh_l0`, `future.weight_hh_l0_reverse`,
 //! `qz.weight`, ...; see [`super::model`]), plus
 //! - `meta.dims`: f32 [5] = enc, edge, k, dec, frame period in seconds;
+//! - `meta.prior`: f32 [6] = the motion prior's velocity window, trend window, accel gain, turn
+//!   gain, accel decay, turn decay;
 //! - `meta.blob`: u8 [n], the f32 model blob of the same weights.
 //!
 //! [`load_checkpoint`] rebuilds the network from it (to resume, inspect or re-export).
@@ -20,6 +22,7 @@ use candle_core::{DType, Device, Result, Tensor};
 use candle_nn::VarMap;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
+use dynotraj_core::predict::PriorSettings;
 
 use super::cells::bias;
 use super::model::Network;
@@ -54,45 +57,57 @@ pub fn layout_tensors(net: &Network) -> Result<Vec<Vec<f32>>> {
     tensors.iter().map(|t| t.flatten_all()?.to_vec1::<f32>()).collect()
 }
 
-/// The model blob of `net` in `precision` for frame period `dt`.
+/// The model blob of `net` in `precision` for frame period `dt`, over motion prior `prior`.
 ///
 /// # Errors
 /// `dims` other than the network's; a tensor whose size disagrees with the layout or a
 /// non-finite weight (reported by the blob writer).
-pub fn to_blob(net: &Network, dims: &Dims, precision: Precision, dt: f32) -> Result<Vec<u8>> {
+pub fn to_blob(net: &Network, dims: &Dims, precision: Precision, dt: f32, prior: &PriorSettings) -> Result<Vec<u8>> {
     if *dims != net.dims {
         candle_core::bail!("network widths {:?} differ from the requested {dims:?}", net.dims);
     }
     let tensors = layout_tensors(net)?;
     let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
     let mut buf = vec![0u8; blob_len(dims, precision)];
-    write_blob(dims, precision, dt, &slices, &mut buf)
+    write_blob(dims, precision, dt, prior, &slices, &mut buf)
         .map_err(|e| candle_core::Error::Msg(format!("writing the model blob: {e}")))?;
     Ok(buf)
 }
 
-/// Writes the checkpoint of `net` (variables `vars`, frame period `dt`) to `path`.
+/// Writes the checkpoint of `net` (variables `vars`, frame period `dt`, motion prior `prior`)
+/// to `path`.
 ///
 /// # Errors
 /// I/O errors; see [`to_blob`].
-pub fn save_checkpoint(net: &Network, vars: &VarMap, dt: f32, path: &Path) -> Result<()> {
+pub fn save_checkpoint(net: &Network, vars: &VarMap, dt: f32, prior: &PriorSettings, path: &Path) -> Result<()> {
     let mut all: HashMap<String, Tensor> = {
         let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
         data.iter().map(|(k, v)| (k.clone(), v.as_tensor().clone())).collect()
     };
     let Dims { enc, edge, k, dec } = net.dims;
     all.insert("meta.dims".into(), Tensor::new(&[enc as f32, edge as f32, k as f32, dec as f32, dt], &Device::Cpu)?);
-    let blob = to_blob(net, &net.dims, Precision::F32, dt)?;
+    let p = prior;
+    let fields = [
+        f32::from(p.velocity_window),
+        f32::from(p.trend_window),
+        p.accel_gain,
+        p.turn_gain,
+        p.accel_decay,
+        p.turn_decay,
+    ];
+    all.insert("meta.prior".into(), Tensor::new(&fields, &Device::Cpu)?);
+    let blob = to_blob(net, &net.dims, Precision::F32, dt, prior)?;
     all.insert("meta.blob".into(), Tensor::from_vec(blob.clone(), blob.len(), &Device::Cpu)?);
     candle_core::safetensors::save(&all, path)
 }
 
-/// Reads a checkpoint written by [`save_checkpoint`]: the network, its variables and the frame
-/// period.
+/// Reads a checkpoint written by [`save_checkpoint`]: the network, its variables, the frame
+/// period and the motion prior.
 ///
 /// # Errors
-/// I/O errors, a missing variable or a shape that disagrees with `meta.dims`.
-pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32)> {
+/// I/O errors, a missing variable, a shape that disagrees with `meta.dims`, prior settings out
+/// of range.
+pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32, PriorSettings)> {
     let saved = candle_core::safetensors::load(path, &Device::Cpu)?;
     let meta = saved
         .get("meta.dims")
@@ -103,6 +118,27 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32)> {
         candle_core::bail!("meta.dims holds {} values, expected 5", meta.len())
     };
     let dims = Dims { enc: enc as usize, edge: edge as usize, k: k as usize, dec: dec as usize };
+    let fields = saved
+        .get("meta.prior")
+        .ok_or_else(|| {
+            candle_core::Error::Msg("checkpoint has no meta.prior (written before the motion prior)".into())
+        })?
+        .to_dtype(DType::F32)?
+        .to_vec1::<f32>()?;
+    let [vw, tw, accel_gain, turn_gain, accel_decay, turn_decay] = fields[..] else {
+        candle_core::bail!("meta.prior holds {} values, expected 6", fields.len())
+    };
+    let prior = PriorSettings {
+        velocity_window: vw as u8,
+        trend_window: tw as u8,
+        accel_gain,
+        turn_gain,
+        accel_decay,
+        turn_decay,
+    };
+    if !prior.is_valid() {
+        candle_core::bail!("meta.prior is out of range: {prior:?}");
+    }
     let (net, vars) = Network::new(dims, 0)?;
     {
         let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
@@ -111,7 +147,7 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32)> {
             var.set(t)?;
         }
     }
-    Ok((net, vars, dt))
+    Ok((net, vars, dt, prior))
 }
 
 #[cfg(test)]
@@ -124,7 +160,7 @@ mod tests {
     use dynotraj_core::model::LearnedPredictor;
     use dynotraj_core::model::arch::FEATURES;
     use dynotraj_core::model::blob::ModelBlob;
-    use dynotraj_core::model::features::rollout_start;
+    use dynotraj_core::predict::prior::plan;
 
     use super::*;
     use crate::train::batch::Batch;
@@ -229,7 +265,8 @@ mod tests {
     fn the_candle_forecast_is_what_core_computes_from_the_exported_blob() {
         let dt = 0.05;
         let (net, _) = Network::new(Dims::DEFAULT, 3).unwrap();
-        let blob = to_blob(&net, &Dims::DEFAULT, Precision::F32, dt).unwrap();
+        let prior = PriorSettings::DEFAULT;
+        let blob = to_blob(&net, &Dims::DEFAULT, Precision::F32, dt, &prior).unwrap();
         let mut predictor = LearnedPredictor::new(ModelBlob::parse(&blob).unwrap());
         let runs = constant_control_runs(6, 40, dt, 5);
         for states in &runs {
@@ -237,12 +274,12 @@ mod tests {
             let beside: Vec<BevState> = states.iter().map(|s| BevState { x: s.x + 5.0, y: s.y - 3.0, ..*s }).collect();
             for s in [1usize, 3, 6, 8] {
                 let neighbour = &beside[s.saturating_sub(4)..=s];
-                let sample = sample_at(states, s, &[neighbour], dt, 0).unwrap();
+                let sample = sample_at(states, s, &[neighbour], dt, 0, &prior).unwrap();
                 let b = Batch::new(&[&sample], &Device::Cpu).unwrap();
                 let ours = net.forecast(&b, dt).unwrap().to_vec3::<f32>().unwrap().remove(0);
                 let mut core = [Point2::default(); HORIZON];
                 predictor.predict_with_neighbours(&states[..=s], &[neighbour], dt, &mut core).unwrap();
-                let (frame, _) = rollout_start(&states[..=s], dt).unwrap();
+                let frame = plan(&states[..=s], &prior, dt).unwrap().frame;
                 for (a, w) in ours.iter().zip(&core) {
                     let q = frame.to_agent(w);
                     assert!((a[0] - q.x).abs() < 1e-3 && (a[1] - q.y).abs() < 1e-3, "{a:?} vs {q:?}");
@@ -256,18 +293,19 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.safetensors");
         let (net, vars) = Network::new(SMALL, 11).unwrap();
-        save_checkpoint(&net, &vars, 0.1, &path).unwrap();
-        let (back, _, dt) = load_checkpoint(&path).unwrap();
-        assert_eq!((back.dims, dt), (SMALL, 0.1));
-        let blob = to_blob(&net, &SMALL, Precision::F32, 0.1).unwrap();
-        assert_eq!(to_blob(&back, &SMALL, Precision::F32, 0.1).unwrap(), blob);
+        let prior = PriorSettings { accel_gain: 0.75, ..PriorSettings::DEFAULT };
+        save_checkpoint(&net, &vars, 0.1, &prior, &path).unwrap();
+        let (back, _, dt, back_prior) = load_checkpoint(&path).unwrap();
+        assert_eq!((back.dims, dt, back_prior), (SMALL, 0.1, prior));
+        let blob = to_blob(&net, &SMALL, Precision::F32, 0.1, &prior).unwrap();
+        assert_eq!(to_blob(&back, &SMALL, Precision::F32, 0.1, &prior).unwrap(), blob);
         let stored = candle_core::safetensors::load(&path, &Device::Cpu).unwrap();
         assert_eq!(stored["meta.blob"].to_vec1::<u8>().unwrap(), blob);
         assert!(
             stored.contains_key("qz.weight") && stored.contains_key("future.weight_hh_l0_reverse"),
             "training-only parts are kept"
         );
-        assert!(ModelBlob::parse(&to_blob(&net, &SMALL, Precision::Int8, 0.1).unwrap()).is_ok());
-        assert!(to_blob(&net, &Dims::DEFAULT, Precision::F32, 0.1).is_err(), "widths must match");
+        assert!(ModelBlob::parse(&to_blob(&net, &SMALL, Precision::Int8, 0.1, &prior).unwrap()).is_ok());
+        assert!(to_blob(&net, &Dims::DEFAULT, Precision::F32, 0.1, &prior).is_err(), "widths must match");
     }
 }

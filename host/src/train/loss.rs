@@ -121,7 +121,7 @@ pub fn loss(net: &Network, b: &Batch, dt: f32, beta: f32, cfg: &LossConfig) -> R
     let log_q = log_softmax(&net.posterior_logits(&x, b)?, D::Minus1)?;
     let (p, q) = (log_p.exp()?, log_q.exp()?);
 
-    let roll = net.decode(&x, &Modes::All, &b.initial_control, &b.speed, dt, true)?;
+    let roll = net.decode(&x, &Modes::All, b, dt, true)?;
     let cov = roll.covariances.ok_or_else(|| candle_core::Error::Msg("decoder returned no covariance".into()))?;
     let t = b.future.dim(1)?;
     let target = b.future.unsqueeze(1)?.broadcast_as((n, k, t, 2))?.reshape((n * k, t, 2))?;
@@ -180,7 +180,7 @@ mod tests {
     }
 
     #[test]
-    fn the_position_term_of_the_untrained_model_is_the_ade_of_the_rollout_start() {
+    fn the_position_term_of_the_untrained_model_is_the_ade_of_the_motion_prior() {
         use dynotraj_core::model::arch::Dims;
 
         use crate::train::synthetic::{constant_control_runs, samples};
@@ -191,10 +191,10 @@ mod tests {
         let (net, _) = Network::new(Dims { enc: 8, edge: 8, k: 3, dec: 16 }, 1).unwrap();
         let only_position = LossConfig { likelihood_weight: 0.0, ade_weight: 2.0, ..LossConfig::default() };
         let l = loss(&net, &b, dt, 1.0, &only_position).unwrap();
-        let start = all.iter().map(|s| s.start_ade(dt)).sum::<f32>() / all.len() as f32;
+        let start = all.iter().map(|s| s.prior_ade(dt)).sum::<f32>() / all.len() as f32;
         assert!(
             start > 0.05 && (l.ade - start).abs() < 1e-3 * start.max(1.0),
-            "zero controls forecast cv-fit: {} vs {start}",
+            "a zero residual forecasts the prior: {} vs {start}",
             l.ade
         );
         assert!(

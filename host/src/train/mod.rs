@@ -1,5 +1,6 @@
 //! Host-side training of the trajectory predictor of `dynotraj_core::model::arch`, with candle.
 //!
+//! - [`prior_fit`]: the motion prior's settings, chosen on a fold's training sequences.
 //! - [`dataset`]: samples (features by core's own code) from eligible runs through a source.
 //! - [`batch`]: mini-batches as tensors.
 //! - [`params`], [`cells`], [`fused`]: seeded parameters; LSTM/GRU cells and linear layers in
@@ -11,9 +12,9 @@
 //! - [`fit`]: the optimisation loop with early stopping on the validation ADE.
 //! - [`export`]: the model blob (f32 or int8) and the safetensors checkpoint (format there).
 //!
-//! [`train_fold`] runs one leave-sequences-out fold: samples from every sequence but the
-//! excluded ones, a seeded 15% split of the runs for validation, training, and the best
-//! epoch's weights in a [`TrainedModel`].
+//! [`train_fold`] runs one leave-sequences-out fold: the motion prior's settings chosen on every
+//! sequence but the excluded ones, samples over that prior, a seeded split for validation,
+//! training of the residual, and the best epoch's weights in a [`TrainedModel`].
 //!
 //! Speed: run with `RAYON_NUM_THREADS=1` in the environment (the `dynotraj` command sets it for
 //! itself). The tensors are small; candle's kernels split over threads make training about
@@ -30,6 +31,7 @@ pub mod fused;
 pub mod loss;
 pub mod model;
 pub mod params;
+pub mod prior_fit;
 #[cfg(test)]
 pub(crate) mod synthetic;
 
@@ -41,6 +43,7 @@ use candle_nn::VarMap;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::predict::PriorSettings;
 
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source};
@@ -61,6 +64,16 @@ pub const DEFAULT_SPLIT_SEED: u64 = 1;
 
 /// Whether reflected copies of the training instances are trained on by default.
 pub const DEFAULT_MIRROR: bool = true;
+
+/// How a fold's motion prior is set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PriorChoice {
+    /// Chosen on the fold's training sequences through its source ([`prior_fit::tune_prior`]):
+    /// the default.
+    Tuned,
+    /// Given; [`PriorSettings::OFF`] is the paper's setting (seven states, no prior).
+    Fixed(PriorSettings),
+}
 
 /// One fold's training set-up.
 #[derive(Debug, Clone)]
@@ -90,6 +103,8 @@ pub struct TrainConfig<'a> {
     /// Add every training sample's reflection ([`Sample::mirrored`]) to the training set (never
     /// to validation).
     pub mirror: bool,
+    /// The motion prior the network's residual is added to.
+    pub prior: PriorChoice,
 }
 
 impl<'a> TrainConfig<'a> {
@@ -109,18 +124,36 @@ impl<'a> TrainConfig<'a> {
             mirror: DEFAULT_MIRROR,
             validate_on_sequences: DEFAULT_VALIDATE_ON_SEQUENCES,
             split_seed: DEFAULT_SPLIT_SEED,
+            prior: PriorChoice::Tuned,
         }
     }
 
-    /// The fold's samples, split by run (or by sequence, with `validate_on_sequences`), and
-    /// the ids of the sequences they come from.
+    /// The sequences trained on (every one not excluded).
+    fn training_sequences(&self) -> Vec<&'a SequenceTracks> {
+        self.sequences.iter().filter(|s| !self.exclude.contains(&s.id)).collect()
+    }
+
+    /// The fold's motion prior: given, or chosen on its training sequences.
     #[must_use]
-    pub fn samples(&self) -> (Split, Vec<String>) {
+    pub fn prior_settings(&self) -> PriorSettings {
+        match self.prior {
+            PriorChoice::Fixed(p) => p,
+            PriorChoice::Tuned => prior_fit::tune_prior(
+                &prior_fit::prior_instances(&self.training_sequences(), self.source, self.dt, &self.rule),
+                self.dt,
+            ),
+        }
+    }
+
+    /// The fold's samples over motion prior `prior`, split by run (or by sequence, with
+    /// `validate_on_sequences`), and the ids of the sequences they come from.
+    #[must_use]
+    pub fn samples(&self, prior: &PriorSettings) -> (Split, Vec<String>) {
         let mut per_sequence = Vec::new();
         let mut groups = 0;
         let mut used = Vec::new();
-        for seq in self.sequences.iter().filter(|s| !self.exclude.contains(&s.id)) {
-            let (samples, runs) = sequence_samples(seq, self.source, self.dt, &self.rule, groups);
+        for seq in self.training_sequences() {
+            let (samples, runs) = sequence_samples(seq, self.source, self.dt, &self.rule, groups, prior);
             groups += runs;
             per_sequence.push(samples);
             used.push(seq.id.clone());
@@ -161,6 +194,10 @@ pub struct TrainReport {
     pub shrink: f32,
     /// Validation ADE of the constant-velocity forecast, metres (the reference to beat).
     pub val_cv_ade: f32,
+    /// Validation ADE of the motion prior alone (the untrained model), metres.
+    pub val_prior_ade: f32,
+    /// The motion prior's settings.
+    pub prior: PriorSettings,
     /// Optimiser steps run.
     pub steps: usize,
     /// Wall-clock seconds of sample building and training.
@@ -177,6 +214,8 @@ pub struct TrainedModel {
     pub vars: VarMap,
     /// Frame period it was trained at, seconds.
     pub dt: f32,
+    /// The motion prior its output is added to.
+    pub prior: PriorSettings,
     /// What training did.
     pub report: TrainReport,
 }
@@ -208,7 +247,7 @@ impl TrainedModel {
     /// # Errors
     /// See [`export::to_blob`].
     pub fn blob(&self, precision: Precision) -> anyhow::Result<Vec<u8>> {
-        Ok(export::to_blob(&self.network, &self.network.dims, precision, self.dt)?)
+        Ok(export::to_blob(&self.network, &self.network.dims, precision, self.dt, &self.prior)?)
     }
 
     /// Writes `path` (f32 blob), `path.int8` (int8 blob) and `path.safetensors` (checkpoint).
@@ -227,7 +266,7 @@ impl TrainedModel {
             .with_context(|| format!("writing {}", files.f32_blob.display()))?;
         std::fs::write(&files.int8_blob, self.blob(Precision::Int8)?)
             .with_context(|| format!("writing {}", files.int8_blob.display()))?;
-        export::save_checkpoint(&self.network, &self.vars, self.dt, &files.checkpoint)
+        export::save_checkpoint(&self.network, &self.vars, self.dt, &self.prior, &files.checkpoint)
             .with_context(|| format!("writing {}", files.checkpoint.display()))?;
         Ok(files)
     }
@@ -260,7 +299,8 @@ pub fn train_fold(config: &TrainConfig<'_>) -> anyhow::Result<TrainedModel> {
 pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)) -> anyhow::Result<TrainedModel> {
     let start = Instant::now();
     anyhow::ensure!(config.dt.is_finite() && config.dt > 0.0, "frame period must be positive, found {}", config.dt);
-    let (mut split, sequences) = config.samples();
+    let prior = config.prior_settings();
+    let (mut split, sequences) = config.samples(&prior);
     if config.mirror {
         let reflected: Vec<Sample> = split.train.iter().map(Sample::mirrored).collect();
         split.train.extend(reflected);
@@ -293,9 +333,14 @@ pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)
         best_val_ade: outcome.best_val_ade,
         shrink: outcome.shrink,
         val_cv_ade: mean_cv_ade(if split.validation.is_empty() { &split.train } else { &split.validation }),
+        val_prior_ade: {
+            let v = if split.validation.is_empty() { &split.train } else { &split.validation };
+            v.iter().map(|s| s.prior_ade(config.dt)).sum::<f32>() / v.len() as f32
+        },
+        prior,
         steps: outcome.steps,
         seconds: start.elapsed().as_secs_f32(),
         history: outcome.history,
     };
-    Ok(TrainedModel { network, vars, dt: config.dt, report })
+    Ok(TrainedModel { network, vars, dt: config.dt, prior, report })
 }

@@ -88,9 +88,8 @@ impl Network {
             pz2: linear(&mut p, "pz2", PZ_HIDDEN, k)?,
             dec_init: linear(&mut p, "dec_init", k + cond, dec)?,
             gru: GruCell::new(&mut p, "gru", 2 + k + cond, dec)?,
-            // Zero output layer: the untrained model forecasts zero controls, i.e. exactly the
-            // constant-velocity forecast along the fitted velocity (cv-fit), and training
-            // starts from that solution.
+            // Zero output layer: the untrained model forecasts a zero residual, i.e. exactly the
+            // motion prior (cv-fit when it is off), and training starts from that solution.
             out: linear_within(&mut p, "out", dec, OUTPUTS, 0.0)?,
             future_fwd: LstmCell::new(&mut p, "future", "", 2, FUTURE_ENC)?,
             future_bwd: LstmCell::new(&mut p, "future", "_reverse", 2, FUTURE_ENC)?,
@@ -139,22 +138,16 @@ impl Network {
         self.qz.forward(&Tensor::cat(&[x, &h_fwd, &h_bwd], 1)?)
     }
 
-    /// Rolls the decoder out over the horizon from condition `x` [B, cond], the first control
-    /// input `u0` [B, 2] and the current speed [B, 1], for `modes`, integrating the clamped mean
-    /// controls with the unicycle at period `dt` exactly as inference does; with `covariance`
-    /// also propagates the control covariance to positions.
+    /// Rolls the decoder out over the horizon from condition `x` [B, cond] and batch `bt`'s first
+    /// control input, current speed and motion-prior controls, for `modes`, integrating the
+    /// clamped sums of the prior's and the mean controls with the unicycle at period `dt`
+    /// exactly as inference does; with `covariance` also propagates the control covariance to
+    /// positions.
     ///
     /// # Errors
     /// Shape errors.
-    pub fn decode(
-        &self,
-        x: &Tensor,
-        modes: &Modes,
-        u0: &Tensor,
-        speed: &Tensor,
-        dt: f32,
-        covariance: bool,
-    ) -> Result<Rollout> {
+    pub fn decode(&self, x: &Tensor, modes: &Modes, bt: &Batch, dt: f32, covariance: bool) -> Result<Rollout> {
+        let (u0, speed, prior) = (&bt.initial_control, &bt.speed, &bt.prior);
         let Dims { k, dec, .. } = self.dims;
         let cond = self.dims.cond();
         let b = x.dim(0)?;
@@ -165,7 +158,7 @@ impl Network {
         let x_gru = self.gru.project_columns(x, 2 + k, cond)?;
         let z_init = init_w.narrow(1, 0, k)?.contiguous()?.t()?; // [k, dec]: row j is one-hot j's part
         let z_gru = self.gru.w_ih.narrow(1, 2, k)?.contiguous()?.t()?; // [k, 3 dec]
-        let (mut h, fixed_gx, mut u, speed) = match modes {
+        let (mut h, fixed_gx, mut u, speed, prior) = match modes {
             Modes::All => {
                 let per_mode = |xp: &Tensor, zp: &Tensor, w: usize| {
                     xp.unsqueeze(1)?.broadcast_add(&zp.unsqueeze(0)?)?.reshape((b * k, w))
@@ -176,10 +169,11 @@ impl Network {
                     per_mode(&x_gru, &z_gru, 3 * dec)?,
                     repeat(u0, 2)?,
                     repeat(speed, 1)?,
+                    repeat(&prior.reshape((b, 2 * HORIZON))?, 2 * HORIZON)?.reshape((b * k, HORIZON, 2))?,
                 )
             }
             Modes::OneHot(z) => {
-                ((x_init + z.matmul(&z_init)?)?, (x_gru + z.matmul(&z_gru)?)?, u0.clone(), speed.clone())
+                ((x_init + z.matmul(&z_init)?)?, (x_gru + z.matmul(&z_gru)?)?, u0.clone(), speed.clone(), prior.clone())
             }
         };
         // Step t's input u_t is the observed control (t = 0) or the mean control
@@ -208,7 +202,7 @@ impl Network {
             .matmul(&self.out.weight().t()?)?
             .broadcast_add(bias(&self.out)?)?
             .reshape((rows, HORIZON, OUTPUTS))?;
-        let (w, a) = controls(&out.narrow(D::Minus1, 0, 2)?)?;
+        let (w, a) = controls(&out.narrow(D::Minus1, 0, 2)?, &prior)?;
         let dt = f64::from(dt);
         let (positions, mid) = integrate(&w, &a, &speed, dt)?;
         let covariances = if covariance {
@@ -228,7 +222,7 @@ impl Network {
     pub fn forecast(&self, b: &Batch, dt: f32) -> Result<Tensor> {
         let x = self.encode(b)?;
         let z = one_hot_argmax(&self.prior_logits(&x)?)?;
-        Ok(self.decode(&x, &Modes::OneHot(z), &b.initial_control, &b.speed, dt, false)?.positions)
+        Ok(self.decode(&x, &Modes::OneHot(z), b, dt, false)?.positions)
     }
 }
 

@@ -2,7 +2,7 @@
 //! trained predictor should learn to extrapolate better than it starts.
 
 use dynotraj_core::BevState;
-use dynotraj_core::predict::unicycle_step;
+use dynotraj_core::predict::{PriorSettings, unicycle_step};
 use rand::rngs::SmallRng;
 use rand::{Rng as _, SeedableRng as _};
 
@@ -34,11 +34,14 @@ pub fn constant_control_runs(runs: usize, len: usize, dt: f32, seed: u64) -> Vec
         .collect()
 }
 
-/// Every instance of every run as a sample (no neighbours), group = run index.
+/// Every instance of every run as a sample (no neighbours, no motion prior: the network has
+/// the whole motion to learn), group = run index.
 #[must_use]
 pub fn samples(runs: &[Vec<BevState>], dt: f32) -> Vec<Sample> {
     runs.iter()
         .enumerate()
-        .flat_map(|(g, states)| (1..states.len()).filter_map(move |s| sample_at(states, s, &[], dt, g)))
+        .flat_map(|(g, states)| {
+            (1..states.len()).filter_map(move |s| sample_at(states, s, &[], dt, g, &PriorSettings::OFF))
+        })
         .collect()
 }

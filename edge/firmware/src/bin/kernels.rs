@@ -12,6 +12,7 @@ use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::TENSORS;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
+use dynotraj_core::predict::PriorSettings;
 use dynotraj_core::model::kernel::MAX_AFFINE_IN;
 use dynotraj_core::model::{Dims, Int8Dot, LearnedPredictor, PortableDot};
 use dynotraj_dsp::DspDot;
@@ -183,7 +184,7 @@ fn random_blob<'a>(
         *s = a;
         rest = b;
     }
-    let len = write_blob(dims, precision, DT, &slices, out).map_err(|_| ())?;
+    let len = write_blob(dims, precision, DT, &PriorSettings::DEFAULT, &slices, out).map_err(|_| ())?;
     ModelBlob::parse(out.get(..len).ok_or(())?).map_err(|_| ())
 }
 
