@@ -80,3 +80,39 @@ fn histories_follow_objects_across_consecutive_frames_only() {
     h.update(&estimate(13, &[(1, 0, 13.0), (2, 2, 0.0)]));
     assert_eq!(h.current()[1].states().len(), 1, "a new segment restarts the history");
 }
+
+#[test]
+fn histories_keep_the_priors_long_memory_through_reorders_new_and_gone_objects() {
+    use dynotraj_core::limits::PRIOR_STATES;
+    let mut h = Histories::new();
+    let mut buf = [BevState { x: 0.0, y: 0.0, heading: 0.0, speed: 0.0 }; PRIOR_STATES];
+    // Object 1 for 30 frames; from frame 10 object 2; the order flips every frame; object 3
+    // appears at frame 20 in front and object 2 leaves at frame 25.
+    for k in 0..30u32 {
+        let x1 = 100.0 + k as f32;
+        let x2 = 200.0 + k as f32;
+        let mut objects = vec![(1u16, 0u16, x1)];
+        if (10..25).contains(&k) {
+            objects.push((2, 0, x2));
+        }
+        if k % 2 == 1 {
+            objects.reverse();
+        }
+        if k >= 20 {
+            objects.insert(0, (3, 0, 300.0 + k as f32));
+        }
+        h.update(&estimate(k, &objects));
+        for (hist, (id, _, x)) in h.current().iter().zip(&objects) {
+            assert_eq!((hist.object_id, hist.states().last().unwrap().x), (*id, *x), "frame {k}: slot order");
+        }
+    }
+    let one = h.current().iter().find(|x| x.object_id == 1).unwrap();
+    let long = one.long_states(&mut buf);
+    assert_eq!(long.len(), PRIOR_STATES, "21 states: 14 older positions and the 7 whole states");
+    let xs: Vec<f32> = long.iter().map(|s| s.x).collect();
+    let want: Vec<f32> = (9..30).map(|k| 100.0 + k as f32).collect();
+    assert_eq!(xs, want, "oldest first, one per frame");
+    assert!(h.current().iter().all(|x| x.object_id != 2), "object 2 left");
+    let three = h.current().iter().find(|x| x.object_id == 3).unwrap();
+    assert_eq!(three.long_states(&mut buf).len(), 10, "object 3 has been seen for 10 frames");
+}

@@ -158,6 +158,8 @@ pub struct RunScores {
     pub failed: u32,
     /// The scored forecasts' errors per horizon step.
     pub horizon: HorizonErrors,
+    /// Each run's scores, in order (one entry for a single run's scores).
+    pub runs: Vec<ForecastScores>,
 }
 
 /// What forecasts are scored against.
@@ -315,6 +317,7 @@ pub fn score_sequence_against(
         let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
         let r = score_run_against(sourced, run.instances(), scene, forecaster, dt, reference);
         total.scores.merge(&r.scores);
+        total.runs.push(r.scores);
         total.horizon.merge(&r.horizon);
         total.instances.extend(r.instances);
         total.failed += r.failed;

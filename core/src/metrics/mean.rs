@@ -30,6 +30,12 @@ impl Mean {
         self.count = self.count.saturating_add(other.count);
     }
 
+    /// The sum of the values pushed.
+    #[must_use]
+    pub const fn sum(&self) -> f64 {
+        self.sum
+    }
+
     /// Values pushed.
     #[must_use]
     pub const fn count(&self) -> u32 {

@@ -10,7 +10,7 @@ use clap::Args;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
 use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
-use dynotraj_core::predict::{Baseline, Forecast};
+use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PriorSettings};
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
@@ -150,11 +150,15 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             );
         }
     }
-    for mut b in Baseline::ALL {
-        let us = Cell::num(time_per_forecast(&mut b, dt, args.iterations * 10), 2);
-        t.push([b.name().to_string(), "-".into(), "0".into(), "0".into(), "0".into(), us.md()]);
+    let mut prior = MotionPrior(PriorSettings::DEFAULT);
+    let mut rows: Vec<(&str, &mut dyn Forecaster)> = vec![("prior", &mut prior)];
+    let mut baselines = Baseline::ALL;
+    rows.extend(baselines.iter_mut().map(|b| (b.name(), b as &mut dyn Forecaster)));
+    for (name, p) in rows {
+        let us = Cell::num(time_per_forecast(p, dt, args.iterations * 10), 2);
+        t.push([name.to_string(), "-".into(), "0".into(), "0".into(), "0".into(), us.md()]);
         let blank = [Cell::Blank, Cell::Blank, Cell::Blank, Cell::Blank, Cell::Blank];
-        d.push([Cell::text(b.name())].into_iter().chain(blank).chain([0, 0, 0].map(Cell::int)).chain([us]).collect());
+        d.push([Cell::text(name)].into_iter().chain(blank).chain([0, 0, 0].map(Cell::int)).chain([us]).collect());
     }
     Ok(t.with_data(d))
 }

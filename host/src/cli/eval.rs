@@ -68,11 +68,11 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
         for spec in &args.predictor {
             let loaded = LoadedPredictor::load(spec, dt)?;
             let mut forecaster = loaded.forecaster();
-            let mut arm = ArmScores { label: arm_label(spec, source), per_sequence: Vec::new() };
+            let mut arm = ArmScores::new(arm_label(spec, source));
             let mut failed = 0;
             for (seq_runs, scene) in runs.iter().zip(&scenes) {
                 let r = score_sequence(seq_runs, scene, forecaster.as_mut(), dt);
-                arm.per_sequence.push(r.scores);
+                arm.push_sequence(&r);
                 failed += r.failed;
             }
             if failed > 0 {

@@ -18,9 +18,13 @@ pub const DEFAULT_SEEDS: [u64; 3] = [1, 2, 3];
 /// The benchmark's number of folds by default (sixteen sequences: four of four).
 pub const DEFAULT_GROUPS: usize = 4;
 
-/// How much better than cv and cv-fit the learned int8 model must be on weighted ADE and FDE
-/// for the benchmark's goal (a share: 0.1 = 10 %).
-pub const GOAL_GAIN: f64 = 0.10;
+/// The goal's largest ratio of the learned int8 model's weighted ADE and FDE to cv's.
+pub const GOAL_VS_CV: f64 = 0.88;
+/// The goal's bound on the upper end of that ratio's 95 % interval.
+pub const GOAL_VS_CV_HIGH: f64 = 0.92;
+/// The goal's largest ratio of the learned int8 model's weighted ADE and FDE to the motion
+/// prior's (its interval's upper end must also be below 1).
+pub const GOAL_VS_PRIOR: f64 = 0.97;
 
 /// Splits `ids` into `groups` folds: sorted, then dealt out in turn (fold k holds the k-th,
 /// (k + groups)-th, ... sequence), so the folds mix early and late drives. Fewer ids than
@@ -144,67 +148,90 @@ pub fn seeds_table(result: &BenchmarkResult, rows_of: impl Fn(&ExperimentResult)
     t.with_data(d)
 }
 
-/// The goal, per arm and seed: the learned int8 model's weighted ADE and FDE against cv and
-/// cv-fit (change in %, negative is better) and its ACE against cv-fit's; whether the goal
-/// ([`GOAL_GAIN`] better than both on ADE and FDE, ACE no worse than cv-fit's) is met.
+/// The goal, per arm and seed, with run-bootstrap intervals ([`crate::report::bootstrap`]):
+/// the learned int8 model's weighted ADE and FDE as ratios to cv's and to the motion prior's,
+/// the prior's to cv's, and ACE against cv's. Met when the model is at most
+/// [`GOAL_VS_CV`] of cv on ADE and FDE with the interval's upper end below
+/// [`GOAL_VS_CV_HIGH`], at most [`GOAL_VS_PRIOR`] of the prior with the interval's upper end
+/// below 1, and its ACE no worse than cv's.
 #[must_use]
 pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
+    use crate::report::bootstrap::{Metric, RatioInterval, ratio_interval};
     let mut t = Table::new([
         "arm",
         "seed",
         "int8 ADE",
-        "vs cv",
-        "vs cv-fit",
+        "ADE / cv",
+        "ADE / prior",
         "int8 FDE",
-        "vs cv",
-        "vs cv-fit",
+        "FDE / cv",
+        "FDE / prior",
+        "prior ADE / cv",
         "int8 ACE",
-        "cv-fit ACE",
+        "cv ACE",
         "goal met",
     ]);
-    let mut d = Data::new([
-        ("arm", ColumnKind::Text),
-        ("seed", ColumnKind::Int),
-        ("int8_ade", ColumnKind::Num),
-        ("ade_change_vs_cv_pct", ColumnKind::Num),
-        ("ade_change_vs_cv_fit_pct", ColumnKind::Num),
-        ("int8_fde", ColumnKind::Num),
-        ("fde_change_vs_cv_pct", ColumnKind::Num),
-        ("fde_change_vs_cv_fit_pct", ColumnKind::Num),
-        ("int8_ace", ColumnKind::Num),
-        ("cv_fit_ace", ColumnKind::Num),
-        ("goal_met", ColumnKind::Text),
-    ]);
-    let pct = |a: f64, b: f64| Cell::num(100.0 * (a / b - 1.0), 1);
+    let mut columns = vec![("arm", ColumnKind::Text), ("seed", ColumnKind::Int)];
+    let ratio_columns = [
+        ["ade_vs_cv", "ade_vs_cv_low", "ade_vs_cv_high"],
+        ["ade_vs_prior", "ade_vs_prior_low", "ade_vs_prior_high"],
+        ["fde_vs_cv", "fde_vs_cv_low", "fde_vs_cv_high"],
+        ["fde_vs_prior", "fde_vs_prior_low", "fde_vs_prior_high"],
+        ["prior_ade_vs_cv", "prior_ade_vs_cv_low", "prior_ade_vs_cv_high"],
+    ];
+    columns.push(("int8_ade", ColumnKind::Num));
+    columns.push(("int8_fde", ColumnKind::Num));
+    for names in &ratio_columns {
+        columns.extend(names.iter().map(|n| (*n, ColumnKind::Num)));
+    }
+    columns.extend([("int8_ace", ColumnKind::Num), ("cv_ace", ColumnKind::Num), ("goal_met", ColumnKind::Text)]);
+    let mut d = Data::new(columns);
+    let md = |r: &Option<RatioInterval>| {
+        r.map_or_else(|| "-".to_string(), |r| format!("{:.3} [{:.3}, {:.3}]", r.ratio, r.low, r.high))
+    };
     for arm in arms {
         for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
-            let (Some(l), Some(cv), Some(fit)) = (
-                weighted(&r.arms, &format!("learned int8 on {arm}")),
-                weighted(&r.arms, &format!("cv on {arm}")),
-                weighted(&r.arms, &format!("cv-fit on {arm}")),
-            ) else {
+            let row = |label: String| r.arms.iter().find(|a| a.label == label);
+            let (Some(l), Some(cv), Some(prior)) =
+                (row(format!("learned int8 on {arm}")), row(format!("cv on {arm}")), row(format!("prior on {arm}")))
+            else {
                 continue;
             };
-            let better = |k: usize| l[k] <= (1.0 - GOAL_GAIN) * cv[k] && l[k] <= (1.0 - GOAL_GAIN) * fit[k];
-            let met = better(0) && better(1) && l[2] <= fit[2];
-            let cells = vec![
-                Cell::text(arm.to_string()),
-                Cell::int(*seed),
-                Cell::num(l[0], 3),
-                pct(l[0], cv[0]),
-                pct(l[0], fit[0]),
-                Cell::num(l[1], 3),
-                pct(l[1], cv[1]),
-                pct(l[1], fit[1]),
-                Cell::num(l[2], 3),
-                Cell::num(fit[2], 3),
-                Cell::text(if met { "yes" } else { "no" }),
+            let (Some(lw), Some(cvw)) =
+                (weighted(&r.arms, &l.label), weighted(&r.arms, &cv.label))
+            else {
+                continue;
+            };
+            let ratios = [
+                ratio_interval(&l.per_run, &cv.per_run, Metric::Ade),
+                ratio_interval(&l.per_run, &prior.per_run, Metric::Ade),
+                ratio_interval(&l.per_run, &cv.per_run, Metric::Fde),
+                ratio_interval(&l.per_run, &prior.per_run, Metric::Fde),
+                ratio_interval(&prior.per_run, &cv.per_run, Metric::Ade),
             ];
-            // Markdown shows the changes signed, in per cent.
-            t.push(cells.iter().enumerate().map(|(i, c)| match (i, c) {
-                (3 | 4 | 6 | 7, Cell::Num(v, _)) => format!("{v:+.1} %"),
-                _ => c.md(),
-            }));
+            let vs_cv = |i: usize| ratios[i].is_some_and(|x| x.ratio <= GOAL_VS_CV && x.high < GOAL_VS_CV_HIGH);
+            let vs_prior = |i: usize| ratios[i].is_some_and(|x| x.ratio <= GOAL_VS_PRIOR && x.high < 1.0);
+            let met = vs_cv(0) && vs_cv(2) && vs_prior(1) && vs_prior(3) && lw[2] <= cvw[2];
+            let verdict = if met { "yes" } else { "no" };
+            t.push([
+                arm.to_string(),
+                seed.to_string(),
+                format!("{:.3}", lw[0]),
+                md(&ratios[0]),
+                md(&ratios[1]),
+                format!("{:.3}", lw[1]),
+                md(&ratios[2]),
+                md(&ratios[3]),
+                md(&ratios[4]),
+                format!("{:.3}", lw[2]),
+                format!("{:.3}", cvw[2]),
+                verdict.to_string(),
+            ]);
+            let mut cells = vec![Cell::text(arm.to_string()), Cell::int(*seed), Cell::num(lw[0], 3), Cell::num(lw[1], 3)];
+            for r in &ratios {
+                cells.extend([Cell::opt(r.map(|x| x.ratio), 4), Cell::opt(r.map(|x| x.low), 4), Cell::opt(r.map(|x| x.high), 4)]);
+            }
+            cells.extend([Cell::num(lw[2], 3), Cell::num(cvw[2], 3), Cell::text(verdict)]);
             d.push(cells);
         }
     }

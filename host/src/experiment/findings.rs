@@ -104,7 +104,7 @@ mod tests {
         s.ade.push(ade);
         s.fde.push(ade * 2.0);
         s.ace.push(ade / 2.0);
-        ArmScores { label: label.into(), per_sequence: vec![s] }
+        ArmScores { label: label.into(), per_sequence: vec![s], per_run: vec![s] }
     }
 
     #[test]

@@ -147,9 +147,9 @@ fn score_both(
     own: &mut ArmScores,
     common: &mut ArmScores,
 ) {
-    own.per_sequence.push(score_sequence(runs, scene, forecaster, dt).scores);
+    own.push_sequence(&score_sequence(runs, scene, forecaster, dt));
     if let Some(r) = reference {
-        common.per_sequence.push(score_sequence_against(runs, scene, forecaster, dt, r).scores);
+        common.push_sequence(&score_sequence_against(runs, scene, forecaster, dt, r));
     }
 }
 
@@ -317,8 +317,8 @@ pub fn score_seed(
     for ((&source, runs), scenes) in config.arms.iter().zip(&runs_by_arm).zip(&scenes_by_arm) {
         let references = references_for(source);
         let mut learned = [
-            ArmScores { label: format!("learned f32 on {source}"), per_sequence: Vec::new() },
-            ArmScores { label: format!("learned int8 on {source}"), per_sequence: Vec::new() },
+            ArmScores::new(format!("learned f32 on {source}")),
+            ArmScores::new(format!("learned int8 on {source}")),
         ];
         let mut learned_common = learned.clone();
         for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
@@ -332,7 +332,7 @@ pub fn score_seed(
             common_arms.extend(learned_common);
         }
         // The motion prior alone, with the settings each fold chose on its training sequences.
-        let mut prior = ArmScores { label: format!("prior on {source}"), per_sequence: Vec::new() };
+        let mut prior = ArmScores::new(format!("prior on {source}"));
         let mut prior_common = prior.clone();
         for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
             let [f32_file, _] = models_for(config, &models, source, &test.id)?;
@@ -344,7 +344,7 @@ pub fn score_seed(
             common_arms.push(prior_common);
         }
         for mut baseline in Baseline::ALL {
-            let mut own = ArmScores { label: format!("{} on {source}", baseline.name()), per_sequence: Vec::new() };
+            let mut own = ArmScores::new(format!("{} on {source}", baseline.name()));
             let mut common = own.clone();
             for ((r, sc), rf) in runs.iter().zip(scenes).zip(&references) {
                 score_both(r, sc, &mut baseline, config.dt, *rf, &mut own, &mut common);
@@ -363,33 +363,32 @@ pub fn score_seed(
             let mut rows = Vec::new();
             for &source in &config.arms {
                 let mut row = [
-                    ArmScores { label: format!("learned f32 trained on {source}"), per_sequence: Vec::new() },
-                    ArmScores { label: format!("learned int8 trained on {source}"), per_sequence: Vec::new() },
+                    ArmScores::new(format!("learned f32 trained on {source}")),
+                    ArmScores::new(format!("learned int8 trained on {source}")),
                 ];
                 for (((test, r), sc), rf) in tests.iter().zip(&runs_by_arm[e]).zip(&scenes_by_arm[e]).zip(&references) {
                     let files = models_for(config, &models, source, &test.id)?;
                     for (arm, file) in row.iter_mut().zip(files) {
                         let reference = rf.context("deployment needs the simulator's truth")?;
-                        arm.per_sequence
-                            .push(score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference).scores);
+                        arm.push_sequence(&score_sequence_against(r, sc, &mut file.predictor(), config.dt, reference));
                     }
                 }
                 rows.extend(row);
-                let mut prior = ArmScores { label: format!("prior chosen on {source}"), per_sequence: Vec::new() };
+                let mut prior = ArmScores::new(format!("prior chosen on {source}"));
                 for (((test, r), sc), rf) in tests.iter().zip(&runs_by_arm[e]).zip(&scenes_by_arm[e]).zip(&references) {
                     let [f32_file, _] = models_for(config, &models, source, &test.id)?;
                     let reference = rf.context("deployment needs the simulator's truth")?;
                     let mut p = MotionPrior(*f32_file.blob().prior());
-                    prior.per_sequence.push(score_sequence_against(r, sc, &mut p, config.dt, reference).scores);
+                    prior.push_sequence(&score_sequence_against(r, sc, &mut p, config.dt, reference));
                 }
                 rows.push(prior);
             }
             for mut baseline in Baseline::ALL {
                 let mut row =
-                    ArmScores { label: format!("{} (no training)", baseline.name()), per_sequence: Vec::new() };
+                    ArmScores::new(format!("{} (no training)", baseline.name()));
                 for ((r, sc), rf) in runs_by_arm[e].iter().zip(&scenes_by_arm[e]).zip(&references) {
                     let reference = rf.context("deployment needs the simulator's truth")?;
-                    row.per_sequence.push(score_sequence_against(r, sc, &mut baseline, config.dt, reference).scores);
+                    row.push_sequence(&score_sequence_against(r, sc, &mut baseline, config.dt, reference));
                 }
                 rows.push(row);
             }

@@ -16,9 +16,25 @@ pub struct ArmScores {
     pub label: String,
     /// Scores per sequence.
     pub per_sequence: Vec<ForecastScores>,
+    /// Scores per object run, every sequence's in turn (the units of the bootstrap
+    /// intervals: [`super::bootstrap`]). Rows of one source list the same runs in the same
+    /// order.
+    pub per_run: Vec<ForecastScores>,
 }
 
 impl ArmScores {
+    /// An empty row labelled `label`.
+    #[must_use]
+    pub fn new(label: impl Into<String>) -> Self {
+        Self { label: label.into(), ..Self::default() }
+    }
+
+    /// Adds one sequence's scores and its runs'.
+    pub fn push_sequence(&mut self, scores: &crate::evaluate::RunScores) {
+        self.per_sequence.push(scores.scores);
+        self.per_run.extend_from_slice(&scores.runs);
+    }
+
     /// The weighted average over every sequence (per forecast, as the paper reports).
     #[must_use]
     pub fn total(&self) -> ForecastScores {

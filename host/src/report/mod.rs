@@ -3,6 +3,7 @@
 pub mod chart;
 pub mod data;
 pub mod estimator_tables;
+pub mod bootstrap;
 mod forecast_table;
 mod instances_table;
 pub mod stream_report;

@@ -1,12 +1,12 @@
-//! ADE and FDE against the horizon: for each arm's int8 model and for constant velocity on the
-//! same source, the error of every horizon from 1 to 30 steps, over the test instances of every
+//! ADE and FDE against the horizon: for each arm's int8 model, its motion prior alone and
+//! constant velocity on the same source, the error of every horizon from 1 to 30 steps, over the test instances of every
 //! loaded sequence that has a fold model of that arm (each model trained without it), pooled.
 //! Scored by [`crate::evaluate`] as Table IV is, against each source's own future.
 
 use std::path::Path;
 
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::predict::Baseline;
+use dynotraj_core::predict::{Baseline, MotionPrior};
 
 use super::time_axis::horizon_label;
 use super::{Figure, FigureInputs};
@@ -15,10 +15,12 @@ use crate::report::chart::{Chart, Colour, Series, Style, write_chart};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
 
-/// One arm's pooled errors: its int8 model's, constant velocity's, the sequences pooled.
+/// One arm's pooled errors: its int8 model's, its prior's, constant velocity's, the sequences
+/// pooled.
 struct ArmErrors {
     arm: Source,
     learned: HorizonErrors,
+    prior: HorizonErrors,
     cv: HorizonErrors,
     sequences: Vec<String>,
 }
@@ -27,14 +29,21 @@ struct ArmErrors {
 fn arm_errors(inputs: &FigureInputs<'_>) -> Vec<ArmErrors> {
     let mut out = Vec::new();
     for &arm in inputs.arms {
-        let mut e =
-            ArmErrors { arm, learned: HorizonErrors::default(), cv: HorizonErrors::default(), sequences: vec![] };
+        let mut e = ArmErrors {
+            arm,
+            learned: HorizonErrors::default(),
+            prior: HorizonErrors::default(),
+            cv: HorizonErrors::default(),
+            sequences: vec![],
+        };
         for seq in inputs.sequences {
             let Some(model) = inputs.models.get(arm, &seq.id) else { continue };
             let tracks = seq.tracks_for(arm);
             let runs = eligible_runs(tracks, inputs.rule);
             let scene = Scene::new(tracks, arm, inputs.dt);
             e.learned.merge(&score_sequence(&runs, &scene, &mut model.predictor(), inputs.dt).horizon);
+            let mut prior = MotionPrior(*model.blob().prior());
+            e.prior.merge(&score_sequence(&runs, &scene, &mut prior, inputs.dt).horizon);
             e.cv.merge(&score_sequence(&runs, &scene, &mut Baseline::ConstantVelocity, inputs.dt).horizon);
             e.sequences.push(seq.id.clone());
         }
@@ -99,6 +108,10 @@ pub fn write(dir: &Path, inputs: &FigureInputs<'_>) -> anyhow::Result<Vec<Figure
                     .styled(Style { colour, dashed: false }),
             );
             series.push(
+                Series::new(format!("prior on {}", a.arm), over_horizon(&values(&a.prior), inputs.dt))
+                    .styled(Style { colour: Colour::Palette(i + arms.len()), dashed: false }),
+            );
+            series.push(
                 Series::new(
                     format!("{} on {}", Baseline::ConstantVelocity.name(), a.arm),
                     over_horizon(&values(&a.cv), inputs.dt),
@@ -111,8 +124,8 @@ pub fn write(dir: &Path, inputs: &FigureInputs<'_>) -> anyhow::Result<Vec<Figure
         out.push(Figure {
             png,
             caption: format!(
-                "{what}, of each arm's int8 model (solid) and constant velocity on the same source (dashed, same \
-                colour), each scored against its own source's future over the test instances of the held-out \
+                "{what}, of each arm's int8 model (solid), its motion prior alone (solid, its own colour) and \
+                constant velocity on the same source (dashed, the model's colour), each scored against its own source's future over the test instances of the held-out \
                 sequences that have a fold model, pooled ({}). At the full horizon ({HORIZON} steps) the curves \
                 are the weighted ADE and FDE of Table IV's int8 and cv rows over those sequences.",
                 pooled.join("; ")

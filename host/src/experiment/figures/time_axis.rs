@@ -2,7 +2,7 @@
 //! that rate, because readers think in seconds while the data is in frames, and the paper's
 //! 20 Hz is not KITTI's recorded 10 Hz.
 
-use dynotraj_core::limits::HORIZON;
+use dynotraj_core::limits::{HORIZON, PAPER_FRAME_RATE_HZ};
 
 /// The rate of frame period `dt`, as few decimals as it needs ("20", "12.5").
 #[must_use]
@@ -12,16 +12,23 @@ pub fn rate_text(dt: f32) -> String {
     text.trim_end_matches('0').trim_end_matches('.').to_string()
 }
 
-/// The x label of a chart over frames: "time (s; frames at 20 Hz)".
+/// The x label of a chart over frames: "time (s; frames at 20 Hz; KITTI records 10 Hz: real
+/// time x2)".
 #[must_use]
 pub fn time_label(dt: f32) -> String {
-    format!("time (s; frames at {} Hz)", rate_text(dt))
+    format!("time (s; frames at {} Hz{})", rate_text(dt), real_time_note(dt))
 }
 
-/// The x label of a chart over horizon steps: "horizon (s; 30 steps at 20 Hz)".
+/// The x label of a chart over horizon steps: "horizon (s; 30 steps at 20 Hz; ...)".
 #[must_use]
 pub fn horizon_label(dt: f32) -> String {
-    format!("horizon (s; {HORIZON} steps at {} Hz)", rate_text(dt))
+    format!("horizon (s; {HORIZON} steps at {} Hz{})", rate_text(dt), real_time_note(dt))
+}
+
+/// At the paper's 20 Hz convention, what KITTI's frames really span: it records at 10 Hz, so
+/// real time is twice the axis.
+fn real_time_note(dt: f32) -> &'static str {
+    if (1.0 / dt - PAPER_FRAME_RATE_HZ).abs() < 1e-3 { "; KITTI records 10 Hz: real time x2" } else { "" }
 }
 
 /// Frame `frame` in seconds at frame period `dt`.
@@ -36,7 +43,7 @@ mod tests {
 
     #[test]
     fn axes_say_seconds_and_the_rate() {
-        assert_eq!(time_label(0.05), "time (s; frames at 20 Hz)");
+        assert_eq!(time_label(0.05), "time (s; frames at 20 Hz; KITTI records 10 Hz: real time x2)");
         assert_eq!(time_label(0.1), "time (s; frames at 10 Hz)");
         assert_eq!(horizon_label(0.08), "horizon (s; 30 steps at 12.5 Hz)");
         assert!((seconds(154, 0.05) - 7.7).abs() < 1e-6);
