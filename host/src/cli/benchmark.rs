@@ -11,7 +11,8 @@ use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use crate::experiment::ExperimentConfig;
 use crate::experiment::benchmark::{
-    BenchmarkResult, DEFAULT_GROUPS, GOAL_VS_CV, GOAL_VS_CV_HIGH, GOAL_VS_PRIOR, goal_table, run_benchmark, seeds_table, sequence_groups,
+    BenchmarkResult, DEFAULT_GROUPS, GOAL_VS_CV, GOAL_VS_CV_HIGH, GOAL_VS_PRIOR, goal_table, run_benchmark,
+    seeds_table, sequence_groups,
 };
 use crate::experiment::figures::Figure;
 use crate::experiment::report::{Report, Section, write_report};

@@ -197,9 +197,7 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
             else {
                 continue;
             };
-            let (Some(lw), Some(cvw)) =
-                (weighted(&r.arms, &l.label), weighted(&r.arms, &cv.label))
-            else {
+            let (Some(lw), Some(cvw)) = (weighted(&r.arms, &l.label), weighted(&r.arms, &cv.label)) else {
                 continue;
             };
             let ratios = [
@@ -227,9 +225,14 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
                 format!("{:.3}", cvw[2]),
                 verdict.to_string(),
             ]);
-            let mut cells = vec![Cell::text(arm.to_string()), Cell::int(*seed), Cell::num(lw[0], 3), Cell::num(lw[1], 3)];
+            let mut cells =
+                vec![Cell::text(arm.to_string()), Cell::int(*seed), Cell::num(lw[0], 3), Cell::num(lw[1], 3)];
             for r in &ratios {
-                cells.extend([Cell::opt(r.map(|x| x.ratio), 4), Cell::opt(r.map(|x| x.low), 4), Cell::opt(r.map(|x| x.high), 4)]);
+                cells.extend([
+                    Cell::opt(r.map(|x| x.ratio), 4),
+                    Cell::opt(r.map(|x| x.low), 4),
+                    Cell::opt(r.map(|x| x.high), 4),
+                ]);
             }
             cells.extend([Cell::num(lw[2], 3), Cell::num(cvw[2], 3), Cell::text(verdict)]);
             d.push(cells);

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
+use dynotraj_core::predict::PriorSettings;
 
 use super::FoldReport;
 use crate::train::TrainConfig;
@@ -99,13 +100,25 @@ impl FoldCache {
         let int8_blob = std::fs::read(self.path(name, key, "blob.int8")).ok()?;
         let text = std::fs::read_to_string(self.path(name, key, "fold")).ok()?;
         let v: Vec<&str> = text.split_whitespace().collect();
-        let [instances, epoch, shrink, val, cv, seconds] = v[..] else { return None };
+        let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td] = v[..] else {
+            return None;
+        };
+        let prior = PriorSettings {
+            velocity_window: vw.parse().ok()?,
+            trend_window: tw.parse().ok()?,
+            accel_gain: ag.parse().ok()?,
+            turn_gain: tg.parse().ok()?,
+            accel_decay: ad.parse().ok()?,
+            turn_decay: td.parse().ok()?,
+        };
         let report = FoldReport {
             train_instances: instances.parse().ok()?,
             best_epoch: epoch.parse().ok()?,
             shrink: shrink.parse().ok()?,
             val_ade: val.parse().ok()?,
             val_cv_ade: cv.parse().ok()?,
+            val_prior_ade: val_prior.parse().ok()?,
+            prior: prior.is_valid().then_some(prior)?,
             seconds: seconds.parse().ok()?,
             ..template.clone()
         };
@@ -119,10 +132,23 @@ impl FoldCache {
     pub fn store(&self, name: &str, key: u64, fold: &CachedFold) -> anyhow::Result<()> {
         let r = &fold.report;
         let mut line = String::new();
+        let p = &r.prior;
         let _ = writeln!(
             line,
-            "{} {} {} {} {} {}",
-            r.train_instances, r.best_epoch, r.shrink, r.val_ade, r.val_cv_ade, r.seconds
+            "{} {} {} {} {} {} {} {} {} {} {} {} {}",
+            r.train_instances,
+            r.best_epoch,
+            r.shrink,
+            r.val_ade,
+            r.val_cv_ade,
+            r.seconds,
+            r.val_prior_ade,
+            p.velocity_window,
+            p.trend_window,
+            p.accel_gain,
+            p.turn_gain,
+            p.accel_decay,
+            p.turn_decay
         );
         for (ext, bytes) in
             [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
@@ -179,6 +205,8 @@ mod tests {
             train_instances: 10,
             val_ade: 1.5,
             val_cv_ade: 1.75,
+            val_prior_ade: 1.6,
+            prior: PriorSettings::DEFAULT,
             best_epoch: 3,
             shrink: 0.75,
             seconds: 2.5,

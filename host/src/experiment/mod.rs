@@ -102,8 +102,11 @@ pub struct FoldReport {
     pub val_ade: f32,
     /// Constant-velocity ADE on the same validation runs, metres.
     pub val_cv_ade: f32,
-    /// The epoch kept (0: the untrained model, i.e. constant velocity along the fitted
-    /// velocity, cv-fit).
+    /// The motion prior's ADE on the same validation runs, metres.
+    pub val_prior_ade: f32,
+    /// The motion prior's settings, chosen on the fold's training sequences.
+    pub prior: dynotraj_core::predict::PriorSettings,
+    /// The epoch kept (0: the untrained model, i.e. the motion prior alone).
     pub best_epoch: usize,
     /// The output shrink factor kept.
     pub shrink: f32,
@@ -316,10 +319,8 @@ pub fn score_seed(
     let (mut arms, mut common_arms) = (Vec::new(), Vec::new());
     for ((&source, runs), scenes) in config.arms.iter().zip(&runs_by_arm).zip(&scenes_by_arm) {
         let references = references_for(source);
-        let mut learned = [
-            ArmScores::new(format!("learned f32 on {source}")),
-            ArmScores::new(format!("learned int8 on {source}")),
-        ];
+        let mut learned =
+            [ArmScores::new(format!("learned f32 on {source}")), ArmScores::new(format!("learned int8 on {source}"))];
         let mut learned_common = learned.clone();
         for (((test, seq_runs), scene), reference) in tests.iter().zip(runs).zip(scenes).zip(&references) {
             let files = models_for(config, &models, source, &test.id)?;
@@ -384,8 +385,7 @@ pub fn score_seed(
                 rows.push(prior);
             }
             for mut baseline in Baseline::ALL {
-                let mut row =
-                    ArmScores::new(format!("{} (no training)", baseline.name()));
+                let mut row = ArmScores::new(format!("{} (no training)", baseline.name()));
                 for ((r, sc), rf) in runs_by_arm[e].iter().zip(&scenes_by_arm[e]).zip(&references) {
                     let reference = rf.context("deployment needs the simulator's truth")?;
                     row.push_sequence(&score_sequence_against(r, sc, &mut baseline, config.dt, reference));

@@ -1,9 +1,9 @@
 //! Reports: tables in Markdown, CSV or JSON (Table I, III and IV layouts among them).
 
+pub mod bootstrap;
 pub mod chart;
 pub mod data;
 pub mod estimator_tables;
-pub mod bootstrap;
 mod forecast_table;
 mod instances_table;
 pub mod stream_report;
