@@ -11,6 +11,9 @@ pub const HISTORY_LEN: usize = MAX_HISTORY + 1;
 /// of 16: the long memory costs 1.8 KiB for 16 objects, not 3.6).
 pub const OLDER_LEN: usize = PRIOR_STATES - HISTORY_LEN;
 
+// The lengths are kept as bytes (they index arrays this short).
+const _: () = assert!(HISTORY_LEN <= u8::MAX as usize && OLDER_LEN <= u8::MAX as usize);
+
 /// One object's consecutive causal states, oldest first.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct History {
@@ -22,11 +25,11 @@ pub struct History {
     /// Frame of the newest state.
     last_frame: u32,
     /// States in use.
-    len: usize,
+    len: u8,
     /// `states[..len]`, oldest first.
     states: [BevState; HISTORY_LEN],
     /// Older positions in use.
-    older_len: usize,
+    older_len: u8,
     /// `older[..older_len]`, oldest first: the positions of the states that left `states`.
     older: [Point2; OLDER_LEN],
 }
@@ -45,14 +48,14 @@ impl History {
     /// The states, oldest first, current last.
     #[must_use]
     pub fn states(&self) -> &[BevState] {
-        self.states.get(..self.len).unwrap_or(&[])
+        self.states.get(..usize::from(self.len)).unwrap_or(&[])
     }
 
     /// The long history the motion prior reads, written to `buf`, oldest first: the older
     /// positions (heading and speed 0: the prior reads positions only, the network only the
     /// newest [`HISTORY_LEN`] states), then [`History::states`].
     pub fn long_states<'b>(&self, buf: &'b mut [BevState; PRIOR_STATES]) -> &'b [BevState] {
-        let older = self.older.get(..self.older_len).unwrap_or(&[]);
+        let older = self.older.get(..usize::from(self.older_len)).unwrap_or(&[]);
         let states = self.states();
         for (b, p) in buf.iter_mut().zip(older) {
             *b = BevState { x: p.x, y: p.y, heading: 0.0, speed: 0.0 };
@@ -64,13 +67,13 @@ impl History {
     }
 
     fn push(&mut self, state: BevState) {
-        if self.len == HISTORY_LEN {
+        if usize::from(self.len) == HISTORY_LEN {
             if let Some(oldest) = self.states.first().map(BevState::position) {
-                if self.older_len == OLDER_LEN {
+                if usize::from(self.older_len) == OLDER_LEN {
                     self.older.rotate_left(1);
                     self.older_len -= 1;
                 }
-                if let Some(o) = self.older.get_mut(self.older_len) {
+                if let Some(o) = self.older.get_mut(usize::from(self.older_len)) {
                     *o = oldest;
                     self.older_len += 1;
                 }
@@ -78,7 +81,7 @@ impl History {
             self.states.rotate_left(1);
             self.len -= 1;
         }
-        if let Some(s) = self.states.get_mut(self.len) {
+        if let Some(s) = self.states.get_mut(usize::from(self.len)) {
             *s = state;
             self.len += 1;
         }

@@ -108,8 +108,10 @@ pub const MAX_ENC: usize = 64;
 pub const MAX_EDGE: usize = 64;
 /// Largest number of latent modes.
 pub const MAX_K: usize = 25;
-/// Largest decoder width.
-pub const MAX_DEC: usize = 128;
+/// Largest decoder width: above the widest decoder the size study measured (48; the ECU default
+/// is 8, docs/results.md). The scratch every edge holds is sized by it: each 64 more cost the
+/// firmware 2.5 KiB of RAM.
+pub const MAX_DEC: usize = 64;
 
 /// The widths of one model. The defaults are the ECU configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

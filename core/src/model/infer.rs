@@ -11,7 +11,7 @@ use super::features::{StepFeatures, initial_control, neighbour_sum, state_featur
 use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
 use crate::geometry::BevState;
 use crate::limits::HORIZON;
-use crate::predict::prior::{PriorPlan, plan, roll_out};
+use crate::predict::prior::{Rollout, plan};
 use crate::predict::{Forecast, PredictError, Predictor, checked_history_of};
 
 /// Largest gate vector: four LSTM gates of the widest encoder, or three GRU gates.
@@ -36,7 +36,6 @@ pub struct Scratch {
     pz: [f32; PZ_HIDDEN],
     logits: [f32; MAX_K],
     out: [f32; OUTPUTS],
-    residual: [[f32; 2]; HORIZON],
 }
 
 impl Default for Scratch {
@@ -60,7 +59,6 @@ impl Scratch {
         pz: [0.0; PZ_HIDDEN],
         logits: [0.0; MAX_K],
         out: [0.0; OUTPUTS],
-        residual: [[0.0; 2]; HORIZON],
     };
 }
 
@@ -135,18 +133,13 @@ pub fn forecast<D: Int8Dot>(
     let n = state_features(history, &plan.frame, dt, Some(&plan.trend), &mut s.own);
     neighbour_sum(neighbours, &plan.frame, n, dt, &mut s.neighbours);
     let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
-    forward(kernel, s, n, u0).map_err(|ShapeError| PredictError::NonFinite)?;
-    residual_rollout(&plan, &s.residual, dt, out)
-}
-
-/// The forecast of `plan` with the network's residual controls added (physical units).
-fn residual_rollout(
-    plan: &PriorPlan,
-    residual: &[[f32; 2]; HORIZON],
-    dt: f32,
-    out: &mut Forecast,
-) -> Result<(), PredictError> {
-    roll_out(plan, dt, |t| residual.get(t).copied().unwrap_or([0.0; 2]), out);
+    let mut rollout = Rollout::new(&plan, dt);
+    forward(kernel, s, n, u0, |t, residual| {
+        if let (Some(p), Some(o)) = (rollout.step(t, residual), out.get_mut(t)) {
+            *o = p;
+        }
+    })
+    .map_err(|ShapeError| PredictError::NonFinite)?;
     if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
 }
 
@@ -206,10 +199,15 @@ struct LstmState<'s> {
     gates_h: &'s mut [f32],
 }
 
-/// The forward pass: encoders, latent, decoder. Leaves the residual controls of every step
-/// (physical units, unclamped: the rollout adds them to the prior's and clamps the sum) in
-/// `s.residual`.
-fn forward<D: Int8Dot>(k: &Kernel<'_, D>, s: &mut Scratch, n: usize, u0: [f32; 2]) -> Result<(), ShapeError> {
+/// The forward pass: encoders, latent, decoder. Hands each step's residual controls (physical
+/// units, unclamped: the rollout adds them to the prior's and clamps the sum) to `emit`.
+fn forward<D: Int8Dot>(
+    k: &Kernel<'_, D>,
+    s: &mut Scratch,
+    n: usize,
+    u0: [f32; 2],
+    mut emit: impl FnMut(usize, [f32; 2]),
+) -> Result<(), ShapeError> {
     let Dims { enc, edge, k: modes, dec } = k.blob().dims();
     let cond = enc + edge;
 
@@ -275,7 +273,7 @@ fn forward<D: Int8Dot>(k: &Kernel<'_, D>, s: &mut Scratch, n: usize, u0: [f32; 2
         k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, mean)?;
         let [mu_w, mu_a, ..] = s.out;
         u = [mu_w, mu_a];
-        *s.residual.get_mut(step).ok_or(ShapeError)? = [mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE];
+        emit(step, [mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE]);
     }
     Ok(())
 }
@@ -352,7 +350,7 @@ mod tests {
     #[test]
     fn int8_follows_float_and_outputs_are_finite() {
         for dims in
-            [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }, Dims { enc: 64, edge: 64, k: 25, dec: 128 }]
+            [Dims::DEFAULT, Dims { enc: 16, edge: 8, k: 1, dec: 32 }, Dims { enc: 64, edge: 64, k: 25, dec: 64 }]
         {
             let f = random_blob(&dims, Precision::F32, 3);
             let q = random_blob(&dims, Precision::Int8, 3);

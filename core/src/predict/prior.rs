@@ -167,15 +167,40 @@ fn trend_of(v: Point2, acc: Point2, frame: &AgentFrame) -> Trend {
     }
 }
 
-/// Rolls `plan` out with `residual(t)` (physical turn rate, acceleration) added to the prior's
-/// controls at step t, writing world positions to `out`. A zero residual gives the prior
-/// itself, bit for bit: the learned predictor and [`MotionPrior`] share this arithmetic.
-pub fn roll_out(plan: &PriorPlan, dt: f32, mut residual: impl FnMut(usize) -> [f32; 2], out: &mut Forecast) {
-    let mut state = BevState { x: 0.0, y: 0.0, heading: 0.0, speed: plan.speed };
-    for (t, (c, o)) in plan.controls.iter().zip(out.iter_mut()).enumerate() {
-        let [dw, da] = residual(t);
-        state = unicycle_step(&state, c[0] + dw, c[1] + da, dt);
-        *o = plan.frame.to_world(&state.position());
+/// The unicycle rolled out over a plan one step at a time, with a residual added to each step's
+/// controls: the learned predictor steps it as its decoder produces each residual, so no
+/// horizon of residuals is ever stored. A zero residual gives the prior itself, bit for bit:
+/// the learned predictor and [`MotionPrior`] share this arithmetic.
+#[derive(Debug, Clone)]
+pub struct Rollout<'p> {
+    plan: &'p PriorPlan,
+    state: BevState,
+    dt: f32,
+}
+
+impl<'p> Rollout<'p> {
+    /// At the plan's start.
+    #[must_use]
+    pub const fn new(plan: &'p PriorPlan, dt: f32) -> Self {
+        Self { plan, state: BevState { x: 0.0, y: 0.0, heading: 0.0, speed: plan.speed }, dt }
+    }
+
+    /// Step `t` (0-based) with `residual` (physical turn rate, acceleration) added to the prior's
+    /// controls: the world position after it (`None` past the horizon).
+    pub fn step(&mut self, t: usize, residual: [f32; 2]) -> Option<Point2> {
+        let c = self.plan.controls.get(t)?;
+        self.state = unicycle_step(&self.state, c[0] + residual[0], c[1] + residual[1], self.dt);
+        Some(self.plan.frame.to_world(&self.state.position()))
+    }
+}
+
+/// Rolls `plan` out with zero residual into `out`: the prior's forecast.
+pub fn roll_out(plan: &PriorPlan, dt: f32, out: &mut Forecast) {
+    let mut r = Rollout::new(plan, dt);
+    for (t, o) in out.iter_mut().enumerate() {
+        if let Some(p) = r.step(t, [0.0; 2]) {
+            *o = p;
+        }
     }
 }
 
@@ -187,7 +212,7 @@ impl Predictor for MotionPrior {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
         let h = checked_history_of(history, dt, self.0.states())?;
         let p = plan(h, &self.0, dt).ok_or(PredictError::HistoryTooShort)?;
-        roll_out(&p, dt, |_| [0.0; 2], out);
+        roll_out(&p, dt, out);
         checked_forecast(out)
     }
 }
