@@ -63,15 +63,17 @@ impl PriorSettings {
         turn_decay: 1.0,
     };
 
-    /// The settings of the `prior` row where no training chose them (`dynotraj eval`): the
-    /// values the benchmark's training folds chose most often (docs/decisions.md).
+    /// The settings of the `prior` row where no training chose them (`dynotraj eval`): per
+    /// setting, the value the benchmark's four folds chose most often on their training
+    /// sequences for the estimated source (what a vehicle's own camera gives), a tie going to
+    /// the milder value (docs/decisions.md).
     pub const DEFAULT: Self = Self {
-        velocity_window: 9,
+        velocity_window: 5,
         trend_window: 21,
         accel_gain: 0.5,
-        turn_gain: 1.0,
-        accel_decay: 0.95,
-        turn_decay: 0.95,
+        turn_gain: 0.25,
+        accel_decay: 0.9,
+        turn_decay: 0.9,
     };
 
     /// True when every field is within its documented range.

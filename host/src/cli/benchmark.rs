@@ -101,6 +101,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
                 "Folds (held out together): {}.",
                 config.folds.iter().map(|f| f.join(", ")).collect::<Vec<_>>().join(" | ")
             ),
+            crate::experiment::figures::time_axis::time_span_note(config.dt, config.prior.history_frames()),
             "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on \
                 these held-out sequences."
                 .to_string(),

@@ -5,6 +5,7 @@ use clap::Args;
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
+use crate::experiment::figures::time_axis::time_span_note;
 use crate::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
 use crate::experiment::report::write_report;
 use crate::experiment::sections::{RunSettings, experiment_report};
@@ -129,8 +130,12 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             command.push(' ');
             command.push_str(&a);
         }
-        let run =
-            RunSettings { arms: &args.arms, render_scale: args.data.ours.render_scale, jobs: args.data.ours.jobs };
+        let run = RunSettings {
+            arms: &args.arms,
+            render_scale: args.data.ours.render_scale,
+            jobs: args.data.ours.jobs,
+            time_note: time_span_note(args.data.dt()?, args.run.hyper.prior_choice().history_frames()),
+        };
         let mut r = experiment_report(&run, command, &result, &sequences, &rule);
         let (figures, models) = (dir.join("figures"), dir.join("models"));
         r.figures = write_figures(&figures, &sequences, &args.arms, &rule, args.data.dt()?, &models, &args.objects)?;

@@ -12,7 +12,7 @@ use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
 /// What of a run's settings its report tells.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct RunSettings<'a> {
     /// The arms trained and tested.
     pub arms: &'a [Source],
@@ -20,6 +20,8 @@ pub struct RunSettings<'a> {
     pub render_scale: f64,
     /// Jobs the run had.
     pub jobs: usize,
+    /// What the horizon and history span in time ([`super::figures::time_axis::time_span_note`]).
+    pub time_note: String,
 }
 
 /// The report of a finished run: Table I for every arm's source, Table III of the estimator
@@ -88,6 +90,7 @@ pub fn experiment_report(
         result.seconds - result.loading_seconds,
         run.jobs
     )];
+    notes.push(run.time_note.clone());
     notes.extend(findings(&result.arms, run.arms, Scoring::OwnFuture));
     if let Some((_, arms)) = &result.common {
         notes.extend(findings(arms, run.arms, Scoring::CommonTruth));

@@ -75,6 +75,19 @@ pub enum PriorChoice {
     Fixed(PriorSettings),
 }
 
+impl PriorChoice {
+    /// Past frames a forecast reads at most: the network's history and the prior's windows
+    /// (every window the tuning may choose when it is tuned).
+    #[must_use]
+    pub fn history_frames(&self) -> usize {
+        let prior = match self {
+            Self::Tuned => dynotraj_core::limits::PRIOR_STATES,
+            Self::Fixed(s) => s.states(),
+        };
+        prior.max(dynotraj_core::model::arch::MAX_STEPS) - 1
+    }
+}
+
 /// One fold's training set-up.
 #[derive(Debug, Clone)]
 pub struct TrainConfig<'a> {

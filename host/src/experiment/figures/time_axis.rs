@@ -31,6 +31,30 @@ fn real_time_note(dt: f32) -> &'static str {
     if (1.0 / dt - PAPER_FRAME_RATE_HZ).abs() < 1e-3 { "; KITTI records 10 Hz: real time x2" } else { "" }
 }
 
+/// The sentence every report carries about time: what the 30-step horizon and the history
+/// span at the run's frame period, and in KITTI's real time where the run uses the paper's
+/// 20 Hz convention.
+#[must_use]
+pub fn time_span_note(dt: f32, history_frames: usize) -> String {
+    let at = |frames: usize| f64::from(dt) * frames as f64;
+    let mut note = format!(
+        "Time: every forecast covers {HORIZON} frames, {:.1} s at {} Hz; the history is up to {history_frames} \
+            frames ({:.2} s).",
+        at(HORIZON),
+        rate_text(dt),
+        at(history_frames)
+    );
+    if !real_time_note(dt).is_empty() {
+        note.push_str(&format!(
+            " KITTI records at 10 Hz, so in real time the horizon is {:.1} s and the history {:.2} s (the \
+                paper's 20 Hz convention, kept for comparison).",
+            2.0 * at(HORIZON),
+            2.0 * at(history_frames)
+        ));
+    }
+    note
+}
+
 /// Frame `frame` in seconds at frame period `dt`.
 #[must_use]
 pub fn seconds(frame: u32, dt: f32) -> f64 {
@@ -44,6 +68,9 @@ mod tests {
     #[test]
     fn axes_say_seconds_and_the_rate() {
         assert_eq!(time_label(0.05), "time (s; frames at 20 Hz; KITTI records 10 Hz: real time x2)");
+        let note = time_span_note(0.05, 21);
+        assert!(note.contains("1.5 s at 20 Hz") && note.contains("real time the horizon is 3.0 s"), "{note}");
+        assert!(!time_span_note(0.1, 21).contains("real time"), "a 10 Hz run needs no conversion");
         assert_eq!(time_label(0.1), "time (s; frames at 10 Hz)");
         assert_eq!(horizon_label(0.08), "horizon (s; 30 steps at 12.5 Hz)");
         assert!((seconds(154, 0.05) - 7.7).abs() < 1e-6);
