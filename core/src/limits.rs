@@ -1,6 +1,6 @@
 //! Named capacities of the core and the paper's fixed horizons and physical limits.
 //!
-//! The capacities follow the ECU budget of DESIGN.md: 16 tracked objects, 256 static tracks and
+//! The capacities follow the ECU budget (docs/architecture.md, "Budgets"): 16 tracked objects, 256 static tracks and
 //! 128 points per object, a 30-frame horizon.
 
 /// Prediction horizon in frames (the paper: 30 frames, "1.5 s" at its assumed 20 Hz).

@@ -1,7 +1,7 @@
 //! The firmware under QEMU (Cortex-M4F, mps2-an386), fed over its UART0 by the host's
 //! streaming client: its estimates and forecasts for a 16-car fixture stream are equal, bit for
 //! bit, to what the host build of the edge computes from the same stream. The same run checks
-//! the image against the ECU budgets of DESIGN.md (flash <= 512 KiB; .data + .bss + the peak
+//! the image against the ECU budgets of docs/architecture.md (flash <= 512 KiB; .data + .bss + the peak
 //! stack measured by painting <= 128 KiB) and against the golden figures in
 //! `edge/firmware/memory.golden` (`DYNOTRAJ_BLESS=1` rewrites them after a deliberate change),
 //! and reports the instructions per frame (QEMU -icount) against 20 frames/s at 200 MHz, and

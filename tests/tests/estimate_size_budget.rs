@@ -1,5 +1,5 @@
-//! RAM of the estimator against the ECU budget (DESIGN.md: 128 KiB for the whole edge image with
-//! 16 objects x 128 points + 256 static tracks). The estimator's state is every byte it keeps
+//! RAM of the estimator against the ECU budget (docs/architecture.md, "Budgets": 128 KiB for
+//! the whole edge image with 16 objects x 128 points + 256 static tracks). The estimator's state is every byte it keeps
 //! between frames and all its scratch: it allocates nothing and its stack use is a few KiB.
 //! Each bound is a budget, not a measurement: growing past it must be a decision, made here.
 

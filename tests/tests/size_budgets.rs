@@ -1,5 +1,5 @@
 //! Size budgets of core's state types (bytes), against the ECU's 128 KiB of RAM for the whole
-//! edge image (DESIGN.md). Each bound is a budget, not a measurement: a change that grows a type
+//! edge image (docs/architecture.md, "Budgets"). Each bound is a budget, not a measurement: a change that grows a type
 //! past it must be a decision, made here.
 
 use core::mem::size_of;

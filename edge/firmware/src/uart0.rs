@@ -1,7 +1,7 @@
 //! The registers of mps2-an386's CMSDK APB UART0 (0x4000_4000), shared by the programs that
 //! talk over it; each program keeps its own receive ring and interrupt handler.
 //!
-//! Registers (ARM CMSDK APB UART; ../shared/TOOLCHAIN.md): DATA +0x00, STATE +0x04 (bit 0 TX
+//! Registers (ARM CMSDK APB UART, as QEMU models it for mps2-an386): DATA +0x00, STATE +0x04 (bit 0 TX
 //! full, bit 1 RX full, bit 3 RX overrun, write 1 to clear), CTRL +0x08 (bit 0 TX enable, bit 1
 //! RX enable, bit 3 RX interrupt enable), INTSTATUS/INTCLEAR +0x0C (bit 1 RX), BAUDDIV +0x10.
 

@@ -322,7 +322,7 @@ mod tests {
         assert!(m.contains("calib/0007.txt: calibration file not found"), "{m}");
     }
 
-    /// Frame counts of the sequences in ../shared (label max frame + 1 = pose count).
+    /// Frame counts of the sequences of the KITTI tracking training set (label max frame + 1 = pose count).
     const REAL_FRAMES: [(&str, usize); 16] = [
         ("0000", 154),
         ("0001", 447),
@@ -350,7 +350,7 @@ mod tests {
         let split = TrackingDir::open(root).unwrap();
         let ids = split.sequences().unwrap();
         // Every sequence the folder holds is one of those below (a download may hold more of
-        // KITTI's 21; ../shared holds these sixteen).
+        // KITTI's 21; the sixteen used here).
         for (id, _) in REAL_FRAMES {
             assert!(ids.iter().any(|i| i == id), "sequence {id} missing from {ids:?}");
         }
