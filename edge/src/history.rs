@@ -12,7 +12,8 @@ pub const HISTORY_LEN: usize = MAX_HISTORY + 1;
 pub const OLDER_LEN: usize = PRIOR_STATES - HISTORY_LEN;
 
 // The lengths are kept as bytes (they index arrays this short).
-const _: () = assert!(HISTORY_LEN <= u8::MAX as usize && OLDER_LEN <= u8::MAX as usize);
+const _: () = assert!(HISTORY_LEN <= u8::MAX as usize);
+const _: () = assert!(OLDER_LEN <= u8::MAX as usize);
 
 /// One object's consecutive causal states, oldest first.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -218,3 +218,29 @@ fn copy_tree(from: &std::path::Path, to: &std::path::Path) {
         }
     }
 }
+
+#[test]
+fn the_error_budget_of_a_synthetic_drive() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_str().unwrap();
+    write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
+    let Command::Dataset(args) =
+        cli(&["dataset", "--kitti", root, "--source", "gt,estimated", "--ours-input", "tracks", "--budget"])
+    else {
+        panic!()
+    };
+    let (_, budget) = dataset::tables(&args).unwrap();
+    let b = budget.expect("--budget gives the table");
+    println!("{}", b.render(dynotraj_host::report::Format::Md));
+    let all = row(&b, "all", None);
+    let num = |h: &str| all[column(&b, h)].parse::<f64>().unwrap();
+    assert!(num("instances") > 0.0, "{all:?}");
+    // The simulated estimator sees its objects from a few metres with small noise: its
+    // camera-relative positions are within a metre, and constant velocity from its states is
+    // no better than from the truth's.
+    assert!(num("position (m)") < 1.0, "{all:?}");
+    assert!(num("cv ADE from Ours (m)") >= num("cv ADE from truth (m)") - 0.05, "{all:?}");
+    let Command::Dataset(args) = cli(&["dataset", "--kitti", root, "--budget"]) else { panic!() };
+    let err = format!("{:#}", dataset::run(&args).unwrap_err());
+    assert!(err.contains("--source"), "{err}");
+}

@@ -3,6 +3,7 @@
 use clap::Args;
 
 use super::common::DataArgs;
+use crate::experiment::budget::{budget_instances, budget_table};
 use crate::report::{Format, Table, instances_table};
 use crate::trajectory::Source;
 
@@ -19,6 +20,12 @@ pub struct DatasetArgs {
     /// share their runs), estimated (the estimator's causal tracks), estimated-smoothed.
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
+    /// Also the error budget of the estimated source: per test instance of its causal tracks,
+    /// the position (relative to the camera), speed, direction and turn-rate errors against the
+    /// simulator's truth and the constant-velocity ADE they cost, per sequence, distance band,
+    /// class and run start. Needs `--source estimated` on rendered or simulated inputs.
+    #[arg(long)]
+    pub budget: bool,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -29,16 +36,47 @@ pub struct DatasetArgs {
 /// # Errors
 /// Loading errors, named.
 pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
-    print!("{}", table(args)?.render(args.format));
+    if args.budget && !args.source.contains(&Source::Estimated) {
+        anyhow::bail!("--budget measures the estimated source: add estimated to --source");
+    }
+    let (table, budget) = tables(args)?;
+    print!("{}", table.render(args.format));
+    if let Some(budget) = budget {
+        if args.format == Format::Md {
+            println!("\nError budget of the estimated source's causal states against the simulator's truth:\n");
+        }
+        print!("{}", budget.render(args.format));
+    }
     Ok(())
 }
 
 /// Eligible objects and test instances per sequence with totals.
 ///
 /// # Errors
-/// Loading errors, named.
+/// As [`tables`].
 pub fn table(args: &DatasetArgs) -> anyhow::Result<Table> {
+    Ok(tables(args)?.0)
+}
+
+/// Eligible objects and test instances per sequence with totals, and with `--budget` the
+/// estimated source's error budget.
+///
+/// # Errors
+/// Loading errors, named; `--budget` on sequences without the simulator's truth.
+pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
     let rule = args.data.rule()?;
     let seqs = args.data.load_for(&args.sequences, &args.source)?;
-    Ok(instances_table(&seqs, &args.source, &rule))
+    let budget = if args.budget {
+        let instances = budget_instances(&seqs, &rule, args.data.dt()?);
+        if instances.is_empty() {
+            anyhow::bail!(
+                "--budget: no test instance of the estimated source has the simulator's truth (real images have \
+                    none; use rendered images or --ours-input tracks)"
+            );
+        }
+        Some(budget_table(&instances))
+    } else {
+        None
+    };
+    Ok((instances_table(&seqs, &args.source, &rule), budget))
 }

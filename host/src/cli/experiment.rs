@@ -134,6 +134,7 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             arms: &args.arms,
             render_scale: args.data.ours.render_scale,
             jobs: args.data.ours.jobs,
+            dt: args.data.dt()?,
             time_note: time_span_note(args.data.dt()?, args.run.hyper.prior_choice().history_frames()),
         };
         let mut r = experiment_report(&run, command, &result, &sequences, &rule);

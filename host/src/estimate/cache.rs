@@ -22,8 +22,9 @@ use crate::trajectory::EstimatedTracks;
 /// Version of what estimation computes; part of every key. Bump it with every change to the
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
 /// hypotheses by TRIAD instead of an SVD, and a step whose promised decrease is below the stop
-/// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame).
-pub const ESTIMATE_CACHE_VERSION: u32 = 5;
+/// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame; 6: and the
+/// camera per frame, true and estimated).
+pub const ESTIMATE_CACHE_VERSION: u32 = 6;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
@@ -117,6 +118,14 @@ mod tests {
             rpe: Some(crate::estimate::RunScores::default()),
             truth: vec![track],
             world_yaw: [(4, 0.01), (5, -0.02)].into(),
+            cameras: [(
+                4,
+                crate::trajectory::CameraPair {
+                    truth: BevState { x: 1.0, y: 2.0, heading: 0.5, speed: 0.0 },
+                    estimate: BevState { x: 1.1, y: 2.0, heading: 0.49, speed: 0.0 },
+                },
+            )]
+            .into(),
             rpe_frames: [
                 vec![],
                 vec![crate::estimate::score::FrameRpe { frame: 5, camera: Some(0.02), objects: None, object_pairs: 0 }],

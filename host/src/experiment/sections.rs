@@ -20,6 +20,8 @@ pub struct RunSettings<'a> {
     pub render_scale: f64,
     /// Jobs the run had.
     pub jobs: usize,
+    /// Frame period, seconds.
+    pub dt: f32,
     /// What the horizon and history span in time ([`super::figures::time_axis::time_span_note`]).
     pub time_note: String,
 }
@@ -55,6 +57,25 @@ pub fn experiment_report(
                 title: format!("Table III: the estimator behind the Estimated arm, {} estimate", kind.name()),
                 caption: table_iii_caption(&inputs, run.render_scale),
                 table: table_iii_of(estimated.iter().copied(), k, kind),
+            });
+        }
+        let instances = super::budget::budget_instances(sequences, rule, run.dt);
+        if !instances.is_empty() {
+            sections.push(Section {
+                stem: "error_budget".into(),
+                title: "Error budget of the Estimated arm's causal states".into(),
+                caption: format!(
+                    "At every test instance of the estimator's causal tracks (every sequence) whose object the \
+                        simulator holds over the horizon: mean absolute errors against the simulator's truth of the \
+                        position relative to the camera, the speed and direction constant velocity reads (direction \
+                        where the truth moves at {} m/s or more) and the motion prior's turn rate; then the ADE of \
+                        constant velocity from the true velocity (what no state estimate can beat) and from Ours', \
+                        and the ADE added by Ours' speed alone and by its direction alone. Distance: the truth's \
+                        from the camera. Run start: fewer than {} frames after the run's first state.",
+                    super::budget::MOVING_MPS,
+                    super::budget::START_FRAMES
+                ),
+                table: super::budget::budget_table(&instances),
             });
         }
     }

@@ -43,6 +43,15 @@ pub enum EstimateInput {
     Rendered,
 }
 
+/// The camera at one frame on the bird's-eye plane: the simulator's and the causal estimate's.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CameraPair {
+    /// The true camera, in the truth's world.
+    pub truth: BevState,
+    /// The causal estimate of the camera, in the estimator's world.
+    pub estimate: BevState,
+}
+
 /// A sequence's tracks through the estimator, both variants, and how well it did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EstimatedTracks {
@@ -65,6 +74,10 @@ pub struct EstimatedTracks {
     /// forecast at frame s is turned by this before it is held to the true one. Empty on real
     /// images.
     pub world_yaw: std::collections::BTreeMap<u32, f32>,
+    /// Per frame: the camera on the bird's-eye plane, true and as the causal estimate has it
+    /// (position and heading; speed 0), each in its own world: what places an object relative
+    /// to the vehicle in both ([`crate::experiment::budget`]). Empty on real images.
+    pub cameras: std::collections::BTreeMap<u32, CameraPair>,
     /// Per output kind, in [`Kind::ALL`] order: the translational RPE of each frame against the
     /// simulator's truth (the pairs behind `rpe`, over time); empty on real images.
     pub rpe_frames: [Vec<FrameRpe>; 3],
@@ -103,14 +116,23 @@ impl EstimatedTracks {
         sim: &[SimFrame],
         min_step_m: f64,
     ) -> Self {
-        let world_yaw = sim
+        let bev = |pose: &dynotraj_core::geometry::Pose3| BevState {
+            x: pose.translation.vector.x,
+            y: pose.translation.vector.z,
+            heading: bev_heading(pose),
+            speed: 0.0,
+        };
+        let cameras: BTreeMap<u32, CameraPair> = sim
             .iter()
             .zip(run.of(Kind::Causal))
             .filter_map(|(f, e)| {
                 let e = e.as_ref()?;
-                let truth = dynotraj_core::estimate::bev_heading(&f.camera.cast::<f32>());
-                Some((f.frame, dynotraj_core::geometry::angle_diff(truth, bev_heading(&e.camera))))
+                Some((f.frame, CameraPair { truth: bev(&f.camera.cast::<f32>()), estimate: bev(&e.camera) }))
             })
+            .collect();
+        let world_yaw = cameras
+            .iter()
+            .map(|(&frame, c)| (frame, dynotraj_core::geometry::angle_diff(c.truth.heading, c.estimate.heading)))
             .collect();
         let moving = moving_objects(sim, min_step_m);
         let rpe_frames =
@@ -122,6 +144,7 @@ impl EstimatedTracks {
             rpe,
             truth: truth_tracks(sim),
             world_yaw,
+            cameras,
             rpe_frames,
             frames: run.causal.len(),
         }

@@ -10,7 +10,7 @@ mod source;
 
 pub use eligibility::{EligibilityRule, EligibleRun, MovingRule, eligible_runs, instance_frames};
 pub use estimated::{
-    EstimateInput, EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks,
+    CameraPair, EstimateInput, EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks,
     tracks_of_estimates,
 };
 pub use ground_truth::{LabelledObservation, ObjectTrack, ground_truth_tracks, label_tracks};
