@@ -13,10 +13,10 @@ manifest=edge/firmware/Cargo.toml
 release="$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release"
 if [ -z "${DYNOTRAJ_FW_MODEL:-}" ] && [ $# -eq 0 ]; then
   DYNOTRAJ_FW_MODEL="$PWD/fixtures/data/models/default-dims.int8" \
-    cargo build --release --target thumbv7em-none-eabihf --manifest-path "$manifest" --bin dynotraj-firmware
+    cargo build --locked --release --target thumbv7em-none-eabihf --manifest-path "$manifest" --bin dynotraj-firmware
   cp "$release/dynotraj-firmware" "$release/dynotraj-firmware-model"
 fi
-cargo build --release --target thumbv7em-none-eabihf --manifest-path "$manifest" "$@"
+cargo build --locked --release --target thumbv7em-none-eabihf --manifest-path "$manifest" "$@"
 if [ $# -eq 0 ]; then
-  cargo build --release --target thumbv7em-none-eabihf --manifest-path "$manifest" --features embassy --bin dynotraj-embassy
+  cargo build --locked --release --target thumbv7em-none-eabihf --manifest-path "$manifest" --features embassy --bin dynotraj-embassy
 fi

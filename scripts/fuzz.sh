@@ -18,6 +18,8 @@ command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 export RUSTC_BOOTSTRAP=1
 fuzz_target_dir="${DYNOTRAJ_FUZZ_TARGET:-$HOME/.cache/dynotraj-fuzz-target}"
 cd fuzz
+# cargo fuzz has no --locked: refuse a stale lock file here instead.
+cargo metadata --locked --format-version 1 >/dev/null
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || mapfile -t targets < <(cargo fuzz list)
 echo "building ${targets[*]} at $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- .. || echo ' (with uncommitted changes)')" >&2

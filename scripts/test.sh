@@ -10,30 +10,34 @@ source scripts/env.sh
 echo "== rustfmt (workspace, firmware, fuzz)"
 cargo fmt --all --check
 (cd edge/firmware && cargo fmt --all --check)
+echo "== lock files current (workspace, firmware, fuzz)"
+cargo metadata --locked --format-version 1 >/dev/null
+(cd edge/firmware && cargo metadata --locked --format-version 1 >/dev/null)
+(cd fuzz && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo fmt --all --check)
 echo "== the ffi crate's C header is current"
 bash scripts/gen-header.sh --check
 echo "== core for thumbv7em-none-eabihf"
-cargo build -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thumbv7em-none-eabihf --release
+cargo build --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thumbv7em-none-eabihf --release
 echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"
 bash scripts/build-firmware.sh
-cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
-cargo clippy --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml --features embassy -- -D warnings
+cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
+cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml --features embassy -- -D warnings
 echo "== clippy (core: no unwrap/expect/panic/indexing)"
-cargo clippy -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
-cargo clippy -p dynotraj-edge --lib --features async -- -D warnings
-cargo clippy -p dynotraj-ffi --all-targets -- -D warnings
-cargo clippy -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
+cargo clippy --locked -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
+cargo clippy --locked -p dynotraj-edge --lib --features async -- -D warnings
+cargo clippy --locked -p dynotraj-ffi --all-targets -- -D warnings
+cargo clippy --locked -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
+cargo clippy --locked --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 echo "== cargo doc (core, edge, ffi): no warnings"
-RUSTDOCFLAGS="-D warnings" cargo doc -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
+RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
 echo "== tests"
 log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG
 DYNOTRAJ_SKIP_LOG=$(mktemp)
 trap 'rm -f "$log" "$DYNOTRAJ_SKIP_LOG"' EXIT
 status=0
-cargo test --workspace 2>&1 | tee "$log" || status=$?
+cargo test --locked --workspace 2>&1 | tee "$log" || status=$?
 # One closing line for the whole suite (cargo prints one per test binary, the last often a
 # doc-test run with nothing in it). A test that skips (no real data here, say) returns early
 # and cargo counts it as passed; it is counted as skipped instead, and named.

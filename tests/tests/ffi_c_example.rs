@@ -128,7 +128,7 @@ fn build_staticlib(target: Option<&str>) {
     let root = target_root();
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);
-    cmd.args(["build", "--release", "-p", "dynotraj-ffi", "--manifest-path"])
+    cmd.args(["build", "--locked", "--release", "-p", "dynotraj-ffi", "--manifest-path"])
         .arg(dynotraj_tests::manifest_dir().join("../Cargo.toml"))
         .arg("--target-dir")
         .arg(&root);
