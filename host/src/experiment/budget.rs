@@ -11,6 +11,9 @@
 //!   error of its speed and of its direction (turned into the truth's world by the frame's
 //!   world yaw). Direction errors count only where the truth moves faster than
 //!   [`MOVING_MPS`]: at a standstill a direction means nothing.
+//! - the estimator's own velocity (the speed of its SE(3) motion and its pose's heading), which
+//!   no forecaster reads yet: the same errors and the constant-velocity ADE from it, to show
+//!   whether it is the better input.
 //! - turn rate as the motion prior reads it ([`PriorSettings::DEFAULT`]'s trend), estimated
 //!   history against true history, where both give a plan.
 //! - what the errors cost: the ADE against the true future of constant velocity started from
@@ -53,12 +56,19 @@ pub struct InstanceErrors {
     pub speed_mps: f32,
     /// Direction of the velocity, absolute, radians; `None` when the truth is nearly still.
     pub direction_rad: Option<f32>,
+    /// The estimator's own speed (from its SE(3) motion, not from positions), absolute error, m/s.
+    pub own_speed_mps: f32,
+    /// The estimator's own heading against the truth's direction of travel, absolute, radians;
+    /// `None` when the truth is nearly still.
+    pub own_direction_rad: Option<f32>,
     /// The prior's turn rate, absolute error, rad/s; `None` without a plan on either side.
     pub turn_rate_rps: Option<f32>,
     /// ADE of constant velocity from the true velocity, metres.
     pub ade_truth: f32,
     /// ADE of constant velocity from the estimate's velocity, metres.
     pub ade_estimate: f32,
+    /// ADE of constant velocity from the estimator's own speed and heading, metres.
+    pub ade_own: f32,
     /// ADE from the true direction at the estimate's speed, metres.
     pub ade_speed_only: f32,
     /// ADE from the true speed in the estimate's direction, metres.
@@ -135,6 +145,7 @@ fn instance_errors(
     let along = |speed: f32, dir: f32| Point2::new(speed * dir.cos(), speed * dir.sin());
     let position = relative(cur.position(), &camera.estimate).distance(&relative(anchor, &camera.truth));
     let true_history = truth_span(truth, first.max(truth.frames.first().copied()?), frame);
+    let own_dir = cur.heading + yaw;
     let turn_rate = true_history.and_then(|th| {
         let (e, t) = (plan(history, &PriorSettings::DEFAULT, dt)?, plan(th, &PriorSettings::DEFAULT, dt)?);
         Some((e.trend.turn_rate - t.trend.turn_rate).abs())
@@ -143,9 +154,12 @@ fn instance_errors(
         position_m: position,
         speed_mps: (speed_est - speed_true).abs(),
         direction_rad: (speed_true >= MOVING_MPS).then(|| angle_diff(dir_est, dir_true).abs()),
+        own_speed_mps: (cur.speed - speed_true).abs(),
+        own_direction_rad: (speed_true >= MOVING_MPS).then(|| angle_diff(own_dir, dir_true).abs()),
         turn_rate_rps: turn_rate,
         ade_truth: ade_of_velocity(v_true, &displacements, dt),
         ade_estimate: ade_of_velocity(v_est, &displacements, dt),
+        ade_own: ade_of_velocity(along(cur.speed, own_dir), &displacements, dt),
         ade_speed_only: ade_of_velocity(along(speed_est, dir_true), &displacements, dt),
         ade_direction_only: ade_of_velocity(along(speed_true, dir_est), &displacements, dt),
     })
@@ -194,57 +208,52 @@ pub fn distance_band(d: f32) -> String {
     format!("{low:.0}+ m")
 }
 
-/// Means of a group's instances: (instances, position, speed, direction in degrees, turn rate
-/// in deg/s, ADE floor, ADE from the estimate, speed's share, direction's share).
-fn means(group: &[&Tagged]) -> [f64; 9] {
+/// Means of a group's instances, in the order of [`COLUMNS`] after the instance count.
+fn means(group: &[&Tagged]) -> [f64; 11] {
     let mean = |f: &dyn Fn(&InstanceErrors) -> Option<f32>| {
         let v: Vec<f64> = group.iter().filter_map(|t| f(&t.errors)).map(f64::from).collect();
         if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
     };
     let floor = mean(&|e| Some(e.ade_truth));
     [
-        group.len() as f64,
         mean(&|e| Some(e.position_m)),
         mean(&|e| Some(e.speed_mps)),
         mean(&|e| e.direction_rad).to_degrees(),
+        mean(&|e| Some(e.own_speed_mps)),
+        mean(&|e| e.own_direction_rad).to_degrees(),
         mean(&|e| e.turn_rate_rps).to_degrees(),
         floor,
         mean(&|e| Some(e.ade_estimate)),
         mean(&|e| Some(e.ade_speed_only)) - floor,
         mean(&|e| Some(e.ade_direction_only)) - floor,
+        mean(&|e| Some(e.ade_own)),
     ]
 }
+
+/// The budget's columns after the instance count: Markdown header, data name, decimals.
+const COLUMNS: [(&str, &str, usize); 11] = [
+    ("position (m)", "position_m", 3),
+    ("speed, cv (m/s)", "speed_mps", 3),
+    ("direction, cv (deg)", "direction_deg", 1),
+    ("speed, estimator (m/s)", "own_speed_mps", 3),
+    ("heading, estimator (deg)", "own_heading_deg", 1),
+    ("turn rate, prior (deg/s)", "turn_rate_deg_s", 1),
+    ("cv ADE from truth (m)", "cv_ade_truth_m", 3),
+    ("cv ADE from Ours (m)", "cv_ade_estimate_m", 3),
+    ("of which speed (m)", "speed_share_m", 3),
+    ("of which direction (m)", "direction_share_m", 3),
+    ("cv ADE from the estimator's velocity (m)", "cv_ade_own_m", 3),
+];
 
 /// The budget table: one row per group (every instance, per sequence, per distance band, per
 /// class, run start against later).
 #[must_use]
 pub fn budget_table(instances: &[Tagged]) -> Table {
     use ColumnKind::{Int, Num, Text};
-    let headers = [
-        "group",
-        "instances",
-        "position (m)",
-        "speed (m/s)",
-        "direction (deg)",
-        "turn rate (deg/s)",
-        "cv ADE from truth (m)",
-        "cv ADE from Ours (m)",
-        "of which speed (m)",
-        "of which direction (m)",
-    ];
-    let mut d = Data::new([
-        ("group_kind", Text),
-        ("group", Text),
-        ("instances", Int),
-        ("position_m", Num),
-        ("speed_mps", Num),
-        ("direction_deg", Num),
-        ("turn_rate_deg_s", Num),
-        ("cv_ade_truth_m", Num),
-        ("cv_ade_estimate_m", Num),
-        ("speed_share_m", Num),
-        ("direction_share_m", Num),
-    ]);
+    let mut headers = vec!["group", "instances"];
+    headers.extend(COLUMNS.iter().map(|c| c.0));
+    let mut d = Data::new([("group_kind", Text), ("group", Text), ("instances", Int)]);
+    d.columns.extend(Data::new(COLUMNS.iter().map(|c| (c.1, Num))).columns);
     let mut rows: Vec<(String, String, Vec<&Tagged>)> = vec![("all".into(), "all".into(), instances.iter().collect())];
     let mut grouped = |kind: &str, key: &dyn Fn(&Tagged) -> String| {
         let mut by: BTreeMap<String, Vec<&Tagged>> = BTreeMap::new();
@@ -264,7 +273,7 @@ pub fn budget_table(instances: &[Tagged]) -> Table {
         let m = means(members);
         let label = if kind == "all" || kind == "run" { group.clone() } else { format!("{kind} {group}") };
         let mut cells = vec![Cell::int(members.len())];
-        cells.extend(m.iter().skip(1).enumerate().map(|(i, &v)| Cell::num(v, if i == 2 || i == 3 { 1 } else { 3 })));
+        cells.extend(m.iter().zip(COLUMNS).map(|(&v, c)| Cell::num(v, c.2)));
         t.push(std::iter::once(label).chain(cells.iter().map(Cell::md)));
         d.push([Cell::text(kind.as_str()), Cell::text(group.as_str())].into_iter().chain(cells).collect());
     }
@@ -297,7 +306,8 @@ mod tests {
         // The same path at 8 m/s instead of 10: 2 m/s of speed error, all of it the speed's share.
         let slow = straight(0, 21, 8.0, dt);
         let e = instance_errors(&slow.states, 20, &truth, &pair, dt).unwrap();
-        assert!((e.speed_mps - 2.0).abs() < 1e-2, "{e:?}");
+        assert!((e.speed_mps - 2.0).abs() < 1e-2 && (e.own_speed_mps - 2.0).abs() < 1e-4, "{e:?}");
+        assert!((e.ade_own - e.ade_speed_only).abs() < 1e-3, "the estimator's own speed says the same: {e:?}");
         let expected = 2.0 * dt * (1..=HORIZON).map(|k| k as f32).sum::<f32>() / HORIZON as f32;
         assert!((e.ade_estimate - expected).abs() < 1e-2 && (e.ade_speed_only - expected).abs() < 1e-2, "{e:?}");
         assert!(e.ade_direction_only < 1e-3, "{e:?}");

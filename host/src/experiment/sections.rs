@@ -70,7 +70,9 @@ pub fn experiment_report(
                         position relative to the camera, the speed and direction constant velocity reads (direction \
                         where the truth moves at {} m/s or more) and the motion prior's turn rate; then the ADE of \
                         constant velocity from the true velocity (what no state estimate can beat) and from Ours', \
-                        and the ADE added by Ours' speed alone and by its direction alone. Distance: the truth's \
+                        the ADE added by Ours' speed alone and by its direction alone, and the errors and ADE of the \
+                        estimator's own velocity (its motion's speed, its pose's heading), which no forecaster reads \
+                        yet. Distance: the truth's \
                         from the camera. Run start: fewer than {} frames after the run's first state.",
                     super::budget::MOVING_MPS,
                     super::budget::START_FRAMES
