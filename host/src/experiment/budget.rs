@@ -5,7 +5,8 @@
 //! Per instance (frame f of an eligible causal run whose object the simulator also holds at
 //! f - 1 ..= f + HORIZON):
 //! - position: the object relative to the camera (rotated into the camera's heading), the
-//!   estimate's against the truth's. The two worlds differ by the camera's drift, so absolute
+//!   estimate's (its object frame's origin) against the truth's (the box centre); mean and
+//!   median, since a few lost objects dominate the mean. The two worlds differ by the camera's drift, so absolute
 //!   positions are not comparable; the vehicle needs the relative one anyway.
 //! - velocity as constant velocity reads it (the last position difference, over `dt`): the
 //!   error of its speed and of its direction (turned into the truth's world by the frame's
@@ -209,14 +210,18 @@ pub fn distance_band(d: f32) -> String {
 }
 
 /// Means of a group's instances, in the order of [`COLUMNS`] after the instance count.
-fn means(group: &[&Tagged]) -> [f64; 11] {
+fn means(group: &[&Tagged]) -> [f64; 12] {
     let mean = |f: &dyn Fn(&InstanceErrors) -> Option<f32>| {
         let v: Vec<f64> = group.iter().filter_map(|t| f(&t.errors)).map(f64::from).collect();
         if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
     };
     let floor = mean(&|e| Some(e.ade_truth));
+    let mut positions: Vec<f32> = group.iter().map(|t| t.errors.position_m).collect();
+    positions.sort_by(f32::total_cmp);
+    let median = positions.get(positions.len() / 2).map_or(f64::NAN, |&p| f64::from(p));
     [
         mean(&|e| Some(e.position_m)),
+        median,
         mean(&|e| Some(e.speed_mps)),
         mean(&|e| e.direction_rad).to_degrees(),
         mean(&|e| Some(e.own_speed_mps)),
@@ -231,8 +236,9 @@ fn means(group: &[&Tagged]) -> [f64; 11] {
 }
 
 /// The budget's columns after the instance count: Markdown header, data name, decimals.
-const COLUMNS: [(&str, &str, usize); 11] = [
+const COLUMNS: [(&str, &str, usize); 12] = [
     ("position (m)", "position_m", 3),
+    ("position, median (m)", "position_median_m", 3),
     ("speed, cv (m/s)", "speed_mps", 3),
     ("direction, cv (deg)", "direction_deg", 1),
     ("speed, estimator (m/s)", "own_speed_mps", 3),
