@@ -82,3 +82,12 @@ fn bad_files_fail_with_file_line_and_field() {
     let err = format!("{:#}", dataset::table(&args).unwrap_err());
     assert!(err.contains("/nonexistent/kitti"), "{err}");
 }
+
+#[test]
+fn a_folder_without_sequences_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir(dir.path().join("label_02")).unwrap();
+    let Command::Dataset(args) = cli(&["dataset", "--kitti", dir.path().to_str().unwrap()]) else { panic!() };
+    let err = format!("{:#}", dataset::table(&args).unwrap_err());
+    assert!(err.contains("label_02") && err.contains("no sequence"), "{err}");
+}

@@ -53,9 +53,20 @@ pub struct DataArgs {
 /// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
 ///
 /// # Errors
-/// A sequence given twice (it would count twice), or a folder that cannot be listed.
+/// A sequence given twice (it would count twice), a folder that cannot be listed, or one that
+/// holds no sequence (a command over nothing would print empty tables and succeed).
 pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
-    distinct_ids(if given.is_empty() { dir.sequences()? } else { given.to_vec() })
+    if !given.is_empty() {
+        return distinct_ids(given.to_vec());
+    }
+    let ids = dir.sequences()?;
+    if ids.is_empty() {
+        anyhow::bail!(
+            "{}: no sequence (expected label files named like 0000.txt)",
+            dir.root().join("label_02").display()
+        );
+    }
+    Ok(ids)
 }
 
 /// `ids` when no sequence is in it twice.
