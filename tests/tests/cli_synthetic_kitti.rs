@@ -84,6 +84,16 @@ fn bad_files_fail_with_file_line_and_field() {
 }
 
 #[test]
+fn a_test_sequence_given_twice_is_named_by_its_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_str().unwrap();
+    write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
+    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--tests", "0000,0000"]) else { panic!() };
+    let err = format!("{:#}", eval::table(&args).unwrap_err());
+    assert!(err.starts_with("--tests: 0000 is given twice"), "{err}");
+}
+
+#[test]
 fn a_folder_without_sequences_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     fs::create_dir(dir.path().join("label_02")).unwrap();

@@ -57,7 +57,7 @@ pub struct DataArgs {
 /// holds no sequence (a command over nothing would print empty tables and succeed).
 pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
     if !given.is_empty() {
-        return distinct_ids(given.to_vec());
+        return distinct_ids("--sequences", given.to_vec());
     }
     let ids = dir.sequences()?;
     if ids.is_empty() {
@@ -69,13 +69,13 @@ pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<S
     Ok(ids)
 }
 
-/// `ids` when no sequence is in it twice.
+/// `ids` (the value of option `flag`) when no sequence is in it twice.
 ///
 /// # Errors
-/// A sequence given twice (it would count twice), named.
-pub fn distinct_ids(ids: Vec<String>) -> anyhow::Result<Vec<String>> {
+/// A sequence given twice (it would count twice), named with its option.
+pub fn distinct_ids(flag: &str, ids: Vec<String>) -> anyhow::Result<Vec<String>> {
     if let Some(twice) = ids.iter().enumerate().find_map(|(i, id)| ids[..i].contains(id).then_some(id)) {
-        anyhow::bail!("--sequences: {twice} is given twice (each sequence counts once)");
+        anyhow::bail!("{flag}: {twice} is given twice (each sequence counts once)");
     }
     Ok(ids)
 }

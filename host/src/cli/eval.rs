@@ -56,7 +56,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let ids: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
-        args.tests.clone()
+        super::common::distinct_ids("--tests", args.tests.clone())?
     };
     let seqs = args.data.load_for(&ids, &args.source)?;
 

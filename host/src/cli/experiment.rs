@@ -64,7 +64,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     let test_sequences: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
-        args.tests.clone()
+        super::common::distinct_ids("--tests", args.tests.clone())?
     };
     let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
     let loading_seconds = start.elapsed().as_secs_f64();

@@ -112,7 +112,7 @@ pub fn tracks_path(out: &Path, id: &str) -> PathBuf {
 /// A sequence given twice, or no image_02/ folder to list.
 fn image_sequences(dir: &Path, given: &[String]) -> anyhow::Result<Vec<String>> {
     if !given.is_empty() {
-        return super::common::distinct_ids(given.to_vec());
+        return super::common::distinct_ids("--sequences", given.to_vec());
     }
     let images = dir.join("image_02");
     let mut ids: Vec<String> = std::fs::read_dir(&images)
