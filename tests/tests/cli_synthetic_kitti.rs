@@ -91,6 +91,11 @@ fn a_test_sequence_given_twice_is_named_by_its_option() {
     let Command::Eval(args) = cli(&["eval", "--kitti", root, "--tests", "0000,0000"]) else { panic!() };
     let err = format!("{:#}", eval::table(&args).unwrap_err());
     assert!(err.starts_with("--tests: 0000 is given twice"), "{err}");
+    let Command::Eval(args) = cli(&["eval", "--kitti", root, "--tests", "0000", "--predictor", "cv,prior,cv"]) else {
+        panic!()
+    };
+    let err = format!("{:#}", eval::table(&args).unwrap_err());
+    assert!(err.starts_with("--predictor: cv is given twice"), "{err}");
 }
 
 #[test]

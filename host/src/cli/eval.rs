@@ -58,6 +58,11 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     } else {
         super::common::distinct_ids("--tests", args.tests.clone())?
     };
+    if let Some(twice) =
+        args.predictor.iter().enumerate().find_map(|(i, p)| args.predictor[..i].contains(p).then_some(p))
+    {
+        anyhow::bail!("--predictor: {} is given twice (its rows would repeat)", twice.label());
+    }
     let seqs = args.data.load_for(&ids, &args.source)?;
 
     let mut arms = Vec::new();
