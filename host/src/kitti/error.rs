@@ -62,6 +62,12 @@ pub enum KittiError {
         pose_count: usize,
     },
 
+    /// The path of the tracking directory names something that exists but is not a folder.
+    #[error("{}: not a folder (the KITTI tracking directory holds label_02/, calib/, ...)", path.display())]
+    NotADirectory {
+        /// The path given.
+        path: PathBuf,
+    },
     /// A required file, directory or entry does not exist.
     #[error("{}: {what} not found", path.display())]
     Missing {
@@ -77,7 +83,10 @@ impl KittiError {
     #[must_use]
     pub fn path(&self) -> &std::path::Path {
         match self {
-            KittiError::Io { path, .. } | KittiError::Parse { path, .. } | KittiError::Missing { path, .. } => path,
+            KittiError::Io { path, .. }
+            | KittiError::Parse { path, .. }
+            | KittiError::Missing { path, .. }
+            | KittiError::NotADirectory { path } => path,
             KittiError::FrameCountMismatch { poses_path, .. } => poses_path,
         }
     }

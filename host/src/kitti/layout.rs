@@ -106,6 +106,9 @@ impl TrackingDir {
     /// [`KittiError::Missing`] when the directory or its `label_02/` folder does not exist.
     pub fn open(path: impl AsRef<Path>) -> Result<TrackingDir, KittiError> {
         let root = path.as_ref().to_path_buf();
+        if root.exists() && !root.is_dir() {
+            return Err(KittiError::NotADirectory { path: root });
+        }
         if !root.is_dir() {
             return Err(KittiError::Missing { path: root, what: "KITTI tracking directory".into() });
         }
@@ -272,6 +275,10 @@ mod tests {
         assert!(m.contains("nope") && m.contains("KITTI tracking directory not found"), "{m}");
         let m = TrackingDir::open(dir.path()).unwrap_err().to_string();
         assert!(m.contains("label_02") && m.contains("not found"), "{m}");
+        let file = dir.path().join("a.txt");
+        std::fs::write(&file, "x").unwrap();
+        let m = TrackingDir::open(&file).unwrap_err().to_string();
+        assert!(m.contains("a.txt: not a folder"), "{m}");
     }
 
     #[test]
