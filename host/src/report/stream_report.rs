@@ -163,13 +163,17 @@ pub fn summary(result: &StreamResult, to: &Endpoint) -> String {
     for n in &result.notices {
         let _ = writeln!(s, "edge said: {n}");
     }
-    let _ = writeln!(
-        s,
-        "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}",
-        q(0.5),
-        q(0.95),
-        q(1.0)
-    );
+    if lat.is_empty() {
+        let _ = writeln!(s, "latency ms: none measured (no frame was answered)");
+    } else {
+        let _ = writeln!(
+            s,
+            "latency ms (last part sent -> frame stats received): median {:.2}, p95 {:.2}, max {:.2}",
+            q(0.5),
+            q(0.95),
+            q(1.0)
+        );
+    }
     if let Some(l) = last {
         let med = compute.get(compute.len() / 2).copied().unwrap_or(0);
         let max = compute.last().copied().unwrap_or(0);
@@ -238,4 +242,15 @@ pub fn soak_summary(r: &SoakReport) -> String {
         r.clean_unanswered,
         r.edge_frames_lost
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stream_without_answers_says_so_instead_of_printing_nan() {
+        let s = summary(&StreamResult::default(), &Endpoint::Tcp("127.0.0.1:1".into()));
+        assert!(s.contains("latency ms: none measured") && !s.contains("NaN"), "{s}");
+    }
 }
