@@ -69,12 +69,18 @@ pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<S
     Ok(ids)
 }
 
+/// The first item of `items` that an earlier one equals (a value given twice in a list option).
+#[must_use]
+pub fn first_repeated<T: PartialEq>(items: &[T]) -> Option<&T> {
+    items.iter().enumerate().find_map(|(i, x)| items[..i].contains(x).then_some(x))
+}
+
 /// `ids` (the value of option `flag`) when no sequence is in it twice.
 ///
 /// # Errors
 /// A sequence given twice (it would count twice), named with its option.
 pub fn distinct_ids(flag: &str, ids: Vec<String>) -> anyhow::Result<Vec<String>> {
-    if let Some(twice) = ids.iter().enumerate().find_map(|(i, id)| ids[..i].contains(id).then_some(id)) {
+    if let Some(twice) = first_repeated(&ids) {
         anyhow::bail!("{flag}: {twice} is given twice (each sequence counts once)");
     }
     Ok(ids)

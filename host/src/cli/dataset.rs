@@ -36,9 +36,6 @@ pub struct DatasetArgs {
 /// # Errors
 /// Loading errors, named.
 pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
-    if args.budget && !args.source.contains(&Source::Estimated) {
-        anyhow::bail!("--budget measures the estimated source: add estimated to --source");
-    }
     let (table, budget) = tables(args)?;
     print!("{}", table.render(args.format));
     if let Some(budget) = budget {
@@ -62,8 +59,12 @@ pub fn table(args: &DatasetArgs) -> anyhow::Result<Table> {
 /// estimated source's error budget.
 ///
 /// # Errors
-/// Loading errors, named; `--budget` on sequences without the simulator's truth.
+/// Loading errors, named; `--budget` without the estimated source or on sequences without
+/// the simulator's truth.
 pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
+    if args.budget && !args.source.contains(&Source::Estimated) {
+        anyhow::bail!("--budget measures the estimated source: add estimated to --source");
+    }
     let rule = args.data.rule()?;
     let seqs = args.data.load_for(&args.sequences, &args.source)?;
     let budget = if args.budget {

@@ -58,9 +58,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     } else {
         super::common::distinct_ids("--tests", args.tests.clone())?
     };
-    if let Some(twice) =
-        args.predictor.iter().enumerate().find_map(|(i, p)| args.predictor[..i].contains(p).then_some(p))
-    {
+    if let Some(twice) = super::common::first_repeated(&args.predictor) {
         anyhow::bail!("--predictor: {} is given twice (its rows would repeat)", twice.label());
     }
     let seqs = args.data.load_for(&ids, &args.source)?;

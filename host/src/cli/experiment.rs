@@ -5,7 +5,6 @@ use clap::Args;
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use crate::experiment::figures::time_axis::time_span_note;
 use crate::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
 use crate::experiment::report::write_report;
 use crate::experiment::sections::{RunSettings, experiment_report};
@@ -135,7 +134,7 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             render_scale: args.data.ours.render_scale,
             jobs: args.data.ours.jobs,
             dt: args.data.dt()?,
-            time_note: time_span_note(args.data.dt()?, args.run.hyper.prior_choice().history_frames()),
+            history_frames: args.run.hyper.prior_choice().history_frames(),
         };
         let mut r = experiment_report(&run, command, &result, &sequences, &rule);
         let (figures, models) = (dir.join("figures"), dir.join("models"));

@@ -23,8 +23,8 @@ use crate::trajectory::EstimatedTracks;
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
 /// hypotheses by TRIAD instead of an SVD, and a step whose promised decrease is below the stop
 /// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame; 6: and the
-/// camera per frame, true and estimated).
-pub const ESTIMATE_CACHE_VERSION: u32 = 6;
+/// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept).
+pub const ESTIMATE_CACHE_VERSION: u32 = 7;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
@@ -117,7 +117,6 @@ mod tests {
             smoothed: vec![],
             rpe: Some(crate::estimate::RunScores::default()),
             truth: vec![track],
-            world_yaw: [(4, 0.01), (5, -0.02)].into(),
             cameras: [(
                 4,
                 crate::trajectory::CameraPair {

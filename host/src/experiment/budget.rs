@@ -122,36 +122,38 @@ fn truth_span(truth: &ObjectTrack, from: u32, to: u32) -> Option<&[BevState]> {
     truth.states.get(start..=end)
 }
 
-/// The errors of one instance: estimated history `history` (current last) at frame `frame`.
+/// The errors of one instance (estimated history `history`, current last, at frame `frame`)
+/// and the truth's distance from the camera, metres.
 fn instance_errors(
     history: &[BevState],
     frame: u32,
     truth: &ObjectTrack,
     camera: &CameraPair,
     dt: f32,
-) -> Option<InstanceErrors> {
+) -> Option<(InstanceErrors, f32)> {
     let [.., prev, cur] = history else { return None };
     let first = frame.checked_sub(u32::try_from(history.len() - 1).ok()?)?;
-    let past = truth_span(truth, frame - 1, frame)?;
+    let past = truth_span(truth, frame.checked_sub(1)?, frame)?;
     let future = truth_span(truth, frame, frame + HORIZON as u32)?;
     let [t_prev, t_cur] = past else { return None };
     let anchor = t_cur.position();
     let displacements: Vec<Point2> =
         future.iter().skip(1).map(|p| Point2::new(p.x - anchor.x, p.y - anchor.y)).collect();
-    let yaw = angle_diff(camera.truth.heading, camera.estimate.heading);
+    let yaw = camera.world_yaw();
     let v_est = rotate(Point2::new((cur.x - prev.x) / dt, (cur.y - prev.y) / dt), yaw);
     let v_true = Point2::new((t_cur.x - t_prev.x) / dt, (t_cur.y - t_prev.y) / dt);
     let (speed_est, speed_true) = (v_est.x.hypot(v_est.y), v_true.x.hypot(v_true.y));
     let (dir_est, dir_true) = (v_est.y.atan2(v_est.x), v_true.y.atan2(v_true.x));
     let along = |speed: f32, dir: f32| Point2::new(speed * dir.cos(), speed * dir.sin());
-    let position = relative(cur.position(), &camera.estimate).distance(&relative(anchor, &camera.truth));
+    let true_relative = relative(anchor, &camera.truth);
+    let position = relative(cur.position(), &camera.estimate).distance(&true_relative);
     let true_history = truth_span(truth, first.max(truth.frames.first().copied()?), frame);
     let own_dir = cur.heading + yaw;
     let turn_rate = true_history.and_then(|th| {
         let (e, t) = (plan(history, &PriorSettings::DEFAULT, dt)?, plan(th, &PriorSettings::DEFAULT, dt)?);
         Some((e.trend.turn_rate - t.trend.turn_rate).abs())
     });
-    Some(InstanceErrors {
+    let errors = InstanceErrors {
         position_m: position,
         speed_mps: (speed_est - speed_true).abs(),
         direction_rad: (speed_true >= MOVING_MPS).then(|| angle_diff(dir_est, dir_true).abs()),
@@ -163,7 +165,8 @@ fn instance_errors(
         ade_own: ade_of_velocity(along(cur.speed, own_dir), &displacements, dt),
         ade_speed_only: ade_of_velocity(along(speed_est, dir_true), &displacements, dt),
         ade_direction_only: ade_of_velocity(along(speed_true, dir_est), &displacements, dt),
-    })
+    };
+    Some((errors, true_relative.distance(&Point2::new(0.0, 0.0))))
 }
 
 /// Every scored instance of the estimated source's causal tracks in `sequences` (those without
@@ -181,12 +184,11 @@ pub fn budget_instances(sequences: &[SequenceTracks], rule: &EligibilityRule, dt
                 let Some(camera) = est.cameras.get(&frame) else { continue };
                 let from = s.saturating_sub(PriorSettings::DEFAULT.states() - 1);
                 let Some(history) = run.states.get(from..=s) else { continue };
-                let Some(errors) = instance_errors(history, frame, t, camera, dt) else { continue };
-                let Some(anchor) = truth_span(t, frame, frame).and_then(|x| x.first()) else { continue };
+                let Some((errors, distance_m)) = instance_errors(history, frame, t, camera, dt) else { continue };
                 out.push(Tagged {
                     sequence: seq.id.clone(),
                     class: format!("{:?}", run.class),
-                    distance_m: relative(anchor.position(), &camera.truth).distance(&Point2::new(0.0, 0.0)),
+                    distance_m,
                     since_start: s,
                     errors,
                 });
@@ -306,12 +308,12 @@ mod tests {
         let camera = BevState { x: 0.0, y: 0.0, heading: 0.0, speed: 0.0 };
         let pair = CameraPair { truth: camera, estimate: camera };
         let history = &truth.states[..=20];
-        let e = instance_errors(history, 20, &truth, &pair, dt).unwrap();
+        let e = instance_errors(history, 20, &truth, &pair, dt).unwrap().0;
         assert!(e.position_m < 1e-4 && e.speed_mps < 1e-3 && e.ade_estimate < 1e-3, "{e:?}");
         assert!(e.direction_rad.unwrap() < 1e-3 && e.turn_rate_rps.unwrap() < 1e-3, "{e:?}");
         // The same path at 8 m/s instead of 10: 2 m/s of speed error, all of it the speed's share.
         let slow = straight(0, 21, 8.0, dt);
-        let e = instance_errors(&slow.states, 20, &truth, &pair, dt).unwrap();
+        let e = instance_errors(&slow.states, 20, &truth, &pair, dt).unwrap().0;
         assert!((e.speed_mps - 2.0).abs() < 1e-2 && (e.own_speed_mps - 2.0).abs() < 1e-4, "{e:?}");
         assert!((e.ade_own - e.ade_speed_only).abs() < 1e-3, "the estimator's own speed says the same: {e:?}");
         let expected = 2.0 * dt * (1..=HORIZON).map(|k| k as f32).sum::<f32>() / HORIZON as f32;
@@ -331,7 +333,7 @@ mod tests {
         let camera = BevState { x: 2.0, y: -1.0, heading: 0.1, speed: 0.0 };
         let pair = CameraPair { truth: camera, estimate: turn(&camera) };
         let history: Vec<BevState> = truth.states[..=20].iter().map(turn).collect();
-        let e = instance_errors(&history, 20, &truth, &pair, dt).unwrap();
+        let e = instance_errors(&history, 20, &truth, &pair, dt).unwrap().0;
         assert!(e.position_m < 1e-3 && e.direction_rad.unwrap() < 1e-3 && e.ade_estimate < 1e-3, "{e:?}");
     }
 

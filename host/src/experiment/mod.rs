@@ -305,10 +305,12 @@ pub fn score_seed(
         .iter()
         .map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect())
         .collect();
+    let world_yaws: Vec<Option<std::collections::BTreeMap<u32, f32>>> =
+        tests.iter().map(|t| t.estimated.as_ref().map(crate::trajectory::EstimatedTracks::world_yaw)).collect();
     let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
         (0..tests.len())
             .map(|i| {
-                let world_yaw = tests[i].estimated.as_ref().filter(|_| source.is_estimated()).map(|e| &e.world_yaw);
+                let world_yaw = world_yaws[i].as_ref().filter(|_| source.is_estimated());
                 truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common {
                     truth,
                     only: &common_keys[i],

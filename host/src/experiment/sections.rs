@@ -12,7 +12,7 @@ use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, EstimateInput, Source};
 
 /// What of a run's settings its report tells.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct RunSettings<'a> {
     /// The arms trained and tested.
     pub arms: &'a [Source],
@@ -22,8 +22,8 @@ pub struct RunSettings<'a> {
     pub jobs: usize,
     /// Frame period, seconds.
     pub dt: f32,
-    /// What the horizon and history span in time ([`super::figures::time_axis::time_span_note`]).
-    pub time_note: String,
+    /// Past frames a forecast reads at most ([`crate::train::PriorChoice::history_frames`]).
+    pub history_frames: usize,
 }
 
 /// The report of a finished run: Table I for every arm's source, Table III of the estimator
@@ -113,7 +113,7 @@ pub fn experiment_report(
         result.seconds - result.loading_seconds,
         run.jobs
     )];
-    notes.push(run.time_note.clone());
+    notes.push(super::figures::time_axis::time_span_note(run.dt, run.history_frames));
     notes.extend(findings(&result.arms, run.arms, Scoring::OwnFuture));
     if let Some((_, arms)) = &result.common {
         notes.extend(findings(arms, run.arms, Scoring::CommonTruth));

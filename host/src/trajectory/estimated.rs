@@ -52,6 +52,15 @@ pub struct CameraPair {
     pub estimate: BevState,
 }
 
+impl CameraPair {
+    /// The yaw (radians) that turns the estimator's world into the truth's at this frame: the
+    /// true camera's heading minus the causal estimate's.
+    #[must_use]
+    pub fn world_yaw(&self) -> f32 {
+        dynotraj_core::geometry::angle_diff(self.truth.heading, self.estimate.heading)
+    }
+}
+
 /// A sequence's tracks through the estimator, both variants, and how well it did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EstimatedTracks {
@@ -68,15 +77,10 @@ pub struct EstimatedTracks {
     /// speed 0: only positions are used), the common reference every arm can be scored
     /// against; empty on real images.
     pub truth: Vec<ObjectTrack>,
-    /// Per frame: the yaw (radians) that turns the estimator's world into the truth's at that
-    /// frame (true camera yaw minus the causal estimate's), from the camera poses. The
-    /// estimator's world drifts from the truth's as camera errors accumulate; a displacement
-    /// forecast at frame s is turned by this before it is held to the true one. Empty on real
-    /// images.
-    pub world_yaw: std::collections::BTreeMap<u32, f32>,
     /// Per frame: the camera on the bird's-eye plane, true and as the causal estimate has it
-    /// (position and heading; speed 0), each in its own world: what places an object relative
-    /// to the vehicle in both ([`crate::experiment::budget`]). Empty on real images.
+    /// (position and heading; speed 0), each in its own world: what turns the estimator's
+    /// world into the truth's ([`EstimatedTracks::world_yaw`]) and places an object relative to
+    /// the vehicle in both ([`crate::experiment::budget`]). Empty on real images.
     pub cameras: std::collections::BTreeMap<u32, CameraPair>,
     /// Per output kind, in [`Kind::ALL`] order: the translational RPE of each frame against the
     /// simulator's truth (the pairs behind `rpe`, over time); empty on real images.
@@ -106,6 +110,14 @@ pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
 }
 
 impl EstimatedTracks {
+    /// Per frame, [`CameraPair::world_yaw`]. The estimator's world drifts from the truth's as
+    /// camera errors accumulate; a displacement forecast at frame s is turned by this before it
+    /// is held to the true one. Empty on real images.
+    #[must_use]
+    pub fn world_yaw(&self) -> BTreeMap<u32, f32> {
+        self.cameras.iter().map(|(&frame, c)| (frame, c.world_yaw())).collect()
+    }
+
     /// Both variants' tracks of `run`, with what is known of its accuracy and the truth of the
     /// simulated frames `sim` it ran on (empty for real images); objects moving at least
     /// `min_step_m` a frame are the ones RPE scores.
@@ -130,10 +142,6 @@ impl EstimatedTracks {
                 Some((f.frame, CameraPair { truth: bev(&f.camera.cast::<f32>()), estimate: bev(&e.camera) }))
             })
             .collect();
-        let world_yaw = cameras
-            .iter()
-            .map(|(&frame, c)| (frame, dynotraj_core::geometry::angle_diff(c.truth.heading, c.estimate.heading)))
-            .collect();
         let moving = moving_objects(sim, min_step_m);
         let rpe_frames =
             Kind::ALL.map(|k| if sim.is_empty() { Vec::new() } else { rpe_over_time(sim, run.of(k), &moving) });
@@ -143,7 +151,6 @@ impl EstimatedTracks {
             smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
             rpe,
             truth: truth_tracks(sim),
-            world_yaw,
             cameras,
             rpe_frames,
             frames: run.causal.len(),

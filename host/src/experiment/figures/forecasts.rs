@@ -106,7 +106,7 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
     });
     let labels = Scene::new(&seq.tracks, Source::Gt, dt);
     let scenes: Vec<Scene> = arms.iter().map(|a| Scene::new(seq.tracks_for(a.source), a.source, dt)).collect();
-    let world_yaw = seq.estimated.as_ref().map(|e| &e.world_yaw);
+    let world_yaw = seq.estimated.as_ref().map(crate::trajectory::EstimatedTracks::world_yaw);
     let mut panels = Vec::new();
     for &frame in &chosen {
         let Some(run) = labels.run_at(track, frame) else { continue };
@@ -133,7 +133,8 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
             let Some(own) = scene.run_at(track, frame) else { continue };
             let k = (frame - own.first_frame) as usize;
             let Ok(forecast) = forecast_at(own, k, scene, arm.forecaster.as_mut(), dt) else { continue };
-            let yaw = if arm.source.is_estimated() { world_yaw.and_then(|w| w.get(&frame)).copied() } else { None };
+            let yaw =
+                if arm.source.is_estimated() { world_yaw.as_ref().and_then(|w| w.get(&frame)).copied() } else { None };
             paths.push(PathLine {
                 label: arm.label.clone(),
                 segments: vec![placed(&forecast, own.states[k].position(), anchor, yaw.unwrap_or(0.0))],
