@@ -53,6 +53,7 @@ fn estimate(frame: u32, objects: &[(u16, u16, f32)]) -> PoseEstimate {
                 bev: BevState { x, y: 0.0, heading: 0.0, speed: 1.0 },
                 heading_rate: 0.0,
                 segment,
+                orientation: segment,
                 heading_known: true,
             })
             .unwrap();

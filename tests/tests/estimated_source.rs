@@ -244,3 +244,61 @@ fn the_error_budget_of_a_synthetic_drive() {
     let err = format!("{:#}", dataset::run(&args).unwrap_err());
     assert!(err.contains("--source"), "{err}");
 }
+
+/// The synthetic drive as a KITTI folder, estimated by the track-level simulator with `variants`.
+fn synthetic_drive_estimated(
+    variants: dynotraj_host::estimate::evaluate::ObjectVariants,
+) -> dynotraj_host::estimate::evaluate::SequenceResult {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
+    let data = TrackingDir::open(dir.path()).unwrap().load_sequence("0000").unwrap();
+    evaluate_sequence("0000", &data, &EvalOptions { object_variants: variants, ..EvalOptions::kitti(0.1) })
+}
+
+#[test]
+fn a_realigned_heading_turns_the_frame_but_keeps_the_track() {
+    use dynotraj_host::estimate::evaluate::ObjectVariants;
+    let base = synthetic_drive_estimated(ObjectVariants::default());
+    // A tiny bound turns every vehicle's frame at each baseline of travel.
+    let turned =
+        synthetic_drive_estimated(ObjectVariants { heading_realign_rad: Some(1e-4), ..ObjectVariants::default() });
+    assert!(
+        turned.stats.objects_reoriented > base.stats.objects_reoriented,
+        "{} turns against {}",
+        turned.stats.objects_reoriented,
+        base.stats.objects_reoriented
+    );
+    let causal = turned.run.of(Kind::Causal);
+    let tracks = tracks_of_estimates(causal);
+    let mut turns_kept = 0;
+    for w in causal.windows(2) {
+        let (Some(a), Some(b)) = (&w[0], &w[1]) else { continue };
+        for oa in a.objects.iter().filter(|o| o.heading_known) {
+            let Some(ob) = b.objects.iter().find(|o| o.object_id == oa.object_id && o.heading_known) else { continue };
+            if ob.segment == oa.segment && ob.orientation != oa.orientation {
+                // The bird's-eye track runs on through the turn: both frames are in it...
+                let t = tracks.iter().find(|t| t.track_id == i32::from(oa.object_id) - 1).unwrap();
+                assert!(t.frames.contains(&a.frame) && t.frames.contains(&b.frame), "object {}", oa.object_id);
+                // ...while RPE never pairs poses of two orientations.
+                let runs = dynotraj_host::estimate::score::object_runs(causal, oa.object_id, |_| true);
+                assert!(
+                    runs.iter()
+                        .all(|r| !(r.iter().any(|x| x.1.frame == a.frame) && r.iter().any(|x| x.1.frame == b.frame)))
+                );
+                turns_kept += 1;
+            }
+        }
+    }
+    assert!(turns_kept > 0, "some frame turned within a segment");
+}
+
+#[test]
+fn fusing_at_the_fit_reaches_the_estimator() {
+    use dynotraj_host::estimate::evaluate::ObjectVariants;
+    let base = synthetic_drive_estimated(ObjectVariants::default());
+    let fused = synthetic_drive_estimated(ObjectVariants { fuse_at_fit: true, ..ObjectVariants::default() });
+    let states = |r: &dynotraj_host::estimate::evaluate::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
+    assert_ne!(states(&base), states(&fused), "the variant changes the estimates");
+    let rpe = fused.scores.kinds[1].object.expect("objects scored (causal)");
+    assert!(rpe.translation.is_finite() && rpe.translation < 1.0, "{rpe:?}");
+}

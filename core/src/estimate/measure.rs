@@ -82,9 +82,30 @@ pub fn measure_motion(
 ) -> Option<MotionMeasurement> {
     let m_guess = a * guess;
     let Fit { pose, information, inliers, .. } = fit_pose(corrs, Some(&m_guess), fp, model, rng).ok()?;
+    let information =
+        with_shared_depth_error(&information, &pose, model.depth_error(pose.translation.z, fp.shared_disparity_px));
     // A right perturbation of m is a right perturbation of delta, so the information carries over.
     let delta = a.inverse() * pose;
     plausible(&delta, fp).then(|| twist_measurement(&delta, &information, inliers)).flatten()
+}
+
+/// The information of a right perturbation of `m` (source -> camera) once the source frame's
+/// origin is also uncertain by `sigma` metres along its viewing ray: the rank-one covariance
+/// `sigma^2 e e^T`, `e = [R^T u; 0]` with `u` the ray, added by Sherman-Morrison. Unchanged for
+/// a zero `sigma`, an origin at the camera or a result that is not finite.
+#[must_use]
+pub fn with_shared_depth_error(info: &Mat6, m: &Pose3, sigma: f32) -> Mat6 {
+    let t = m.translation.vector;
+    let norm = t.norm();
+    if !(sigma > 0.0 && norm > 0.0 && sigma.is_finite()) {
+        return *info;
+    }
+    let v = m.rotation.inverse() * (t / norm);
+    let e = Vec6::new(v.x, v.y, v.z, 0.0, 0.0, 0.0);
+    let ie = info * e;
+    let denom = 1.0 / (sigma * sigma) + e.dot(&ie);
+    let out = info - ie * ie.transpose() / denom;
+    if denom > 0.0 && out.iter().all(|x| x.is_finite()) { out } else { *info }
 }
 
 /// True when a frame-to-frame motion is within the fit's plausibility bounds.
@@ -145,4 +166,35 @@ pub fn robust_centroid(points: &[Obs], camera: &Pose3, model: &PointModel, radiu
     }
     let c = if n > 0 { Point3::from(sum / n as f32) } else { median };
     c.coords.iter().all(|v| v.is_finite()).then_some(c)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, UnitQuaternion, Vector3};
+
+    #[test]
+    fn a_shared_depth_error_lowers_the_information_along_the_ray_only() {
+        let info = Mat6::identity() * 100.0;
+        // The source frame's origin 40 m ahead and 3 m right of camera k, the frame turned 0.5 rad.
+        let m = Pose3::from_parts(
+            Translation3::new(3.0, 0.0, 40.0),
+            UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.5),
+        );
+        assert_eq!(with_shared_depth_error(&info, &m, 0.0), info);
+        let sigma = 0.5;
+        let out = with_shared_depth_error(&info, &m, sigma);
+        // The ray in the source frame's axes (rho is a right perturbation).
+        let ray = m.rotation.inverse() * m.translation.vector.normalize();
+        let e = Vec6::new(ray.x, ray.y, ray.z, 0.0, 0.0, 0.0);
+        // Along the ray the variance is the points' (1/100) plus sigma^2.
+        let along = (out * e).dot(&e);
+        assert!((1.0 / along - (0.01 + sigma * sigma)).abs() < 1e-4, "{along}");
+        // Across it, and in rotation, nothing changes.
+        let across = Vector3::y().cross(&ray).normalize();
+        let c = Vec6::new(across.x, across.y, across.z, 0.0, 0.0, 0.0);
+        assert!(((out * c).dot(&c) - 100.0).abs() < 1e-3);
+        assert!((out[(3, 3)] - 100.0).abs() < 1e-4);
+    }
 }

@@ -126,13 +126,21 @@ pub struct ObjectRun<const W: usize> {
     /// Step of the newest frame whose motion was measured: later frames of an ended run are
     /// extrapolations and are not emitted smoothed.
     last_measured_step: u32,
-    /// Re-orientation count.
+    /// Output segment: counts the heading becoming known.
     segment: u16,
+    /// Counts the frame's turns.
+    orientation: u16,
     /// Set by [`ObjectRun::measure`] when it added a step (true: measured, false: held),
     /// taken by [`ObjectRun::finish`].
     stepped: Option<bool>,
     /// The object's points in its frame.
     landmarks: Landmarks,
+    /// The measured body translations since the frame was last oriented: the direction the
+    /// object travels in its own frame, which for a vehicle is its x axis.
+    travel: Vector3<f32>,
+    /// The newest measured step's fitted object-from-camera pose, which its points are fused
+    /// with when [`EstimatorParams::fuse_at_fit`] is set (see [`ObjectRun::finish`]).
+    fitted: Option<Pose3>,
 }
 
 impl<const W: usize> Default for ObjectRun<W> {
@@ -172,8 +180,11 @@ impl<const W: usize> ObjectRun<W> {
             newest_step: 0,
             last_measured_step: 0,
             segment: 0,
+            orientation: 0,
             stepped: None,
             landmarks: Landmarks::new(),
+            fitted: None,
+            travel: Vector3::new(0.0, 0.0, 0.0),
         }
     }
 
@@ -248,6 +259,7 @@ impl<const W: usize> ObjectRun<W> {
             measured
         };
         let cause = if cx.beyond_range { EndCause::OutOfRange } else { EndCause::FitFailed };
+        self.fitted = measured.as_ref().filter(|_| params.fuse_at_fit).map(|m| (a * m.delta).inverse());
         // Camera k from object k as fitted: what couples this motion to the camera's.
         let lin = measured.as_ref().map_or([0.0; 6], |m| pose_to_lin(&(a * m.delta)));
         self.step(measured.as_ref(), &lin, cause, s, scratch)
@@ -312,6 +324,7 @@ impl<const W: usize> ObjectRun<W> {
                 self.held = 0;
                 self.coasted = false;
                 self.last_delta = m.delta;
+                self.travel += m.delta.translation.vector;
             }
             None => {
                 self.held = self.held.saturating_add(1);
@@ -358,10 +371,11 @@ impl<const W: usize> ObjectRun<W> {
                 None
             }
         };
+        let fitted = self.fitted.take();
         if stepped == Some(true)
             && let Some((current, camera, model, inlier_px)) = fuse_with
         {
-            let object_from_camera = self.path.current().inverse() * camera;
+            let object_from_camera = fitted.unwrap_or_else(|| self.path.current().inverse() * camera);
             fuse(&mut self.landmarks, current, &object_from_camera, model, inlier_px);
         }
         // An ended run's frames after its last measured one were extrapolated: not emitted.
@@ -405,13 +419,20 @@ impl<const W: usize> ObjectRun<W> {
     /// Re-orients the frame along the displacement since the first pose once it exceeds
     /// `heading_baseline_m`, or, once the run has `heading_max_wait_frames` frames,
     /// `heading_min_baseline_m`, for an object whose heading is not yet known; a vehicle's
-    /// motions then get `params.vehicle_kinematics`. Returns whether it did.
+    /// motions then get `params.vehicle_kinematics`. Afterwards, with `heading_realign_rad`
+    /// set, a vehicle's frame is turned again whenever its measured travel over
+    /// `heading_baseline_m` leaves its x axis by more than that: the first heading comes from a short, noisy baseline, and a
+    /// frame turned off the direction of travel sets the kinematic prior against the
+    /// measurements. Each turn starts a new orientation (RPE does not pair across it). Returns whether it turned.
     pub fn reorient_if_moved(&mut self, params: &EstimatorParams) -> bool {
-        let (baseline, max_wait, min_baseline) =
-            (params.heading_baseline_m, params.heading_max_wait_frames, params.heading_min_baseline_m);
-        if self.heading_known || self.state != RunState::Tracking {
+        if self.state != RunState::Tracking {
             return false;
         }
+        if self.heading_known {
+            return self.realign(params);
+        }
+        let (baseline, max_wait, min_baseline) =
+            (params.heading_baseline_m, params.heading_max_wait_frames, params.heading_min_baseline_m);
         let p = self.path.current().translation.vector;
         let (dx, dz) = (p.x - self.origin.x, p.z - self.origin.y);
         let moved = libm::hypotf(dx, dz);
@@ -424,10 +445,7 @@ impl<const W: usize> ObjectRun<W> {
         // any roll and pitch the frame picked up from noisy motions.
         let target = yaw(libm::atan2f(dz, dx));
         let r = Pose3::from_parts(Translation3::identity(), self.path.current().rotation.inverse() * target.rotation);
-        self.path.reframe(&r);
-        landmarks::reframe(&mut self.landmarks, &r);
-        self.f2f *= r;
-        self.last_delta = r.inverse() * self.last_delta * r;
+        self.turn(&r);
         self.heading_known = true;
         self.segment = self.segment.wrapping_add(1);
         if let Some(k) = params.vehicle_kinematics.filter(|_| moves_like_a_vehicle(self.class)) {
@@ -436,8 +454,44 @@ impl<const W: usize> ObjectRun<W> {
         true
     }
 
+    /// Turns a vehicle's frame onto its measured direction of travel (see
+    /// [`ObjectRun::reorient_if_moved`]).
+    fn realign(&mut self, params: &EstimatorParams) -> bool {
+        let t = self.travel;
+        let Some(limit) = params.heading_realign_rad else { return false };
+        if !moves_like_a_vehicle(self.class) || libm::hypotf(t.x, t.z) < params.heading_baseline_m {
+            return false;
+        }
+        self.travel = Vector3::new(0.0, 0.0, 0.0);
+        let angle = libm::atan2f(t.z, t.x);
+        // A NaN angle never turns the frame.
+        if libm::fabsf(angle).partial_cmp(&limit) != Some(core::cmp::Ordering::Greater) {
+            return false;
+        }
+        self.turn(&yaw(angle));
+        true
+    }
+
+    /// Turns the frame by the rotation `r` (body frame), starting a new orientation.
+    fn turn(&mut self, r: &Pose3) {
+        self.path.reframe(r);
+        landmarks::reframe(&mut self.landmarks, r);
+        self.f2f *= r;
+        self.last_delta = r.inverse() * self.last_delta * r;
+        self.travel = Vector3::new(0.0, 0.0, 0.0);
+        self.orientation = self.orientation.wrapping_add(1);
+    }
+
     fn estimate(&self, e: &Emitted, dt: f32) -> ObjectEstimate {
-        object_estimate(self.object_id, self.class, &e.pose, &e.xi, dt, self.segment, self.heading_known)
+        object_estimate(
+            self.object_id,
+            self.class,
+            &e.pose,
+            &e.xi,
+            dt,
+            (self.segment, self.orientation),
+            self.heading_known,
+        )
     }
 
     /// The causal estimate of the newest frame (tracking runs only).
@@ -450,7 +504,7 @@ impl<const W: usize> ObjectRun<W> {
                 self.path.causal(),
                 self.path.causal_xi(),
                 dt,
-                self.segment,
+                (self.segment, self.orientation),
                 self.heading_known,
             )
         })
@@ -466,7 +520,7 @@ impl<const W: usize> ObjectRun<W> {
                 &self.f2f,
                 &se3_log(&self.last_delta),
                 dt,
-                self.segment,
+                (self.segment, self.orientation),
                 self.heading_known,
             )
         })

@@ -29,9 +29,13 @@ pub struct ObjectEstimate {
     pub bev: BevState,
     /// Heading rate, rad/s, counter-clockwise seen from above.
     pub heading_rate: f32,
-    /// Increments when the object's frame was re-oriented (its heading became known): poses of
-    /// different segments must not be paired (e.g. for RPE).
+    /// Increments when the object's heading became known: a history (of bird's-eye states)
+    /// must not span two segments.
     pub segment: u16,
+    /// Increments whenever the object's frame is turned (its heading became known, or was
+    /// realigned with its direction of travel). Its origin stays put, so bird's-eye positions
+    /// run on, but body-frame poses of different orientations must not be paired (e.g. for RPE).
+    pub orientation: u16,
     /// Whether the heading comes from the object's motion (false: the frame keeps the world's
     /// orientation because the object has not moved far enough yet).
     pub heading_known: bool,
@@ -104,7 +108,7 @@ pub fn bev_heading(pose: &Pose3) -> f32 {
 }
 
 /// An object estimate from its pose and the body-frame twist of its motion into this frame over
-/// `dt` seconds.
+/// `dt` seconds, in its segment and orientation.
 #[must_use]
 pub fn object_estimate(
     object_id: u16,
@@ -112,7 +116,7 @@ pub fn object_estimate(
     pose: &Pose3,
     xi: &Vec6,
     dt: f32,
-    segment: u16,
+    (segment, orientation): (u16, u16),
     heading_known: bool,
 ) -> ObjectEstimate {
     let delta = se3_exp(xi);
@@ -131,6 +135,7 @@ pub fn object_estimate(
         bev: BevState { x: p.x, y: p.z, heading: wrap_angle(bev_heading(pose)), speed: libm::hypotf(t.x, t.z) / dt },
         heading_rate,
         segment,
+        orientation,
         heading_known,
     }
 }

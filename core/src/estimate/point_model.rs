@@ -46,6 +46,13 @@ impl PointModel {
         Self { fx: i.fx, fy: i.fy, cx: i.cx, cy: i.cy, fb, disparity_weight: if w.is_finite() { w } else { 1.0 } }
     }
 
+    /// The depth error, metres, of a point at `depth` metres whose disparity is `disparity_px`
+    /// off (0 without stereo).
+    #[must_use]
+    pub fn depth_error(&self, depth: f32, disparity_px: f32) -> f32 {
+        if self.fb > 0.0 { depth * depth * disparity_px / self.fb } else { 0.0 }
+    }
+
     /// The camera-frame point of a pixel and depth.
     #[must_use]
     pub fn back_project(&self, u: f32, v: f32, depth: f32) -> Point3<f32> {

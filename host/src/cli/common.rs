@@ -8,7 +8,7 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
-use crate::estimate::evaluate::EvalOptions;
+use crate::estimate::evaluate::{EvalOptions, ObjectVariants};
 use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::jobs::{default_jobs, map_jobs, parse_jobs};
 use crate::kitti::TrackingDir;
@@ -134,6 +134,31 @@ pub struct OursArgs {
     /// the number of cores). Results do not depend on it.
     #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
     pub jobs: usize,
+    /// Estimator variant: fuse an object's points into its landmarks at the pose its fit found
+    /// rather than at the smoother's (off by default; docs/decisions.md "Following the object").
+    #[arg(long)]
+    pub fuse_at_fit: bool,
+    /// Estimator variant: turn a vehicle's frame onto its measured direction of travel whenever
+    /// the two differ by more than this many degrees (off by default).
+    #[arg(long, value_parser = crate::cli::numbers::positive_f32, value_name = "DEG")]
+    pub realign_heading: Option<f32>,
+    /// Estimator variant: a disparity error shared by all points of an object fit, pixels,
+    /// which puts a floor under its depth uncertainty along the viewing ray (0: off, the
+    /// default).
+    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.0, value_name = "PX")]
+    pub shared_disparity: f32,
+}
+
+impl OursArgs {
+    /// The estimator's object variants these options choose.
+    #[must_use]
+    pub fn object_variants(&self) -> ObjectVariants {
+        ObjectVariants {
+            fuse_at_fit: self.fuse_at_fit,
+            heading_realign_rad: self.realign_heading.map(f32::to_radians),
+            shared_disparity_px: self.shared_disparity,
+        }
+    }
 }
 
 impl DataArgs {
@@ -199,7 +224,10 @@ impl DataArgs {
             input: self.ours.ours_input,
             render_scale: self.ours.render_scale,
             cache: cache.clone(),
-            ..EstimateSettings::tracks(EvalOptions::kitti(dt))
+            ..EstimateSettings::tracks(EvalOptions {
+                object_variants: self.ours.object_variants(),
+                ..EvalOptions::kitti(dt)
+            })
         });
         let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
         let out = map_jobs(&ids, self.ours.jobs, |id| {

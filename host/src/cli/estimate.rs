@@ -208,6 +208,7 @@ impl EstimateArgs {
             },
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
+            object_variants: self.ours.object_variants(),
             ..EvalOptions::kitti(1.0 / self.rate)
         }
         .with_profile(profile);

@@ -50,6 +50,32 @@ pub struct EvalOptions {
     pub window: usize,
     /// The estimator profile `window` and `joint_sweeps` came from.
     pub profile: &'static str,
+    /// How object runs follow their points (all off by default).
+    pub object_variants: ObjectVariants,
+}
+
+/// Alternatives in how the estimator follows an object, off by default; each was measured as
+/// an approach to the estimated states' error (docs/decisions.md "Following the object").
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ObjectVariants {
+    /// [`EstimatorParams::fuse_at_fit`].
+    pub fuse_at_fit: bool,
+    /// [`EstimatorParams::heading_realign_rad`].
+    pub heading_realign_rad: Option<f32>,
+    /// [`dynotraj_core::estimate::FitParams::shared_disparity_px`] of object fits.
+    pub shared_disparity_px: f32,
+}
+
+impl EvalOptions {
+    /// Sets `p`'s smoother priors, joint sweeps and object variants from these options.
+    pub fn apply_to(&self, p: &mut EstimatorParams) {
+        p.object_smoother = self.object_smoother;
+        p.camera_smoother = self.camera_smoother;
+        p.joint_sweeps = self.joint_sweeps;
+        p.fuse_at_fit = self.object_variants.fuse_at_fit;
+        p.heading_realign_rad = self.object_variants.heading_realign_rad;
+        p.object_fit.shared_disparity_px = self.object_variants.shared_disparity_px;
+    }
 }
 
 impl EvalOptions {
@@ -82,6 +108,7 @@ impl EvalOptions {
             joint_sweeps: HOST_PROFILE.joint_sweeps,
             window: HOST_PROFILE.window,
             profile: HOST_PROFILE.name,
+            object_variants: ObjectVariants::default(),
         }
     }
 
@@ -180,9 +207,7 @@ pub fn params_for(
     p.pixel_sigma = pixel_sigma.max(0.1) as f32;
     p.disparity_sigma = disparity_sigma.max(0.1) as f32;
     p.max_depth = max_depth as f32;
-    p.object_smoother = opt.object_smoother;
-    p.camera_smoother = opt.camera_smoother;
-    p.joint_sweeps = opt.joint_sweeps;
+    opt.apply_to(&mut p);
     p
 }
 

@@ -139,13 +139,11 @@ pub fn rendered_intrinsics(scale: f64) -> Intrinsics {
 }
 
 /// The estimator parameters for tracks of a rendering at `scale`: the KITTI defaults with the
-/// render camera and `opt`'s frame period, priors and joint sweeps.
+/// render camera and `opt`'s frame period, priors, joint sweeps and object variants.
 #[must_use]
 pub fn rendered_params(scale: f64, opt: &EvalOptions) -> EstimatorParams {
     let mut params = EstimatorParams::kitti(rendered_intrinsics(scale), opt.dt);
-    params.object_smoother = opt.object_smoother;
-    params.camera_smoother = opt.camera_smoother;
-    params.joint_sweeps = opt.joint_sweeps;
+    opt.apply_to(&mut params);
     params
 }
 

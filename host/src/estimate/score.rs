@@ -3,9 +3,9 @@
 //! objects, per output kind; and the smoothness of object trajectories.
 //!
 //! Object RPE pools the frame pairs of every moving object (each pair weighs the same): a pair
-//! is two consecutive frames in which the object has both an estimate (of the same segment: an
-//! object whose frame was re-oriented starts a new one) and a truth pose. The estimate's object
-//! frame (origin at the centroid of its first points, x along its first motion) differs from
+//! is two consecutive frames in which the object has both an estimate (of the same orientation:
+//! an object whose frame was turned starts a new one) and a truth pose. The estimate's object
+//! frame (origin at the centroid of its first points, x along its direction of travel) differs from
 //! the truth's box frame by a fixed offset, which RPE does not see except through rotation.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -187,7 +187,7 @@ fn object_rpe_with(
 }
 
 /// The runs of object `id` in `est` whose consecutive frames RPE pairs: maximal stretches of
-/// consecutive frames `k` with an estimate of `id` of one segment with a known heading (before
+/// consecutive frames `k` with an estimate of `id` of one orientation with a known heading (before
 /// its heading is known an object's frame keeps the world's orientation, a placeholder that RPE
 /// would read as a rotation error) and `has_truth(k)`. Each entry: (k, the frame's estimate, the
 /// object's).
@@ -197,22 +197,22 @@ pub fn object_runs(
     has_truth: impl Fn(usize) -> bool,
 ) -> Vec<Vec<(usize, &PoseEstimate, &ObjectEstimate)>> {
     let mut runs = vec![Vec::new()];
-    let mut segment = None;
+    let mut orientation = None;
     for (k, e) in est.iter().enumerate() {
         let found =
             e.as_ref().and_then(|e| e.objects.iter().find(|o| o.object_id == id && o.heading_known).map(|o| (e, o)));
         match found {
             Some((e, o)) if has_truth(k) => {
-                if segment.is_some_and(|s| s != o.segment) {
+                if orientation.is_some_and(|s| s != o.orientation) {
                     runs.push(Vec::new());
                 }
-                segment = Some(o.segment);
+                orientation = Some(o.orientation);
                 if let Some(run) = runs.last_mut() {
                     run.push((k, e, o));
                 }
             }
             _ => {
-                if segment.take().is_some() {
+                if orientation.take().is_some() {
                     runs.push(Vec::new());
                 }
             }

@@ -236,6 +236,7 @@ mod tests {
             bev: BevState { x, y: 0.0, heading: 0.0, speed: 1.0 },
             heading_rate: 0.0,
             segment,
+            orientation: segment,
             heading_known,
         }
     }
