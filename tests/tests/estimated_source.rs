@@ -302,3 +302,25 @@ fn fusing_at_the_fit_reaches_the_estimator() {
     let rpe = fused.scores.kinds[1].object.expect("objects scored (causal)");
     assert!(rpe.translation.is_finite() && rpe.translation < 1.0, "{rpe:?}");
 }
+
+#[test]
+fn the_birds_eye_track_moves_only_what_a_forecast_reads() {
+    use dynotraj_host::estimate::evaluate::ObjectVariants;
+    let track = synthetic_drive_estimated(ObjectVariants::default());
+    let poses = synthetic_drive_estimated(ObjectVariants { bev_track: false, ..ObjectVariants::default() });
+    // Poses, motions and every smoothed or frame-to-frame estimate are the same, so is RPE...
+    assert_eq!(track.run.of(Kind::Smoothed), poses.run.of(Kind::Smoothed));
+    assert_eq!(track.run.of(Kind::FrameToFrame), poses.run.of(Kind::FrameToFrame));
+    assert_eq!(track.scores, poses.scores);
+    // ...while the causal bird's-eye states, what histories and forecasts take, are the track's.
+    let causal = |r: &dynotraj_host::estimate::evaluate::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
+    assert_ne!(causal(&track), causal(&poses));
+    for (a, b) in track.run.of(Kind::Causal).iter().zip(poses.run.of(Kind::Causal)) {
+        let (Some(a), Some(b)) = (a, b) else { continue };
+        for (oa, ob) in a.objects.iter().zip(&b.objects) {
+            assert_eq!((oa.object_id, oa.pose, oa.motion), (ob.object_id, ob.pose, ob.motion));
+            // The track follows the same object: within a few metres of its pose's origin.
+            assert!((oa.bev.x - ob.bev.x).hypot(oa.bev.y - ob.bev.y) < 5.0, "{:?} {:?}", oa.bev, ob.bev);
+        }
+    }
+}

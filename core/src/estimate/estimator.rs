@@ -273,7 +273,7 @@ impl<const W: usize> Estimator<W> {
         // an object only until its next measurement pulled it back). Uncoupled: frame-to-frame.
         let camera_now =
             if self.params.joint_sweeps > 0 { self.camera.measurement_pose() } else { *self.camera.frame_to_frame() };
-        self.coast_missing(has_previous);
+        self.coast_missing(has_previous, w.dt);
         if let Some(s) = w.leaving {
             self.drain_ended(s, w.dt_leaving);
         }
@@ -314,7 +314,7 @@ impl<const W: usize> Estimator<W> {
         if let Some(i) = leaving_info {
             self.smoothed.reset(i.frame, i.timestamp_us);
         }
-        WindowStep { leaving: leaving_info.map(|i| i.step), dt_leaving: leaving_info.map_or(dt, |i| i.dt) }
+        WindowStep { leaving: leaving_info.map(|i| i.step), dt_leaving: leaving_info.map_or(dt, |i| i.dt), dt }
     }
 
     /// The camera: its ego-motion measured from the static tracks (solved jointly with the
@@ -348,8 +348,8 @@ impl<const W: usize> Estimator<W> {
     /// Runs whose object is missing from this frame coast on their last motion (for at most
     /// MAX_HELD_FRAMES frames, then they end); one seen only once is dropped.
     #[inline(never)]
-    fn coast_missing(&mut self, has_previous: bool) {
-        let Self { runs, frame, stats, object_smoothness, scratch, .. } = self;
+    fn coast_missing(&mut self, has_previous: bool, dt: f32) {
+        let Self { runs, frame, stats, object_smoothness, scratch, params, .. } = self;
         for run in runs.iter_mut() {
             if !run.is_live() || frame.object(run.object_id).is_some() {
                 continue;
@@ -359,7 +359,9 @@ impl<const W: usize> Estimator<W> {
                 run.state = RunState::Free;
             } else if !has_previous {
                 run.state = RunState::Draining;
-            } else if let StepOutcome::Restart(cause) = run.coast(object_smoothness, scratch) {
+            } else if let StepOutcome::Restart(cause) =
+                run.coast(object_smoothness, scratch, dt, params.bev_track.as_ref())
+            {
                 stats.run_ended(cause);
                 run.state = RunState::Draining;
             } else {
@@ -393,7 +395,13 @@ impl<const W: usize> Estimator<W> {
             let mut restart = live.is_none();
             if let (Some(i), true) = (live, has_previous) {
                 let beyond_range = usize::from(obj.beyond_range) > obj.points.len();
-                let cx = PairContext { current: &obj.points, camera: camera_now, leaving: w.leaving, beyond_range };
+                let cx = PairContext {
+                    current: &obj.points,
+                    camera: camera_now,
+                    leaving: w.leaving,
+                    beyond_range,
+                    dt: w.dt,
+                };
                 let Some(run) = runs.get_mut(i) else { continue };
                 let was_coasting = run.coasted_since_fit();
                 let was_initialising = run.state == RunState::Initialising;
@@ -440,7 +448,7 @@ impl<const W: usize> Estimator<W> {
                 bump(&mut stats.objects_returned);
             }
             let Some(slot) = free_slot(runs, stats) else { continue };
-            if slot.initialise(obj, camera_now, model, step, params.object_min_points) {
+            if slot.initialise(obj, camera_now, model, step, params.object_min_points, params.bev_track.as_ref()) {
                 bump(&mut stats.objects_initialised);
             } else {
                 bump(&mut stats.objects_not_initialised);
@@ -478,6 +486,9 @@ impl<const W: usize> Estimator<W> {
             if let Some(e) = solve.finish(run, scratch, Some(fuse_with), &mut stats.numerical_failures) {
                 let _ = smoothed.objects.push(e);
             }
+            if let Some(p) = &params.bev_track {
+                run.update_bev_velocity(w.dt, p);
+            }
             if run.reorient_if_moved(params) {
                 bump(&mut stats.objects_reoriented);
             }
@@ -491,6 +502,8 @@ struct WindowStep {
     leaving: Option<u32>,
     /// The frame period of the frame leaving (this frame's when none leaves).
     dt_leaving: f32,
+    /// This frame's period.
+    dt: f32,
 }
 
 /// An object's chain solved with the camera held at the joint solution.

@@ -55,7 +55,10 @@
 //!   later frames ([`crate::wire::EstimateKind::Smoothed`]); never a forecast input.
 //!
 //! Each gives the camera pose, object poses and world motions and a bird's-eye state per object
-//! (x, y, heading, speed, heading rate); [`Estimator::map_points`] gives the bounded map of the
+//! (x, y, heading, speed, heading rate); the causal one's bird's-eye position, speed and
+//! heading come from the object's [`bev_track`] (its points' centroid fused with its motion's
+//! velocity) when [`EstimatorParams::bev_track`] is set, the default;
+//! [`Estimator::map_points`] gives the bounded map of the
 //! newest frame's static points.
 //!
 //! # Conventions
@@ -86,6 +89,7 @@
 //! | timestamps equal, decreasing or over `max_dt` apart | use `nominal_dt` for speeds | `timestamps_replaced` |
 //! | singular or non-finite normal equations | hold | `numerical_failures` |
 
+pub mod bev_track;
 mod camera;
 mod chain;
 mod estimator;
@@ -106,6 +110,7 @@ mod rng;
 mod stats;
 mod triad;
 
+pub use bev_track::{BevTrack, BevTrackParams};
 pub use chain::{ChainScratch, ChainSmoother, Smoothness};
 pub use estimator::{Estimator, Pushed};
 pub use fit::fit_pose;

@@ -8,6 +8,7 @@
 //! `Draining` (the object was not seen in a frame, or its motion was held too long: its frames
 //! still in the smoother's window are emitted as they leave) -> `Free`.
 
+use super::bev_track::{BevTrack, BevTrackParams};
 use super::chain::{ChainScratch, Smoothness};
 use super::frame::{ObjectPoints, Obs};
 use super::landmarks::{
@@ -21,7 +22,7 @@ use super::path::{Emitted, SmoothedPath};
 use super::point_model::PointModel;
 use super::rng::Pcg32;
 use super::stats::EndCause;
-use crate::geometry::{POSE3_IDENTITY, Point2, Pose3, se3_log};
+use crate::geometry::{POSE3_IDENTITY, Point2, Pose3, se3_exp, se3_log};
 use crate::wire::ObjectClass;
 use nalgebra::{Translation3, UnitQuaternion, Vector3};
 
@@ -35,6 +36,16 @@ const CENTROID_RADIUS_M: f32 = 4.0;
 /// Five frames are half a second at KITTI's 10 Hz: a car passing behind another, a mask that
 /// breaks for a few frames.
 pub const MAX_HELD_FRAMES: u8 = 5;
+
+/// Speed from which a causal estimate's heading is its bird's-eye track's direction of travel
+/// rather than its frame's x axis, m/s: slower, the direction of a filtered velocity is noise.
+const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
+
+/// The bird's-eye direction from `camera` to the world point `at`.
+fn bev_ray(camera: &Pose3, at: &Vector3<f32>) -> nalgebra::Vector2<f32> {
+    let d = at - camera.translation.vector;
+    nalgebra::Vector2::new(d.x, d.z)
+}
 
 /// How far from its predicted place an object's point may lie from a landmark to be paired with
 /// it when track ids fail ([`ObjectRun`]'s re-acquisition), metres: a few frames of coasting
@@ -91,6 +102,8 @@ pub struct PairContext<'a> {
     /// Whether most of the object's tracks in this frame lay beyond the usable depth (a failed
     /// fit then counts as out of range).
     pub beyond_range: bool,
+    /// Seconds since the previous frame.
+    pub dt: f32,
 }
 
 /// One object's run; see the module docs.
@@ -141,6 +154,8 @@ pub struct ObjectRun<const W: usize> {
     /// The newest measured step's fitted object-from-camera pose, which its points are fused
     /// with when [`EstimatorParams::fuse_at_fit`] is set (see [`ObjectRun::finish`]).
     fitted: Option<Pose3>,
+    /// The bird's-eye track the causal estimate reports (with [`EstimatorParams::bev_track`]).
+    bev: BevTrack,
 }
 
 impl<const W: usize> Default for ObjectRun<W> {
@@ -184,6 +199,7 @@ impl<const W: usize> ObjectRun<W> {
             stepped: None,
             landmarks: Landmarks::new(),
             fitted: None,
+            bev: BevTrack::new(),
             travel: Vector3::new(0.0, 0.0, 0.0),
         }
     }
@@ -209,6 +225,7 @@ impl<const W: usize> ObjectRun<W> {
         model: &PointModel,
         step: u32,
         min_points: u16,
+        bev: Option<&BevTrackParams>,
     ) -> bool {
         let (object_id, class, points) = (object.object_id, object.class, &object.points[..]);
         if points.len() < usize::from(min_points) {
@@ -225,6 +242,14 @@ impl<const W: usize> ObjectRun<W> {
         self.last_measured_step = step;
         self.origin = Point2::new(c.x, c.z);
         initial_landmarks(points, &(self.provisional.inverse() * camera), model, &mut self.landmarks);
+        if let Some(p) = bev {
+            self.bev.update_position(
+                &nalgebra::Vector2::new(c.x, c.z),
+                &bev_ray(camera, &c.coords),
+                model.depth_error((camera.inverse() * c).z, p.centroid_disparity_px),
+                p,
+            );
+        }
         true
     }
 
@@ -239,6 +264,14 @@ impl<const W: usize> ObjectRun<W> {
     pub fn measure(&mut self, cx: &PairContext<'_>, params: &EstimatorParams, m: &mut Measuring<'_, W>) -> StepOutcome {
         let (model, s) = (m.model, m.smoothness);
         let (rng, corrs, scratch) = (&mut *m.rng, &mut *m.corrs, &mut *m.scratch);
+        if let Some(p) = &params.bev_track {
+            self.bev.predict(cx.dt, p);
+            if let Some(c) = robust_centroid(cx.current, cx.camera, model, CENTROID_RADIUS_M) {
+                let depth = (cx.camera.inverse() * c).z;
+                let sigma = model.depth_error(depth, p.centroid_disparity_px);
+                self.bev.update_position(&nalgebra::Vector2::new(c.x, c.z), &bev_ray(cx.camera, &c.coords), sigma, p);
+            }
+        }
         let frame = self.frame_pose();
         // Source points: the landmarks, in the object's frame (at k-1, i.e. `frame`).
         let a = cx.camera.inverse() * frame;
@@ -301,10 +334,19 @@ impl<const W: usize> ObjectRun<W> {
 
     /// Advances a tracking run whose object is missing from the frame by its last motion, with
     /// no measurement: it coasts for up to [`MAX_HELD_FRAMES`] frames, then must end
-    /// (`StepOutcome::Restart` with `EndCause::Lost`).
-    pub fn coast(&mut self, s: &Smoothness, scratch: &mut ChainScratch<W>) -> StepOutcome {
+    /// (`StepOutcome::Restart` with `EndCause::Lost`). Its bird's-eye track moves `dt` on.
+    pub fn coast(
+        &mut self,
+        s: &Smoothness,
+        scratch: &mut ChainScratch<W>,
+        dt: f32,
+        bev: Option<&BevTrackParams>,
+    ) -> StepOutcome {
         if self.state != RunState::Tracking {
             return StepOutcome::Restart(EndCause::Lost);
+        }
+        if let Some(p) = bev {
+            self.bev.predict(dt, p);
         }
         self.step(None, &[0.0; 6], EndCause::Lost, s, scratch)
     }
@@ -494,11 +536,22 @@ impl<const W: usize> ObjectRun<W> {
         )
     }
 
+    /// Gives the bird's-eye track the newest causal motion's velocity (over `dt` seconds):
+    /// after the window's solve, for a tracking run.
+    pub fn update_bev_velocity(&mut self, dt: f32, p: &BevTrackParams) {
+        if self.state != RunState::Tracking || dt.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+            return;
+        }
+        let pose = self.path.causal();
+        let t = pose.rotation * se3_exp(self.path.causal_xi()).translation.vector / dt;
+        self.bev.update_velocity(&nalgebra::Vector2::new(t.x, t.z), p);
+    }
+
     /// The causal estimate of the newest frame (tracking runs only).
     #[must_use]
     pub fn causal(&self, dt: f32) -> Option<ObjectEstimate> {
         (self.state == RunState::Tracking).then(|| {
-            object_estimate(
+            let mut e = object_estimate(
                 self.object_id,
                 self.class,
                 self.path.causal(),
@@ -506,7 +559,18 @@ impl<const W: usize> ObjectRun<W> {
                 dt,
                 (self.segment, self.orientation),
                 self.heading_known,
-            )
+            );
+            if self.bev.started() {
+                let (at, v) = (self.bev.position(), self.bev.velocity());
+                let speed = v.norm();
+                e.bev.x = at.x;
+                e.bev.y = at.y;
+                e.bev.speed = speed;
+                if speed >= TRAVEL_HEADING_MIN_SPEED {
+                    e.bev.heading = libm::atan2f(v.y, v.x);
+                }
+            }
+            e
         })
     }
 

@@ -25,7 +25,9 @@ pub struct ObjectEstimate {
     pub pose: Pose3,
     /// World-frame motion into this frame, `H = L_k L_(k-1)^-1`.
     pub motion: Pose3,
-    /// Bird's-eye state: position of the pose origin, heading of the pose's x axis, speed.
+    /// Bird's-eye state: position of the pose origin, heading of the pose's x axis, speed; in a
+    /// causal estimate with a bird's-eye track ([`super::EstimatorParams::bev_track`]) the
+    /// track's position, speed and direction of travel instead.
     pub bev: BevState,
     /// Heading rate, rad/s, counter-clockwise seen from above.
     pub heading_rate: f32,

@@ -7,6 +7,8 @@
 /// ([`EstimatorParams::joint_sweeps`]; docs/results.md has the figures per setting).
 pub const JOINT_SWEEPS: usize = 6;
 
+use super::bev_track::BevTrackParams;
+
 /// Pinhole intrinsics of the reference (left) camera, plus the stereo constant that turns depth
 /// into disparity.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -177,6 +179,10 @@ pub struct EstimatorParams {
     /// and landmarks fused there carry the lag into later fits, but fits fused as they are cost
     /// coverage (docs/decisions.md "Following the object").
     pub fuse_at_fit: bool,
+    /// The bird's-eye track a causal estimate reports (position, speed, heading): a filter
+    /// fusing the centroid of the object's points with its motion's velocity
+    /// ([`super::bev_track`]); `None` reports the pose's origin and the motion's speed.
+    pub bev_track: Option<BevTrackParams>,
     /// Constant-motion prior of the object smoother.
     pub object_smoother: SmootherParams,
     /// Constant-motion prior of the camera smoother.
@@ -233,6 +239,7 @@ impl EstimatorParams {
             heading_min_baseline_m: 0.5,
             heading_realign_rad: None,
             fuse_at_fit: false,
+            bev_track: Some(BevTrackParams::ROAD),
             object_smoother: SmootherParams::VEHICLE_OBJECT,
             // The ego vehicle's motion changes smoothly: 0.05 m and 0.005 rad per frame of change
             // (about 5 m/s^2 and 0.5 rad/s^2 at 10 Hz) are loose bounds on a car's dynamics.

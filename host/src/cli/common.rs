@@ -147,6 +147,10 @@ pub struct OursArgs {
     /// default).
     #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.0, value_name = "PX")]
     pub shared_disparity: f32,
+    /// Estimator variant: causal estimates report the object's pose origin and its motion's
+    /// speed instead of the bird's-eye track that fuses its points' centroid with its motion.
+    #[arg(long)]
+    pub no_bev_track: bool,
 }
 
 impl OursArgs {
@@ -157,6 +161,7 @@ impl OursArgs {
             fuse_at_fit: self.fuse_at_fit,
             heading_realign_rad: self.realign_heading.map(f32::to_radians),
             shared_disparity_px: self.shared_disparity,
+            bev_track: !self.no_bev_track,
         }
     }
 }

@@ -54,9 +54,10 @@ pub struct EvalOptions {
     pub object_variants: ObjectVariants,
 }
 
-/// Alternatives in how the estimator follows an object, off by default; each was measured as
-/// an approach to the estimated states' error (docs/decisions.md "Following the object").
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// Alternatives in how the estimator follows an object, each measured as an approach to the
+/// estimated states' error (docs/decisions.md "Following the object"); the default is the
+/// estimator's.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObjectVariants {
     /// [`EstimatorParams::fuse_at_fit`].
     pub fuse_at_fit: bool,
@@ -64,6 +65,15 @@ pub struct ObjectVariants {
     pub heading_realign_rad: Option<f32>,
     /// [`dynotraj_core::estimate::FitParams::shared_disparity_px`] of object fits.
     pub shared_disparity_px: f32,
+    /// Whether causal estimates report the bird's-eye track
+    /// ([`EstimatorParams::bev_track`], on by default).
+    pub bev_track: bool,
+}
+
+impl Default for ObjectVariants {
+    fn default() -> Self {
+        Self { fuse_at_fit: false, heading_realign_rad: None, shared_disparity_px: 0.0, bev_track: true }
+    }
 }
 
 impl EvalOptions {
@@ -75,6 +85,9 @@ impl EvalOptions {
         p.fuse_at_fit = self.object_variants.fuse_at_fit;
         p.heading_realign_rad = self.object_variants.heading_realign_rad;
         p.object_fit.shared_disparity_px = self.object_variants.shared_disparity_px;
+        if !self.object_variants.bev_track {
+            p.bev_track = None;
+        }
     }
 }
 
