@@ -24,7 +24,7 @@ use super::rng::Pcg32;
 use super::stats::EndCause;
 use crate::geometry::{POSE3_IDENTITY, Point2, Pose3, se3_exp, se3_log};
 use crate::wire::ObjectClass;
-use nalgebra::{Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Point3, Translation3, UnitQuaternion, Vector2, Vector3};
 
 /// Radius around the median of an object's points within which points count for its centroid,
 /// metres: larger than any road vehicle's half-length, smaller than the gap to a neighbour.
@@ -41,10 +41,12 @@ pub const MAX_HELD_FRAMES: u8 = 5;
 /// rather than its frame's x axis, m/s: slower, the direction of a filtered velocity is noise.
 const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
 
-/// The bird's-eye direction from `camera` to the world point `at`.
-fn bev_ray(camera: &Pose3, at: &Vector3<f32>) -> nalgebra::Vector2<f32> {
-    let d = at - camera.translation.vector;
-    nalgebra::Vector2::new(d.x, d.z)
+/// Gives `track` the world centroid `c` of an object's points seen by `camera`: its bird's-eye
+/// position, the bird's-eye direction it was seen along and its depth error under `model`.
+fn observe_centroid(track: &mut BevTrack, c: &Point3<f32>, camera: &Pose3, model: &PointModel, p: &BevTrackParams) {
+    let ray = c.coords - camera.translation.vector;
+    let depth_sigma = model.depth_error((camera.inverse() * c).z, p.centroid_disparity_px);
+    track.update_position(&Vector2::new(c.x, c.z), &Vector2::new(ray.x, ray.z), depth_sigma, p);
 }
 
 /// How far from its predicted place an object's point may lie from a landmark to be paired with
@@ -243,12 +245,7 @@ impl<const W: usize> ObjectRun<W> {
         self.origin = Point2::new(c.x, c.z);
         initial_landmarks(points, &(self.provisional.inverse() * camera), model, &mut self.landmarks);
         if let Some(p) = bev {
-            self.bev.update_position(
-                &nalgebra::Vector2::new(c.x, c.z),
-                &bev_ray(camera, &c.coords),
-                model.depth_error((camera.inverse() * c).z, p.centroid_disparity_px),
-                p,
-            );
+            observe_centroid(&mut self.bev, &c, camera, model, p);
         }
         true
     }
@@ -267,9 +264,7 @@ impl<const W: usize> ObjectRun<W> {
         if let Some(p) = &params.bev_track {
             self.bev.predict(cx.dt, p);
             if let Some(c) = robust_centroid(cx.current, cx.camera, model, CENTROID_RADIUS_M) {
-                let depth = (cx.camera.inverse() * c).z;
-                let sigma = model.depth_error(depth, p.centroid_disparity_px);
-                self.bev.update_position(&nalgebra::Vector2::new(c.x, c.z), &bev_ray(cx.camera, &c.coords), sigma, p);
+                observe_centroid(&mut self.bev, &c, cx.camera, model, p);
             }
         }
         let frame = self.frame_pose();
@@ -544,7 +539,7 @@ impl<const W: usize> ObjectRun<W> {
         }
         let pose = self.path.causal();
         let t = pose.rotation * se3_exp(self.path.causal_xi()).translation.vector / dt;
-        self.bev.update_velocity(&nalgebra::Vector2::new(t.x, t.z), p);
+        self.bev.update_velocity(&Vector2::new(t.x, t.z), p);
     }
 
     /// The causal estimate of the newest frame (tracking runs only).
