@@ -170,14 +170,25 @@ pub fn parse_calib(text: &str, path: &Path) -> Result<Calib, KittiError> {
 }
 
 /// What a rectified camera's projection matrix `K [I | t]` must look like.
-const PROJECTION_EXPECTED: &str = "a rectified projection matrix: focal lengths P[0][0], P[1][1] > 0, P[2][2] = 1";
+const PROJECTION_EXPECTED: &str = "a rectified projection matrix: focal lengths P[0][0], P[1][1] from 1 to 100000 px, \
+     every entry within 1e7, P[2][2] = 1";
+
+/// Focal lengths a camera can have, pixels: a 1 px focal length is a pinhole the size of a
+/// pixel, 100,000 px a telescope; outside, the estimator's f32 arithmetic would be garbage.
+const FOCAL_RANGE_PX: std::ops::RangeInclusive<f64> = 1.0..=100_000.0;
+/// Largest magnitude of any projection entry (principal points, `-f x baseline`): f32-safe.
+const PROJECTION_MAX_ABS: f64 = 1e7;
 
 /// Why the 12 row-major numbers `m` are not a rectified camera's projection matrix, if they
-/// are not (an all-zero P0 would otherwise give every depth as zero, and a nonsense ego-motion).
+/// are not (an all-zero P0 would otherwise give every depth as zero, and a nonsense ego-motion;
+/// a focal length of 1e39 or 1e-300 overflows or vanishes in the estimator's f32).
 fn projection_defect(m: &[f64]) -> Option<String> {
     let (fx, fy, w) = (m.first()?, m.get(5)?, m.get(10)?);
-    if *fx <= 0.0 || *fy <= 0.0 {
+    if !FOCAL_RANGE_PX.contains(fx) || !FOCAL_RANGE_PX.contains(fy) {
         return Some(format!("focal lengths {fx} and {fy}"));
+    }
+    if let Some((j, v)) = m.iter().enumerate().find(|(_, v)| v.abs() > PROJECTION_MAX_ABS) {
+        return Some(format!("P[{}][{}] = {v}", j / 4, j % 4));
     }
     ((w - 1.0).abs() > 1e-6).then(|| format!("P[2][2] = {w}"))
 }
@@ -300,6 +311,15 @@ mod tests {
         let flat = "P2: 720 0 610 0 0 720 173 0 0 0 0 0".to_string();
         let e = parse_calib(&edit_line(&text, 3, |_| flat.clone()), &p()).unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("P[2][2] = 0"), "{e}");
+        // Focal lengths that overflow or vanish in f32, and an entry no camera has.
+        for (fx, shown) in [("1e39", "focal lengths 1000000000000"), ("1e-300", "focal lengths 0.000")] {
+            let bad = format!("P0: {fx} 0 610 0 0 720 173 0 0 0 1 0");
+            let e = parse_calib(&edit_line(&text, 1, |_| bad.clone()), &p()).unwrap_err().to_string();
+            assert!(e.contains("line 1") && e.contains(shown) && e.contains("from 1 to 100000 px"), "{e}");
+        }
+        let far = "P1: 720 0 610 -3e12 0 720 173 0 0 0 1 0".to_string();
+        let e = parse_calib(&edit_line(&text, 2, |_| far.clone()), &p()).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("P[0][3] = -3000000000000"), "{e}");
     }
 
     #[test]
