@@ -127,8 +127,8 @@ impl LabelRow {
 ///
 /// # Errors
 /// [`KittiError::Parse`] (naming `path`, the 1-based line and the field) for a column count other
-/// than 17 or 18, a non-numeric or non-finite number, a negative or non-integer `frame`, a non-integer or
-/// `< -1` `track_id`, a non-integer `occluded`.
+/// than 17 or 18, a non-numeric or non-finite number, a negative or non-integer `frame`, a non-integer,
+/// `< -1` or `>` [`MAX_TRACK_ID`] `track_id`, a non-integer `occluded`.
 pub fn parse_labels(text: &str, path: &Path) -> Result<Vec<LabelRow>, KittiError> {
     let mut rows = Vec::new();
     // (frame, track id) -> line: an object labelled twice in a frame is an error, not a row
@@ -156,6 +156,10 @@ pub fn parse_labels(text: &str, path: &Path) -> Result<Vec<LabelRow>, KittiError
     Ok(rows)
 }
 
+/// The largest track id a label may carry: the wire names an object by its track id + 1 in a
+/// `u16`, and a larger id would drop the object from every estimated source without a word.
+pub const MAX_TRACK_ID: i64 = u16::MAX as i64 - 1;
+
 /// KITTI's object types (label column `type`): the tracking benchmark's (`Person` is its
 /// spelling of the object benchmark's `Person_sitting`, which is accepted too).
 pub const OBJECT_TYPES: [&str; 10] =
@@ -181,11 +185,11 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         return Err(ctx.error(COLUMNS[0], Some(1), "a non-negative frame index", quote(toks[0])));
     }
     let track_id = ctx.integer(toks[1], COLUMNS[1], Some(2))?;
-    if track_id < -1 || track_id > i64::from(i32::MAX) {
+    if track_id < -1 || track_id > MAX_TRACK_ID {
         return Err(ctx.error(
             COLUMNS[1],
             Some(2),
-            "a track id from 0 to 2147483647, or -1 for DontCare",
+            "a track id from 0 to 65534 (the link carries an object's id, track id + 1, in 16 bits), or -1 for DontCare",
             quote(toks[1]),
         ));
     }
@@ -323,7 +327,7 @@ mod tests {
         let e = parse_labels(&van.replace("Van", "cyclist"), &p()).unwrap_err().to_string();
         assert!(e.contains("line 1") && e.contains("`cyclist`") && e.contains("Cyclist"), "{e}");
         let e = parse_labels(&van.replacen("0 0 Van", "0 2147483648 Van", 1), &p()).unwrap_err().to_string();
-        assert!(e.contains("`2147483648`") && e.contains("2147483647"), "{e}");
+        assert!(e.contains("`2147483648`") && e.contains("65534"), "{e}");
         let e = parse_labels(&van.replace("13.5 -2.0", "1e300 -2.0"), &p()).unwrap_err().to_string();
         assert!(e.contains("field `z`") && e.contains("within 10000 m"), "{e}");
         let e = parse_labels(&van.replace(" 2.1 1.85 4.5", " 2.1 0 4.5"), &p()).unwrap_err().to_string();
@@ -399,6 +403,13 @@ mod tests {
         assert!(m.contains("field `frame`"), "{m}");
         let m = err("1 -3 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
         assert!(m.contains("field `track_id`"), "{m}");
+        // The largest id the link can name, and one past it.
+        assert!(parse_labels("1 65534 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n", Path::new("t")).is_ok());
+        let m = err("1 65535 Car 0 0 0 1 2 3 4 1.5 1.6 4 1 2 20 0.1\n");
+        assert!(
+            m.contains("line 1, field `track_id` (column 2)") && m.contains("16 bits") && m.contains("`65535`"),
+            "{m}"
+        );
     }
 
     #[test]
