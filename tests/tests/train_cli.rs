@@ -96,3 +96,30 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
         assert!(help.contains(flag), "{flag} missing from --help");
     }
 }
+
+#[test]
+fn an_out_that_cannot_be_a_folder_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("taken");
+    fs::write(&file, b"a file").unwrap();
+    // The data folder does not exist either: the --out error coming first shows that nothing
+    // was loaded, let alone trained, before it.
+    let missing = dir.path().join("no-kitti");
+    let args = [
+        "dynotraj",
+        "train",
+        "--kitti",
+        missing.to_str().unwrap(),
+        "--exclude",
+        "0000",
+        "--out",
+        file.to_str().unwrap(),
+    ];
+    let Command::Train(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the train command") };
+    let e = format!("{:#}", train::run(&a).unwrap_err());
+    assert!(e.starts_with("--out ") && e.contains("taken") && e.contains("expected a folder"), "{e}");
+    let args = ["dynotraj", "soak", "--kitti", missing.to_str().unwrap(), "--out", file.to_str().unwrap()];
+    let Command::Soak(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the soak command") };
+    let e = format!("{:#}", dynotraj_host::cli::soak::run(&a).unwrap_err());
+    assert!(e.starts_with("--out ") && e.contains("expected a folder"), "{e}");
+}

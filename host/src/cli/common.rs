@@ -50,6 +50,17 @@ pub struct DataArgs {
     pub ours: OursArgs,
 }
 
+/// Makes `dir`, the output folder named by `flag`, before a command's work starts: a training
+/// or a soak of minutes must not end in `File exists`.
+///
+/// # Errors
+/// `dir` cannot be made a folder (a file of that name, no permission), naming the flag.
+pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!("{flag} {}: expected a folder for the outputs, which could not be made ({e})", dir.display())
+    })
+}
+
 /// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
 ///
 /// # Errors

@@ -55,6 +55,9 @@ pub struct SoakArgs {
 /// # Errors
 /// Input, edge start-up or link errors, named; a clean frame left unanswered.
 pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
+    if let Some(dir) = &args.out {
+        super::common::output_folder("--out", dir)?;
+    }
     let report = soak_edge(args)?;
     print!("{}", soak_summary(&report));
     if let Some(dir) = &args.out {

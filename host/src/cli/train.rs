@@ -258,6 +258,7 @@ impl HyperArgs {
 /// # Errors
 /// Loading errors, no training instances, I/O errors.
 pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
+    super::common::output_folder("--out", &args.out)?;
     let dt = args.data.dt()?;
     let rule = args.data.rule()?;
     let sequences = args.data.load_for(&args.sequences, &[args.source])?;
@@ -296,7 +297,6 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         }
     })?;
     bar.finish_and_clear();
-    std::fs::create_dir_all(&args.out).with_context(|| format!("--out: creating {}", args.out.display()))?;
     let files = model.save(&args.out.join(MODEL_FILE))?;
     if args.precision != PrecisionArg::F32 {
         let path = &files.f32_blob;
