@@ -21,8 +21,9 @@ use crate::report::{Cell, ColumnKind, Data, Format, Table};
 /// Options of `dynotraj bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// A trained f32 blob; its int8 twin is read from PATH.int8 when present, else quantised
-    /// here. Without it, blobs of --dims with seeded random weights are timed (same cost).
+    /// A trained blob. An f32 one is timed with its int8 twin, read from PATH.int8 when
+    /// present, else quantised here; an int8 one is timed alone. Without it, blobs of --dims
+    /// with seeded random weights are timed (same cost).
     #[arg(long, value_name = "PATH")]
     pub model: Option<PathBuf>,
     /// Widths enc,edge,k,dec (one or more sets separated by `;`) when no --model is given.
@@ -93,22 +94,29 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
         ("scratch_bytes", Int),
         ("us_per_object", Num),
     ]);
-    let mut configs: Vec<(String, Dims, Vec<u8>, Vec<u8>)> = Vec::new();
+    // Per model: its name, widths, and each precision's blob.
+    let mut configs: Vec<(String, Dims, Vec<(&str, Vec<u8>)>)> = Vec::new();
     if let Some(path) = &args.model {
         let f = ModelFile::load(path)?;
         let dims = f.blob().dims();
         let int8_path = PathBuf::from(format!("{}.int8", path.display()));
-        let q = if int8_path.exists() {
-            ModelFile::load(&int8_path)?.bytes().to_vec()
+        let q = if f.blob().precision() == Precision::Int8 {
+            // An int8 blob has no f32 twin to time: its row says int8.
+            configs.push((path.display().to_string(), dims, vec![("int8", f.bytes().to_vec())]));
+            None
+        } else if int8_path.exists() {
+            Some(ModelFile::load(&int8_path)?.bytes().to_vec())
         } else {
             let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
             let tensors = crate::model_file::float_tensors(&f.blob());
             let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
             write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
                 .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
-            buf
+            Some(buf)
         };
-        configs.push((path.display().to_string(), dims, f.bytes().to_vec(), q));
+        if let Some(q) = q {
+            configs.push((path.display().to_string(), dims, vec![("f32", f.bytes().to_vec()), ("int8", q)]));
+        }
     } else {
         for d in args.dims.split(';') {
             let dims = parse_dims(d)?;
@@ -121,14 +129,16 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
             configs.push((
                 "random weights".into(),
                 dims,
-                random_blob(&dims, Precision::F32, dt),
-                random_blob(&dims, Precision::Int8, dt),
+                vec![
+                    ("f32", random_blob(&dims, Precision::F32, dt)),
+                    ("int8", random_blob(&dims, Precision::Int8, dt)),
+                ],
             ));
         }
     }
     let fmt_dims = |d: &Dims| format!("{},{},{},{}", d.enc, d.edge, d.k, d.dec);
-    for (name, dims, f32_blob, int8_blob) in &configs {
-        for (precision, bytes) in [("f32", f32_blob), ("int8", int8_blob)] {
+    for (name, dims, blobs) in &configs {
+        for &(precision, ref bytes) in blobs {
             let file = ModelFile::from_bytes(bytes.clone(), name)?;
             let mut p: LearnedPredictor<'_> = file.predictor();
             let us = Cell::num(time_per_forecast(&mut p, dt, args.iterations), 1);
