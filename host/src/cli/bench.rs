@@ -72,6 +72,9 @@ fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
     start.elapsed().as_secs_f64() * 1e6 / f64::from(iterations)
 }
 
+/// A model to time: its name, widths, and each precision's blob.
+type TimedModel = (String, Dims, Vec<(&'static str, Vec<u8>)>);
+
 /// Times every configuration.
 ///
 /// # Errors
@@ -94,8 +97,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
         ("scratch_bytes", Int),
         ("us_per_object", Num),
     ]);
-    // Per model: its name, widths, and each precision's blob.
-    let mut configs: Vec<(String, Dims, Vec<(&str, Vec<u8>)>)> = Vec::new();
+    let mut configs: Vec<TimedModel> = Vec::new();
     if let Some(path) = &args.model {
         let f = ModelFile::load(path)?;
         let dims = f.blob().dims();

@@ -185,7 +185,7 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         return Err(ctx.error(COLUMNS[0], Some(1), "a non-negative frame index", quote(toks[0])));
     }
     let track_id = ctx.integer(toks[1], COLUMNS[1], Some(2))?;
-    if track_id < -1 || track_id > MAX_TRACK_ID {
+    if !(-1..=MAX_TRACK_ID).contains(&track_id) {
         return Err(ctx.error(
             COLUMNS[1],
             Some(2),
