@@ -50,15 +50,25 @@ pub struct DataArgs {
     pub ours: OursArgs,
 }
 
-/// Makes `dir`, the output folder named by `flag`, before a command's work starts: a training
-/// or a soak of minutes must not end in `File exists`.
+/// Checks, before a command's work starts, that `dir` (the output folder named by `flag`) can
+/// be made a folder: neither it nor any ancestor is a file. A training or a soak of minutes must
+/// not end in `File exists`; nothing is created, so a refused command leaves nothing behind.
 ///
 /// # Errors
-/// `dir` cannot be made a folder (a file of that name, no permission), naming the flag.
+/// `dir` or an ancestor is not a folder, naming the flag and the file.
 pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| {
-        anyhow::anyhow!("{flag} {}: expected a folder for the outputs, which could not be made ({e})", dir.display())
-    })
+    for p in dir.ancestors().filter(|p| !p.as_os_str().is_empty()) {
+        if p.exists() {
+            anyhow::ensure!(
+                p.is_dir(),
+                "{flag} {}: expected a folder for the outputs, found a file at {}",
+                dir.display(),
+                p.display()
+            );
+            return Ok(());
+        }
+    }
+    Ok(())
 }
 
 /// The sequences a command works on: `given`, or every sequence of `dir` when none is given.

@@ -297,6 +297,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         }
     })?;
     bar.finish_and_clear();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("--out: creating {}", args.out.display()))?;
     let files = model.save(&args.out.join(MODEL_FILE))?;
     if args.precision != PrecisionArg::F32 {
         let path = &files.f32_blob;
