@@ -69,6 +69,26 @@ fn sequences_given_twice_and_unknown_exclusions_are_errors() {
         "--exclude 9999: no such sequence was loaded (loaded: 0000, 0001)",
     );
     assert!(!Path::new(out).exists(), "nothing trained");
+    // A test sequence the folder holds but --sequences left out is named as not loaded, with the
+    // way out, not as missing from the folder.
+    let report = dir.path().join("report");
+    refused(
+        &[
+            "experiment",
+            "--kitti",
+            kitti,
+            "--sequences",
+            "0000",
+            "--tests",
+            "0001",
+            "--arms",
+            "gt",
+            "--out",
+            report.to_str().expect("utf-8"),
+        ],
+        1,
+        "test sequence 0001 is not among the sequences loaded (0000): add it to --sequences",
+    );
 }
 
 #[test]

@@ -188,6 +188,17 @@ pub fn fold_specs(config: &ExperimentConfig, seeds: &[u64]) -> Vec<FoldSpec> {
     out
 }
 
+/// Why test sequence `id` cannot be used: it is not among the loaded `sequences` (which
+/// `--sequences` may have narrowed; the folder may well hold it).
+fn not_loaded(id: &str, sequences: &[SequenceTracks]) -> String {
+    let loaded: Vec<&str> = sequences.iter().map(|s| s.id.as_str()).collect();
+    format!(
+        "test sequence {id} is not among the sequences loaded ({}): add it to --sequences, or leave --sequences out \
+         to load every sequence of the folder",
+        loaded.join(", ")
+    )
+}
+
 /// Fails unless every test sequence is loaded, no sequence is in two folds, and every arm's
 /// tracks are there.
 ///
@@ -196,7 +207,7 @@ pub fn fold_specs(config: &ExperimentConfig, seeds: &[u64]) -> Vec<FoldSpec> {
 pub fn check_inputs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> anyhow::Result<()> {
     let mut seen = BTreeSet::new();
     for id in config.test_sequences() {
-        anyhow::ensure!(sequences.iter().any(|s| s.id == id), "test sequence {id} is not in the data folder");
+        anyhow::ensure!(sequences.iter().any(|s| s.id == id), "{}", not_loaded(&id, sequences));
         anyhow::ensure!(seen.insert(id.clone()), "test sequence {id} is in two folds");
     }
     for &source in &config.arms {
@@ -260,12 +271,7 @@ pub fn score_seed(
     let ids = config.test_sequences();
     let tests: Vec<&SequenceTracks> = ids
         .iter()
-        .map(|id| {
-            sequences
-                .iter()
-                .find(|s| &s.id == id)
-                .with_context(|| format!("test sequence {id} is not in the data folder"))
-        })
+        .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| not_loaded(id, sequences)))
         .collect::<anyhow::Result<_>>()?;
     if let Some(dir) = &config.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
