@@ -3,8 +3,31 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
+use dynotraj_core::model::Dims;
 use dynotraj_core::model::LearnedPredictor;
-use dynotraj_core::model::blob::ModelBlob;
+use dynotraj_core::model::arch::{MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K};
+use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len};
+use dynotraj_core::model::signed::TRAILER_LEN;
+
+/// The largest file a model can be: an f32 blob at the architecture's widest, signed.
+pub const MAX_MODEL_FILE_BYTES: usize =
+    blob_len(&Dims { enc: MAX_ENC, edge: MAX_EDGE, k: MAX_K, dec: MAX_DEC }, Precision::F32) + TRAILER_LEN;
+
+/// Reads a model file (a blob or a signed blob), refusing one larger than any model can be
+/// before reading it: a wrong path to a large file must not fill memory.
+///
+/// # Errors
+/// A missing or unreadable file, or one over [`MAX_MODEL_FILE_BYTES`], with the path named.
+pub fn read_model_file(path: &Path) -> anyhow::Result<Vec<u8>> {
+    let len = std::fs::metadata(path).with_context(|| format!("reading {}", path.display()))?.len();
+    anyhow::ensure!(
+        len <= MAX_MODEL_FILE_BYTES as u64,
+        "{}: expected a model file of at most {MAX_MODEL_FILE_BYTES} bytes (the largest model this build runs, \
+         signed), found {len}",
+        path.display()
+    );
+    std::fs::read(path).with_context(|| format!("reading {}", path.display()))
+}
 
 /// A model blob read from a file and validated.
 #[derive(Debug, Clone)]
@@ -17,10 +40,10 @@ impl ModelFile {
     /// Reads and validates the blob at `path`.
     ///
     /// # Errors
-    /// A missing or unreadable file, or a blob the core refuses (wrong version, widths, CRC...),
-    /// with the path named.
+    /// A missing or unreadable file, one larger than [`MAX_MODEL_FILE_BYTES`] (refused before
+    /// it is read), or a blob the core refuses (wrong version, widths, CRC...), with the path named.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let bytes = std::fs::read(path).with_context(|| format!("reading model blob {}", path.display()))?;
+        let bytes = read_model_file(path).context("model blob")?;
         ModelBlob::parse_exact(&bytes).map_err(|e| anyhow::anyhow!("model blob {}: {e}", path.display()))?;
         Ok(Self { path: path.to_path_buf(), bytes })
     }
@@ -74,4 +97,25 @@ pub fn float_tensors(blob: &ModelBlob<'_>) -> Vec<Vec<f32>> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_larger_than_any_model_is_refused_before_it_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.blob");
+        // Sparse: 1 GiB on paper, nothing on disk or in memory.
+        std::fs::File::create(&path).unwrap().set_len(1 << 30).unwrap();
+        for e in
+            [format!("{:#}", read_model_file(&path).unwrap_err()), format!("{:#}", ModelFile::load(&path).unwrap_err())]
+        {
+            assert!(
+                e.contains("huge.blob") && e.contains("expected a model file of at most") && e.contains("1073741824"),
+                "{e}"
+            );
+        }
+    }
 }

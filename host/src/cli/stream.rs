@@ -67,11 +67,7 @@ pub struct StreamArgs {
 /// Input, link or output errors, named.
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let tracks = load(args)?;
-    let model = args
-        .model
-        .as_ref()
-        .map(|p| std::fs::read(p).with_context(|| format!("--model {}", p.display())))
-        .transpose()?;
+    let model = args.model.as_ref().map(|p| crate::model_file::read_model_file(p).context("--model")).transpose()?;
     if let (Some(bytes), Some(p)) = (&model, &args.model)
         && let Err(e) = dynotraj_core::model::signed::split(bytes)
     {
