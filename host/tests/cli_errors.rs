@@ -92,6 +92,19 @@ fn sequences_given_twice_and_unknown_exclusions_are_errors() {
 }
 
 #[test]
+fn a_soak_edge_that_is_no_edge_is_named() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().expect("utf-8");
+    // `sleep` refuses the edge's arguments with an error line, which is not an address.
+    refused(
+        &["soak", "--kitti", kitti, "--sequences", "0000", "--edge", "/bin/sleep", "--frames", "2"],
+        1,
+        "the edge /bin/sleep did not say where it listens: expected its first line to end in tcp://HOST:PORT, found `",
+    );
+}
+
+#[test]
 fn a_stream_no_edge_answers_fails() {
     let dir = tempfile::tempdir().expect("temp dir");
     synthetic_kitti(dir.path());

@@ -94,7 +94,17 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         })?;
     let mut lines = BufReader::new(child.stderr.take().context("edge stderr")?).lines();
     let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
-    let addr = first.rsplit("tcp://").next().unwrap_or_default().trim().to_string();
+    let Some((_, addr)) = first.rsplit_once("tcp://") else {
+        // Not an edge (or one that failed to start): what it said is its error, not an address.
+        let _ = child.kill();
+        let _ = child.wait();
+        anyhow::bail!(
+            "the edge {} did not say where it listens: expected its first line to end in tcp://HOST:PORT, found `{}`",
+            edge.display(),
+            first.trim()
+        );
+    };
+    let addr = addr.trim().to_string();
     let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10))?;
     let bar = std::sync::Arc::new(progress(args.frames, "frames sent"));
     let opt = SoakOptions {
