@@ -12,6 +12,8 @@
 
 use nalgebra::{Matrix2, Matrix2x4, Matrix4, Vector2, Vector4};
 
+use crate::geometry::BevState;
+
 /// Noise of a [`BevTrack`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BevTrackParams {
@@ -66,6 +68,9 @@ fn pack(m: &Matrix4<f32>) -> [f32; 10] {
 
 /// The variance a fresh track gives its unknown velocity, (m/s)^2.
 const START_VELOCITY_VAR: f32 = 100.0;
+/// Speed from which a reported heading is the track's direction of travel rather than the
+/// one given, m/s: slower, the direction of a filtered velocity is noise.
+const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
 
 impl Default for BevTrack {
     fn default() -> Self {
@@ -106,6 +111,21 @@ impl BevTrack {
     #[must_use]
     pub fn velocity(&self) -> Vector2<f32> {
         Vector2::new(self.state.z, self.state.w)
+    }
+
+    /// Writes the track into `state` once it has started: its position and speed, and its
+    /// direction of travel as the heading from [`TRAVEL_HEADING_MIN_SPEED`] (below it `state`'s
+    /// heading stays).
+    pub fn report(&self, state: &mut BevState) {
+        if !self.started {
+            return;
+        }
+        let (at, v) = (self.position(), self.velocity());
+        let speed = v.norm();
+        (state.x, state.y, state.speed) = (at.x, at.y, speed);
+        if speed >= TRAVEL_HEADING_MIN_SPEED {
+            state.heading = libm::atan2f(v.y, v.x);
+        }
     }
 
     /// Moves the track `dt` seconds on (nothing before it has started).

@@ -37,10 +37,6 @@ const CENTROID_RADIUS_M: f32 = 4.0;
 /// breaks for a few frames.
 pub const MAX_HELD_FRAMES: u8 = 5;
 
-/// Speed from which a causal estimate's heading is its bird's-eye track's direction of travel
-/// rather than its frame's x axis, m/s: slower, the direction of a filtered velocity is noise.
-const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
-
 /// Gives `track` the world centroid `c` of an object's points seen by `camera`: its bird's-eye
 /// position, the bird's-eye direction it was seen along and its depth error under `model`.
 fn observe_centroid(track: &mut BevTrack, c: &Point3<f32>, camera: &Pose3, model: &PointModel, p: &BevTrackParams) {
@@ -458,9 +454,10 @@ impl<const W: usize> ObjectRun<W> {
     /// `heading_min_baseline_m`, for an object whose heading is not yet known; a vehicle's
     /// motions then get `params.vehicle_kinematics`. Afterwards, with `heading_realign_rad`
     /// set, a vehicle's frame is turned again whenever its measured travel over
-    /// `heading_baseline_m` leaves its x axis by more than that: the first heading comes from a short, noisy baseline, and a
-    /// frame turned off the direction of travel sets the kinematic prior against the
-    /// measurements. Each turn starts a new orientation (RPE does not pair across it). Returns whether it turned.
+    /// `heading_baseline_m` leaves its x axis by more than that: the first heading comes from a
+    /// short, noisy baseline, and a frame turned off the direction of travel sets the kinematic
+    /// prior against the measurements. Each turn starts a new orientation (RPE does not pair
+    /// across it). Returns whether it turned.
     pub fn reorient_if_moved(&mut self, params: &EstimatorParams) -> bool {
         if self.state != RunState::Tracking {
             return false;
@@ -519,16 +516,13 @@ impl<const W: usize> ObjectRun<W> {
         self.orientation = self.orientation.wrapping_add(1);
     }
 
+    /// This run's estimate at `pose` with the body twist `xi` over `dt` seconds.
+    fn estimate_at(&self, pose: &Pose3, xi: &Vec6, dt: f32) -> ObjectEstimate {
+        object_estimate(self.object_id, self.class, pose, xi, dt, (self.segment, self.orientation), self.heading_known)
+    }
+
     fn estimate(&self, e: &Emitted, dt: f32) -> ObjectEstimate {
-        object_estimate(
-            self.object_id,
-            self.class,
-            &e.pose,
-            &e.xi,
-            dt,
-            (self.segment, self.orientation),
-            self.heading_known,
-        )
+        self.estimate_at(&e.pose, &e.xi, dt)
     }
 
     /// Gives the bird's-eye track the newest causal motion's velocity (over `dt` seconds):
@@ -546,25 +540,8 @@ impl<const W: usize> ObjectRun<W> {
     #[must_use]
     pub fn causal(&self, dt: f32) -> Option<ObjectEstimate> {
         (self.state == RunState::Tracking).then(|| {
-            let mut e = object_estimate(
-                self.object_id,
-                self.class,
-                self.path.causal(),
-                self.path.causal_xi(),
-                dt,
-                (self.segment, self.orientation),
-                self.heading_known,
-            );
-            if self.bev.started() {
-                let (at, v) = (self.bev.position(), self.bev.velocity());
-                let speed = v.norm();
-                e.bev.x = at.x;
-                e.bev.y = at.y;
-                e.bev.speed = speed;
-                if speed >= TRAVEL_HEADING_MIN_SPEED {
-                    e.bev.heading = libm::atan2f(v.y, v.x);
-                }
-            }
+            let mut e = self.estimate_at(self.path.causal(), self.path.causal_xi(), dt);
+            self.bev.report(&mut e.bev);
             e
         })
     }
@@ -572,16 +549,6 @@ impl<const W: usize> ObjectRun<W> {
     /// The frame-to-frame estimate of the newest frame (tracking runs only).
     #[must_use]
     pub fn frame_to_frame(&self, dt: f32) -> Option<ObjectEstimate> {
-        (self.state == RunState::Tracking).then(|| {
-            object_estimate(
-                self.object_id,
-                self.class,
-                &self.f2f,
-                &se3_log(&self.last_delta),
-                dt,
-                (self.segment, self.orientation),
-                self.heading_known,
-            )
-        })
+        (self.state == RunState::Tracking).then(|| self.estimate_at(&self.f2f, &se3_log(&self.last_delta), dt))
     }
 }

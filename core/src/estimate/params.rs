@@ -111,8 +111,9 @@ impl KinematicPrior {
 
 impl SmootherParams {
     /// DynoSAM's smoothing factor between consecutive object motions: rotation 0.01 rad,
-    /// translation 0.2 m (docs/decisions.md, "DynoSAM's noise values"). DynoSAM applies it to world-frame motions, whose
-    /// translation also moves with the rotation's lever arm, hence its looseness.
+    /// translation 0.2 m (docs/decisions.md, "DynoSAM's noise values"). DynoSAM applies it to
+    /// world-frame motions, whose translation also moves with the rotation's lever arm, hence
+    /// its looseness.
     pub const DYNOSAM_OBJECT: Self = Self { sigma_translation: 0.2, sigma_rotation: 0.01 };
     /// This estimator's default for objects: body-frame motions, whose change per frame is the
     /// vehicle's own dynamics: 0.02 m (2 m/s^2 at 10 Hz) and 0.002 rad (0.2 rad/s^2 of yaw

@@ -102,23 +102,23 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
         let f = ModelFile::load(path)?;
         let dims = f.blob().dims();
         let int8_path = PathBuf::from(format!("{}.int8", path.display()));
-        let q = if f.blob().precision() == Precision::Int8 {
+        let blobs = if f.blob().precision() == Precision::Int8 {
             // An int8 blob has no f32 twin to time: its row says int8.
-            configs.push((path.display().to_string(), dims, vec![("int8", f.bytes().to_vec())]));
-            None
-        } else if int8_path.exists() {
-            Some(ModelFile::load(&int8_path)?.bytes().to_vec())
+            vec![("int8", f.bytes().to_vec())]
         } else {
-            let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
-            let tensors = crate::model_file::float_tensors(&f.blob());
-            let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-            write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
-                .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
-            Some(buf)
+            let q = if int8_path.exists() {
+                ModelFile::load(&int8_path)?.bytes().to_vec()
+            } else {
+                let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
+                let tensors = crate::model_file::float_tensors(&f.blob());
+                let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+                write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
+                    .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
+                buf
+            };
+            vec![("f32", f.bytes().to_vec()), ("int8", q)]
         };
-        if let Some(q) = q {
-            configs.push((path.display().to_string(), dims, vec![("f32", f.bytes().to_vec()), ("int8", q)]));
-        }
+        configs.push((path.display().to_string(), dims, blobs));
     } else {
         for d in args.dims.split(';') {
             let dims = parse_dims(d)?;

@@ -6,8 +6,8 @@
 //! f - 1 ..= f + HORIZON):
 //! - position: the object relative to the camera (rotated into the camera's heading), the
 //!   estimate's (its object frame's origin) against the truth's (the box centre); mean and
-//!   median, since a few lost objects dominate the mean. The two worlds differ by the camera's drift, so absolute
-//!   positions are not comparable; the vehicle needs the relative one anyway.
+//!   median, since a few lost objects dominate the mean. The two worlds differ by the camera's
+//!   drift, so absolute positions are not comparable; the vehicle needs the relative one anyway.
 //! - velocity as constant velocity reads it (the last position difference, over `dt`): the
 //!   error of its speed and of its direction (turned into the truth's world by the frame's
 //!   world yaw). Direction errors count only where the truth moves faster than

@@ -189,7 +189,8 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         return Err(ctx.error(
             COLUMNS[1],
             Some(2),
-            "a track id from 0 to 65534 (the link carries an object's id, track id + 1, in 16 bits), or -1 for DontCare",
+            "a track id from 0 to 65534 (the link carries an object's id, track id + 1, in 16 bits), \
+             or -1 for DontCare",
             quote(toks[1]),
         ));
     }
