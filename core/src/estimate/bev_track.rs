@@ -70,7 +70,7 @@ fn pack(m: &Matrix4<f32>) -> [f32; 10] {
 const START_VELOCITY_VAR: f32 = 100.0;
 /// Speed from which a reported heading is the track's direction of travel rather than the
 /// one given, m/s: slower, the direction of a filtered velocity is noise.
-const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
+pub const TRAVEL_HEADING_MIN_SPEED: f32 = 1.0;
 
 impl Default for BevTrack {
     fn default() -> Self {
