@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use dynotraj_core::wire::{DecoderStats, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode};
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
 
 use crate::link::{LinkReader, LinkWriter, read_some};
@@ -146,7 +146,7 @@ fn read_answers(mut rx: LinkReader, last_answered: &AtomicU64, out: &mpsc::Sende
 
 /// Damages `bytes` (one encoded wire frame) in place or returns how to send it; the fault
 /// index into [`SoakReport::faults`].
-fn damage(bytes: &mut Vec<u8>, rng: &mut SmallRng) -> usize {
+fn damage(bytes: &mut Vec<u8>, rng: &mut Xoshiro256PlusPlus) -> usize {
     if bytes.is_empty() {
         return 2;
     }
@@ -175,7 +175,7 @@ fn damage(bytes: &mut Vec<u8>, rng: &mut SmallRng) -> usize {
 struct FaultySender<'w> {
     tx: &'w mut LinkWriter,
     buf: FrameBuf,
-    rng: SmallRng,
+    rng: Xoshiro256PlusPlus,
     probability: f64,
 }
 
@@ -221,7 +221,7 @@ pub fn soak(
     let mut sender = FaultySender {
         tx: &mut tx,
         buf: [0; MAX_FRAME_LEN],
-        rng: SmallRng::seed_from_u64(opt.seed),
+        rng: Xoshiro256PlusPlus::seed_from_u64(opt.seed),
         probability: opt.fault_probability.clamp(0.0, 1.0),
     };
     sender.send(&Message::CameraInfo(base.camera), false, &mut report)?;

@@ -8,7 +8,7 @@ use std::convert::Infallible;
 use dynotraj_core::wire::{FrameStats, Message};
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_tests::edge_fixture::{decode_all, encode_all, host_messages, outputs, scene_tracks};
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
 
 /// What happens to the bytes at one offset of the clean stream.
@@ -26,7 +26,7 @@ enum Fault {
 struct FaultyLink {
     bytes: Vec<u8>,
     at: usize,
-    rng: SmallRng,
+    rng: Xoshiro256PlusPlus,
     written: Vec<u8>,
 }
 
@@ -47,7 +47,7 @@ impl FaultyLink {
                 }
             }
         }
-        Self { bytes, at: 0, rng: SmallRng::seed_from_u64(seed), written: Vec::new() }
+        Self { bytes, at: 0, rng: Xoshiro256PlusPlus::seed_from_u64(seed), written: Vec::new() }
     }
 }
 
@@ -150,7 +150,7 @@ fn edge_counts_every_frame_under_random_faults() {
     let tracks = scene_tracks(12);
     let messages = host_messages(&tracks, None);
     let clean = encode_all(&messages);
-    let mut rng = SmallRng::seed_from_u64(11);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
     // About one fault per 100 KB (a frame carries about 50 KB, so about half the frames are
     // hit); the camera model and the goodbye are kept intact.
     let span = spans(&messages);

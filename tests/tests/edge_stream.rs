@@ -8,14 +8,14 @@ use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts}
 use dynotraj_edge::{NoClock, Session};
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::edge_fixture::MemLink;
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
 
 #[test]
 fn edge_reassembles_frames_through_garbage_and_counts_losses() {
     let drive = generate(&DriveSpec { frames: 40, ..DriveSpec::default() });
     let frames = feature_tracks(&drive, 256, 128, 9);
-    let mut rng = SmallRng::seed_from_u64(5);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
     let i = Intrinsics::KITTI_0926;
     let camera = dynotraj_host::estimate::evaluate::camera_info(&i, 20.0);
     let mut buf: FrameBuf = [0; MAX_FRAME_LEN];

@@ -8,7 +8,7 @@ use dynotraj_core::limits::MAX_OBJECTS;
 use dynotraj_core::wire::{FrameTracks, ObjectClass, Track, frame_parts};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
 
 const W: usize = 8;
@@ -311,8 +311,8 @@ fn lost_parts_and_bad_timestamps_are_counted() {
 
 #[test]
 fn garbage_tracks_never_panic() {
-    let mut rng = SmallRng::seed_from_u64(99);
-    let wild = |rng: &mut SmallRng| match rng.random_range(0..6) {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
+    let wild = |rng: &mut Xoshiro256PlusPlus| match rng.random_range(0..6) {
         0 => f32::NAN,
         1 => f32::INFINITY,
         2 => -rng.random_range(0.0..1e6),
@@ -345,7 +345,7 @@ fn garbage_tracks_never_panic() {
 fn motion_held_too_long_reinitialises_the_object() {
     let frames = sim(30);
     // Object 1's points jump randomly from frame 10 on for 6 frames: no fit agrees.
-    let mut rng = SmallRng::seed_from_u64(3);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
     let run = feed(sim_frames(&frames).map(|(k, t, mut tracks)| {
         if (10..16).contains(&k) {
             for tr in tracks.iter_mut().filter(|t| t.object_id == 1) {

@@ -19,7 +19,7 @@ use dynotraj_core::predict::prior::{Controls, plan};
 use dynotraj_core::predict::{PriorSettings, unicycle_step};
 use dynotraj_core::{BevState, Point2};
 use rand::SeedableRng as _;
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::seq::SliceRandom as _;
 
 use crate::scene::Scene;
@@ -203,7 +203,7 @@ pub struct Split {
 #[must_use]
 pub fn split_by_run(samples: Vec<Sample>, groups: usize, fraction: f32, seed: u64) -> Split {
     let mut ids: Vec<usize> = (0..groups).collect();
-    ids.shuffle(&mut SmallRng::seed_from_u64(seed));
+    ids.shuffle(&mut Xoshiro256PlusPlus::seed_from_u64(seed));
     let wanted = (fraction.clamp(0.0, 1.0) * groups as f32).round() as usize;
     let n_val = if groups >= 2 { wanted.clamp(1, groups - 1) } else { 0 };
     let mut is_val = vec![false; groups];
@@ -224,7 +224,7 @@ pub fn split_by_sequence(per_sequence: Vec<Vec<Sample>>, fraction: f32, seed: u6
     let total: usize = per_sequence.iter().map(Vec::len).sum();
     let wanted = (fraction.clamp(0.0, 1.0) * total as f32).ceil() as usize;
     let mut ids: Vec<usize> = (0..per_sequence.len()).collect();
-    ids.shuffle(&mut SmallRng::seed_from_u64(seed));
+    ids.shuffle(&mut Xoshiro256PlusPlus::seed_from_u64(seed));
     let (mut is_val, mut held) = (vec![false; per_sequence.len()], 0);
     for &i in ids.iter().take(per_sequence.len().saturating_sub(1)) {
         if held >= wanted {

@@ -8,7 +8,7 @@ use std::time::Instant;
 use candle_core::{Device, Result, Tensor, Var};
 use candle_nn::{AdamW, Optimizer as _, ParamsAdamW, VarMap};
 use rand::SeedableRng as _;
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::seq::SliceRandom as _;
 
 use super::batch::Batch;
@@ -251,7 +251,7 @@ pub fn fit(
         params.clone(),
         ParamsAdamW { lr: hyper.learning_rate, weight_decay: hyper.weight_decay, ..ParamsAdamW::default() },
     )?;
-    let mut rng = SmallRng::seed_from_u64(hyper.seed);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(hyper.seed);
     let batch = hyper.batch.max(1);
     let per_epoch = train.len().div_ceil(batch);
     let total = per_epoch * hyper.epochs;

@@ -7,20 +7,20 @@
 
 use candle_core::{DType, Device, Result, Tensor};
 use candle_nn::{Init, VarMap};
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng as _, SeedableRng as _};
 
 /// The parameter store of one network and the generator that initialises it.
 pub struct ParamStore {
     vars: VarMap,
-    rng: SmallRng,
+    rng: Xoshiro256PlusPlus,
 }
 
 impl ParamStore {
     /// An empty store whose initial values come from `seed`.
     #[must_use]
     pub fn new(seed: u64) -> Self {
-        Self { vars: VarMap::new(), rng: SmallRng::seed_from_u64(seed) }
+        Self { vars: VarMap::new(), rng: Xoshiro256PlusPlus::seed_from_u64(seed) }
     }
 
     /// Creates parameter `name` of `shape`, uniform in +-`bound`, and returns its tensor (which

@@ -3,7 +3,7 @@
 
 use dynotraj_core::BevState;
 use dynotraj_core::predict::{PriorSettings, unicycle_step};
-use rand::rngs::SmallRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng as _, SeedableRng as _};
 
 use super::dataset::{Sample, sample_at};
@@ -13,7 +13,7 @@ use super::dataset::{Sample, sample_at};
 /// 4-14 m/s, in random places and headings.
 #[must_use]
 pub fn constant_control_runs(runs: usize, len: usize, dt: f32, seed: u64) -> Vec<Vec<BevState>> {
-    let mut rng = SmallRng::seed_from_u64(seed);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     (0..runs)
         .map(|i| {
             let w = if i % 2 == 0 { rng.random_range(-0.5..0.5) } else { rng.random_range(-0.005..0.005) };
