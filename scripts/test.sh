@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets the machine up (idempotent) and runs every check of the project: the no_std core built
-# for the Cortex-M4F target, clippy's no-panic rules on core, and the whole test suite.
+# for the Cortex-M4F target, the dependency audit, clippy's no-panic rules on core, and the
+# whole test suite.
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
@@ -15,6 +16,8 @@ cargo metadata --locked --format-version 1 >/dev/null
 (cd edge/firmware && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo fmt --all --check)
+echo "== dependency audit (cargo-deny: licences, bans, sources, advisories)"
+audit_line=$(bash scripts/audit.sh | tee /dev/stderr | tail -1)
 echo "== the ffi crate's C header is current"
 bash scripts/gen-header.sh --check
 echo "== core for thumbv7em-none-eabihf"
@@ -44,4 +47,5 @@ cargo test --locked --workspace 2>&1 | tee "$log" || status=$?
 skipped=$(awk '{ sub(/:$/, "", $2); print $2 }' "$DYNOTRAJ_SKIP_LOG" | sort -u | grep -c . || true)
 awk -v s="$skipped" '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed, %d skipped\n", p - s, f, s }' "$log"
 sort -u "$DYNOTRAJ_SKIP_LOG" | sed 's/^/  /'
+echo "$audit_line"
 exit "$status"

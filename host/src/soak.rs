@@ -18,8 +18,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use dynotraj_core::wire::{DecoderStats, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::link::{LinkReader, LinkWriter, read_some};
 use crate::tracks_file::Tracks;

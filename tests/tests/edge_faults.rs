@@ -8,8 +8,8 @@ use std::convert::Infallible;
 use dynotraj_core::wire::{FrameStats, Message};
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_tests::edge_fixture::{decode_all, encode_all, host_messages, outputs, scene_tracks};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// What happens to the bytes at one offset of the clean stream.
 #[derive(Debug, Clone, Copy)]

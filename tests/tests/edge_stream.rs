@@ -8,8 +8,8 @@ use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts}
 use dynotraj_edge::{NoClock, Session};
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::edge_fixture::MemLink;
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 #[test]
 fn edge_reassembles_frames_through_garbage_and_counts_losses() {

@@ -19,8 +19,8 @@ use dynotraj_core::predict::prior::{Controls, plan};
 use dynotraj_core::predict::{PriorSettings, unicycle_step};
 use dynotraj_core::{BevState, Point2};
 use rand::SeedableRng as _;
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::seq::SliceRandom as _;
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;

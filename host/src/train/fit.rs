@@ -8,8 +8,8 @@ use std::time::Instant;
 use candle_core::{Device, Result, Tensor, Var};
 use candle_nn::{AdamW, Optimizer as _, ParamsAdamW, VarMap};
 use rand::SeedableRng as _;
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::seq::SliceRandom as _;
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::batch::Batch;
 use super::dataset::Sample;

@@ -7,8 +7,8 @@
 
 use candle_core::{DType, Device, Result, Tensor};
 use candle_nn::{Init, VarMap};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng as _, SeedableRng as _};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// The parameter store of one network and the generator that initialises it.
 pub struct ParamStore {

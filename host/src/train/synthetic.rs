@@ -3,8 +3,8 @@
 
 use dynotraj_core::BevState;
 use dynotraj_core::predict::{PriorSettings, unicycle_step};
-use rand_xoshiro::Xoshiro256PlusPlus;
 use rand::{Rng as _, SeedableRng as _};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::dataset::{Sample, sample_at};
 
