@@ -6,10 +6,11 @@ use clap::Parser as _;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_host::cli::{Cli, Command, dataset, eval};
 use dynotraj_host::estimate::evaluate::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
+use dynotraj_host::estimate::tracks_of_estimates;
 use dynotraj_host::estimate::{Kind, run_estimator};
 use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::report::Table;
-use dynotraj_host::trajectory::{ObjectTrack, tracks_of_estimates};
+use dynotraj_host::trajectory::ObjectTrack;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {
@@ -114,7 +115,7 @@ fn the_estimated_source_from_a_rendering() {
     };
     let seq = dynotraj_host::sequence::load_sequence(&tracking, "0000", 0.05, Some(&settings)).unwrap();
     let e = seq.estimated.unwrap();
-    assert_eq!(e.input, dynotraj_host::trajectory::EstimateInput::Rendered);
+    assert_eq!(e.input, dynotraj_host::estimate::EstimateInput::Rendered);
     assert!(e.rpe.is_some() && !e.truth.is_empty(), "a rendering keeps its truth");
     // Rendered images -> SGBM -> KLT -> estimator: the car (60 labelled frames) is estimated
     // over most of them; a frame the estimator misses splits its run, and only the part of at
@@ -170,7 +171,7 @@ fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     let settings = dynotraj_host::estimate::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     let seq = dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();
     let e = seq.estimated.as_ref().unwrap();
-    assert_eq!(e.input, dynotraj_host::trajectory::EstimateInput::Images);
+    assert_eq!(e.input, dynotraj_host::estimate::EstimateInput::Images);
     assert!(e.rpe.is_none() && e.truth.is_empty(), "no truth from images");
     assert_eq!(e.frames, 24);
     // The moving car is estimated with a known heading over most of the frames.

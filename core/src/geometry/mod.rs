@@ -6,12 +6,14 @@
 //! right-handed, so bird's-eye angles turn counter-clockwise seen from above. This is DynoSAM's
 //! evaluation convention: a point (x, y, z) maps to the z-up point (x, z, -y).
 
+mod agent_frame;
 mod angle;
 mod bev;
 mod norm_bound;
 mod se3;
 pub mod trig;
 
+pub use agent_frame::AgentFrame;
 pub use angle::{angle_diff, wrap_angle};
 pub use bev::{BevState, Point2, bev_heading_of_rotation_y, bev_point};
 pub use norm_bound::NormBound;

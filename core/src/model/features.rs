@@ -5,64 +5,11 @@ use super::arch::{
     ACC_SCALE, ACCEL_SCALE, FEATURE_CLAMP, FEATURES, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS, NEIGHBOUR_RADIUS_M,
     POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
 };
-use crate::geometry::{BevState, Point2, angle_diff};
+use crate::geometry::{AgentFrame, BevState, Point2, angle_diff};
 use crate::predict::prior::Trend;
 
 /// Standardised features of up to [`MAX_STEPS`] states, oldest first.
 pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
-
-/// The agent frame of a current state: origin at its position, x along its heading.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AgentFrame {
-    origin: Point2,
-    heading: f32,
-    cos: f32,
-    sin: f32,
-}
-
-impl AgentFrame {
-    /// The frame of `current`: at its position, along its heading.
-    #[must_use]
-    pub fn of(current: &BevState) -> Self {
-        Self::new(current.position(), current.heading)
-    }
-
-    /// The frame at `origin` with its x axis along `heading`.
-    #[must_use]
-    pub fn new(origin: Point2, heading: f32) -> Self {
-        let (sin, cos) = crate::geometry::trig::sin_cos(heading);
-        Self { origin, heading, cos, sin }
-    }
-
-    /// The frame's heading in the world, radians.
-    #[must_use]
-    pub const fn heading(&self) -> f32 {
-        self.heading
-    }
-
-    /// A world point in this frame.
-    #[must_use]
-    pub fn to_agent(&self, p: &Point2) -> Point2 {
-        let (dx, dy) = (p.x - self.origin.x, p.y - self.origin.y);
-        Point2::new(self.cos * dx + self.sin * dy, -self.sin * dx + self.cos * dy)
-    }
-
-    /// A world vector (a velocity, an acceleration) in this frame's axes.
-    #[must_use]
-    pub fn rotate_to_agent(&self, v: &Point2) -> Point2 {
-        Point2::new(self.cos * v.x + self.sin * v.y, -self.sin * v.x + self.cos * v.y)
-    }
-
-    /// A point of this frame in the world.
-    #[must_use]
-    pub fn to_world(&self, p: &Point2) -> Point2 {
-        Point2::new(self.origin.x + self.cos * p.x - self.sin * p.y, self.origin.y + self.sin * p.x + self.cos * p.y)
-    }
-}
-
-/// Below this fitted speed (m/s) the direction of motion is mostly noise, so the rollout keeps
-/// the source's heading.
-pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
 
 fn clamp(v: f32) -> f32 {
     if v.is_nan() { 0.0 } else { v.clamp(-FEATURE_CLAMP, FEATURE_CLAMP) }

@@ -24,10 +24,13 @@
 
 use super::fit::parabola_fit;
 use super::{Forecast, PredictError, Predictor, checked_forecast, checked_history_of, clamp_controls, unicycle_step};
-use crate::geometry::{BevState, Point2};
+use crate::geometry::{AgentFrame, BevState, Point2};
 use crate::limits::{HORIZON, PRIOR_STATES};
 use crate::model::arch::MAX_STEPS;
-use crate::model::features::{AgentFrame, MOTION_HEADING_MIN_SPEED};
+
+/// Below this fitted speed (m/s) the direction of motion is mostly noise, so the rollout keeps
+/// the source's heading.
+pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
 
 /// Settings of the motion prior (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]

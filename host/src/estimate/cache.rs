@@ -16,8 +16,8 @@ use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
 
 use super::settings::EstimateSettings;
+use crate::estimate::EstimatedTracks;
 use crate::kitti::SequenceData;
-use crate::trajectory::EstimatedTracks;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
@@ -98,7 +98,8 @@ pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{EstimateInput, ObjectTrack};
+    use crate::estimate::EstimateInput;
+    use crate::trajectory::ObjectTrack;
     use dynotraj_core::BevState;
     use dynotraj_core::wire::ObjectClass;
 
@@ -119,7 +120,7 @@ mod tests {
             truth: vec![track],
             cameras: [(
                 4,
-                crate::trajectory::CameraPair {
+                crate::estimate::CameraPair {
                     truth: BevState { x: 1.0, y: 2.0, heading: 0.5, speed: 0.0 },
                     estimate: BevState { x: 1.1, y: 2.0, heading: 0.49, speed: 0.0 },
                 },

@@ -26,7 +26,12 @@ pub mod rendered_cache;
 pub mod runner;
 pub mod score;
 pub mod settings;
+pub mod tracks;
 
 pub use input::{SimInput, sim_input};
 pub use runner::{EstimatorRun, Kind, run_estimator};
 pub use score::{RunScores, TrajectorySmoothness, score_run, smoothness};
+pub use tracks::{
+    CameraPair, EstimateInput, EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks,
+    tracks_of_estimates, truth_tracks,
+};

@@ -35,9 +35,10 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::PriorSettings;
 use dynotraj_core::predict::prior::plan;
 
+use crate::estimate::CameraPair;
 use crate::report::{Cell, ColumnKind, Data, Table};
 use crate::sequence::SequenceTracks;
-use crate::trajectory::{CameraPair, EligibilityRule, ObjectTrack, Source, eligible_runs};
+use crate::trajectory::{EligibilityRule, ObjectTrack, Source, eligible_runs};
 
 /// True speed below which a velocity's direction is not scored, m/s.
 pub const MOVING_MPS: f32 = 1.0;

@@ -312,7 +312,7 @@ pub fn score_seed(
         .map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect())
         .collect();
     let world_yaws: Vec<Option<std::collections::BTreeMap<u32, f32>>> =
-        tests.iter().map(|t| t.estimated.as_ref().map(crate::trajectory::EstimatedTracks::world_yaw)).collect();
+        tests.iter().map(|t| t.estimated.as_ref().map(crate::estimate::EstimatedTracks::world_yaw)).collect();
     let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
         (0..tests.len())
             .map(|i| {

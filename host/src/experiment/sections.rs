@@ -5,11 +5,12 @@
 use super::ExperimentResult;
 use super::findings::{Scoring, findings};
 use super::report::{Report, Section};
+use crate::estimate::EstimateInput;
 use crate::estimate::{Kind, RunScores};
 use crate::report::estimator_tables::table_iii_of;
 use crate::report::{Table, instances_table};
 use crate::sequence::SequenceTracks;
-use crate::trajectory::{EligibilityRule, EstimateInput, Source};
+use crate::trajectory::{EligibilityRule, Source};
 
 /// What of a run's settings its report tells.
 #[derive(Debug, Clone, Copy)]

@@ -324,7 +324,7 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
     ];
     let mut d = Data::new(columns.map(|(_, n, k)| (n, k)));
     for r in results {
-        let causal = crate::trajectory::tracks_of_estimates(r.run.of(Kind::Causal));
+        let causal = crate::estimate::tracks_of_estimates(r.run.of(Kind::Causal));
         for id in moving_objects(&r.sim, r.min_step_m) {
             let truth: Vec<_> = r.sim.iter().flat_map(|f| f.objects.iter()).filter(|o| o.object_id == id).collect();
             let class = truth.first().map_or("?", |o| o.class.kitti_name());

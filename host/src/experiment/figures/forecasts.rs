@@ -106,7 +106,7 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
     });
     let labels = Scene::new(&seq.tracks, Source::Gt, dt);
     let scenes: Vec<Scene> = arms.iter().map(|a| Scene::new(seq.tracks_for(a.source), a.source, dt)).collect();
-    let world_yaw = seq.estimated.as_ref().map(crate::trajectory::EstimatedTracks::world_yaw);
+    let world_yaw = seq.estimated.as_ref().map(crate::estimate::EstimatedTracks::world_yaw);
     let mut panels = Vec::new();
     for &frame in &chosen {
         let Some(run) = labels.run_at(track, frame) else { continue };

@@ -24,11 +24,11 @@ use dynotraj_core::BevState;
 use dynotraj_core::estimate::{PoseEstimate, bev_heading};
 use dynotraj_core::wire::ObjectClass;
 
-use super::ObjectTrack;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
 use crate::estimate::score::{FrameRpe, moving_objects, rpe_over_time};
 use crate::estimate::{EstimatorRun, Kind, RunScores};
 use crate::kitti::SequenceData;
+use crate::trajectory::ObjectTrack;
 use dynotraj_fixtures::track_sim::SimFrame;
 
 /// What the estimator ran on.
