@@ -7,6 +7,6 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
-        let _ = dynotraj_host::kitti::parse_calib(text, Path::new("fuzz.txt"));
+        let _ = dynotraj_formats::kitti::parse_calib(text, Path::new("fuzz.txt"));
     }
 });

@@ -6,5 +6,5 @@ use std::path::Path;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = dynotraj_host::tracks_file::parse(Path::new("fuzz.dtt"), data);
+    let _ = dynotraj_formats::tracks_file::parse(Path::new("fuzz.dtt"), data);
 });

@@ -28,7 +28,7 @@ use opencv::core::{Mat, Vector};
 use opencv::imgcodecs::imwrite;
 
 use crate::frontend::image_io::{bgr_from_rgb, u16_from_buffer};
-use crate::kitti::{LabelRow, write_labels, write_poses};
+use dynotraj_formats::kitti::{LabelRow, write_labels, write_poses};
 
 /// Writes a `Mat` as PNG, naming the file on failure.
 fn write_png(path: &Path, m: &Mat) -> anyhow::Result<()> {

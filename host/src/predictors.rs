@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use dynotraj_core::predict::{Baseline, MotionPrior, PriorSettings};
 
 use crate::evaluate::Forecaster;
-use crate::model_file::ModelFile;
+use dynotraj_formats::model_file::ModelFile;
 
 /// A predictor `eval` can run.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -7,8 +7,8 @@ use crate::estimate::cache;
 use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
 use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::estimate::{EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks};
-use crate::kitti::{SequenceData, TrackingDir};
 use crate::trajectory::{ObjectTrack, Source, label_tracks};
+use dynotraj_formats::kitti::{SequenceData, TrackingDir};
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
 #[derive(Debug, Clone)]

@@ -22,7 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use crate::link::{LinkReader, LinkWriter, read_some};
-use crate::tracks_file::Tracks;
+use dynotraj_formats::tracks_file::Tracks;
 
 /// How to soak.
 #[derive(Debug, Clone)]

@@ -21,7 +21,7 @@ use dynotraj_core::wire::{
 };
 
 use crate::link::{LinkReader, LinkWriter, read_some};
-use crate::tracks_file::Tracks;
+use dynotraj_formats::tracks_file::Tracks;
 
 /// The longest wait before [`StreamOptions::stop`] is looked at again.
 const STOP_POLL: Duration = Duration::from_millis(100);

@@ -5,7 +5,7 @@ use std::path::Path;
 use std::process::Command;
 
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::kitti::synthetic::write_sequence;
+use dynotraj_fixtures::kitti_layout::write_sequence;
 
 /// Runs the binary with `args`; returns its exit code and stderr.
 fn run(args: &[&str]) -> (i32, String) {

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::Command;
 
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::kitti::synthetic::write_sequence;
+use dynotraj_fixtures::kitti_layout::write_sequence;
 
 /// Runs the binary with `args`; asserts exit 0 and returns stdout and stderr together.
 fn ok(args: &[&str]) -> String {
@@ -130,7 +130,7 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     // Without --sequences: every sequence with images, here the one rendered.
     let t = ok(&["track", "--kitti", sim_s, "--out", tracked_s, "--counters"]);
     let dtt = tracked.join("0000.dtt");
-    assert!(dynotraj_host::tracks_file::read(&dtt).is_ok_and(|t| t.frames.len() == 8), "{t}");
+    assert!(dynotraj_formats::tracks_file::read(&dtt).is_ok_and(|t| t.frames.len() == 8), "{t}");
     says(&t, "| static_tracked");
     says(&t, "s] frames tracked done: 8 steps");
     let t = ok(&["track", "--bench", "--frames", "2", "--counters"]);

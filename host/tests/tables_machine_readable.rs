@@ -11,7 +11,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::kitti::synthetic::write_sequence;
+use dynotraj_fixtures::kitti_layout::write_sequence;
 use serde_json::Value;
 
 /// Columns that hold numbers wherever they appear.

@@ -12,9 +12,9 @@ use dynotraj_core::wire::{
 };
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
 use dynotraj_host::estimate::bench::scene;
 use dynotraj_host::estimate::input::KITTI_IMAGE_SIZE;
-use dynotraj_host::tracks_file::{Tracks, TracksFrame};
 
 /// `frames` frames of the 16-car scene at the paper's 20 Hz.
 #[must_use]
@@ -183,7 +183,7 @@ pub fn dynotraj_command() -> std::process::Command {
 /// # Panics
 /// On a write error.
 pub fn write_tracks_file(tracks: &Tracks, path: &std::path::Path) {
-    let mut w = dynotraj_host::tracks_file::TracksWriter::create(path, &tracks.camera).unwrap();
+    let mut w = dynotraj_formats::tracks_file::TracksWriter::create(path, &tracks.camera).unwrap();
     for f in &tracks.frames {
         w.write_frame(f.frame, f.timestamp_us, &f.tracks().copied().collect::<Vec<_>>()).unwrap();
     }

@@ -1,5 +1,5 @@
 //! KITTI tracking layouts written from the fixtures' synthetic drives
-//! ([`dynotraj_host::kitti::synthetic`]), for tests that run the commands end to end.
+//! ([`dynotraj_fixtures::kitti_layout`]), for tests that run the commands end to end.
 
 use std::path::Path;
 
@@ -10,5 +10,5 @@ use dynotraj_fixtures::drive::Drive;
 /// # Panics
 /// When a file cannot be written (a test's temporary folder).
 pub fn write_sequence(root: &Path, id: &str, drive: &Drive) {
-    dynotraj_host::kitti::synthetic::write_sequence(root, id, drive).expect("writing a synthetic KITTI sequence");
+    dynotraj_fixtures::kitti_layout::write_sequence(root, id, drive).expect("writing a synthetic KITTI sequence");
 }

@@ -75,7 +75,8 @@ fn noisy_tracks_stay_bounded_and_the_smoother_helps() {
 #[test]
 fn real_kitti_labels_and_ego_poses_first_frames() {
     let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
-    let data = dynotraj_host::kitti::TrackingDir::open(&dir).expect("opens").load_sequence("0020").expect("loads 0020");
+    let data =
+        dynotraj_formats::kitti::TrackingDir::open(&dir).expect("opens").load_sequence("0020").expect("loads 0020");
     let input = dynotraj_host::estimate::input::sim_input(&data, &dynotraj_host::estimate::evaluate::ALL_CLASSES);
     let n = 120;
     let boxes: Vec<LabelBox> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();

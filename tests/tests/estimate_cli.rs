@@ -65,9 +65,9 @@ fn object_files_give_the_printed_rpe(
     result: &dynotraj_host::estimate::evaluate::SequenceResult,
 ) {
     use dynotraj_core::metrics::RpeAccumulator;
+    use dynotraj_formats::kitti::read_tum;
     use dynotraj_host::estimate::runner::Kind;
     use dynotraj_host::estimate::score::moving_objects;
-    use dynotraj_host::kitti::read_tum;
 
     let micros = |t: f64| (t * 1e6).round() as i64;
     let moving = moving_objects(&result.sim, result.min_step_m);

@@ -4,11 +4,11 @@
 
 use clap::Parser as _;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_host::cli::{Cli, Command, dataset, eval};
 use dynotraj_host::estimate::evaluate::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
 use dynotraj_host::estimate::tracks_of_estimates;
 use dynotraj_host::estimate::{Kind, run_estimator};
-use dynotraj_host::kitti::TrackingDir;
 use dynotraj_host::report::Table;
 use dynotraj_host::trajectory::ObjectTrack;
 use dynotraj_tests::synthetic_kitti::write_sequence;

@@ -17,9 +17,9 @@ use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, LinkStats, M
 use dynotraj_core::{BevState, Point2};
 use dynotraj_edge::provisioned::MODEL_KEY;
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
-use dynotraj_host::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses, parse_tum};
+use dynotraj_formats::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses, parse_tum};
+use dynotraj_formats::tracks_file::{self, TracksWriter};
 use dynotraj_host::model_signing::{development_signing_key, sign};
-use dynotraj_host::tracks_file::{self, TracksWriter};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.

@@ -79,7 +79,7 @@ fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
     ])
     .unwrap();
     dynotraj_host::cli::run(cli).unwrap();
-    let t = dynotraj_host::tracks_file::read(&file).unwrap();
+    let t = dynotraj_formats::tracks_file::read(&file).unwrap();
     assert_eq!(t.frames.len(), 6);
     assert_eq!((t.camera.width, t.camera.height), (497, 150));
     assert!((t.camera.stereo_fb - (0.4 * 721.5377 * 0.537) as f32).abs() < 1e-2, "{:?}", t.camera);

@@ -6,7 +6,7 @@
 
 use dynotraj_core::BevState;
 use dynotraj_core::geometry::angle_diff;
-use dynotraj_host::kitti::TrackingDir;
+use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_host::sequence::load_ground_truth;
 use dynotraj_host::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;

@@ -15,8 +15,8 @@ use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
 use crate::evaluate::Forecaster;
-use crate::model_file::ModelFile;
 use crate::report::{Cell, ColumnKind, Data, Format, Table};
+use dynotraj_formats::model_file::ModelFile;
 
 /// Options of `dynotraj bench`.
 #[derive(Debug, Args)]
@@ -110,7 +110,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
                 ModelFile::load(&int8_path)?.bytes().to_vec()
             } else {
                 let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
-                let tensors = crate::model_file::float_tensors(&f.blob());
+                let tensors = dynotraj_formats::model_file::float_tensors(&f.blob());
                 let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
                 write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
                     .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;

@@ -11,9 +11,9 @@ pub use super::progress::Progress;
 use crate::estimate::evaluate::{EvalOptions, ObjectVariants};
 use crate::estimate::settings::{EstimateSettings, OursInput};
 use crate::jobs::{default_jobs, map_jobs, parse_jobs};
-use crate::kitti::TrackingDir;
 use crate::sequence::{SequenceTracks, load_sequence};
 use crate::trajectory::{EligibilityRule, MovingRule, Source};
+use dynotraj_formats::kitti::TrackingDir;
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];

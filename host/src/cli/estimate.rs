@@ -26,11 +26,11 @@ use crate::estimate::from_images::{render_and_track, rendered_intrinsics, render
 use crate::estimate::runner::{EstimatorRun, PartsFrame};
 use crate::estimate::settings::OursInput;
 use crate::jobs::map_jobs;
-use crate::kitti::TrackingDir;
 use crate::report::estimator_tables::{
     bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
 };
 use crate::report::{Format, Table, check_table, render_tables};
+use dynotraj_formats::kitti::TrackingDir;
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -323,7 +323,7 @@ pub struct Replay {
 /// A tracks file that cannot be read or is not one (named), or a camera model without a usable
 /// frame rate.
 pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<Replay> {
-    let tracks = crate::tracks_file::read(path)?;
+    let tracks = dynotraj_formats::tracks_file::read(path)?;
     let cam = tracks.camera;
     anyhow::ensure!(
         cam.frame_rate_hz.is_finite() && cam.frame_rate_hz > 0.0,

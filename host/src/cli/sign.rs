@@ -71,7 +71,7 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
     } else {
         model_signing::read_signing_key(&PathBuf::from(&args.key))?
     };
-    let blob = crate::model_file::read_model_file(&args.model).context("model blob")?;
+    let blob = dynotraj_formats::model_file::read_model_file(&args.model).context("model blob")?;
     ModelBlob::parse_exact(&blob).map_err(|e| {
         anyhow::anyhow!("model blob {}: {e} (sign the blob `dynotraj train` wrote)", args.model.display())
     })?;
@@ -107,7 +107,7 @@ pub fn verify(args: &VerifyArgs) -> anyhow::Result<()> {
     } else {
         model_signing::read_public_key(&PathBuf::from(&args.key))?
     };
-    let bytes = crate::model_file::read_model_file(&args.model)?;
+    let bytes = dynotraj_formats::model_file::read_model_file(&args.model)?;
     let blob = model_signing::verify(&bytes, &key, &args.model.display().to_string())?;
     ModelBlob::parse_exact(blob)
         .map_err(|e| anyhow::anyhow!("model blob {}: signature good, blob refused: {e}", args.model.display()))?;

@@ -17,7 +17,7 @@ use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
 use crate::frontend::StereoParams;
 use crate::image_sim_files::write_sequence_with;
-use crate::kitti::TrackingDir;
+use dynotraj_formats::kitti::TrackingDir;
 
 /// Options of `dynotraj simulate`.
 #[derive(Debug, Args)]

@@ -16,7 +16,7 @@ use crate::link::{Endpoint, connect};
 use crate::report::stream_report::{soak_data, soak_summary};
 use crate::report::write_table_files;
 use crate::soak::{SoakOptions, SoakReport, soak};
-use crate::tracks_file::Tracks;
+use dynotraj_formats::tracks_file::Tracks;
 
 /// Options of `dynotraj soak`.
 #[derive(Debug, Args)]

@@ -14,12 +14,12 @@ use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
 use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
-use crate::kitti::TrackingDir;
 use crate::link::{Endpoint, connect};
 use crate::report::stream_report::{frames_data, predictions_data, summary};
 use crate::report::write_table_files;
 use crate::stream::{StreamOptions, StreamResult, stream};
-use crate::tracks_file::{self, Tracks, TracksFrame};
+use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_formats::tracks_file::{self, Tracks, TracksFrame};
 
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]
@@ -67,7 +67,8 @@ pub struct StreamArgs {
 /// Input, link or output errors, named.
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let tracks = load(args)?;
-    let model = args.model.as_ref().map(|p| crate::model_file::read_model_file(p).context("--model")).transpose()?;
+    let model =
+        args.model.as_ref().map(|p| dynotraj_formats::model_file::read_model_file(p).context("--model")).transpose()?;
     if let (Some(bytes), Some(p)) = (&model, &args.model)
         && let Err(e) = dynotraj_core::model::signed::split(bytes)
     {

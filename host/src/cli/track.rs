@@ -17,7 +17,7 @@ use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
 use crate::report::data::{Cell, ColumnKind, Data};
 use crate::report::{Format, Table};
-use crate::tracks_file::TracksWriter;
+use dynotraj_formats::tracks_file::TracksWriter;
 
 /// Options of `dynotraj track`.
 #[derive(Debug, Args)]

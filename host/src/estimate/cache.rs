@@ -17,7 +17,7 @@ use crc::{CRC_64_ECMA_182, Crc};
 
 use super::settings::EstimateSettings;
 use crate::estimate::EstimatedTracks;
-use crate::kitti::SequenceData;
+use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's

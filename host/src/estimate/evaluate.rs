@@ -12,9 +12,9 @@ use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
 use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, PartsFrame, run_estimator, run_parts};
 use super::score::{RunScores, SmoothnessSum, TrajectorySmoothness, moving_objects, score_run, smoothness};
-use crate::kitti::SequenceData;
-use crate::tracks_file::TracksWriter;
 use crate::trajectory::label_tracks;
+use dynotraj_formats::kitti::SequenceData;
+use dynotraj_formats::tracks_file::TracksWriter;
 
 /// The smoothing window of the command (DynoSAM's 20 frames).
 pub const WINDOW: usize = dynotraj_core::estimate::DEFAULT_WINDOW;

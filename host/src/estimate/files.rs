@@ -39,7 +39,7 @@ use nalgebra::Isometry3;
 
 use super::runner::{EstimatorRun, Kind};
 use super::score::object_runs;
-use crate::kitti::{write_poses, write_tum_noted};
+use dynotraj_formats::kitti::{write_poses, write_tum_noted};
 
 fn f64_pose(p: &Pose3) -> Isometry3<f64> {
     p.cast::<f64>()

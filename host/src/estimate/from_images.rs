@@ -26,7 +26,7 @@ use super::score::{RunScores, moving_objects, score_run};
 use crate::frontend::rendered;
 use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
-use crate::kitti::SequenceData;
+use dynotraj_formats::kitti::SequenceData;
 
 /// True when `dir` holds a left and a right image of every frame `0..frames` of `seq`.
 #[must_use]

@@ -5,7 +5,7 @@ use dynotraj_core::wire::ObjectClass;
 use dynotraj_fixtures::track_sim::LabelBox;
 use nalgebra::{Isometry3, Point3};
 
-use crate::kitti::SequenceData;
+use dynotraj_formats::kitti::SequenceData;
 
 /// KITTI tracking image size (width, height), pixels (image_02 of the 2011_09_26 drives;
 /// other drives differ by a few pixels).

@@ -19,7 +19,7 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
 use super::cache::{load_file, store_file};
-use crate::kitti::SequenceData;
+use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
 /// clear of object masks; 3: a ground plane fitted under the ego path).

@@ -293,9 +293,9 @@ pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (Smoo
 mod tests {
     use super::*;
     use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
-    use crate::kitti::TrackingDir;
-    use crate::kitti::synthetic::write_sequence;
     use dynotraj_fixtures::drive::{DriveSpec, generate};
+    use dynotraj_fixtures::kitti_layout::write_sequence;
+    use dynotraj_formats::kitti::TrackingDir;
 
     #[test]
     fn the_rpe_over_time_is_the_pairs_table_iii_averages() {

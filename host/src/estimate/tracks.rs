@@ -27,9 +27,9 @@ use dynotraj_core::wire::ObjectClass;
 use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
 use crate::estimate::score::{FrameRpe, moving_objects, rpe_over_time};
 use crate::estimate::{EstimatorRun, Kind, RunScores};
-use crate::kitti::SequenceData;
 use crate::trajectory::ObjectTrack;
 use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_formats::kitti::SequenceData;
 
 /// What the estimator ran on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

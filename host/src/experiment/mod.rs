@@ -26,13 +26,13 @@ use dynotraj_core::model::Dims;
 use dynotraj_core::predict::{Baseline, MotionPrior};
 
 use crate::evaluate::{Forecaster, Reference, instance_keys, score_sequence, score_sequence_against};
-use crate::model_file::ModelFile;
 use crate::report::{ArmScores, Table, forecast_table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::train::Hyper;
 use crate::trajectory::{EligibilityRule, EligibleRun, Source, eligible_runs};
 use cache::CachedFold;
+use dynotraj_formats::model_file::ModelFile;
 use folds::{FoldSpec, TrainProgress, train_folds};
 
 /// What to run.

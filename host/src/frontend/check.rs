@@ -99,7 +99,7 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
     let (fx, fy, cx, cy, bf) =
         (num("Camera.fx")?, num("Camera.fy")?, num("Camera.cx")?, num("Camera.cy")?, num("Camera.bf")?);
     let poses_path = dir.join("poses_gt.txt");
-    let poses = crate::kitti::read_poses(&poses_path)
+    let poses = dynotraj_formats::kitti::read_poses(&poses_path)
         .map_err(|e| FrontEndError::Unreadable { path: poses_path.clone(), expected: format!("KITTI poses ({e})") })?;
     let pose = |k: usize| {
         poses.get(k).copied().ok_or_else(|| FrontEndError::Unreadable {

@@ -25,8 +25,8 @@ use super::error::{FrontEndError, cv};
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::Detection;
 use super::pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput};
-use crate::kitti::{LabelRow, read_calib, read_labels};
 use dynotraj_core::wire::Track;
+use dynotraj_formats::kitti::{LabelRow, read_calib, read_labels};
 
 /// How to get depth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -7,7 +7,7 @@ use dynotraj_core::geometry::{bev_heading_of_rotation_y, bev_point};
 use dynotraj_core::wire::ObjectClass;
 use nalgebra::{Isometry3, Point3};
 
-use crate::kitti::SequenceData;
+use dynotraj_formats::kitti::SequenceData;
 
 /// One labelled object in one frame, in the labelling camera's frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

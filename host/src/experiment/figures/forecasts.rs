@@ -18,10 +18,10 @@ use super::choice::Subject;
 use super::time_axis::{rate_text, seconds};
 use super::{Figure, FigureInputs};
 use crate::evaluate::{Forecaster, forecast_at};
-use crate::model_file::ModelFile;
 use crate::report::chart::{Colour, Marker, Panel, PathFigure, PathLine, Style, write_paths};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
+use dynotraj_formats::model_file::ModelFile;
 
 /// Instances drawn per object.
 pub const INSTANCES: usize = 3;

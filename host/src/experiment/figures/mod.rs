@@ -29,9 +29,9 @@ use anyhow::Context as _;
 
 pub use choice::{ObjectChoice, longest_moving_object, parse_object_choice, subjects};
 
-use crate::model_file::ModelFile;
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, Source};
+use dynotraj_formats::model_file::ModelFile;
 
 /// A figure written: its file stem's paths and its caption.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,13 +136,13 @@ mod tests {
     use super::*;
     use crate::estimate::evaluate::EvalOptions;
     use crate::estimate::settings::EstimateSettings;
-    use crate::kitti::TrackingDir;
-    use crate::kitti::synthetic::write_sequence;
     use crate::sequence::load_sequence;
     use dynotraj_core::model::Dims;
     use dynotraj_core::model::blob::Precision;
     use dynotraj_fixtures::bench_inputs::random_blob;
     use dynotraj_fixtures::drive::{DriveSpec, generate};
+    use dynotraj_fixtures::kitti_layout::write_sequence;
+    use dynotraj_formats::kitti::TrackingDir;
 
     /// Sequence 0000 of the fixtures' synthetic drive with the estimator's tracks, at 10 Hz.
     fn drive_0000(root: &Path) -> SequenceTracks {

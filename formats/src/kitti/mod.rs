@@ -27,7 +27,6 @@ pub mod layout;
 pub mod oxts;
 pub mod poses;
 pub mod rigid;
-pub mod synthetic;
 mod text;
 
 #[cfg(test)]
