@@ -4,8 +4,6 @@ pub mod cli;
 pub mod estimate;
 pub mod evaluate;
 pub mod experiment;
-pub mod frontend;
-pub mod image_sim_files;
 pub mod jobs;
 pub mod link;
 pub mod model_signing;

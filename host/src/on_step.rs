@@ -14,6 +14,13 @@ impl OnStep {
         Self(Arc::new(f))
     }
 
+    /// The hook as a plain function, for the crates below the host (the front-end) that take
+    /// one.
+    #[must_use]
+    pub fn as_fn(&self) -> &(dyn Fn(u64) + Send + Sync) {
+        &*self.0
+    }
+
     /// Says that `done` steps are done.
     pub fn step(&self, done: u64) {
         (self.0)(done);

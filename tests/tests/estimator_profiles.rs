@@ -7,7 +7,6 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_edge::Edge;
 use dynotraj_host::estimate::evaluate::EvalOptions;
 use dynotraj_host::estimate::from_images::{render_camera, rendered_params};
-use dynotraj_host::frontend::rendered::intrinsics_of;
 
 #[test]
 fn the_edge_runs_the_edge_profile() {
@@ -21,7 +20,7 @@ fn the_edge_runs_the_edge_profile() {
 #[test]
 fn the_host_runs_each_profile_as_named() {
     let dt = 1.0 / PAPER_FRAME_RATE_HZ;
-    let camera = intrinsics_of(&render_camera(1.0));
+    let camera = render_camera(1.0).intrinsics();
     for profile in [HOST_PROFILE, EDGE_PROFILE] {
         let opt = EvalOptions::kitti(dt).with_profile(profile);
         assert_eq!((opt.window, opt.profile), (profile.window, profile.name));

@@ -7,9 +7,9 @@ use std::path::Path;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
-use dynotraj_host::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-use dynotraj_host::frontend::{DepthInput, Detection, FrameInput, FrontEnd, MaskInput, StereoParams, TrackerParams};
-use dynotraj_host::image_sim_files::write_sequence;
+use dynotraj_frontend::image_sim_files::write_sequence;
+use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use dynotraj_frontend::{DepthInput, Detection, FrameInput, FrontEnd, MaskInput, StereoParams, TrackerParams};
 use opencv::core::{CV_8UC1, Mat, Scalar};
 use opencv::prelude::*;
 

@@ -2,8 +2,8 @@
 //! KITTI 2015 ground truth, and KLT survival and ego-motion on odometry 06 frames 12-14 against
 //! the ground-truth poses. Skips with a message when the data is absent.
 
-use dynotraj_host::frontend::check::{odometry06, stereo2015_d1};
-use dynotraj_host::frontend::{StereoParams, TrackerParams};
+use dynotraj_frontend::check::{odometry06, stereo2015_d1};
+use dynotraj_frontend::{StereoParams, TrackerParams};
 use dynotraj_tests::shared_kitti;
 
 #[test]

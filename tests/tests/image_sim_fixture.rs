@@ -7,9 +7,9 @@ use std::path::PathBuf;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
-use dynotraj_host::frontend::image_io::read_u16;
-use dynotraj_host::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-use dynotraj_host::frontend::{FrontEnd, StereoParams, TrackerParams};
+use dynotraj_frontend::image_io::read_u16;
+use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams};
 use opencv::imgcodecs::{IMREAD_COLOR, imread};
 use opencv::prelude::*;
 

@@ -1,6 +1,6 @@
 //! `dynotraj simulate`: renders an image sequence with the image simulator, driven by a KITTI
 //! sequence's labels and ego poses (or by the built-in synthetic drive), and writes it in the
-//! KITTI tracking layout with its truth (see `crate::image_sim_files`).
+//! KITTI tracking layout with its truth (see `dynotraj_frontend::image_sim_files`).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -15,9 +15,9 @@ use dynotraj_fixtures::track_sim::LabelBox;
 use super::common::{self, progress};
 use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
-use crate::frontend::StereoParams;
-use crate::image_sim_files::write_sequence_with;
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_frontend::StereoParams;
+use dynotraj_frontend::image_sim_files::write_sequence_with;
 
 /// Options of `dynotraj simulate`.
 #[derive(Debug, Args)]
@@ -131,7 +131,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         }
         let out = args.out.as_ref().context("--out: the output folder is needed")?;
         let bar = Arc::new(progress(n as u64, &format!("sequence {id}: frames rendered")));
-        write_sequence_with(out, &id, &sim, n, Some(&bar.hook()))?;
+        write_sequence_with(out, &id, &sim, n, Some(bar.hook().as_fn()))?;
         bar.finish_and_clear();
         eprintln!(
             "wrote {n} frames of {}x{} of sequence {id} to {}",

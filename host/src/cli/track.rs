@@ -12,12 +12,12 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::CameraInfo;
 
 use super::common::progress;
-use crate::frontend::check::{odometry06, stereo2015_d1};
-use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-use crate::frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
 use crate::report::data::{Cell, ColumnKind, Data};
 use crate::report::{Format, Table};
 use dynotraj_formats::tracks_file::TracksWriter;
+use dynotraj_frontend::check::{odometry06, stereo2015_d1};
+use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
 
 /// Options of `dynotraj track`.
 #[derive(Debug, Args)]
@@ -78,7 +78,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     if args.bench {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
-        let (times, stats) = crate::frontend::bench::run(args.frames.unwrap_or(30), stereo, boxes)?;
+        let (times, stats) = dynotraj_frontend::bench::run(args.frames.unwrap_or(30), stereo, boxes)?;
         println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
         print_times(&times, &stereo);
         if args.counters {

@@ -8,12 +8,12 @@ use dynotraj_fixtures::track_sim::SimFrame;
 use super::evaluate::WINDOW;
 use super::score::moving_objects;
 use super::{EstimatorRun, RunScores, run_estimator, score_run};
-use crate::frontend::error::FrontEndError;
-use crate::frontend::pipeline::StageTimes;
-use crate::frontend::rendered::{Tracked, intrinsics_of, track_with};
-use crate::frontend::stats::FrontEndStats;
-use crate::frontend::stereo::StereoParams;
 use crate::on_step::OnStep;
+use dynotraj_frontend::error::FrontEndError;
+use dynotraj_frontend::pipeline::StageTimes;
+use dynotraj_frontend::rendered::{Tracked, track_with};
+use dynotraj_frontend::stats::FrontEndStats;
+use dynotraj_frontend::stereo::StereoParams;
 
 /// What an end-to-end run gave.
 #[derive(Debug, Clone)]
@@ -58,8 +58,9 @@ pub fn run_with(
     min_step_m: f64,
     on_frame: Option<&OnStep>,
 ) -> Result<EndToEnd, FrontEndError> {
-    let Tracked { frames: out, times, stats } = track_with(sim, frames, dt, stereo, on_frame)?;
-    let params = EstimatorParams::kitti(intrinsics_of(&sim.camera), dt);
+    let hook = on_frame.map(|h| -> &dyn Fn(u64) { h.as_fn() });
+    let Tracked { frames: out, times, stats } = track_with(sim, frames, dt, stereo, hook)?;
+    let params = EstimatorParams::kitti(sim.camera.intrinsics(), dt);
     let run = run_estimator::<WINDOW>(&out, params, 1);
     let moving = moving_objects(&out, min_step_m);
     let scores = score_run(&out, &run, &moving);

@@ -23,10 +23,10 @@ use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::{EstimatorRun, PartsFrame};
 use super::score::{RunScores, moving_objects, score_run};
-use crate::frontend::rendered;
-use crate::frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-use crate::frontend::{FrontEnd, StereoParams, TrackerParams};
 use dynotraj_formats::kitti::SequenceData;
+use dynotraj_frontend::rendered;
+use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
+use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams};
 
 /// True when `dir` holds a left and a right image of every frame `0..frames` of `seq`.
 #[must_use]
@@ -135,7 +135,7 @@ pub fn render_camera(scale: f64) -> Camera {
 /// The estimator's camera model of a rendering at `scale`.
 #[must_use]
 pub fn rendered_intrinsics(scale: f64) -> Intrinsics {
-    rendered::intrinsics_of(&render_camera(scale))
+    render_camera(scale).intrinsics()
 }
 
 /// The estimator parameters for tracks of a rendering at `scale`: the KITTI defaults with the

@@ -1,5 +1,5 @@
 //! Writes the image simulator's output ([`dynotraj_fixtures::image_sim`]) in the KITTI tracking
-//! layout that [`crate::frontend::sequence`] reads, plus the truth:
+//! layout that [`crate::sequence`] reads, plus the truth:
 //!
 //! ```text
 //! <dir>/image_02/<seq>/NNNNNN.png     left RGB
@@ -17,7 +17,6 @@
 //! The rendered left camera plays KITTI's camera 0 and camera 2 at once (no offset between
 //! them), so labels, poses and images share one frame.
 
-use crate::on_step::{OnStep, step};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -27,7 +26,7 @@ use nalgebra::{Isometry3, Point3, Vector3};
 use opencv::core::{Mat, Vector};
 use opencv::imgcodecs::imwrite;
 
-use crate::frontend::image_io::{bgr_from_rgb, u16_from_buffer};
+use crate::image_io::{bgr_from_rgb, u16_from_buffer};
 use dynotraj_formats::kitti::{LabelRow, write_labels, write_poses};
 
 /// Writes a `Mat` as PNG, naming the file on failure.
@@ -130,7 +129,7 @@ pub fn write_sequence_with(
     seq: &str,
     sim: &ImageSim,
     frames: usize,
-    on_frame: Option<&OnStep>,
+    on_frame: Option<&dyn Fn(u64)>,
 ) -> anyhow::Result<()> {
     for folder in ["image_02", "image_03", "depth_02", "instance_02"] {
         let d = dir.join(folder).join(seq);
@@ -154,7 +153,9 @@ pub fn write_sequence_with(
     for k in 0..n {
         let f = sim.frame(k).with_context(|| format!("frame {k} is past the sequence"))?;
         write_frame_images(dir, seq, sim, &f)?;
-        step(on_frame, k as u64 + 1);
+        if let Some(hook) = on_frame {
+            hook(k as u64 + 1);
+        }
         labels.extend(label_rows(&f, sim.camera.width));
         row(&mut truth, k, 0, "Camera", &f.camera, [0.0; 3]);
         for o in &f.objects {

@@ -1,4 +1,6 @@
-//! The host front-end (OpenCV): camera frames in, the wire's feature tracks out.
+//! dynotraj-frontend, the image front-end (OpenCV): camera frames in, the wire's feature tracks
+//! out. The only crate that links OpenCV; the estimator that reads its tracks is in the core,
+//! and the host reaches it only through its `images` feature.
 //!
 //! Stages, each in its own module:
 //! - [`stereo`]: dense disparity by semi-global matching (parameters documented there), and
@@ -20,6 +22,7 @@ pub mod depth;
 pub mod error;
 pub mod features;
 pub mod image_io;
+pub mod image_sim_files;
 pub mod klt;
 pub mod masks;
 pub mod pipeline;

@@ -1,9 +1,7 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are [`crate::estimate::end_to_end`]).
 
-use crate::on_step::{OnStep, step};
-use dynotraj_core::estimate::Intrinsics;
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
+use dynotraj_fixtures::image_sim::ImageSim;
 use dynotraj_fixtures::track_sim::SimFrame;
 
 use super::bench::input_of;
@@ -41,7 +39,7 @@ pub fn track_with(
     frames: usize,
     dt: f32,
     stereo: StereoParams,
-    on_frame: Option<&OnStep>,
+    on_frame: Option<&dyn Fn(u64)>,
 ) -> Result<Tracked, FrontEndError> {
     let cam = sim.camera;
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
@@ -51,19 +49,9 @@ pub fn track_with(
         let tracks = fe.process(input_of(&f, &cam)?)?;
         let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
         out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
-        step(on_frame, out.len() as u64);
+        if let Some(hook) = on_frame {
+            hook(out.len() as u64);
+        }
     }
     Ok(Tracked { frames: out, times: fe.times, stats: fe.tracker.stats })
-}
-
-/// The estimator's camera model of a rendering camera.
-#[must_use]
-pub fn intrinsics_of(cam: &Camera) -> Intrinsics {
-    Intrinsics {
-        fx: cam.fx as f32,
-        fy: cam.fy as f32,
-        cx: cam.cx as f32,
-        cy: cam.cy as f32,
-        stereo_fb: cam.fb() as f32,
-    }
 }
