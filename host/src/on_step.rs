@@ -16,7 +16,6 @@ impl OnStep {
 
     /// The hook as a plain function, for the crates below the host (the front-end) that take
     /// one.
-    #[must_use]
     pub fn as_fn(&self) -> &(dyn Fn(u64) + Send + Sync) {
         &*self.0
     }
