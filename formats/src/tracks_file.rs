@@ -282,6 +282,13 @@ fn kind(msg: &Message) -> &'static str {
     }
 }
 
+/// The tracks file of sequence `id` in the folder `out` (`dynotraj track` writes it there,
+/// `dynotraj estimate --tracks` reads it from there).
+#[must_use]
+pub fn tracks_path(out: &Path, id: &str) -> PathBuf {
+    out.join(format!("{id}.dtt"))
+}
+
 #[cfg(test)]
 mod tests {
     use dynotraj_core::wire::{ObjectClass, STATIC_OBJECT_ID};

@@ -16,7 +16,6 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::common::{OursArgs, progress, sequence_ids};
-use super::track::tracks_path;
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
@@ -31,6 +30,7 @@ use crate::report::estimator_tables::{
 };
 use crate::report::{Format, Table, check_table, render_tables};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_formats::tracks_file::tracks_path;
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]

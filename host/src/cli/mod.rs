@@ -12,9 +12,11 @@ pub mod interrupt;
 pub mod numbers;
 pub mod progress;
 pub mod sign;
+#[cfg(feature = "images")]
 pub mod simulate;
 pub mod soak;
 pub mod stream;
+#[cfg(feature = "images")]
 pub mod track;
 pub mod train;
 pub mod train_progress;
@@ -77,8 +79,10 @@ pub enum Command {
     /// several seeds, all arms; weighted and per-sequence tables, the deployment comparison.
     Benchmark(benchmark::BenchmarkArgs),
     /// Renders an image sequence (stereo, depth, masks, truth) from KITTI labels and ego poses.
+    #[cfg(feature = "images")]
     Simulate(simulate::SimulateArgs),
     /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
+    #[cfg(feature = "images")]
     Track(track::TrackArgs),
     /// Streams feature tracks to an edge (TCP or serial) and collects its forecasts.
     Stream(stream::StreamArgs),
@@ -115,7 +119,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(a) => bench::run(&a),
         Command::Experiment(a) => experiment::run(&a),
         Command::Benchmark(a) => benchmark::run(&a),
+        #[cfg(feature = "images")]
         Command::Simulate(a) => simulate::run(&a),
+        #[cfg(feature = "images")]
         Command::Track(a) => track::run(&a),
         Command::Stream(a) => stream::run(&a),
         Command::Soak(a) => soak::run(&a),

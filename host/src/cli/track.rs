@@ -14,7 +14,7 @@ use dynotraj_core::wire::CameraInfo;
 use super::common::progress;
 use crate::report::data::{Cell, ColumnKind, Data};
 use crate::report::{Format, Table};
-use dynotraj_formats::tracks_file::TracksWriter;
+use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
 use dynotraj_frontend::check::{odometry06, stereo2015_d1};
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
@@ -98,12 +98,6 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// The tracks file of sequence `id` in the output folder `out`.
-#[must_use]
-pub fn tracks_path(out: &Path, id: &str) -> PathBuf {
-    out.join(format!("{id}.dtt"))
 }
 
 /// `given`, or every sequence with a folder of left images in `dir`/image_02/, in order.

@@ -12,21 +12,32 @@
 use std::path::Path;
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
+#[cfg(feature = "images")]
 use dynotraj_core::wire::frame_parts;
 
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
 use dynotraj_fixtures::track_sim::SimFrame;
 
-use super::evaluate::{EvalOptions, params_for, run_sim_with_window, run_with_window, sim_max_depth};
+use super::evaluate::{EvalOptions, run_sim_with_window};
+#[cfg(feature = "images")]
+use super::evaluate::{params_for, run_with_window, sim_max_depth};
 use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
-use super::runner::{EstimatorRun, PartsFrame};
+use super::runner::EstimatorRun;
+#[cfg(feature = "images")]
+use super::runner::PartsFrame;
 use super::score::{RunScores, moving_objects, score_run};
 use dynotraj_formats::kitti::SequenceData;
-use dynotraj_frontend::rendered;
+#[cfg(feature = "images")]
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams};
+#[cfg(feature = "images")]
+use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams, rendered};
+
+/// What a build without the image front-end says where it would be needed.
+pub const WITHOUT_IMAGES: &str = "this dynotraj was built without the image front-end (the cargo \
+    feature `images`, which links OpenCV): rebuild with default features, or use \
+    `--ours-input tracks` or an estimate cache that holds the rendering";
 
 /// True when `dir` holds a left and a right image of every frame `0..frames` of `seq`.
 #[must_use]
@@ -59,6 +70,18 @@ pub fn image_files(dir: &Path, seq: &str, frames: usize) -> Vec<std::path::PathB
 /// # Errors
 /// An unreadable image or calibration, or a front-end failure, with the file or frame named.
 pub fn estimate_from_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<EstimatorRun> {
+    #[cfg(not(feature = "images"))]
+    {
+        let _ = (dir, seq, opt);
+        anyhow::bail!("sequence {seq}: {WITHOUT_IMAGES}");
+    }
+    #[cfg(feature = "images")]
+    track_images(dir, seq, opt)
+}
+
+/// [`estimate_from_images`] with the front-end.
+#[cfg(feature = "images")]
+fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<EstimatorRun> {
     let s = ImageSequence::open(dir, seq, DepthMode::Stereo, MaskMode::Auto)?;
     let [fx, fy, cx, cy] = s.intrinsics;
     let intrinsics = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: s.fb as f32 };
@@ -116,14 +139,26 @@ pub fn render_and_track(
     }
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
     let sim = ImageSim::new(render_camera(scale), &input.camera_poses[..n], &boxes, opt.seed);
-    // Disparities scale with the image: 128 at full resolution reaches 3 m.
-    let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
-    let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
-    let frames = rendered::track(&sim, n, opt.dt, stereo)?.frames;
+    let frames = track_rendering(&sim, n, opt.dt, scale)?;
     if let (Some(dir), Some(key)) = (cache, key) {
         rendered_cache::store(dir, id, key, &frames)?;
     }
     Ok(frames)
+}
+
+/// The front-end's tracks of the first `n` frames of the rendering `sim` made at `scale`.
+#[cfg(feature = "images")]
+fn track_rendering(sim: &ImageSim, n: usize, dt: f32, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
+    // Disparities scale with the image: 128 at full resolution reaches 3 m.
+    let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
+    let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
+    Ok(rendered::track(sim, n, dt, stereo)?.frames)
+}
+
+/// Without the front-end a rendering cannot be tracked.
+#[cfg(not(feature = "images"))]
+fn track_rendering(_: &ImageSim, _: usize, _: f32, _: f64) -> anyhow::Result<Vec<SimFrame>> {
+    anyhow::bail!(WITHOUT_IMAGES)
 }
 
 /// The camera renderings are made with at `scale`.
@@ -165,4 +200,20 @@ pub fn estimate_rendered(
     let moving = moving_objects(&frames, opt.min_step_m);
     let scores = score_run(&frames, &run, &moving);
     Ok(RenderedRun { frames, run, scores })
+}
+
+#[cfg(all(test, not(feature = "images")))]
+mod tests_without_images {
+    use super::*;
+
+    #[test]
+    fn a_build_without_the_front_end_names_the_feature_it_lacks() {
+        let dir = tempfile::tempdir().unwrap();
+        let err = estimate_from_images(dir.path(), "0000", &EvalOptions::kitti(0.1)).unwrap_err();
+        assert!(format!("{err:#}").contains("feature `images`"), "{err:#}");
+        let camera = render_camera(0.1);
+        let sim = ImageSim::new(camera, &[], &[], 1);
+        let err = track_rendering(&sim, 0, 0.1, 0.1).unwrap_err();
+        assert!(format!("{err:#}").contains("feature `images`"), "{err:#}");
+    }
 }

@@ -17,6 +17,7 @@
 
 pub mod bench;
 pub mod cache;
+#[cfg(feature = "images")]
 pub mod end_to_end;
 pub mod evaluate;
 pub mod files;
