@@ -20,6 +20,12 @@ impl OnStep {
         &*self.0
     }
 
+    /// The hook as a shared function, for options that keep one (the link client's).
+    #[must_use]
+    pub fn shared(&self) -> std::sync::Arc<dyn Fn(u64) + Send + Sync> {
+        std::sync::Arc::clone(&self.0)
+    }
+
     /// Says that `done` steps are done.
     pub fn step(&self, done: u64) {
         (self.0)(done);

@@ -318,12 +318,12 @@ pub fn elf_sections(path: &std::path::Path) -> Vec<(String, u32)> {
 pub fn stream_to_qemu(
     elf: &std::path::Path,
     tracks: &Tracks,
-) -> (dynotraj_host::stream::StreamResult, std::process::ExitStatus, String) {
+) -> (dynotraj_link::stream::StreamResult, std::process::ExitStatus, String) {
     use std::io::Read as _;
     use std::time::Duration;
 
-    use dynotraj_host::link::{Endpoint, connect};
-    use dynotraj_host::stream::{StreamOptions, stream};
+    use dynotraj_link::endpoint::{Endpoint, connect};
+    use dynotraj_link::stream::{StreamOptions, stream};
 
     let port = free_port();
     let mut qemu = spawn_qemu_elf(port, elf);

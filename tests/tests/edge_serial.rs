@@ -6,8 +6,8 @@ use std::io::{Read, Write};
 use std::time::Duration;
 
 use dynotraj_edge::{NoClock, Session, Transport};
-use dynotraj_host::link::{Endpoint, connect};
-use dynotraj_host::stream::{StreamOptions, stream};
+use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{encode_all, host_messages, outputs, reference_replies, scene_tracks};
 use serialport::{SerialPort, TTYPort};
 

@@ -14,8 +14,8 @@ use dynotraj_core::wire::{FrameDecoder, Message, Notice};
 use dynotraj_edge::{NoClock, Session};
 use dynotraj_formats::tracks_file::Tracks;
 use dynotraj_host::cli::bench::random_blob;
-use dynotraj_host::link::{Endpoint, connect};
-use dynotraj_host::stream::{StreamOptions, StreamResult, stream};
+use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
 use dynotraj_tests::edge_fixture::{
     MemLink, dynotraj_command, encode_all, host_messages, outputs, reference_replies, scene_tracks,
     spawn_listening_edge, write_tracks_file,

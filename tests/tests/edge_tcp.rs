@@ -8,9 +8,9 @@ use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};
 use dynotraj_host::cli::bench::random_blob;
-use dynotraj_host::link::{Endpoint, connect};
 use dynotraj_host::model_signing::{development_signing_key, sign};
-use dynotraj_host::stream::{StreamOptions, stream};
+use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{
     encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
 };

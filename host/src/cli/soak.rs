@@ -12,11 +12,11 @@ use clap::Args;
 
 use super::common::progress;
 use super::stream::input_tracks;
-use crate::link::{Endpoint, connect};
 use crate::report::stream_report::{soak_data, soak_summary};
 use crate::report::write_table_files;
-use crate::soak::{SoakOptions, SoakReport, soak};
 use dynotraj_formats::tracks_file::Tracks;
+use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::soak::{SoakOptions, SoakReport, soak};
 
 /// Options of `dynotraj soak`.
 #[derive(Debug, Args)]
@@ -111,7 +111,7 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         frames: args.frames,
         fault_probability: args.fault_probability,
         seed: args.seed,
-        on_frame: Some(bar.hook()),
+        on_frame: Some(bar.hook().shared()),
         ..SoakOptions::default()
     };
     let report = soak(&base, rx, tx, &opt, Some(child.id()))?;

@@ -14,12 +14,12 @@ use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
 use crate::estimate::evaluate::camera_info;
 use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
-use crate::link::{Endpoint, connect};
 use crate::report::stream_report::{frames_data, predictions_data, summary};
 use crate::report::write_table_files;
-use crate::stream::{StreamOptions, StreamResult, stream};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{self, Tracks, TracksFrame};
+use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
 
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]
@@ -84,7 +84,7 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
         reply_timeout: timeout,
         model,
         stop: Some(stop),
-        on_frame: Some(bar.hook()),
+        on_frame: Some(bar.hook().shared()),
     };
     let (rx, tx) = connect(&args.to, timeout)?;
     let result = stream(&tracks, rx, tx, &opt);

@@ -6,9 +6,9 @@ use std::fmt::Write as _;
 use dynotraj_core::wire::{ComputeUnit, Forecaster, Message};
 
 use super::data::{Cell, ColumnKind, Data};
-use crate::link::Endpoint;
-use crate::soak::SoakReport;
-use crate::stream::StreamResult;
+use dynotraj_link::endpoint::Endpoint;
+use dynotraj_link::soak::SoakReport;
+use dynotraj_link::stream::StreamResult;
 
 /// A soak's figures as one row: what was sent and damaged, what was answered and lost, both
 /// decoders' rejects, the edge's resident memory after the first frames and at the end (KiB;
@@ -38,7 +38,7 @@ pub fn soak_data(r: &SoakReport) -> Data {
     let edge = r.edge_link.map(|l| l.received);
     let edge_cell =
         |f: fn(&dynotraj_core::wire::DecoderStats) -> u32| edge.as_ref().map_or(Cell::Missing, |s| Cell::int(f(s)));
-    let mem = |f: fn(&(crate::soak::Memory, crate::soak::Memory)) -> u64| {
+    let mem = |f: fn(&(dynotraj_link::soak::Memory, dynotraj_link::soak::Memory)) -> u64| {
         r.edge_memory.as_ref().map_or(Cell::Missing, |m| Cell::int(f(m)))
     };
     d.push(vec![

@@ -9,23 +9,22 @@
 //! only counters (no replies), so a run of any length uses fixed host memory; the edge's
 //! resident memory is read from /proc at the start and the end when its process id is known.
 
-use crate::on_step::{OnStep, step};
-use std::io::Write;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use dynotraj_core::wire::{DecoderStats, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode};
-use rand::{Rng, SeedableRng};
-use rand_xoshiro::Xoshiro256PlusPlus;
-
-use crate::link::{LinkReader, LinkWriter, read_some};
+use dynotraj_core::wire::{DecoderStats, LinkStats, Message};
 use dynotraj_formats::tracks_file::Tracks;
 
+use crate::OnFrame;
+use crate::endpoint::{LinkReader, LinkWriter};
+use crate::fault::FaultInjector;
+use crate::wire_io::{LinkEvent, WireSender, read_link};
+
 /// How to soak.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct SoakOptions {
     /// Camera frames to send.
     pub frames: u64,
@@ -39,7 +38,20 @@ pub struct SoakOptions {
     /// works through a bounded backlog instead of the operating system's socket buffers).
     pub max_in_flight: u64,
     /// Told the number of camera frames sent, after each.
-    pub on_frame: Option<OnStep>,
+    pub on_frame: Option<OnFrame>,
+}
+
+impl std::fmt::Debug for SoakOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SoakOptions")
+            .field("frames", &self.frames)
+            .field("fault_probability", &self.fault_probability)
+            .field("seed", &self.seed)
+            .field("reply_timeout", &self.reply_timeout)
+            .field("max_in_flight", &self.max_in_flight)
+            .field("on_frame", &self.on_frame.is_some())
+            .finish()
+    }
 }
 
 impl Default for SoakOptions {
@@ -116,85 +128,22 @@ struct Seen {
     received: DecoderStats,
 }
 
-fn read_answers(mut rx: LinkReader, last_answered: &AtomicU64, out: &mpsc::Sender<Seen>) {
-    let mut decoder = FrameDecoder::new();
+fn read_answers(rx: LinkReader, last_answered: &AtomicU64, out: &mpsc::Sender<Seen>) {
     let mut seen = Seen::default();
-    let mut buf = [0u8; 4096];
-    while let Some(n) = read_some(&mut rx, &mut buf) {
-        let mut bye = false;
-        for msg in decoder.feed(buf.get(..n).unwrap_or_default()) {
-            match msg {
-                Message::FrameStats(s) => {
-                    seen.answered.push(s.frame);
-                    seen.frames_lost = s.frames_lost;
-                    last_answered.store(u64::from(s.frame) + 1, Ordering::Release);
-                }
-                Message::LinkStats(l) => {
-                    seen.goodbye = Some(l);
-                    bye = true;
-                }
-                _ => {}
+    seen.received = read_link(rx, |event| {
+        let LinkEvent::Message(_, msg) = event else { return true };
+        match *msg {
+            Message::FrameStats(s) => {
+                seen.answered.push(s.frame);
+                seen.frames_lost = s.frames_lost;
+                last_answered.store(u64::from(s.frame) + 1, Ordering::Release);
             }
+            Message::LinkStats(l) => seen.goodbye = Some(l),
+            _ => {}
         }
-        if bye {
-            break;
-        }
-    }
-    seen.received = decoder.stats();
+        true
+    });
     let _ = out.send(seen);
-}
-
-/// Damages `bytes` (one encoded wire frame) in place or returns how to send it; the fault
-/// index into [`SoakReport::faults`].
-fn damage(bytes: &mut Vec<u8>, rng: &mut Xoshiro256PlusPlus) -> usize {
-    if bytes.is_empty() {
-        return 2;
-    }
-    match rng.random_range(0..3) {
-        0 => {
-            let at = rng.random_range(0..bytes.len());
-            if let Some(b) = bytes.get_mut(at) {
-                *b ^= rng.random_range(1..=255u8);
-            }
-            0
-        }
-        1 => {
-            let keep = rng.random_range(0..bytes.len());
-            bytes.truncate(keep);
-            1
-        }
-        _ => {
-            let copy = bytes.clone();
-            bytes.extend_from_slice(&copy);
-            2
-        }
-    }
-}
-
-/// Encodes wire frames and damages some on their way out.
-struct FaultySender<'w> {
-    tx: &'w mut LinkWriter,
-    buf: FrameBuf,
-    rng: Xoshiro256PlusPlus,
-    probability: f64,
-}
-
-impl FaultySender<'_> {
-    /// Sends `msg`, damaged with the probability when `faults`; returns whether it was.
-    fn send(&mut self, msg: &Message, faults: bool, report: &mut SoakReport) -> anyhow::Result<bool> {
-        let n = encode(msg, &mut self.buf).context("encoding a frame")?;
-        let mut bytes = self.buf.get(..n).unwrap_or_default().to_vec();
-        let hit = faults && self.rng.random_bool(self.probability);
-        if hit {
-            let kind = damage(&mut bytes, &mut self.rng);
-            if let Some(c) = report.faults.get_mut(kind) {
-                *c += 1;
-            }
-        }
-        self.tx.write_all(&bytes).context("writing to the link")?;
-        report.wire_frames_sent += 1;
-        Ok(hit)
-    }
 }
 
 /// Streams `opt.frames` camera frames of `base` (looped and renumbered) over the link with
@@ -205,7 +154,7 @@ impl FaultySender<'_> {
 pub fn soak(
     base: &Tracks,
     rx: LinkReader,
-    mut tx: LinkWriter,
+    tx: LinkWriter,
     opt: &SoakOptions,
     edge_pid: Option<u32>,
 ) -> anyhow::Result<SoakReport> {
@@ -218,13 +167,10 @@ pub fn soak(
     std::thread::spawn(move || read_answers(rx, &reader_mark, &seen_tx));
     let mut report = SoakReport::default();
     let mut damaged = vec![false; usize::try_from(opt.frames).context("--frames")?];
-    let mut sender = FaultySender {
-        tx: &mut tx,
-        buf: [0; MAX_FRAME_LEN],
-        rng: Xoshiro256PlusPlus::seed_from_u64(opt.seed),
-        probability: opt.fault_probability.clamp(0.0, 1.0),
-    };
-    sender.send(&Message::CameraInfo(base.camera), false, &mut report)?;
+    let mut sender = WireSender::new(FaultInjector::new(tx, opt.fault_probability, opt.seed));
+    sender.writer_mut().arm(false);
+    sender.send(&Message::CameraInfo(base.camera))?;
+    sender.writer_mut().arm(true);
     let period_us = base
         .frames
         .get(1)
@@ -240,30 +186,34 @@ pub fn soak(
         }
         let Some(f) = usize::try_from(k).ok().and_then(|i| base.frames.get(i % base.frames.len())) else { break };
         let frame = u32::try_from(k).context("frame number")?;
-        let mut hit = false;
         for part in &f.parts {
             let mut p = part.clone();
             p.frame = frame;
             p.timestamp_us = k * period_us;
-            hit |= sender.send(&Message::FrameTracks(p), true, &mut report)?;
+            sender.send(&Message::FrameTracks(p))?;
         }
-        sender.tx.flush().context("writing to the link")?;
+        sender.flush()?;
         if let Some(d) = usize::try_from(k).ok().and_then(|i| damaged.get_mut(i)) {
-            *d = hit;
+            *d = sender.writer_mut().take_damaged();
         }
         report.frames_sent += 1;
-        step(opt.on_frame.as_ref(), report.frames_sent);
+        if let Some(hook) = &opt.on_frame {
+            hook(report.frames_sent);
+        }
         if k == 16 {
             edge_start = edge_pid.and_then(memory_of);
         }
     }
     let edge_end = edge_pid.and_then(memory_of);
     let goodbye = LinkStats {
-        frames_sent: u32::try_from(report.wire_frames_sent + 1).unwrap_or(u32::MAX),
+        frames_sent: u32::try_from(sender.sent() + 1).unwrap_or(u32::MAX),
         received: DecoderStats::default(),
     };
-    sender.send(&Message::LinkStats(goodbye), false, &mut report)?;
-    sender.tx.flush().context("writing to the link")?;
+    sender.writer_mut().arm(false);
+    sender.send(&Message::LinkStats(goodbye))?;
+    sender.flush()?;
+    report.wire_frames_sent = sender.sent();
+    report.faults = sender.writer().counts();
     let seen = seen_rx.recv_timeout(opt.reply_timeout).unwrap_or_default();
     let mut answered = vec![false; damaged.len()];
     for &f in &seen.answered {

@@ -7,27 +7,24 @@
 //! decodes the edge's replies as they arrive and timestamps them; a frame's latency is the
 //! time from sending its last part to receiving its [`FrameStats`].
 
-use crate::on_step::{OnStep, step};
-use std::io::Write;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use dynotraj_core::wire::{
-    DecoderStats, Forecaster, FrameBuf, FrameDecoder, FrameStats, LinkStats, MAX_FRAME_LEN, Message, Notice, encode,
-    model_chunks,
-};
-
-use crate::link::{LinkReader, LinkWriter, read_some};
+use dynotraj_core::wire::{DecoderStats, Forecaster, FrameStats, LinkStats, Message, Notice, model_chunks};
 use dynotraj_formats::tracks_file::Tracks;
+
+use crate::OnFrame;
+use crate::endpoint::{LinkReader, LinkWriter};
+use crate::wire_io::{LinkEvent, WireSender, read_link};
 
 /// The longest wait before [`StreamOptions::stop`] is looked at again.
 const STOP_POLL: Duration = Duration::from_millis(100);
 
 /// How to stream.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct StreamOptions {
     /// Frames per second to send at; `None` sends as fast as the link (and lockstep) allows.
     pub rate_hz: Option<f64>,
@@ -41,7 +38,20 @@ pub struct StreamOptions {
     /// ended there, keeping what was received.
     pub stop: Option<Arc<AtomicBool>>,
     /// Told the number of camera frames sent, after each.
-    pub on_frame: Option<OnStep>,
+    pub on_frame: Option<OnFrame>,
+}
+
+impl std::fmt::Debug for StreamOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StreamOptions")
+            .field("rate_hz", &self.rate_hz)
+            .field("lockstep", &self.lockstep)
+            .field("reply_timeout", &self.reply_timeout)
+            .field("model", &self.model.as_ref().map(Vec::len))
+            .field("stop", &self.stop)
+            .field("on_frame", &self.on_frame.is_some())
+            .finish()
+    }
 }
 
 impl Default for StreamOptions {
@@ -129,19 +139,19 @@ enum Event {
 /// Streams `tracks` over the link and collects the answers. A write that fails (or a frame
 /// that cannot be encoded) ends the sending and is kept in [`StreamResult::link_error`], with
 /// everything received until then.
-pub fn stream(tracks: &Tracks, rx: LinkReader, mut tx: LinkWriter, opt: &StreamOptions) -> StreamResult {
+pub fn stream(tracks: &Tracks, rx: LinkReader, tx: LinkWriter, opt: &StreamOptions) -> StreamResult {
     let (events_tx, events) = mpsc::channel();
     std::thread::spawn(move || read_replies(rx, &events_tx));
     let mut run = Run { events, out: StreamResult::default(), start: Instant::now(), closed: false, opt };
-    let mut sender = Sender { tx: &mut tx, buf: [0; MAX_FRAME_LEN], sent: 0 };
+    let mut sender = WireSender::new(tx);
     let sent = run.send_all(tracks, &mut sender).and_then(|()| {
-        let goodbye = LinkStats { frames_sent: sender.sent + 1, received: DecoderStats::default() };
-        sender.send(&Message::LinkStats(goodbye))
+        let frames_sent = u32::try_from(sender.sent() + 1).unwrap_or(u32::MAX);
+        send_flushed(&mut sender, &Message::LinkStats(LinkStats { frames_sent, received: DecoderStats::default() }))
     });
     if let Err(e) = sent {
         run.out.link_error = Some(format!("{e:#}"));
     }
-    run.out.frames_sent = sender.sent;
+    run.out.frames_sent = u32::try_from(sender.sent()).unwrap_or(u32::MAX);
     // The edge's goodbye, or (after a failed write) its last words before the link closes.
     let deadline = Instant::now() + opt.reply_timeout;
     while !run.closed && run.out.edge_link.is_none() && Instant::now() < deadline && !run.stopped() {
@@ -170,11 +180,11 @@ impl Run<'_> {
 
     /// Sends the camera model, the model blob and every frame (paced, or in lockstep), until
     /// the recording ends, the stop flag is set or the edge says it is busy.
-    fn send_all(&mut self, tracks: &Tracks, sender: &mut Sender<'_>) -> anyhow::Result<()> {
-        sender.send(&Message::CameraInfo(tracks.camera))?;
+    fn send_all(&mut self, tracks: &Tracks, sender: &mut WireSender<LinkWriter>) -> anyhow::Result<()> {
+        send_flushed(sender, &Message::CameraInfo(tracks.camera))?;
         if let Some(blob) = &self.opt.model {
             for chunk in model_chunks(blob).context("model blob")? {
-                sender.send(&Message::ModelChunk(chunk))?;
+                send_flushed(sender, &Message::ModelChunk(chunk))?;
             }
         }
         for (k, frame) in tracks.frames.iter().enumerate() {
@@ -189,10 +199,12 @@ impl Run<'_> {
                 }
             }
             for part in &frame.parts {
-                sender.send(&Message::FrameTracks(part.clone()))?;
+                send_flushed(sender, &Message::FrameTracks(part.clone()))?;
             }
             let sent = self.start.elapsed();
-            step(self.opt.on_frame.as_ref(), k as u64 + 1);
+            if let Some(hook) = &self.opt.on_frame {
+                hook(k as u64 + 1);
+            }
             self.out.frames.push(FrameReport {
                 frame: frame.frame,
                 sent,
@@ -261,42 +273,19 @@ fn drain(events: &Receiver<Event>, out: &mut StreamResult, start: Instant, deadl
 }
 
 /// The reader thread: decodes the edge's bytes until the link closes.
-fn read_replies(mut rx: LinkReader, events: &mpsc::Sender<Event>) {
-    let mut decoder = FrameDecoder::new();
-    let mut buf = [0u8; 4096];
-    while let Some(n) = read_some(&mut rx, &mut buf) {
-        let at = Instant::now();
-        let chunk = &buf[..n];
-        if events.send(Event::Bytes(chunk.to_vec())).is_err() {
-            return;
-        }
-        let mut goodbye = false;
-        for msg in decoder.feed(chunk) {
-            goodbye |= matches!(msg, Message::LinkStats(_));
-            if events.send(Event::Message(at, Box::new(msg))).is_err() {
-                return;
-            }
-        }
-        if goodbye {
-            break;
-        }
-    }
-    let _ = events.send(Event::Closed(decoder.stats()));
+fn read_replies(rx: LinkReader, events: &mpsc::Sender<Event>) {
+    let stats = read_link(rx, |event| {
+        let ev = match event {
+            LinkEvent::Bytes(_, chunk) => Event::Bytes(chunk.to_vec()),
+            LinkEvent::Message(at, msg) => Event::Message(at, msg),
+        };
+        events.send(ev).is_ok()
+    });
+    let _ = events.send(Event::Closed(stats));
 }
 
-/// Encodes and writes frames, counting them.
-struct Sender<'w> {
-    tx: &'w mut LinkWriter,
-    buf: FrameBuf,
-    sent: u32,
-}
-
-impl Sender<'_> {
-    fn send(&mut self, msg: &Message) -> anyhow::Result<()> {
-        let n = encode(msg, &mut self.buf).context("encoding a frame")?;
-        self.tx.write_all(&self.buf[..n]).context("writing to the link")?;
-        self.tx.flush().context("writing to the link")?;
-        self.sent += 1;
-        Ok(())
-    }
+/// Sends `msg` at once: a stream's latencies are measured from the write.
+fn send_flushed(sender: &mut WireSender<LinkWriter>, msg: &Message) -> anyhow::Result<()> {
+    sender.send(msg)?;
+    sender.flush()
 }
