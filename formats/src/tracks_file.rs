@@ -75,6 +75,15 @@ pub struct TracksFrame {
 }
 
 impl TracksFrame {
+    /// Frame `frame`'s `tracks` split into the wire's parts ([`wire::frame_parts`]): the one
+    /// way a camera frame becomes what the link, a tracks file and the estimator take.
+    ///
+    /// # Errors
+    /// More tracks than [`wire::MAX_FRAME_TRACKS`].
+    pub fn split(frame: u32, timestamp_us: u64, tracks: &[Track]) -> Result<Self, wire::WireError> {
+        Ok(Self { frame, timestamp_us, parts: wire::frame_parts(frame, timestamp_us, tracks)?.collect() })
+    }
+
     /// Every track of the frame, in the sender's order.
     pub fn tracks(&self) -> impl Iterator<Item = &Track> {
         self.parts.iter().flat_map(|p| p.tracks.iter())
@@ -119,7 +128,7 @@ impl TracksWriter {
     /// More tracks than [`wire::MAX_FRAME_TRACKS`], or a write failure.
     pub fn write_frame(&mut self, frame: u32, timestamp_us: u64, tracks: &[Track]) -> Result<(), TracksFileError> {
         let wire_err = |source| TracksFileError::Wire { path: self.path.clone(), frame, source };
-        for part in wire::frame_parts(frame, timestamp_us, tracks).map_err(wire_err)? {
+        for part in TracksFrame::split(frame, timestamp_us, tracks).map_err(wire_err)?.parts {
             self.write_message(&Message::FrameTracks(part))?;
         }
         Ok(())

@@ -7,9 +7,7 @@ use std::path::PathBuf;
 
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{
-    FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, frame_parts, model_chunks,
-};
+use dynotraj_core::wire::{FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, model_chunks};
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
@@ -24,14 +22,7 @@ pub fn scene_tracks(frames: usize) -> Tracks {
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
     let sim = simulate(&cams, &boxes, &SimSpec::kitti(i, KITTI_IMAGE_SIZE, dt, 3));
     let camera = dynotraj_host::estimate::evaluate::camera_info(&i, PAPER_FRAME_RATE_HZ);
-    let frames = sim
-        .iter()
-        .map(|f| TracksFrame {
-            frame: f.frame,
-            timestamp_us: f.timestamp_us,
-            parts: frame_parts(f.frame, f.timestamp_us, &f.tracks).unwrap().collect(),
-        })
-        .collect();
+    let frames = sim.iter().map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).unwrap()).collect();
     Tracks { camera, frames }
 }
 

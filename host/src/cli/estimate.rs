@@ -22,7 +22,7 @@ use crate::estimate::evaluate::{
 };
 use crate::estimate::files::{write_estimates, write_run};
 use crate::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
-use crate::estimate::runner::{EstimatorRun, PartsFrame};
+use crate::estimate::runner::EstimatorRun;
 use crate::estimate::settings::OursInput;
 use crate::jobs::map_jobs;
 use crate::report::estimator_tables::{
@@ -30,7 +30,7 @@ use crate::report::estimator_tables::{
 };
 use crate::report::{Format, Table, check_table, render_tables};
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_formats::tracks_file::tracks_path;
+use dynotraj_formats::tracks_file::{TracksFrame, tracks_path};
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -337,12 +337,7 @@ pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::R
     opt.dt = 1.0 / cam.frame_rate_hz;
     let params = params_for(Intrinsics::from(&cam), sim_max_depth(), opt.pixel_sigma, opt.disparity_sigma, &opt);
     let n = args.frames.unwrap_or(usize::MAX);
-    let frames: Vec<PartsFrame> = tracks
-        .frames
-        .into_iter()
-        .take(n)
-        .map(|f| PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts: f.parts })
-        .collect();
+    let frames: Vec<TracksFrame> = tracks.frames.into_iter().take(n).collect();
     let t0 = std::time::Instant::now();
     let run = run_with_window(&frames, params, &opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();

@@ -8,7 +8,7 @@ use std::time::Duration;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{Forecaster, Notice, ObjectClass, frame_parts};
+use dynotraj_core::wire::{Forecaster, Notice, ObjectClass};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
@@ -224,12 +224,7 @@ pub fn simulated(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<
     let camera = camera_info(&input.intrinsics, PAPER_FRAME_RATE_HZ);
     let frames = sim
         .iter()
-        .map(|f| {
-            let parts = frame_parts(f.frame, f.timestamp_us, &f.tracks)
-                .with_context(|| format!("frame {}", f.frame))?
-                .collect();
-            Ok(TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts })
-        })
+        .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame)))
         .collect::<anyhow::Result<_>>()?;
     Ok(Tracks { camera, frames })
 }

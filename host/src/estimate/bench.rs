@@ -8,8 +8,9 @@
 use std::time::Instant;
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
-use dynotraj_core::wire::{FrameTracks, frame_parts};
+use dynotraj_core::wire::FrameTracks;
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+use dynotraj_formats::tracks_file::TracksFrame;
 
 use super::evaluate::WINDOW;
 use super::input::KITTI_IMAGE_SIZE;
@@ -57,7 +58,7 @@ pub fn bench(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> Bench
     let sim = simulate(&cams, &boxes, &spec);
     let parts: Vec<Vec<FrameTracks>> = sim
         .iter()
-        .map(|f| frame_parts(f.frame, f.timestamp_us, &f.tracks).map(Iterator::collect).unwrap_or_default())
+        .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).map(|t| t.parts).unwrap_or_default())
         .collect();
     let mut params = EstimatorParams::kitti(intrinsics, 0.1);
     params.joint_sweeps = joint_sweeps;

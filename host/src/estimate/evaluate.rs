@@ -10,10 +10,11 @@ use dynotraj_core::wire::{CameraInfo, ObjectClass};
 use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
 
 use super::input::{KITTI_IMAGE_SIZE, sim_input};
-use super::runner::{EstimatorRun, Kind, PartsFrame, run_estimator, run_parts};
+use super::runner::{EstimatorRun, Kind, run_estimator, run_parts};
 use super::score::{RunScores, SmoothnessSum, TrajectorySmoothness, moving_objects, score_run, smoothness};
 use crate::trajectory::label_tracks;
 use dynotraj_formats::kitti::SequenceData;
+use dynotraj_formats::tracks_file::TracksFrame;
 use dynotraj_formats::tracks_file::TracksWriter;
 
 /// The smoothing window of the command (DynoSAM's 20 frames).
@@ -140,7 +141,7 @@ pub const EDGE_WINDOW: usize = dynotraj_core::estimate::EDGE_WINDOW;
 /// # Panics
 /// On another window: [`EvalOptions::window`] is checked where it is parsed.
 #[must_use]
-pub fn run_with_window(frames: &[PartsFrame], params: EstimatorParams, opt: &EvalOptions) -> EstimatorRun {
+pub fn run_with_window(frames: &[TracksFrame], params: EstimatorParams, opt: &EvalOptions) -> EstimatorRun {
     match opt.window {
         EDGE_WINDOW => run_parts::<EDGE_WINDOW>(frames, params, opt.seed),
         WINDOW => run_parts::<WINDOW>(frames, params, opt.seed),

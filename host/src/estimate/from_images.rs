@@ -12,8 +12,6 @@
 use std::path::Path;
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
-#[cfg(feature = "images")]
-use dynotraj_core::wire::frame_parts;
 
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
@@ -25,10 +23,10 @@ use super::evaluate::{params_for, run_with_window, sim_max_depth};
 use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::EstimatorRun;
-#[cfg(feature = "images")]
-use super::runner::PartsFrame;
 use super::score::{RunScores, moving_objects, score_run};
 use dynotraj_formats::kitti::SequenceData;
+#[cfg(feature = "images")]
+use dynotraj_formats::tracks_file::TracksFrame;
 #[cfg(feature = "images")]
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 #[cfg(feature = "images")]
@@ -88,9 +86,9 @@ fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<Esti
     let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), s.fb as f32)?;
     let mut frames = Vec::new();
     s.track(&mut fe, opt.max_frames.unwrap_or(usize::MAX), 1.0 / f64::from(opt.dt), |frame, timestamp_us, tracks| {
-        let parts =
-            frame_parts(frame, timestamp_us, tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?.collect();
-        frames.push(PartsFrame { frame, timestamp_us, parts });
+        frames.push(
+            TracksFrame::split(frame, timestamp_us, tracks).map_err(|e| anyhow::anyhow!("frame {frame}: {e:?}"))?,
+        );
         Ok(())
     })?;
     let params = params_for(intrinsics, sim_max_depth(), opt.pixel_sigma.max(0.5), opt.disparity_sigma.max(0.5), opt);

@@ -1,8 +1,9 @@
 //! Streams simulated frames through the wire into the core estimator and collects its outputs.
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, PoseEstimate, Pushed};
-use dynotraj_core::wire::{FrameBuf, FrameDecoder, FrameTracks, MAX_FRAME_LEN, Message, encode, frame_parts};
+use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode};
 use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_formats::tracks_file::TracksFrame;
 
 /// Which of the estimator's outputs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -57,17 +58,6 @@ impl EstimatorRun {
     }
 }
 
-/// One camera frame as the estimator receives it: its wire parts, in order.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PartsFrame {
-    /// Camera frame index.
-    pub frame: u32,
-    /// Capture time, microseconds.
-    pub timestamp_us: u64,
-    /// The frame's `FrameTracks` parts.
-    pub parts: Vec<FrameTracks>,
-}
-
 /// Runs an estimator with window `W` over `frames`, each frame split into wire parts, encoded,
 /// and decoded again by a streaming decoder before the estimator sees it.
 ///
@@ -83,16 +73,16 @@ pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParam
     let mut received = Vec::with_capacity(frames.len());
     for f in frames {
         bytes.clear();
-        for part in
-            frame_parts(f.frame, f.timestamp_us, &f.tracks).expect("the simulator stays within the wire's track budget")
-        {
+        let split = TracksFrame::split(f.frame, f.timestamp_us, &f.tracks)
+            .expect("the simulator stays within the wire's track budget");
+        for part in split.parts {
             let len = encode(&Message::FrameTracks(part), &mut buf).expect("a frame buffer holds any message");
             bytes.extend_from_slice(&buf[..len]);
         }
         wire_bytes += bytes.len();
         let parts =
             decoder.feed(&bytes).filter_map(|m| if let Message::FrameTracks(p) = m { Some(p) } else { None }).collect();
-        received.push(PartsFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts });
+        received.push(TracksFrame { frame: f.frame, timestamp_us: f.timestamp_us, parts });
     }
     let mut run = run_parts::<W>(&received, params, seed);
     run.wire_bytes = wire_bytes;
@@ -102,7 +92,7 @@ pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParam
 /// Runs an estimator with window `W` over frames already in wire parts (a simulated stream after
 /// the link, or a tracks file). Outputs are indexed by position in `frames`.
 #[must_use]
-pub fn run_parts<const W: usize>(frames: &[PartsFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
+pub fn run_parts<const W: usize>(frames: &[TracksFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
     let mut est: Box<Estimator<W>> = Box::new(Estimator::new(params, seed));
     let n = frames.len();
     let mut run = EstimatorRun {
