@@ -77,7 +77,7 @@ fn real_kitti_labels_and_ego_poses_first_frames() {
     let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
     let data =
         dynotraj_formats::kitti::TrackingDir::open(&dir).expect("opens").load_sequence("0020").expect("loads 0020");
-    let input = dynotraj_host::estimate::input::sim_input(&data, &dynotraj_host::estimate::evaluate::ALL_CLASSES);
+    let input = dynotraj_host::estimate::input::sim_input(&data, &dynotraj_core::wire::ObjectClass::KITTI);
     let n = 120;
     let boxes: Vec<LabelBox> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
     let spec = SimSpec::kitti(input.intrinsics, (1242.0, 375.0), 0.1, 3);

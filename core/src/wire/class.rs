@@ -44,6 +44,26 @@ impl ObjectClass {
         Self::Misc,
     ];
 
+    /// The classes forecast by default: the ones the unicycle models, vehicles and cyclists
+    /// (the paper's sequence 0000 objects are a van and a cyclist).
+    pub const FORECAST: [Self; 5] = [Self::Car, Self::Van, Self::Truck, Self::Tram, Self::Cyclist];
+
+    /// The classes the simulators place in a scene by default: the forecast ones and
+    /// pedestrians, who are in the scene even where nothing forecasts them.
+    pub const IN_SCENE: [Self; 6] = [Self::Car, Self::Van, Self::Truck, Self::Tram, Self::Cyclist, Self::Pedestrian];
+
+    /// Every KITTI object type ([`Self::ALL`] without [`Self::Background`]).
+    pub const KITTI: [Self; 8] = [
+        Self::Car,
+        Self::Van,
+        Self::Truck,
+        Self::Pedestrian,
+        Self::PersonSitting,
+        Self::Cyclist,
+        Self::Tram,
+        Self::Misc,
+    ];
+
     /// The class of a KITTI label `type` string (the tracking benchmark's `Person` is
     /// `PersonSitting`); `None` for `DontCare` and anything unknown.
     /// `Background` is not a KITTI type, so its name is not accepted here.
@@ -94,6 +114,8 @@ mod tests {
         assert_eq!(ObjectClass::from_kitti_name("car"), None);
         assert_eq!(ObjectClass::from_kitti_name("Person_sitting"), Some(ObjectClass::PersonSitting));
         assert_eq!(ObjectClass::from_kitti_name("Person"), Some(ObjectClass::PersonSitting));
+        assert_eq!(&ObjectClass::ALL[1..], &ObjectClass::KITTI[..]);
+        assert_eq!(&ObjectClass::IN_SCENE[..5], &ObjectClass::FORECAST[..]);
         let vehicles = ObjectClass::ALL.into_iter().filter(ObjectClass::is_vehicle).count();
         assert_eq!(vehicles, 4);
         assert!(!ObjectClass::Cyclist.is_vehicle());

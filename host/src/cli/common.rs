@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
@@ -22,6 +21,64 @@ pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "00
 /// together.
 pub const DEFAULT_DIMS: &str = "8,8,3,8";
 
+/// `--classes`' default where the classes forecast are meant ([`ObjectClass::FORECAST`]; a
+/// test holds the two together).
+pub const FORECAST_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist";
+/// `--classes`' default where the classes placed in a scene are meant
+/// ([`ObjectClass::IN_SCENE`]; a test holds the two together).
+pub const IN_SCENE_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist,Pedestrian";
+
+/// `--rate`: the frame rate of a sequence's frames.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct FrameRateArg {
+    /// Frame rate in Hz for timestamps, speeds and the dynamics. The paper treats KITTI as 20 Hz
+    /// (its cameras really run at 10 Hz); horizons stay 30 frames either way, and RPE does not
+    /// depend on it.
+    #[arg(
+        long = "rate",
+        value_parser = crate::cli::numbers::frame_rate_f32,
+        default_value_t = PAPER_FRAME_RATE_HZ,
+        value_name = "HZ",
+    )]
+    pub hz: f32,
+}
+
+impl FrameRateArg {
+    /// The frame period, seconds.
+    #[must_use]
+    pub fn period(&self) -> f32 {
+        1.0 / self.hz
+    }
+}
+
+/// `--classes` of the objects forecast and scored.
+#[derive(Debug, Clone, Args)]
+pub struct ForecastClassesArg {
+    /// Object classes considered (KITTI type names, comma-separated).
+    #[arg(
+        long = "classes",
+        value_delimiter = ',',
+        value_parser = crate::cli::numbers::object_class,
+        default_value = FORECAST_CLASSES,
+        value_name = "LIST"
+    )]
+    pub list: Vec<ObjectClass>,
+}
+
+/// `--classes` of the objects a simulator places in the scene.
+#[derive(Debug, Clone, Args)]
+pub struct SceneClassesArg {
+    /// Object classes placed in the scene (KITTI type names, comma-separated).
+    #[arg(
+        long = "classes",
+        value_delimiter = ',',
+        value_parser = crate::cli::numbers::object_class,
+        default_value = IN_SCENE_CLASSES,
+        value_name = "LIST"
+    )]
+    pub list: Vec<ObjectClass>,
+}
+
 /// Where the data is and how to read it.
 #[derive(Debug, Args)]
 pub struct DataArgs {
@@ -29,18 +86,12 @@ pub struct DataArgs {
     /// ego_poses_orbslam3/ or poses/), e.g. ../shared/kitti/tracking/training.
     #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
     pub kitti: PathBuf,
-    /// Frame rate in Hz used for speeds and the dynamics. The paper treats KITTI as 20 Hz
-    /// (its cameras really run at 10 Hz); horizons stay 30 frames either way.
-    #[arg(
-        long,
-        value_parser = crate::cli::numbers::frame_rate_f32,
-        default_value_t = PAPER_FRAME_RATE_HZ,
-        value_name = "HZ",
-    )]
-    pub rate: f32,
-    /// Object classes considered (KITTI type names, comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist", value_name = "LIST")]
-    pub classes: Vec<String>,
+    /// The frame rate.
+    #[command(flatten)]
+    pub rate: FrameRateArg,
+    /// The classes.
+    #[command(flatten)]
+    pub classes: ForecastClassesArg,
     /// An object moves when its net displacement over a run is at least this many metres per
     /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
     #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.1, value_name = "METRES")]
@@ -194,30 +245,19 @@ impl DataArgs {
     /// When the rate is not a positive finite number.
     pub fn dt(&self) -> anyhow::Result<f32> {
         anyhow::ensure!(
-            self.rate.is_finite() && self.rate > 0.0,
+            self.rate.hz.is_finite() && self.rate.hz > 0.0,
             "--rate: expected a positive frame rate in Hz, found {}",
-            self.rate
+            self.rate.hz
         );
-        Ok(1.0 / self.rate)
+        Ok(self.rate.period())
     }
 
     /// The eligibility rule from the options.
     ///
     /// # Errors
-    /// When a class name is not a KITTI type.
+    /// A negative `--min-step`.
     pub fn rule(&self) -> anyhow::Result<EligibilityRule> {
-        let classes = self
-            .classes
-            .iter()
-            .map(|c| {
-                ObjectClass::from_kitti_name(c.trim()).with_context(|| {
-                    format!(
-                        "--classes: `{c}` is not a KITTI type (Car, Van, Truck, Pedestrian, Person_sitting, \
-                        Cyclist, Tram, Misc)"
-                    )
-                })
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
+        let classes = self.classes.list.clone();
         anyhow::ensure!(self.min_step >= 0.0, "--min-step: expected metres >= 0, found {}", self.min_step);
         Ok(EligibilityRule { classes, moving: MovingRule { min_step_m: self.min_step }, ..EligibilityRule::default() })
     }
@@ -281,5 +321,16 @@ mod tests {
     #[test]
     fn the_default_dims_flag_is_the_core_default() {
         assert_eq!(super::super::bench::parse_dims(DEFAULT_DIMS).unwrap(), Dims::DEFAULT);
+    }
+
+    #[test]
+    fn the_default_class_flags_are_the_core_lists() {
+        let parse = |list: &str| -> Vec<ObjectClass> {
+            list.split(',').map(|c| crate::cli::numbers::object_class(c).unwrap()).collect()
+        };
+        assert_eq!(parse(FORECAST_CLASSES), ObjectClass::FORECAST);
+        assert_eq!(parse(IN_SCENE_CLASSES), ObjectClass::IN_SCENE);
+        let err = crate::cli::numbers::object_class("car").unwrap_err();
+        assert!(err.contains("expected a KITTI type (Car, Van,") && err.contains("found `car`"), "{err}");
     }
 }

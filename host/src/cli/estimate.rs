@@ -12,10 +12,8 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
-use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::ObjectClass;
 
-use super::common::{OursArgs, progress, sequence_ids};
+use super::common::{FrameRateArg, OursArgs, SceneClassesArg, progress, sequence_ids};
 use crate::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
@@ -68,18 +66,12 @@ pub struct EstimateArgs {
     /// `--tracks`: the folder itself).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Frame rate in Hz for timestamps and speeds (the paper's 20 by default; RPE does not
-    /// depend on it).
-    #[arg(
-        long,
-        value_parser = crate::cli::numbers::frame_rate_f32,
-        default_value_t = PAPER_FRAME_RATE_HZ,
-        value_name = "HZ",
-    )]
-    pub rate: f32,
-    /// Object classes placed in the scene (KITTI type names, comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist,Pedestrian", value_name = "LIST")]
-    pub classes: Vec<String>,
+    /// The frame rate.
+    #[command(flatten)]
+    pub rate: FrameRateArg,
+    /// The classes.
+    #[command(flatten)]
+    pub classes: SceneClassesArg,
     /// An object is scored when its true motion averages at least this many metres per frame.
     #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f64,
@@ -179,22 +171,16 @@ impl EstimateArgs {
     /// A bad class name or rate.
     pub fn options_for(&self, profile: EstimatorProfile) -> anyhow::Result<EvalOptions> {
         anyhow::ensure!(
-            self.rate.is_finite() && self.rate > 0.0,
+            self.rate.hz.is_finite() && self.rate.hz > 0.0,
             "--rate: expected a positive frame rate in Hz, found {}",
-            self.rate
+            self.rate.hz
         );
-        let classes = self
-            .classes
-            .iter()
-            .map(|c| {
-                ObjectClass::from_kitti_name(c.trim()).with_context(|| format!("--classes: `{c}` is not a KITTI type"))
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
+        let classes = self.classes.list.clone();
         let noise = |v: f64| if self.noise_free { 0.0 } else { v };
         let defaults =
             dynotraj_core::estimate::EstimatorParams::kitti(dynotraj_core::estimate::Intrinsics::KITTI_0926, 0.1);
         let opt = EvalOptions {
-            dt: 1.0 / self.rate,
+            dt: self.rate.period(),
             classes,
             min_step_m: self.min_step,
             seed: self.seed,
@@ -209,7 +195,7 @@ impl EstimateArgs {
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
             object_variants: self.ours.object_variants(),
-            ..EvalOptions::kitti(1.0 / self.rate)
+            ..EvalOptions::kitti(self.rate.period())
         }
         .with_profile(profile);
         Ok(EvalOptions { joint_sweeps: self.joint_sweeps.unwrap_or(opt.joint_sweeps), ..opt })
@@ -263,7 +249,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         let first_profile = results.first().map(|r| r.profile);
         for r in results.iter().filter(|r| Some(r.profile) == first_profile) {
             let path = tracks_path(dir, &r.id);
-            write_tracks(&path, &camera_info(&r.intrinsics, args.rate), &r.sim)
+            write_tracks(&path, &camera_info(&r.intrinsics, args.rate.hz), &r.sim)
                 .with_context(|| format!("--write-tracks {}", path.display()))?;
             eprintln!("wrote {}", path.display());
         }

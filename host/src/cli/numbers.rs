@@ -118,6 +118,17 @@ pub fn send_rate(text: &str) -> Result<f64, String> {
     })
 }
 
+/// A KITTI object type name (`--classes`).
+///
+/// # Errors
+/// Anything else, with the names that are.
+pub fn object_class(text: &str) -> Result<dynotraj_core::wire::ObjectClass, String> {
+    dynotraj_core::wire::ObjectClass::from_kitti_name(text.trim()).ok_or_else(|| {
+        let names: Vec<&str> = dynotraj_core::wire::ObjectClass::KITTI.iter().map(|c| c.kitti_name()).collect();
+        format!("expected a KITTI type ({}), found `{text}`", names.join(", "))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

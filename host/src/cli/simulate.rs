@@ -7,12 +7,11 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::wire::ObjectClass;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
-use super::common::{self, progress};
+use super::common::{self, SceneClassesArg, progress};
 use crate::estimate::end_to_end;
 use crate::estimate::{Kind, sim_input};
 use dynotraj_formats::kitti::TrackingDir;
@@ -56,9 +55,9 @@ pub struct SimulateArgs {
     /// Seed of the scene and texture.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Object classes placed in the scene (KITTI type names).
-    #[arg(long, value_delimiter = ',', default_value = "Car,Van,Truck,Tram,Cyclist,Pedestrian", value_name = "LIST")]
-    pub classes: Vec<String>,
+    /// The classes.
+    #[command(flatten)]
+    pub classes: SceneClassesArg,
 }
 
 /// The sequences `args` asks for: those of the KITTI folder, or the synthetic drive's one.
@@ -94,14 +93,7 @@ pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
     let camera = Camera { noise: args.noise, ..Camera::kitti(args.scale) };
     match (&args.kitti, args.drive) {
         (Some(dir), false) => {
-            let classes = args
-                .classes
-                .iter()
-                .map(|c| {
-                    ObjectClass::from_kitti_name(c.trim())
-                        .with_context(|| format!("--classes: `{c}` is not a KITTI type"))
-                })
-                .collect::<anyhow::Result<Vec<_>>>()?;
+            let classes = &args.classes.list;
             let data = TrackingDir::open(dir)?
                 .load_sequence(id)
                 .with_context(|| format!("loading KITTI tracking sequence {id}"))?;

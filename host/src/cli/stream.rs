@@ -207,15 +207,7 @@ pub fn input_tracks(
 pub fn simulated(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
     let data =
         TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    let classes = [
-        ObjectClass::Car,
-        ObjectClass::Van,
-        ObjectClass::Truck,
-        ObjectClass::Tram,
-        ObjectClass::Cyclist,
-        ObjectClass::Pedestrian,
-    ];
-    let input = sim_input(&data, &classes);
+    let input = sim_input(&data, &ObjectClass::IN_SCENE);
     let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);

@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::CameraInfo;
 
-use super::common::progress;
+use super::common::{FrameRateArg, progress};
 use crate::report::data::{Cell, ColumnKind, Data};
 use crate::report::{Format, Table};
 use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
@@ -43,9 +42,9 @@ pub struct TrackArgs {
     /// Use at most this many frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
-    /// Frame rate for timestamps, Hz.
-    #[arg(long, value_parser = crate::cli::numbers::frame_rate_f32, default_value_t = PAPER_FRAME_RATE_HZ)]
-    pub rate: f32,
+    /// The frame rate.
+    #[command(flatten)]
+    pub rate: FrameRateArg,
     /// Stereo matching on images shrunk by this factor (1 or 2).
     #[arg(long, default_value_t = 1)]
     pub stereo_downscale: i32,
@@ -68,9 +67,9 @@ pub struct TrackArgs {
 /// Reading, tracking or writing errors, named.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     anyhow::ensure!(
-        args.rate.is_finite() && args.rate > 0.0,
+        args.rate.hz.is_finite() && args.rate.hz > 0.0,
         "--rate: expected a positive frame rate, found {}",
-        args.rate
+        args.rate.hz
     );
     let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti() };
     if let Some(root) = &args.check {
@@ -141,12 +140,12 @@ pub fn track_sequence(
         stereo_fb: s.fb as f32,
         width: u16::try_from(s.size.0).context("image width")?,
         height: u16::try_from(s.size.1).context("image height")?,
-        frame_rate_hz: args.rate,
+        frame_rate_hz: args.rate.hz,
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
     let bar = progress(args.frames.map_or(0, |n| n as u64), "frames tracked");
-    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate), |frame, t_us, tracks| {
+    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate.hz), |frame, t_us, tracks| {
         w.write_frame(frame, t_us, tracks)?;
         bar.inc(1);
         Ok(())

@@ -102,14 +102,7 @@ impl EvalOptions {
         let defaults = EstimatorParams::kitti(Intrinsics::KITTI_0926, dt);
         Self {
             dt,
-            classes: vec![
-                ObjectClass::Car,
-                ObjectClass::Van,
-                ObjectClass::Truck,
-                ObjectClass::Tram,
-                ObjectClass::Cyclist,
-                ObjectClass::Pedestrian,
-            ],
+            classes: ObjectClass::IN_SCENE.to_vec(),
             min_step_m: 0.1,
             seed: 1,
             pixel_sigma: 0.5,
@@ -157,18 +150,6 @@ pub fn run_sim_with_window(sim: &[SimFrame], params: EstimatorParams, opt: &Eval
         _ => run_estimator::<WINDOW>(sim, params, opt.seed),
     }
 }
-
-/// Every class the simulator can place (all KITTI object types).
-pub const ALL_CLASSES: [ObjectClass; 8] = [
-    ObjectClass::Car,
-    ObjectClass::Van,
-    ObjectClass::Truck,
-    ObjectClass::Pedestrian,
-    ObjectClass::PersonSitting,
-    ObjectClass::Cyclist,
-    ObjectClass::Tram,
-    ObjectClass::Misc,
-];
 
 /// What one sequence gave.
 #[derive(Debug, Clone)]

@@ -45,17 +45,7 @@ impl Default for EligibilityRule {
     /// The paper's 32 frames, the documented moving rule, and the classes the unicycle models
     /// (vehicles and cyclists; the paper's sequence 0000 objects are a van and a cyclist).
     fn default() -> Self {
-        Self {
-            min_run: MIN_ELIGIBLE_RUN,
-            moving: MovingRule::default(),
-            classes: vec![
-                ObjectClass::Car,
-                ObjectClass::Van,
-                ObjectClass::Truck,
-                ObjectClass::Tram,
-                ObjectClass::Cyclist,
-            ],
-        }
+        Self { min_run: MIN_ELIGIBLE_RUN, moving: MovingRule::default(), classes: ObjectClass::FORECAST.to_vec() }
     }
 }
 
