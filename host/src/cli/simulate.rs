@@ -97,7 +97,7 @@ pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
             let data = TrackingDir::open(dir)?
                 .load_sequence(id)
                 .with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-            let input = sim_input(&data, &classes);
+            let input = sim_input(&data, classes);
             let n = args.frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
             let boxes: Vec<LabelBox> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
             Ok(ImageSim::new(camera, &input.camera_poses[..n], &boxes, args.seed))
