@@ -14,63 +14,11 @@
 
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, ace, ade, fde, step_errors};
-use dynotraj_core::model::LearnedPredictor;
-use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PredictError, Predictor};
+use dynotraj_core::predict::{Forecast, PredictError, Predictor};
 use dynotraj_core::{BevState, Point2};
 
 use crate::scene::{Scene, SourcedRun};
 use crate::trajectory::EligibleRun;
-
-/// Anything that forecasts one object from its history and its neighbours' histories.
-pub trait Forecaster {
-    /// Fills `out` for the object whose history is `history` (oldest first, current last).
-    ///
-    /// # Errors
-    /// See [`PredictError`].
-    fn forecast(
-        &mut self,
-        history: &[BevState],
-        neighbours: &[&[BevState]],
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError>;
-}
-
-impl Forecaster for Baseline {
-    fn forecast(
-        &mut self,
-        history: &[BevState],
-        _neighbours: &[&[BevState]],
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError> {
-        self.predict(history, dt, out)
-    }
-}
-
-impl Forecaster for MotionPrior {
-    fn forecast(
-        &mut self,
-        history: &[BevState],
-        _neighbours: &[&[BevState]],
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError> {
-        self.predict(history, dt, out)
-    }
-}
-
-impl Forecaster for LearnedPredictor<'_> {
-    fn forecast(
-        &mut self,
-        history: &[BevState],
-        neighbours: &[&[BevState]],
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError> {
-        self.predict_with_neighbours(history, neighbours, dt, out)
-    }
-}
 
 /// The scores of one forecast.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -225,13 +173,13 @@ pub fn forecast_at(
     run: &SourcedRun,
     s: usize,
     scene: &Scene,
-    forecaster: &mut dyn Forecaster,
+    forecaster: &mut dyn Predictor,
     dt: f32,
 ) -> Result<Forecast, PredictError> {
     let history = run.states.get(..=s).ok_or(PredictError::HistoryTooShort)?;
     let neighbours = scene.neighbours_at(run.track_id, run.first_frame + s as u32);
     let mut forecast = [Point2::default(); HORIZON];
-    forecaster.forecast(history, &neighbours, dt, &mut forecast)?;
+    forecaster.predict_with_neighbours(history, &neighbours, dt, &mut forecast)?;
     Ok(forecast)
 }
 
@@ -243,7 +191,7 @@ pub fn score_run(
     run: &SourcedRun,
     instances: std::ops::Range<usize>,
     scene: &Scene,
-    forecaster: &mut dyn Forecaster,
+    forecaster: &mut dyn Predictor,
     dt: f32,
 ) -> RunScores {
     score_run_against(run, instances, scene, forecaster, dt, Reference::OwnFuture)
@@ -255,7 +203,7 @@ pub fn score_run_against(
     run: &SourcedRun,
     instances: std::ops::Range<usize>,
     scene: &Scene,
-    forecaster: &mut dyn Forecaster,
+    forecaster: &mut dyn Predictor,
     dt: f32,
     reference: Reference<'_>,
 ) -> RunScores {
@@ -300,7 +248,7 @@ pub fn instance_keys(runs: &[EligibleRun]) -> std::collections::BTreeSet<(i32, u
 
 /// Scores `forecaster` on every eligible run of one sequence through `scene` (the sequence's
 /// tracks through the source being scored).
-pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Forecaster, dt: f32) -> RunScores {
+pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Predictor, dt: f32) -> RunScores {
     score_sequence_against(runs, scene, forecaster, dt, Reference::OwnFuture)
 }
 
@@ -308,7 +256,7 @@ pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn 
 pub fn score_sequence_against(
     runs: &[EligibleRun],
     scene: &Scene,
-    forecaster: &mut dyn Forecaster,
+    forecaster: &mut dyn Predictor,
     dt: f32,
     reference: Reference<'_>,
 ) -> RunScores {
@@ -329,6 +277,7 @@ pub fn score_sequence_against(
 mod tests {
     use super::*;
     use crate::trajectory::{ObjectTrack, Source};
+    use dynotraj_core::predict::Baseline;
     use dynotraj_core::wire::ObjectClass;
 
     #[test]

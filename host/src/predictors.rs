@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use dynotraj_core::predict::{Baseline, MotionPrior, PriorSettings};
 
-use crate::evaluate::Forecaster;
+use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
 
 /// A predictor `eval` can run.
@@ -99,7 +99,7 @@ impl LoadedPredictor {
 
     /// The forecaster.
     #[must_use]
-    pub fn forecaster(&self) -> Box<dyn Forecaster + '_> {
+    pub fn forecaster(&self) -> Box<dyn Predictor + '_> {
         match self {
             Self::Baseline(b) => Box::new(*b),
             Self::Prior(p) => Box::new(*p),

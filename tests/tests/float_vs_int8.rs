@@ -9,7 +9,6 @@ use dynotraj_core::model::blob::Precision;
 use dynotraj_core::{BevState, Point2};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::model_file::ModelFile;
-use dynotraj_host::evaluate::Forecaster;
 use dynotraj_host::scene::Scene;
 use dynotraj_host::sequence::load_ground_truth;
 use dynotraj_host::train::{TrainConfig, train_fold};
@@ -47,8 +46,8 @@ fn int8_forecasts_stay_within_two_centimetres_of_float() {
                 let history = &sourced.states[..=s];
                 let truth: Vec<Point2> = sourced.states[s + 1..=s + HORIZON].iter().map(BevState::position).collect();
                 let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
-                pf.forecast(history, &neighbours, dt, &mut a).unwrap();
-                pq.forecast(history, &neighbours, dt, &mut b).unwrap();
+                pf.predict_with_neighbours(history, &neighbours, dt, &mut a).unwrap();
+                pq.predict_with_neighbours(history, &neighbours, dt, &mut b).unwrap();
                 sum_diff += f64::from((ade(&a, &truth).unwrap() - ade(&b, &truth).unwrap()).abs());
                 worst_step = a.iter().zip(&b).map(|(p, q)| p.distance(q)).fold(worst_step, f32::max);
                 n += 1;

@@ -145,7 +145,17 @@ pub fn forecast<D: Int8Dot>(
 
 impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
-        self.predict_with_neighbours(history, &[], dt, out)
+        LearnedPredictor::predict_with_neighbours(self, history, &[], dt, out)
+    }
+
+    fn predict_with_neighbours(
+        &mut self,
+        history: &[BevState],
+        neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
+        LearnedPredictor::predict_with_neighbours(self, history, neighbours, dt, out)
     }
 }
 

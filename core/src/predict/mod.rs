@@ -41,6 +41,23 @@ pub trait Predictor {
     /// # Errors
     /// See [`PredictError`].
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError>;
+
+    /// [`Self::predict`] knowing the other objects: `neighbours` are their histories, each
+    /// ending at the same current frame. A predictor that reads only its own object's history
+    /// (the baselines, the motion prior) ignores them.
+    ///
+    /// # Errors
+    /// See [`PredictError`].
+    fn predict_with_neighbours(
+        &mut self,
+        history: &[BevState],
+        neighbours: &[&[BevState]],
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
+        let _ = neighbours;
+        self.predict(history, dt, out)
+    }
 }
 
 /// `Ok` when every point of `out` is finite: the last guard of a forecast (a tiny `dt` can

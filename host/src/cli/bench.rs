@@ -14,8 +14,8 @@ use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PriorSettings};
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
-use crate::evaluate::Forecaster;
 use crate::report::{Cell, ColumnKind, Data, Format, Table};
+use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
 
 /// Options of `dynotraj bench`.
@@ -59,14 +59,14 @@ pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
 
 pub use dynotraj_fixtures::bench_inputs::random_blob;
 
-fn time_per_forecast(f: &mut dyn Forecaster, dt: f32, iterations: u32) -> f64 {
+fn time_per_forecast(f: &mut dyn Predictor, dt: f32, iterations: u32) -> f64 {
     let (history, other) = dynotraj_fixtures::bench_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out: Forecast = [Point2::default(); HORIZON];
-    let _ = f.forecast(&history, &neighbours, dt, &mut out);
+    let _ = f.predict_with_neighbours(&history, &neighbours, dt, &mut out);
     let start = Instant::now();
     for _ in 0..iterations {
-        let _ = f.forecast(black_box(&history), &neighbours, dt, &mut out);
+        let _ = f.predict_with_neighbours(black_box(&history), &neighbours, dt, &mut out);
         black_box(&out);
     }
     start.elapsed().as_secs_f64() * 1e6 / f64::from(iterations)
@@ -163,9 +163,9 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
         }
     }
     let mut prior = MotionPrior(PriorSettings::DEFAULT);
-    let mut rows: Vec<(&str, &mut dyn Forecaster)> = vec![("prior", &mut prior)];
+    let mut rows: Vec<(&str, &mut dyn Predictor)> = vec![("prior", &mut prior)];
     let mut baselines = Baseline::ALL;
-    rows.extend(baselines.iter_mut().map(|b| (b.name(), b as &mut dyn Forecaster)));
+    rows.extend(baselines.iter_mut().map(|b| (b.name(), b as &mut dyn Predictor)));
     for (name, p) in rows {
         let us = Cell::num(time_per_forecast(p, dt, args.iterations * 10), 2);
         t.push([name.to_string(), "-".into(), "0".into(), "0".into(), "0".into(), us.md()]);

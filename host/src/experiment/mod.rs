@@ -25,13 +25,14 @@ use anyhow::Context as _;
 use dynotraj_core::model::Dims;
 use dynotraj_core::predict::{Baseline, MotionPrior};
 
-use crate::evaluate::{Forecaster, Reference, instance_keys, score_sequence, score_sequence_against};
+use crate::evaluate::{Reference, instance_keys, score_sequence, score_sequence_against};
 use crate::report::{ArmScores, Table, forecast_table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
 use crate::train::Hyper;
 use crate::trajectory::{EligibilityRule, EligibleRun, Source, eligible_runs};
 use cache::CachedFold;
+use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
 use folds::{FoldSpec, TrainProgress, train_folds};
 
@@ -145,7 +146,7 @@ pub struct ExperimentResult {
 fn score_both(
     runs: &[EligibleRun],
     scene: &Scene,
-    forecaster: &mut dyn Forecaster,
+    forecaster: &mut dyn Predictor,
     dt: f32,
     reference: Option<Reference<'_>>,
     own: &mut ArmScores,

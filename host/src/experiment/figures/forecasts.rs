@@ -17,10 +17,11 @@ use dynotraj_core::predict::{Baseline, Forecast};
 use super::choice::Subject;
 use super::time_axis::{rate_text, seconds};
 use super::{Figure, FigureInputs};
-use crate::evaluate::{Forecaster, forecast_at};
+use crate::evaluate::forecast_at;
 use crate::report::chart::{Colour, Marker, Panel, PathFigure, PathLine, Style, write_paths};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
+use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
 
 /// Instances drawn per object.
@@ -65,7 +66,7 @@ struct Arm<'m> {
     source: Source,
     colour: Colour,
     dashed: bool,
-    forecaster: Box<dyn Forecaster + 'm>,
+    forecaster: Box<dyn Predictor + 'm>,
 }
 
 /// The forecasts of `subject` at [`INSTANCES`] evenly spaced test instances of its labels;
