@@ -15,7 +15,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 source scripts/env.sh
-cargo build --locked --release -p dynotraj-host --bin dynotraj
+cargo build --locked --release -p dynotraj-cli --bin dynotraj
 bin="$CARGO_TARGET_DIR/release/dynotraj"
 out="${DYNOTRAJ_OUT:-reports/kitti}"
 echo "## Learned predictor, leave-one-sequence-out (Table IV layout)"

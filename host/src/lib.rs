@@ -1,6 +1,5 @@
 //! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
 
-pub mod cli;
 pub mod estimate;
 pub mod evaluate;
 pub mod experiment;

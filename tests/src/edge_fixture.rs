@@ -163,7 +163,7 @@ pub fn edge_binary() -> PathBuf {
 pub fn dynotraj_command() -> std::process::Command {
     let exe = std::env::current_exe().unwrap();
     let path = exe.parent().unwrap().parent().unwrap().join("dynotraj");
-    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-host`", path.display());
+    assert!(path.exists(), "{} is missing: run `cargo build -p dynotraj-cli`", path.display());
     let mut cmd = std::process::Command::new(path);
     cmd.env("RAYON_NUM_THREADS", "1");
     cmd

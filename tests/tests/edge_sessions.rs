@@ -8,12 +8,12 @@ use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use dynotraj_cli::bench::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{FrameDecoder, Message, Notice};
 use dynotraj_edge::{NoClock, Session};
 use dynotraj_formats::tracks_file::Tracks;
-use dynotraj_host::cli::bench::random_blob;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
 use dynotraj_tests::edge_fixture::{

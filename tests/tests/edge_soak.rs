@@ -3,8 +3,8 @@
 //! answered and the lost frames add up to the frames sent, and the edge's resident memory does
 //! not grow (`dynotraj soak` runs the 100,000-frame version).
 
+use dynotraj_cli::soak::{SoakArgs, soak_edge};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::cli::soak::{SoakArgs, soak_edge};
 use dynotraj_host::report::stream_report::soak_summary;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 

@@ -4,10 +4,10 @@
 
 use std::time::Duration;
 
+use dynotraj_cli::bench::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};
-use dynotraj_host::cli::bench::random_blob;
 use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, stream};

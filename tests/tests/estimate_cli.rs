@@ -2,8 +2,8 @@
 //! `../shared/kitti`): Table III layout, and the pose files and log that `--out` writes.
 
 use clap::Parser;
-use dynotraj_host::cli::estimate::evaluate;
-use dynotraj_host::cli::{Cli, Command};
+use dynotraj_cli::estimate::evaluate;
+use dynotraj_cli::{Cli, Command};
 use dynotraj_host::estimate::files::write_run;
 use dynotraj_host::report::estimator_tables::tables;
 

@@ -3,9 +3,9 @@
 //! writes the estimate files without any truth.
 
 use clap::Parser as _;
+use dynotraj_cli::estimate::{EstimateArgs, estimate_tracks, evaluate, run};
+use dynotraj_cli::{Cli, Command};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::cli::estimate::{EstimateArgs, estimate_tracks, evaluate, run};
-use dynotraj_host::cli::{Cli, Command};
 use dynotraj_host::estimate::Kind;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 

@@ -3,9 +3,9 @@
 //! its causality on a real KITTI sequence (skipped without ../shared/kitti).
 
 use clap::Parser as _;
+use dynotraj_cli::{Cli, Command, dataset, eval};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_host::cli::{Cli, Command, dataset, eval};
 use dynotraj_host::estimate::evaluate::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
 use dynotraj_host::estimate::tracks_of_estimates;
 use dynotraj_host::estimate::{Kind, run_estimator};

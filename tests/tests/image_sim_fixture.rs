@@ -63,7 +63,7 @@ fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
     use clap::Parser as _;
     let out = tempfile::tempdir().unwrap();
     let file = out.path().join("0000.dtt");
-    let cli = dynotraj_host::cli::Cli::try_parse_from([
+    let cli = dynotraj_cli::Cli::try_parse_from([
         "dynotraj",
         "track",
         "--kitti",
@@ -78,7 +78,7 @@ fn dynotraj_track_writes_a_tracks_file_of_the_fixture() {
         "given",
     ])
     .unwrap();
-    dynotraj_host::cli::run(cli).unwrap();
+    dynotraj_cli::run(cli).unwrap();
     let t = dynotraj_formats::tracks_file::read(&file).unwrap();
     assert_eq!(t.frames.len(), 6);
     assert_eq!((t.camera.width, t.camera.height), (497, 150));

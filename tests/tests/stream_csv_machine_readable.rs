@@ -4,7 +4,7 @@
 //! of the header's width, every cell of its column's type: whole numbers for counts, numbers for
 //! measures, known words for text), and their JSON twins beside them with serde_json (flat objects under the same keys, numbers as numbers, the same figures).
 //!
-//! host/tests/tables_machine_readable.rs reads the other commands' tables; these need an edge,
+//! cli/tests/tables_machine_readable.rs reads the other commands' tables; these need an edge,
 //! which only this crate can start.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};

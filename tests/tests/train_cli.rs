@@ -5,12 +5,12 @@
 use std::fs;
 
 use clap::Parser as _;
+use dynotraj_cli::{Cli, Command, train};
 use dynotraj_core::Point2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::cli::{Cli, Command, train};
 use dynotraj_host::train::export::load_checkpoint;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
@@ -72,7 +72,7 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
         let argv = ["dynotraj", "eval", "--kitti", root.to_str().unwrap(), "--tests", "0001", "--predictor"];
         let argv: Vec<&str> = argv.iter().copied().chain([predictor.as_str(), "--rate", rate]).collect();
         let Command::Eval(a) = Cli::try_parse_from(argv).unwrap().command else { panic!("not the eval command") };
-        dynotraj_host::cli::eval::table(&a)
+        dynotraj_cli::eval::table(&a)
     };
     let e = eval_at("20").unwrap_err().to_string();
     assert!(e.contains("trained at 10.000 Hz, evaluated with --rate 20.000 Hz"), "{e}");
@@ -120,6 +120,6 @@ fn an_out_that_cannot_be_a_folder_is_refused_before_any_work() {
     assert!(e.starts_with("--out ") && e.contains("taken") && e.contains("expected a folder"), "{e}");
     let args = ["dynotraj", "soak", "--kitti", missing.to_str().unwrap(), "--out", file.to_str().unwrap()];
     let Command::Soak(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the soak command") };
-    let e = format!("{:#}", dynotraj_host::cli::soak::run(&a).unwrap_err());
+    let e = format!("{:#}", dynotraj_cli::soak::run(&a).unwrap_err());
     assert!(e.starts_with("--out ") && e.contains("expected a folder"), "{e}");
 }

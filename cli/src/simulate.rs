@@ -12,11 +12,11 @@ use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 
 use super::common::{self, SceneClassesArg, progress};
-use crate::estimate::end_to_end;
-use crate::estimate::{Kind, sim_input};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
 use dynotraj_frontend::image_sim_files::write_sequence_with;
+use dynotraj_host::estimate::end_to_end;
+use dynotraj_host::estimate::{Kind, sim_input};
 
 /// Options of `dynotraj simulate`.
 #[derive(Debug, Args)]
@@ -44,7 +44,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 1)]
     pub stereo_downscale: i32,
     /// Image scale: 1 renders at KITTI's 1242 x 375, 0.5 at 621 x 188.
-    #[arg(long, value_parser = crate::cli::numbers::positive, default_value_t = 1.0)]
+    #[arg(long, value_parser = crate::numbers::positive, default_value_t = 1.0)]
     pub scale: f64,
     /// Frames to render (default: the whole sequence).
     #[arg(long, value_name = "N")]

@@ -14,21 +14,21 @@ use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
 
 use super::common::{FrameRateArg, OursArgs, SceneClassesArg, progress, sequence_ids};
-use crate::estimate::evaluate::{
+use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_formats::tracks_file::{TracksFrame, tracks_path};
+use dynotraj_host::estimate::evaluate::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
 };
-use crate::estimate::files::{write_estimates, write_run};
-use crate::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
-use crate::estimate::runner::EstimatorRun;
-use crate::estimate::settings::OursInput;
-use crate::jobs::map_jobs;
-use crate::report::estimator_tables::{
+use dynotraj_host::estimate::files::{write_estimates, write_run};
+use dynotraj_host::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
+use dynotraj_host::estimate::runner::EstimatorRun;
+use dynotraj_host::estimate::settings::OursInput;
+use dynotraj_host::jobs::map_jobs;
+use dynotraj_host::report::estimator_tables::{
     bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
 };
-use crate::report::{Format, Table, check_table, render_tables};
-use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_formats::tracks_file::{TracksFrame, tracks_path};
+use dynotraj_host::report::{Format, Table, check_table, render_tables};
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -73,16 +73,16 @@ pub struct EstimateArgs {
     #[command(flatten)]
     pub classes: SceneClassesArg,
     /// An object is scored when its true motion averages at least this many metres per frame.
-    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.1, value_name = "METRES")]
+    #[arg(long, value_parser = crate::numbers::non_negative, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f64,
     /// Pixel noise of the simulated tracks, pixels.
-    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.5)]
+    #[arg(long, value_parser = crate::numbers::non_negative, default_value_t = 0.5)]
     pub pixel_sigma: f64,
     /// Disparity noise of the simulated tracks, pixels (depth noise grows with depth squared).
-    #[arg(long, value_parser = crate::cli::numbers::non_negative, default_value_t = 0.5)]
+    #[arg(long, value_parser = crate::numbers::non_negative, default_value_t = 0.5)]
     pub disparity_sigma: f64,
     /// Share of outlier tracks per frame.
-    #[arg(long, value_parser = crate::cli::numbers::fraction, default_value_t = 0.05)]
+    #[arg(long, value_parser = crate::numbers::fraction, default_value_t = 0.05)]
     pub outliers: f64,
     /// Mean track lifetime in frames (0: unlimited).
     #[arg(long, default_value_t = 40)]
@@ -94,7 +94,7 @@ pub struct EstimateArgs {
     /// (DynoSAM's world-frame value: 0.2).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::positive_f32,
+        value_parser = crate::numbers::positive_f32,
         default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_translation,
     )]
     pub object_sigma_t: f32,
@@ -102,7 +102,7 @@ pub struct EstimateArgs {
     /// (DynoSAM's world-frame value: 0.01).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::positive_f32,
+        value_parser = crate::numbers::positive_f32,
         default_value_t = SmootherParams::VEHICLE_OBJECT.sigma_rotation,
     )]
     pub object_sigma_r: f32,
@@ -231,7 +231,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     check_table(args.format, args.table.as_deref(), &names)?;
     if args.bench {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-        let r = crate::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
+        let r = dynotraj_host::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
         return print_tables(args, vec![("bench", bench_table(&r))]);
     }
     if let Some(path) = &args.tracks {

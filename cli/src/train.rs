@@ -11,12 +11,12 @@ use dynotraj_core::predict::PriorSettings;
 
 use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs, progress};
-use crate::train::loss::LossConfig;
-use crate::train::{
+use dynotraj_host::train::loss::LossConfig;
+use dynotraj_host::train::{
     DEFAULT_MIRROR, DEFAULT_SHRINK, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper,
     PriorChoice, TrainConfig, train_fold_with,
 };
-use crate::trajectory::Source;
+use dynotraj_host::trajectory::Source;
 
 /// Blob precisions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -99,7 +99,7 @@ pub struct HyperArgs {
     /// Adam's initial learning rate (decays by 0.9999 per step).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::positive,
+        value_parser = crate::numbers::positive,
         default_value_t = Hyper::default().learning_rate,
         value_name = "RATE",
     )]
@@ -107,7 +107,7 @@ pub struct HyperArgs {
     /// AdamW's decoupled weight decay.
     #[arg(
         long,
-        value_parser = crate::cli::numbers::non_negative,
+        value_parser = crate::numbers::non_negative,
         default_value_t = Hyper::default().weight_decay,
         value_name = "DECAY",
     )]
@@ -116,7 +116,7 @@ pub struct HyperArgs {
     /// controls need not explain (label or estimator noise).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::positive_f32,
+        value_parser = crate::numbers::positive_f32,
         default_value_t = LossConfig::default().position_floor_m,
         value_name = "METRES",
     )]
@@ -124,7 +124,7 @@ pub struct HyperArgs {
     /// Weight of the CVAE objective (0: train on the position error alone).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::non_negative_f32,
+        value_parser = crate::numbers::non_negative_f32,
         default_value_t = LossConfig::default().likelihood_weight,
         value_name = "W",
     )]
@@ -132,7 +132,7 @@ pub struct HyperArgs {
     /// Weight of the p(z|x)-weighted ADE of the mean forecasts, per metre.
     #[arg(
         long,
-        value_parser = crate::cli::numbers::non_negative_f32,
+        value_parser = crate::numbers::non_negative_f32,
         default_value_t = LossConfig::default().ade_weight,
         value_name = "W",
     )]
@@ -145,7 +145,7 @@ pub struct HyperArgs {
     /// last step's weights).
     #[arg(
         long,
-        value_parser = crate::cli::numbers::fraction,
+        value_parser = crate::numbers::fraction,
         default_value_t = Hyper::default().ema_decay,
         value_name = "DECAY",
     )]
@@ -157,7 +157,7 @@ pub struct HyperArgs {
     /// Share of the training runs held out for early stopping and model selection.
     #[arg(
         long,
-        value_parser = crate::cli::numbers::fraction_f32,
+        value_parser = crate::numbers::fraction_f32,
         default_value_t = DEFAULT_VALIDATION_FRACTION,
         value_name = "SHARE",
     )]

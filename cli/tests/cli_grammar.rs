@@ -4,7 +4,7 @@
 use std::process::Command;
 
 use clap::CommandFactory as _;
-use dynotraj_host::cli::Cli;
+use dynotraj_cli::Cli;
 
 /// Every (subcommand, argument) pair of the command line.
 fn every_arg() -> Vec<(String, clap::Arg)> {

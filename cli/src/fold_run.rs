@@ -8,9 +8,9 @@ use clap::Args;
 use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs};
 use super::train::HyperArgs;
-use crate::experiment::ExperimentConfig;
-use crate::report::{Format, check_table, render_tables};
-use crate::trajectory::Source;
+use dynotraj_host::experiment::ExperimentConfig;
+use dynotraj_host::report::{Format, check_table, render_tables};
+use dynotraj_host::trajectory::Source;
 
 /// Training and report options of a run of folds.
 #[derive(Debug, Args)]
@@ -57,7 +57,7 @@ impl FoldRunArgs {
     ///
     /// # Errors
     /// See [`render_tables`].
-    pub fn print_machine(&self, named: &[(&str, &crate::report::Table)]) -> anyhow::Result<()> {
+    pub fn print_machine(&self, named: &[(&str, &dynotraj_host::report::Table)]) -> anyhow::Result<()> {
         print!("{}", render_tables(self.format, self.table.as_deref(), named)?);
         Ok(())
     }

@@ -12,9 +12,9 @@ use clap::Args;
 
 use super::common::progress;
 use super::stream::input_tracks;
-use crate::report::stream_report::{soak_data, soak_summary};
-use crate::report::write_table_files;
 use dynotraj_formats::tracks_file::Tracks;
+use dynotraj_host::report::stream_report::{soak_data, soak_summary};
+use dynotraj_host::report::write_table_files;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::soak::{SoakOptions, SoakReport, soak};
 
@@ -36,7 +36,7 @@ pub struct SoakArgs {
     pub frames: u64,
     /// Probability that a wire frame (one part) is damaged: a byte flipped, its tail dropped,
     /// or sent twice.
-    #[arg(long, value_parser = crate::cli::numbers::fraction, default_value_t = 0.01, value_name = "P")]
+    #[arg(long, value_parser = crate::numbers::fraction, default_value_t = 0.01, value_name = "P")]
     pub fault_probability: f64,
     /// Seed of the faults.
     #[arg(long, default_value_t = 1)]

@@ -3,11 +3,11 @@
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
-use crate::evaluate::score_sequence;
-use crate::predictors::{LoadedPredictor, PredictorSpec};
-use crate::report::{ArmScores, Format, Table, forecast_table};
-use crate::scene::Scene;
-use crate::trajectory::{Source, eligible_runs};
+use dynotraj_host::evaluate::score_sequence;
+use dynotraj_host::predictors::{LoadedPredictor, PredictorSpec};
+use dynotraj_host::report::{ArmScores, Format, Table, forecast_table};
+use dynotraj_host::scene::Scene;
+use dynotraj_host::trajectory::{Source, eligible_runs};
 
 /// Options of `dynotraj eval`.
 #[derive(Debug, Args)]

@@ -9,9 +9,9 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::experiment::FoldReport;
-use crate::experiment::folds::TrainProgress;
-use crate::train::Event;
+use dynotraj_host::experiment::FoldReport;
+use dynotraj_host::experiment::folds::TrainProgress;
+use dynotraj_host::train::Event;
 
 /// The bars of one training stage.
 pub struct TrainBars {

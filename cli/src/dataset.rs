@@ -3,9 +3,9 @@
 use clap::Args;
 
 use super::common::DataArgs;
-use crate::experiment::budget::{budget_instances, budget_table};
-use crate::report::{Format, Table, instances_table};
-use crate::trajectory::Source;
+use dynotraj_host::experiment::budget::{budget_instances, budget_table};
+use dynotraj_host::report::{Format, Table, instances_table};
+use dynotraj_host::trajectory::Source;
 
 /// Options of `dynotraj dataset`.
 #[derive(Debug, Args)]

@@ -7,12 +7,12 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
-use crate::estimate::evaluate::{EvalOptions, ObjectVariants};
-use crate::estimate::settings::{EstimateSettings, OursInput};
-use crate::jobs::{default_jobs, map_jobs, parse_jobs};
-use crate::sequence::{SequenceTracks, load_sequence};
-use crate::trajectory::{EligibilityRule, MovingRule, Source};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_host::estimate::evaluate::{EvalOptions, ObjectVariants};
+use dynotraj_host::estimate::settings::{EstimateSettings, OursInput};
+use dynotraj_host::jobs::{default_jobs, map_jobs, parse_jobs};
+use dynotraj_host::sequence::{SequenceTracks, load_sequence};
+use dynotraj_host::trajectory::{EligibilityRule, MovingRule, Source};
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
@@ -36,7 +36,7 @@ pub struct FrameRateArg {
     /// depend on it.
     #[arg(
         long = "rate",
-        value_parser = crate::cli::numbers::frame_rate_f32,
+        value_parser = crate::numbers::frame_rate_f32,
         default_value_t = PAPER_FRAME_RATE_HZ,
         value_name = "HZ",
     )]
@@ -58,7 +58,7 @@ pub struct ForecastClassesArg {
     #[arg(
         long = "classes",
         value_delimiter = ',',
-        value_parser = crate::cli::numbers::object_class,
+        value_parser = crate::numbers::object_class,
         default_value = FORECAST_CLASSES,
         value_name = "LIST"
     )]
@@ -72,7 +72,7 @@ pub struct SceneClassesArg {
     #[arg(
         long = "classes",
         value_delimiter = ',',
-        value_parser = crate::cli::numbers::object_class,
+        value_parser = crate::numbers::object_class,
         default_value = IN_SCENE_CLASSES,
         value_name = "LIST"
     )]
@@ -94,7 +94,7 @@ pub struct DataArgs {
     pub classes: ForecastClassesArg,
     /// An object moves when its net displacement over a run is at least this many metres per
     /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
-    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.1, value_name = "METRES")]
+    #[arg(long, value_parser = crate::numbers::non_negative_f32, default_value_t = 0.1, value_name = "METRES")]
     pub min_step: f32,
     /// The estimated source's input, its cache and the jobs.
     #[command(flatten)]
@@ -194,7 +194,7 @@ pub struct OursArgs {
     pub ours_input: OursInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
-    #[arg(long, value_parser = crate::cli::numbers::positive, default_value_t = 1.0, value_name = "SCALE")]
+    #[arg(long, value_parser = crate::numbers::positive, default_value_t = 1.0, value_name = "SCALE")]
     pub render_scale: f64,
     /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
     /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
@@ -212,12 +212,12 @@ pub struct OursArgs {
     pub fuse_at_fit: bool,
     /// Estimator variant: turn a vehicle's frame onto its measured direction of travel whenever
     /// the two differ by more than this many degrees (off by default).
-    #[arg(long, value_parser = crate::cli::numbers::positive_f32, value_name = "DEG")]
+    #[arg(long, value_parser = crate::numbers::positive_f32, value_name = "DEG")]
     pub realign_heading: Option<f32>,
     /// Estimator variant: a disparity error shared by all points of an object fit, pixels,
     /// which puts a floor under its depth uncertainty along the viewing ray (0: off, the
     /// default).
-    #[arg(long, value_parser = crate::cli::numbers::non_negative_f32, default_value_t = 0.0, value_name = "PX")]
+    #[arg(long, value_parser = crate::numbers::non_negative_f32, default_value_t = 0.0, value_name = "PX")]
     pub shared_disparity: f32,
     /// Estimator variant: causal estimates report the object's pose origin and its motion's
     /// speed instead of the bird's-eye track that fuses its points' centroid with its motion.
@@ -326,11 +326,11 @@ mod tests {
     #[test]
     fn the_default_class_flags_are_the_core_lists() {
         let parse = |list: &str| -> Vec<ObjectClass> {
-            list.split(',').map(|c| crate::cli::numbers::object_class(c).unwrap()).collect()
+            list.split(',').map(|c| crate::numbers::object_class(c).unwrap()).collect()
         };
         assert_eq!(parse(FORECAST_CLASSES), ObjectClass::FORECAST);
         assert_eq!(parse(IN_SCENE_CLASSES), ObjectClass::IN_SCENE);
-        let err = crate::cli::numbers::object_class("car").unwrap_err();
+        let err = crate::numbers::object_class("car").unwrap_err();
         assert!(err.contains("expected a KITTI type (Car, Van,") && err.contains("found `car`"), "{err}");
     }
 }

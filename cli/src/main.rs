@@ -1,7 +1,7 @@
 //! The `dynotraj` command.
 
 use clap::Parser as _;
-use dynotraj_host::cli::{Cli, run};
+use dynotraj_cli::{Cli, run};
 
 /// Sets `RAYON_NUM_THREADS=1` for this process when it is unset. candle sizes its kernels'
 /// threads from that variable, read from the environment at every matrix product; unset, each

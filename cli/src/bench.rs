@@ -14,9 +14,9 @@ use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PriorSettings};
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
-use crate::report::{Cell, ColumnKind, Data, Format, Table};
 use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
+use dynotraj_host::report::{Cell, ColumnKind, Data, Format, Table};
 
 /// Options of `dynotraj bench`.
 #[derive(Debug, Args)]

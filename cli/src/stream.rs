@@ -12,12 +12,12 @@ use dynotraj_core::wire::{Forecaster, Notice, ObjectClass};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
-use crate::estimate::evaluate::camera_info;
-use crate::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
-use crate::report::stream_report::{frames_data, predictions_data, summary};
-use crate::report::write_table_files;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{self, Tracks, TracksFrame};
+use dynotraj_host::estimate::evaluate::camera_info;
+use dynotraj_host::estimate::input::{KITTI_IMAGE_SIZE, sim_input};
+use dynotraj_host::report::stream_report::{frames_data, predictions_data, summary};
+use dynotraj_host::report::write_table_files;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
 
@@ -42,7 +42,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "ENDPOINT")]
     pub to: Endpoint,
     /// Frames per second to send at (default: the stream's camera rate; 0: as fast as possible).
-    #[arg(long, value_parser = crate::cli::numbers::send_rate, value_name = "HZ")]
+    #[arg(long, value_parser = crate::numbers::send_rate, value_name = "HZ")]
     pub rate: Option<f64>,
     /// Send a frame only after the edge answered the previous one (no loss from overrun).
     #[arg(long)]
@@ -57,7 +57,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Seconds to wait for the edge: to connect, per answer in lockstep, for its goodbye.
-    #[arg(long, value_parser = crate::cli::numbers::seconds, default_value_t = 30.0, value_name = "S")]
+    #[arg(long, value_parser = crate::numbers::seconds, default_value_t = 30.0, value_name = "S")]
     pub timeout: f64,
 }
 
@@ -72,11 +72,15 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     if let (Some(bytes), Some(p)) = (&model, &args.model)
         && let Err(e) = dynotraj_core::model::signed::split(bytes)
     {
-        eprintln!("warning: --model {}: {}; the edge will refuse it", p.display(), crate::model_signing::describe(&e));
+        eprintln!(
+            "warning: --model {}: {}; the edge will refuse it",
+            p.display(),
+            dynotraj_host::model_signing::describe(&e)
+        );
     }
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));
     let rate = args.rate.unwrap_or(f64::from(tracks.camera.frame_rate_hz));
-    let stop = crate::cli::interrupt::stop_flag()?;
+    let stop = crate::interrupt::stop_flag()?;
     let bar = std::sync::Arc::new(progress(tracks.frames.len() as u64, "frames sent"));
     let opt = StreamOptions {
         rate_hz: (rate > 0.0).then_some(rate),
