@@ -8,8 +8,8 @@ use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_host::estimate::evaluate::{EvalOptions, ObjectVariants};
-use dynotraj_host::estimate::settings::{EstimateSettings, OursInput};
+use dynotraj_host::estimation::settings::{EstimateSettings, SimulatedInput};
+use dynotraj_host::estimation::simulated::{EvalOptions, ObjectVariants};
 use dynotraj_host::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_host::sequence::{SequenceTracks, load_sequence};
 use dynotraj_host::trajectory::{EligibilityRule, MovingRule, Source};
@@ -98,7 +98,7 @@ pub struct DataArgs {
     pub min_step: f32,
     /// The estimated source's input, its cache and the jobs.
     #[command(flatten)]
-    pub ours: OursArgs,
+    pub ours: EstimatedSourceArgs,
 }
 
 /// Checks, before a command's work starts, that `dir` (the output folder named by `flag`) can
@@ -183,15 +183,15 @@ pub const KITTI_ENV: &str = "DYNOTRAJ_KITTI";
 /// Where the estimated source (Ours) takes its feature tracks, where renderings are kept, and
 /// how many sequences are worked on at once: shared by every command that estimates.
 #[derive(Debug, Args)]
-pub struct OursArgs {
+pub struct EstimatedSourceArgs {
     /// Where the estimated sources take their feature tracks for sequences without real stereo
     /// images in the folder: rendered (the image simulator renders each sequence and the
     /// OpenCV front-end tracks it: images -> front-end -> estimator, as Ours is defined;
     /// about 19 minutes for the sixteen sequences at scale 1 on two cores; the front-end's
     /// tracks are kept in --estimate-cache and re-estimated in seconds) or tracks (the
     /// track-level simulator: tracks of points on the labelled boxes, seconds).
-    #[arg(long, value_enum, default_value_t = OursInput::Rendered, value_name = "INPUT")]
-    pub ours_input: OursInput,
+    #[arg(long, value_enum, default_value_t = SimulatedInput::Rendered, value_name = "INPUT")]
+    pub ours_input: SimulatedInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
     #[arg(long, value_parser = crate::numbers::positive, default_value_t = 1.0, value_name = "SCALE")]
@@ -225,7 +225,7 @@ pub struct OursArgs {
     pub no_bev_track: bool,
 }
 
-impl OursArgs {
+impl EstimatedSourceArgs {
     /// The estimator's object variants these options choose.
     #[must_use]
     pub fn object_variants(&self) -> ObjectVariants {

@@ -13,17 +13,17 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
 
-use super::common::{FrameRateArg, OursArgs, SceneClassesArg, progress, sequence_ids};
+use super::common::{EstimatedSourceArgs, FrameRateArg, SceneClassesArg, progress, sequence_ids};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{TracksFrame, tracks_path};
-use dynotraj_host::estimate::evaluate::{
+use dynotraj_host::estimation::files::{write_estimates, write_run};
+use dynotraj_host::estimation::from_images::{render_and_track, rendered_intrinsics, rendered_params};
+use dynotraj_host::estimation::runner::EstimatorRun;
+use dynotraj_host::estimation::settings::SimulatedInput;
+use dynotraj_host::estimation::simulated::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
 };
-use dynotraj_host::estimate::files::{write_estimates, write_run};
-use dynotraj_host::estimate::from_images::{render_and_track, rendered_intrinsics, rendered_params};
-use dynotraj_host::estimate::runner::EstimatorRun;
-use dynotraj_host::estimate::settings::OursInput;
 use dynotraj_host::jobs::map_jobs;
 use dynotraj_host::report::estimator_tables::{
     bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
@@ -49,7 +49,7 @@ pub struct EstimateArgs {
     /// The feature tracks' source (rendered by default, as every command; `tracks`: the
     /// track-level simulator with the noise below), the renderings' cache and the jobs.
     #[command(flatten)]
-    pub ours: OursArgs,
+    pub ours: EstimatedSourceArgs,
     /// Instead of simulating, estimate on a recorded tracks file (`.dtt`, the link's byte
     /// stream: camera model, then each frame's tracks). Intrinsics and frame rate come from the
     /// file's camera model; `--pixel-sigma`, `--disparity-sigma` and `--noise-free` set the
@@ -231,7 +231,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     check_table(args.format, args.table.as_deref(), &names)?;
     if args.bench {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-        let r = dynotraj_host::estimate::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
+        let r = dynotraj_host::estimation::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
         return print_tables(args, vec![("bench", bench_table(&r))]);
     }
     if let Some(path) = &args.tracks {
@@ -242,7 +242,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         }
         return print_tables(args, named);
     }
-    let results = evaluate(args)?;
+    let results = estimate_sequences(args)?;
     if let (true, Some(dir)) = (args.write_tracks, &args.out) {
         std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
         // Every profile estimates the same simulated tracks: write them once.
@@ -346,14 +346,14 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
 ///
 /// # Errors
 /// Loading, rendering or cache errors, named.
-pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
+pub fn estimate_sequences(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let profiles = args.profiles()?;
     let options = profiles.iter().map(|p| args.options_for(*p)).collect::<anyhow::Result<Vec<_>>>()?;
     let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
     let dir = TrackingDir::open(kitti)?;
     let ids = sequence_ids(&dir, &args.sequences)?;
     let label =
-        if args.ours.ours_input == OursInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
+        if args.ours.ours_input == SimulatedInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
     let bar = progress(ids.len() as u64, label);
     let per_sequence = map_jobs(&ids, args.ours.jobs, |id| -> anyhow::Result<Vec<SequenceResult>> {
         let data = dir.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
@@ -361,11 +361,11 @@ pub fn evaluate(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
         let base = options.first().context("no profile")?;
         let scale = args.ours.render_scale;
         let (frames, spec) = match args.ours.ours_input {
-            OursInput::Tracks => {
+            SimulatedInput::Tracks => {
                 let (sim, spec) = simulate_sequence(&data, base);
                 (sim, Some(spec))
             }
-            OursInput::Rendered => {
+            SimulatedInput::Rendered => {
                 let frames = render_and_track(id, &data, base, scale, args.ours.estimate_cache.as_deref())
                     .with_context(|| format!("sequence {id}: rendered front-end"))?;
                 (frames, None)

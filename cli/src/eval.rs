@@ -3,7 +3,7 @@
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
-use dynotraj_host::evaluate::score_sequence;
+use dynotraj_host::forecast_eval::score_sequence;
 use dynotraj_host::predictors::{LoadedPredictor, PredictorSpec};
 use dynotraj_host::report::{ArmScores, Format, Table, forecast_table};
 use dynotraj_host::scene::Scene;

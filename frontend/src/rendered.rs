@@ -1,5 +1,5 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
-//! estimator and its scores are [`crate::estimate::end_to_end`]).
+//! estimator and its scores are the host's `estimation::end_to_end`).
 
 use dynotraj_fixtures::image_sim::ImageSim;
 use dynotraj_fixtures::track_sim::SimFrame;

@@ -1,8 +1,9 @@
-//! dynotraj-host: KITTI I/O, trajectory sources, evaluation and the `dynotraj` command.
+//! dynotraj-host: the library behind the `dynotraj` command: trajectory sources, the core
+//! estimator on KITTI sequences, forecast scoring, training, experiments and reports.
 
-pub mod estimate;
-pub mod evaluate;
+pub mod estimation;
 pub mod experiment;
+pub mod forecast_eval;
 pub mod jobs;
 pub mod model_signing;
 pub mod on_step;

@@ -3,10 +3,10 @@
 
 use anyhow::Context as _;
 
-use crate::estimate::cache;
-use crate::estimate::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
-use crate::estimate::settings::{EstimateSettings, OursInput};
-use crate::estimate::{EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks};
+use crate::estimation::cache;
+use crate::estimation::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
+use crate::estimation::settings::{EstimateSettings, SimulatedInput};
+use crate::estimation::{EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks};
 use crate::trajectory::{ObjectTrack, Source, label_tracks};
 use dynotraj_formats::kitti::{SequenceData, TrackingDir};
 
@@ -57,7 +57,7 @@ pub fn load_ground_truth(dir: &TrackingDir, id: &str, dt: f32) -> anyhow::Result
 /// `estimate`, the estimator's tracks with those settings: from the sequence's own stereo
 /// images through the image front-end where the folder holds every frame of them (a full KITTI
 /// download), else from the track-level simulator driven by its labels and ego poses, or from
-/// a rendering of it ([`OursInput`]).
+/// a rendering of it ([`SimulatedInput`]).
 ///
 /// # Errors
 /// Any loading error of the sequence's files, with the file named.
@@ -80,7 +80,7 @@ pub fn load_sequence(
 /// it has them all, else from the simulator or its rendering. Estimates from images or the
 /// simulator are read from the cache when a file there has the key of these inputs, else
 /// computed and stored; a rendering keeps its front-end tracks in the cache instead
-/// ([`crate::estimate::rendered_cache`]) and is estimated afresh.
+/// ([`crate::estimation::rendered_cache`]) and is estimated afresh.
 fn estimated_cached(
     dir: &TrackingDir,
     id: &str,
@@ -88,7 +88,7 @@ fn estimated_cached(
     e: &EstimateSettings,
 ) -> anyhow::Result<EstimatedTracks> {
     let images = has_images(dir.root(), id, data.frame_count);
-    if !images && e.input == OursInput::Rendered {
+    if !images && e.input == SimulatedInput::Rendered {
         // The rendering and its front-end tracks are what take minutes; they are cached apart
         // from the estimator's settings and code, and the estimator runs on them in seconds.
         let r = estimate_rendered(id, data, &e.options, e.render_scale, e.cache.as_deref())

@@ -2,9 +2,9 @@
 //! `../shared/kitti`): Table III layout, and the pose files and log that `--out` writes.
 
 use clap::Parser;
-use dynotraj_cli::estimate::evaluate;
+use dynotraj_cli::estimate::estimate_sequences;
 use dynotraj_cli::{Cli, Command};
-use dynotraj_host::estimate::files::write_run;
+use dynotraj_host::estimation::files::write_run;
 use dynotraj_host::report::estimator_tables::tables;
 
 #[test]
@@ -24,7 +24,7 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
         "120",
     ]);
     let Command::Estimate(args) = cli.command else { panic!("not the estimate command") };
-    let results = evaluate(&args).expect("runs");
+    let results = estimate_sequences(&args).expect("runs");
     assert_eq!(results.len(), 2);
     let t = tables(&results);
     assert_eq!(t.len(), 5, "three Table III blocks, the restarts and the smoothness table");
@@ -62,12 +62,12 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
 /// a pair across a restart.
 fn object_files_give_the_printed_rpe(
     seq: &std::path::Path,
-    result: &dynotraj_host::estimate::evaluate::SequenceResult,
+    result: &dynotraj_host::estimation::simulated::SequenceResult,
 ) {
     use dynotraj_core::metrics::RpeAccumulator;
     use dynotraj_formats::kitti::read_tum;
-    use dynotraj_host::estimate::runner::Kind;
-    use dynotraj_host::estimate::score::moving_objects;
+    use dynotraj_host::estimation::runner::Kind;
+    use dynotraj_host::estimation::score::moving_objects;
 
     let micros = |t: f64| (t * 1e6).round() as i64;
     let moving = moving_objects(&result.sim, result.min_step_m);
@@ -107,7 +107,7 @@ fn object_files_give_the_printed_rpe(
 
 #[test]
 fn estimate_runs_a_rendering_with_both_profiles_and_keeps_its_tracks() {
-    use dynotraj_host::estimate::runner::Kind;
+    use dynotraj_host::estimation::runner::Kind;
 
     let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
     let cache = tempfile::tempdir().expect("temp dir");
@@ -130,7 +130,7 @@ fn estimate_runs_a_rendering_with_both_profiles_and_keeps_its_tracks() {
         "1",
     ]);
     let Command::Estimate(args) = cli.command else { panic!("not the estimate command") };
-    let results = evaluate(&args).expect("runs");
+    let results = estimate_sequences(&args).expect("runs");
     let profiles: Vec<&str> = results.iter().map(|r| r.profile).collect();
     assert_eq!(profiles, ["host", "edge"]);
     // One rendering for both profiles, kept in the cache.
@@ -147,7 +147,7 @@ fn estimate_runs_a_rendering_with_both_profiles_and_keeps_its_tracks() {
         assert!(camera.translation < 0.05, "{} profile: camera RPE_t {} m", r.profile, camera.translation);
     }
     // A rerun reads the rendering back: the same estimates.
-    let again = evaluate(&args).expect("reruns");
+    let again = estimate_sequences(&args).expect("reruns");
     assert_eq!(again[1].run.of(Kind::Causal), results[1].run.of(Kind::Causal));
     let t = tables(&results);
     assert_eq!(t.len(), 10, "five tables per profile");

@@ -3,10 +3,10 @@
 //! writes the estimate files without any truth.
 
 use clap::Parser as _;
-use dynotraj_cli::estimate::{EstimateArgs, estimate_tracks, evaluate, run};
+use dynotraj_cli::estimate::{EstimateArgs, estimate_sequences, estimate_tracks, run};
 use dynotraj_cli::{Cli, Command};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::estimate::Kind;
+use dynotraj_host::estimation::Kind;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn args(list: &[&str]) -> EstimateArgs {
@@ -46,7 +46,7 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
     run(&replay_args).unwrap();
 
     // Bit for bit: every estimate of every kind, compared as f32.
-    let direct = evaluate(&direct_args).unwrap().remove(0);
+    let direct = estimate_sequences(&direct_args).unwrap().remove(0);
     let replay = estimate_tracks(&replay_args, &tracks).unwrap();
     assert_eq!(replay.frames.len(), direct.frames);
     let mut objects = 0;

@@ -35,7 +35,7 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::PriorSettings;
 use dynotraj_core::predict::prior::plan;
 
-use crate::estimate::CameraPair;
+use crate::estimation::CameraPair;
 use crate::report::{Cell, ColumnKind, Data, Table};
 use crate::sequence::SequenceTracks;
 use crate::trajectory::{EligibilityRule, ObjectTrack, Source, eligible_runs};

@@ -25,7 +25,7 @@ use anyhow::Context as _;
 use dynotraj_core::model::Dims;
 use dynotraj_core::predict::{Baseline, MotionPrior};
 
-use crate::evaluate::{Reference, instance_keys, score_sequence, score_sequence_against};
+use crate::forecast_eval::{Reference, instance_keys, score_sequence, score_sequence_against};
 use crate::report::{ArmScores, Table, forecast_table};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;
@@ -313,7 +313,7 @@ pub fn score_seed(
         .map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect())
         .collect();
     let world_yaws: Vec<Option<std::collections::BTreeMap<u32, f32>>> =
-        tests.iter().map(|t| t.estimated.as_ref().map(crate::estimate::EstimatedTracks::world_yaw)).collect();
+        tests.iter().map(|t| t.estimated.as_ref().map(crate::estimation::EstimatedTracks::world_yaw)).collect();
     let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
         (0..tests.len())
             .map(|i| {

@@ -5,8 +5,8 @@
 use super::ExperimentResult;
 use super::findings::{Scoring, findings};
 use super::report::{Report, Section};
-use crate::estimate::EstimateInput;
-use crate::estimate::{Kind, RunScores};
+use crate::estimation::EstimateInput;
+use crate::estimation::{Kind, RunScores};
 use crate::report::estimator_tables::table_iii_of;
 use crate::report::{Table, instances_table};
 use crate::sequence::SequenceTracks;
@@ -97,7 +97,7 @@ pub fn experiment_report(
             stem: "table_iv_truth".into(),
             title: "Table IV against one common reference: the simulator's truth".into(),
             caption: "The same models and forecasts, every arm scored against the simulator's true future (the box \
-                centre, as a displacement from the current frame: see host/src/evaluate.rs) on the instances that \
+                centre, as a displacement from the current frame: see host/src/forecast_eval.rs) on the instances that \
                 every arm has, so the rows share their instances and their reference. The paper cannot make this \
                 comparison on real data; a simulator can."
                 .into(),

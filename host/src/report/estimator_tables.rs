@@ -9,10 +9,10 @@
 use dynotraj_core::estimate::EstimatorStats;
 
 use super::{Cell, ColumnKind, Data, Table};
-use crate::estimate::bench::BenchResult;
-use crate::estimate::evaluate::SequenceResult;
-use crate::estimate::score::{moving_objects, object_rpe};
-use crate::estimate::{EstimatorRun, Kind, RunScores};
+use crate::estimation::bench::BenchResult;
+use crate::estimation::score::{moving_objects, object_rpe};
+use crate::estimation::simulated::SequenceResult;
+use crate::estimation::{EstimatorRun, Kind, RunScores};
 
 /// The paper's Table III: DynoSAM's averages on real KITTI.
 pub const DYNOSAM_TABLE_III: [f64; 4] = [0.04, 0.04, 0.38, 1.04];
@@ -324,7 +324,7 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
     ];
     let mut d = Data::new(columns.map(|(_, n, k)| (n, k)));
     for r in results {
-        let causal = crate::estimate::tracks_of_estimates(r.run.of(Kind::Causal));
+        let causal = crate::estimation::tracks_of_estimates(r.run.of(Kind::Causal));
         for id in moving_objects(&r.sim, r.min_step_m) {
             let truth: Vec<_> = r.sim.iter().flat_map(|f| f.objects.iter()).filter(|o| o.object_id == id).collect();
             let class = truth.first().map_or("?", |o| o.class.kitti_name());

@@ -1,5 +1,5 @@
 //! Bird's-eye object trajectories: built from labels here (the estimator's in
-//! [`crate::estimate::tracks`]), turned
+//! [`crate::estimation::tracks`]), turned
 //! into the paper's sources (GT, GT+EKF, Estimated, and the labelled non-causal GT+RTS and
 //! smoothed Estimated), cut into eligible runs and test instances.
 

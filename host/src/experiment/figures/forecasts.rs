@@ -6,7 +6,7 @@
 //! is drawn as its displacement from that source's current position, placed at the labels'
 //! current position (and turned into the labels' world for the estimated arms by the yaw between
 //! the estimator's world and the truth's at that frame), as the common-truth scoring compares
-//! forecasts (`crate::evaluate`): each source refers to its own point of the object.
+//! forecasts (`crate::forecast_eval`): each source refers to its own point of the object.
 
 use std::path::Path;
 
@@ -17,7 +17,7 @@ use dynotraj_core::predict::{Baseline, Forecast};
 use super::choice::Subject;
 use super::time_axis::{rate_text, seconds};
 use super::{Figure, FigureInputs};
-use crate::evaluate::forecast_at;
+use crate::forecast_eval::forecast_at;
 use crate::report::chart::{Colour, Marker, Panel, PathFigure, PathLine, Style, write_paths};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};
@@ -107,7 +107,7 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
     });
     let labels = Scene::new(&seq.tracks, Source::Gt, dt);
     let scenes: Vec<Scene> = arms.iter().map(|a| Scene::new(seq.tracks_for(a.source), a.source, dt)).collect();
-    let world_yaw = seq.estimated.as_ref().map(crate::estimate::EstimatedTracks::world_yaw);
+    let world_yaw = seq.estimated.as_ref().map(crate::estimation::EstimatedTracks::world_yaw);
     let mut panels = Vec::new();
     for &frame in &chosen {
         let Some(run) = labels.run_at(track, frame) else { continue };

@@ -1,7 +1,7 @@
 //! ADE and FDE against the horizon: for each arm's int8 model, its motion prior alone and
 //! constant velocity on the same source, the error of every horizon from 1 to 30 steps, over the test instances of every
 //! loaded sequence that has a fold model of that arm (each model trained without it), pooled.
-//! Scored by [`crate::evaluate`] as Table IV is, against each source's own future.
+//! Scored by [`crate::forecast_eval`] as Table IV is, against each source's own future.
 
 use std::path::Path;
 
@@ -10,7 +10,7 @@ use dynotraj_core::predict::{Baseline, MotionPrior};
 
 use super::time_axis::horizon_label;
 use super::{Figure, FigureInputs};
-use crate::evaluate::{HorizonErrors, score_sequence};
+use crate::forecast_eval::{HorizonErrors, score_sequence};
 use crate::report::chart::{Chart, Colour, Series, Style, write_chart};
 use crate::scene::Scene;
 use crate::trajectory::{Source, eligible_runs};

@@ -134,8 +134,8 @@ pub fn write_figures(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::evaluate::EvalOptions;
-    use crate::estimate::settings::EstimateSettings;
+    use crate::estimation::settings::EstimateSettings;
+    use crate::estimation::simulated::EvalOptions;
     use crate::sequence::load_sequence;
     use dynotraj_core::model::Dims;
     use dynotraj_core::model::blob::Precision;

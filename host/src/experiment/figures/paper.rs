@@ -10,7 +10,7 @@ use dynotraj_core::geometry::angle_diff;
 use super::choice::{Extent, Subject};
 use super::time_axis::{seconds, time_label};
 use super::{Figure, FigureInputs};
-use crate::evaluate::score_sequence;
+use crate::forecast_eval::score_sequence;
 use crate::report::chart::{Chart, Series, write_chart};
 use crate::scene::Scene;
 use crate::sequence::SequenceTracks;

@@ -1,14 +1,14 @@
 //! The estimator's RPE over time: per frame, the translational error of the relative pose from
 //! the frame before, against the simulator's truth, for the camera and for the moving objects,
 //! causal and smoothed estimates: the pairs behind Table III's RPE
-//! ([`crate::estimate::score::rpe_over_time`]).
+//! ([`crate::estimation::score::rpe_over_time`]).
 
 use std::path::Path;
 
 use super::Figure;
 use super::time_axis::{seconds, time_label};
-use crate::estimate::score::FrameRpe;
-use crate::estimate::{Kind, RunScores};
+use crate::estimation::score::FrameRpe;
+use crate::estimation::{Kind, RunScores};
 use crate::report::chart::{Chart, Series, write_chart};
 use crate::sequence::SequenceTracks;
 

@@ -9,7 +9,9 @@
 //! - [`cache`]: estimated tracks kept between runs of the experiment.
 //! - [`rendered_cache`]: the front-end's tracks of rendered sequences kept between runs.
 //! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
-//! - [`evaluate`]: one sequence end to end (simulate, estimate, score).
+//! - [`simulated`]: one sequence end to end on the track-level simulator (simulate, estimate,
+//!   score).
+//! - [`tracks`]: the estimator's outputs as bird's-eye object tracks (the Estimated source).
 //! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
 //! - [`end_to_end`]: a rendered sequence through the front-end and the estimator, scored.
 //! - [`settings`]: how the Estimated source is made (options, simulated or rendered tracks).
@@ -19,7 +21,6 @@ pub mod bench;
 pub mod cache;
 #[cfg(feature = "images")]
 pub mod end_to_end;
-pub mod evaluate;
 pub mod files;
 pub mod from_images;
 pub mod input;
@@ -27,6 +28,7 @@ pub mod rendered_cache;
 pub mod runner;
 pub mod score;
 pub mod settings;
+pub mod simulated;
 pub mod tracks;
 
 pub use input::{SimInput, sim_input};

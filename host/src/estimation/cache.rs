@@ -16,7 +16,7 @@ use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
 
 use super::settings::EstimateSettings;
-use crate::estimate::EstimatedTracks;
+use crate::estimation::EstimatedTracks;
 use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what estimation computes; part of every key. Bump it with every change to the
@@ -98,7 +98,7 @@ pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::EstimateInput;
+    use crate::estimation::EstimateInput;
     use crate::trajectory::ObjectTrack;
     use dynotraj_core::BevState;
     use dynotraj_core::wire::ObjectClass;
@@ -116,11 +116,11 @@ mod tests {
             input: EstimateInput::Rendered,
             causal: vec![track.clone()],
             smoothed: vec![],
-            rpe: Some(crate::estimate::RunScores::default()),
+            rpe: Some(crate::estimation::RunScores::default()),
             truth: vec![track],
             cameras: [(
                 4,
-                crate::estimate::CameraPair {
+                crate::estimation::CameraPair {
                     truth: BevState { x: 1.0, y: 2.0, heading: 0.5, speed: 0.0 },
                     estimate: BevState { x: 1.1, y: 2.0, heading: 0.49, speed: 0.0 },
                 },
@@ -128,7 +128,12 @@ mod tests {
             .into(),
             rpe_frames: [
                 vec![],
-                vec![crate::estimate::score::FrameRpe { frame: 5, camera: Some(0.02), objects: None, object_pairs: 0 }],
+                vec![crate::estimation::score::FrameRpe {
+                    frame: 5,
+                    camera: Some(0.02),
+                    objects: None,
+                    object_pairs: 0,
+                }],
                 vec![],
             ],
             frames: 6,

@@ -2,7 +2,7 @@
 //! estimator's own output, with no label in any state.
 //!
 //! Here the estimator runs on the track-level simulator driven by the sequence's real labels,
-//! ego poses and calibration (`crate::estimate`): simulated feature tracks, with pixel and
+//! ego poses and calibration (`crate::estimation`): simulated feature tracks, with pixel and
 //! depth noise and outliers, streamed through the wire into `dynotraj_core::estimate`. Real
 //! KITTI images are not available here; a user's full download goes through the image
 //! front-end instead (`dynotraj track`, then `dynotraj estimate --tracks`).
@@ -24,9 +24,9 @@ use dynotraj_core::BevState;
 use dynotraj_core::estimate::{PoseEstimate, bev_heading};
 use dynotraj_core::wire::ObjectClass;
 
-use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
-use crate::estimate::score::{FrameRpe, moving_objects, rpe_over_time};
-use crate::estimate::{EstimatorRun, Kind, RunScores};
+use crate::estimation::score::{FrameRpe, moving_objects, rpe_over_time};
+use crate::estimation::simulated::{EvalOptions, evaluate_sequence};
+use crate::estimation::{EstimatorRun, Kind, RunScores};
 use crate::trajectory::ObjectTrack;
 use dynotraj_fixtures::track_sim::SimFrame;
 use dynotraj_formats::kitti::SequenceData;
@@ -35,7 +35,7 @@ use dynotraj_formats::kitti::SequenceData;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum EstimateInput {
     /// Tracks of the track-level simulator driven by the sequence's labels and ego poses
-    /// ([`crate::estimate::settings::OursInput::Tracks`]).
+    /// ([`crate::estimation::settings::SimulatedInput::Tracks`]).
     Tracks,
     /// The image front-end's tracks of the sequence's own stereo images (no truth).
     Images,
@@ -99,7 +99,7 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth;
 /// objects moving at least `min_step_m` per frame are scored (as for `e.scores`).
 #[must_use]
-pub fn rendered_estimated_tracks(e: &crate::estimate::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
+pub fn rendered_estimated_tracks(e: &crate::estimation::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
     EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m)
 }
 

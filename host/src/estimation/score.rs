@@ -292,7 +292,7 @@ pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (Smoo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::evaluate::{EvalOptions, evaluate_sequence};
+    use crate::estimation::simulated::{EvalOptions, evaluate_sequence};
     use dynotraj_fixtures::drive::{DriveSpec, generate};
     use dynotraj_fixtures::kitti_layout::write_sequence;
     use dynotraj_formats::kitti::TrackingDir;

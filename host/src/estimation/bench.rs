@@ -12,8 +12,8 @@ use dynotraj_core::wire::FrameTracks;
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_formats::tracks_file::TracksFrame;
 
-use super::evaluate::WINDOW;
 use super::input::KITTI_IMAGE_SIZE;
+use super::simulated::WINDOW;
 
 /// Timing of a benchmark run.
 #[derive(Debug, Clone, PartialEq)]

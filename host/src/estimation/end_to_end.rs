@@ -5,8 +5,8 @@ use dynotraj_core::estimate::EstimatorParams;
 use dynotraj_fixtures::image_sim::ImageSim;
 use dynotraj_fixtures::track_sim::SimFrame;
 
-use super::evaluate::WINDOW;
 use super::score::moving_objects;
+use super::simulated::WINDOW;
 use super::{EstimatorRun, RunScores, run_estimator, score_run};
 use crate::on_step::OnStep;
 use dynotraj_frontend::error::FrontEndError;

@@ -17,13 +17,13 @@ use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 
 use dynotraj_fixtures::track_sim::SimFrame;
 
-use super::evaluate::{EvalOptions, run_sim_with_window};
-#[cfg(feature = "images")]
-use super::evaluate::{params_for, run_with_window, sim_max_depth};
 use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::EstimatorRun;
 use super::score::{RunScores, moving_objects, score_run};
+use super::simulated::{EvalOptions, run_sim_with_window};
+#[cfg(feature = "images")]
+use super::simulated::{params_for, run_with_window, sim_max_depth};
 use dynotraj_formats::kitti::SequenceData;
 #[cfg(feature = "images")]
 use dynotraj_formats::tracks_file::TracksFrame;

@@ -1,11 +1,11 @@
 //! How the Estimated source is made for a sequence: the estimator's options and where its
 //! feature tracks come from.
 
-use crate::estimate::evaluate::EvalOptions;
+use crate::estimation::simulated::EvalOptions;
 
 /// Where the Estimated source takes its feature tracks for a sequence without real images.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum OursInput {
+pub enum SimulatedInput {
     /// The track-level simulator: tracks of points on the labelled boxes and the static scene
     /// with pixel and depth noise and outliers (seconds for the nine sequences).
     Tracks,
@@ -22,8 +22,8 @@ pub struct EstimateSettings {
     /// The estimator's (and the track-level simulator's) options.
     pub options: EvalOptions,
     /// Simulated tracks or a rendering.
-    pub input: OursInput,
-    /// Render scale for [`OursInput::Rendered`] (1: KITTI's 1242 x 375).
+    pub input: SimulatedInput,
+    /// Render scale for [`SimulatedInput::Rendered`] (1: KITTI's 1242 x 375).
     pub render_scale: f64,
     /// A folder where estimated tracks are kept between runs ([`super::cache`]).
     pub cache: Option<std::path::PathBuf>,
@@ -33,6 +33,6 @@ impl EstimateSettings {
     /// The track-level simulator with `options`.
     #[must_use]
     pub fn tracks(options: EvalOptions) -> Self {
-        Self { options, input: OursInput::Tracks, render_scale: 1.0, cache: None }
+        Self { options, input: SimulatedInput::Tracks, render_scale: 1.0, cache: None }
     }
 }
