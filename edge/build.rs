@@ -3,7 +3,7 @@
 //! `.pub` from `dynotraj keygen`; a bare line of 64 hex digits is read too), else the
 //! repository's development key (keys/README.md). Writes `$OUT_DIR/model_key.rs`.
 
-/// The label of a public key file (host/src/model_signing.rs writes it).
+/// The label of a public key file (formats/src/model_signing.rs writes it).
 const PUBLIC_LABEL: &str = "dynotraj-ed25519-public";
 /// The label of a secret key file, which must never be built into an edge.
 const SECRET_LABEL: &str = "dynotraj-ed25519-secret";

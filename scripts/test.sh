@@ -33,8 +33,8 @@ cargo clippy --locked -p dynotraj-ffi --all-targets -- -D warnings
 cargo clippy --locked -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --locked --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 echo "== the host without the image front-end (no OpenCV): builds, and says what it lacks"
-cargo clippy --locked -p dynotraj-host -p dynotraj-cli --no-default-features --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
-cargo test --locked -p dynotraj-host --no-default-features --lib without_images
+cargo clippy --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
+cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
 echo "== cargo doc (core, edge, ffi): no warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
 echo "== tests"

@@ -15,8 +15,8 @@ use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
 use dynotraj_core::predict::Predictor;
+use dynotraj_eval::report::{Cell, ColumnKind, Data, Format, Table};
 use dynotraj_formats::model_file::ModelFile;
-use dynotraj_host::report::{Cell, ColumnKind, Data, Format, Table};
 
 /// Options of `dynotraj bench`.
 #[derive(Debug, Args)]

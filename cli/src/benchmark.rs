@@ -9,17 +9,17 @@ use clap::Args;
 use super::common::DataArgs;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_host::experiment::ExperimentConfig;
-use dynotraj_host::experiment::benchmark::{
+use dynotraj_eval::experiment::ExperimentConfig;
+use dynotraj_eval::experiment::benchmark::{
     BenchmarkResult, DEFAULT_GROUPS, GOAL_VS_CV, GOAL_VS_CV_HIGH, GOAL_VS_PRIOR, goal_table, run_benchmark,
     seeds_table, sequence_groups,
 };
-use dynotraj_host::experiment::figures::Figure;
-use dynotraj_host::experiment::report::{Report, Section, write_report};
-use dynotraj_host::experiment::sections::{deployment_section, table_i_sources};
-use dynotraj_host::report::chart::{Chart, Series, write_chart};
-use dynotraj_host::report::{Format, instances_table};
-use dynotraj_host::trajectory::Source;
+use dynotraj_eval::experiment::figures::Figure;
+use dynotraj_eval::experiment::report::{Report, Section, write_report};
+use dynotraj_eval::experiment::sections::{deployment_section, table_i_sources};
+use dynotraj_eval::report::chart::{Chart, Series, write_chart};
+use dynotraj_eval::report::{Format, instances_table};
+use dynotraj_sources::trajectory::Source;
 
 /// Options of `dynotraj benchmark`.
 #[derive(Debug, Args)]
@@ -77,7 +77,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
             println!();
         }
     } else {
-        let named: Vec<(&str, &dynotraj_host::report::Table)> =
+        let named: Vec<(&str, &dynotraj_eval::report::Table)> =
             sections.iter().take(2).map(|s| (s.stem.as_str(), &s.table)).collect();
         args.run.print_machine(&named)?;
     }
@@ -101,7 +101,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
                 "Folds (held out together): {}.",
                 config.folds.iter().map(|f| f.join(", ")).collect::<Vec<_>>().join(" | ")
             ),
-            dynotraj_host::experiment::figures::time_axis::time_span_note(config.dt, config.prior.history_frames()),
+            dynotraj_eval::experiment::figures::time_axis::time_span_note(config.dt, config.prior.history_frames()),
             "Settings are the defaults of `dynotraj train` (chosen on training folds: docs/decisions.md), never on \
                 these held-out sequences."
                 .to_string(),
@@ -127,7 +127,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
 fn sections(
     result: &BenchmarkResult,
     config: &ExperimentConfig,
-    sequences: &[dynotraj_host::sequence::SequenceTracks],
+    sequences: &[dynotraj_sources::sequence::SequenceTracks],
     args: &BenchmarkArgs,
 ) -> anyhow::Result<Vec<Section>> {
     let seeds = args.seeds.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");

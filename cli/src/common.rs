@@ -7,12 +7,12 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
+use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_host::estimation::settings::{EstimateSettings, SimulatedInput};
-use dynotraj_host::estimation::simulated::{EvalOptions, ObjectVariants};
-use dynotraj_host::jobs::{default_jobs, map_jobs, parse_jobs};
-use dynotraj_host::sequence::{SequenceTracks, load_sequence};
-use dynotraj_host::trajectory::{EligibilityRule, MovingRule, Source};
+use dynotraj_sources::estimation::settings::{EstimateSettings, SimulatedInput};
+use dynotraj_sources::estimation::simulated::{EvalOptions, ObjectVariants};
+use dynotraj_sources::sequence::{SequenceTracks, load_sequence};
+use dynotraj_sources::trajectory::{EligibilityRule, MovingRule, Source};
 
 /// The paper's test sequences (Table IV).
 pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];

@@ -3,9 +3,9 @@
 use clap::Args;
 
 use super::common::DataArgs;
-use dynotraj_host::experiment::budget::{budget_instances, budget_table};
-use dynotraj_host::report::{Format, Table, instances_table};
-use dynotraj_host::trajectory::Source;
+use dynotraj_eval::experiment::budget::{budget_instances, budget_table};
+use dynotraj_eval::report::{Format, Table, instances_table};
+use dynotraj_sources::trajectory::Source;
 
 /// Options of `dynotraj dataset`.
 #[derive(Debug, Args)]

@@ -14,21 +14,21 @@ use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
 
 use super::common::{EstimatedSourceArgs, FrameRateArg, SceneClassesArg, progress, sequence_ids};
+use dynotraj_eval::jobs::map_jobs;
+use dynotraj_eval::report::estimator_tables::{
+    bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
+};
+use dynotraj_eval::report::{Format, Table, check_table, render_tables};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{TracksFrame, tracks_path};
-use dynotraj_host::estimation::files::{write_estimates, write_run};
-use dynotraj_host::estimation::from_images::{render_and_track, rendered_intrinsics, rendered_params};
-use dynotraj_host::estimation::runner::EstimatorRun;
-use dynotraj_host::estimation::settings::SimulatedInput;
-use dynotraj_host::estimation::simulated::{
+use dynotraj_sources::estimation::files::{write_estimates, write_run};
+use dynotraj_sources::estimation::from_images::{render_and_track, rendered_intrinsics, rendered_params};
+use dynotraj_sources::estimation::runner::EstimatorRun;
+use dynotraj_sources::estimation::settings::SimulatedInput;
+use dynotraj_sources::estimation::simulated::{
     EvalOptions, SequenceResult, camera_info, estimator_params, params_for, run_with_window, score_sequence,
     sim_max_depth, simulate_sequence, write_tracks,
 };
-use dynotraj_host::jobs::map_jobs;
-use dynotraj_host::report::estimator_tables::{
-    bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
-};
-use dynotraj_host::report::{Format, Table, check_table, render_tables};
 
 /// Options of `dynotraj estimate`.
 #[derive(Debug, Args)]
@@ -231,7 +231,7 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     check_table(args.format, args.table.as_deref(), &names)?;
     if args.bench {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-        let r = dynotraj_host::estimation::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
+        let r = dynotraj_sources::estimation::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
         return print_tables(args, vec![("bench", bench_table(&r))]);
     }
     if let Some(path) = &args.tracks {

@@ -3,11 +3,11 @@
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
-use dynotraj_host::forecast_eval::score_sequence;
-use dynotraj_host::predictors::{LoadedPredictor, PredictorSpec};
-use dynotraj_host::report::{ArmScores, Format, Table, forecast_table};
-use dynotraj_host::scene::Scene;
-use dynotraj_host::trajectory::{Source, eligible_runs};
+use dynotraj_eval::forecast_eval::score_sequence;
+use dynotraj_eval::predictors::{LoadedPredictor, PredictorSpec};
+use dynotraj_eval::report::{ArmScores, Format, Table, forecast_table};
+use dynotraj_sources::scene::Scene;
+use dynotraj_sources::trajectory::{Source, eligible_runs};
 
 /// Options of `dynotraj eval`.
 #[derive(Debug, Args)]

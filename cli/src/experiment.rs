@@ -5,13 +5,13 @@ use clap::Args;
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_host::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
-use dynotraj_host::experiment::report::write_report;
-use dynotraj_host::experiment::sections::{RunSettings, experiment_report};
-use dynotraj_host::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
-use dynotraj_host::report::{Format, Table};
-use dynotraj_host::sequence::SequenceTracks;
-use dynotraj_host::trajectory::Source;
+use dynotraj_eval::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
+use dynotraj_eval::experiment::report::write_report;
+use dynotraj_eval::experiment::sections::{RunSettings, experiment_report};
+use dynotraj_eval::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
+use dynotraj_eval::report::{Format, Table};
+use dynotraj_sources::sequence::SequenceTracks;
+use dynotraj_sources::trajectory::Source;
 
 /// Options of `dynotraj experiment`.
 #[derive(Debug, Args)]

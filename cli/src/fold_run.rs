@@ -8,9 +8,9 @@ use clap::Args;
 use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs};
 use super::train::HyperArgs;
-use dynotraj_host::experiment::ExperimentConfig;
-use dynotraj_host::report::{Format, check_table, render_tables};
-use dynotraj_host::trajectory::Source;
+use dynotraj_eval::experiment::ExperimentConfig;
+use dynotraj_eval::report::{Format, check_table, render_tables};
+use dynotraj_sources::trajectory::Source;
 
 /// Training and report options of a run of folds.
 #[derive(Debug, Args)]
@@ -57,7 +57,7 @@ impl FoldRunArgs {
     ///
     /// # Errors
     /// See [`render_tables`].
-    pub fn print_machine(&self, named: &[(&str, &dynotraj_host::report::Table)]) -> anyhow::Result<()> {
+    pub fn print_machine(&self, named: &[(&str, &dynotraj_eval::report::Table)]) -> anyhow::Result<()> {
         print!("{}", render_tables(self.format, self.table.as_deref(), named)?);
         Ok(())
     }

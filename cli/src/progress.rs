@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use dynotraj_host::on_step::OnStep;
+use dynotraj_sources::on_step::OnStep;
 
 /// Least time between two plain lines (the last step always gets one).
 pub const LINE_EVERY: Duration = Duration::from_secs(10);

@@ -7,7 +7,7 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::model::blob::ModelBlob;
 
-use dynotraj_host::model_signing::{self, hex};
+use dynotraj_formats::model_signing::{self, hex};
 
 /// Options of `dynotraj keygen`.
 #[derive(Debug, Args)]

@@ -15,8 +15,8 @@ use super::common::{self, SceneClassesArg, progress};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
 use dynotraj_frontend::image_sim_files::write_sequence_with;
-use dynotraj_host::estimation::end_to_end;
-use dynotraj_host::estimation::{Kind, sim_input};
+use dynotraj_sources::estimation::end_to_end;
+use dynotraj_sources::estimation::{Kind, sim_input};
 
 /// Options of `dynotraj simulate`.
 #[derive(Debug, Args)]

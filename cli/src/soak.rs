@@ -12,9 +12,9 @@ use clap::Args;
 
 use super::common::progress;
 use super::stream::input_tracks;
+use dynotraj_eval::report::stream_report::{soak_data, soak_summary};
+use dynotraj_eval::report::write_table_files;
 use dynotraj_formats::tracks_file::Tracks;
-use dynotraj_host::report::stream_report::{soak_data, soak_summary};
-use dynotraj_host::report::write_table_files;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::soak::{SoakOptions, SoakReport, soak};
 

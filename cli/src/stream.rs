@@ -12,14 +12,14 @@ use dynotraj_core::wire::{Forecaster, Notice, ObjectClass};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
+use dynotraj_eval::report::stream_report::{frames_data, predictions_data, summary};
+use dynotraj_eval::report::write_table_files;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{self, Tracks, TracksFrame};
-use dynotraj_host::estimation::input::{KITTI_IMAGE_SIZE, sim_input};
-use dynotraj_host::estimation::simulated::camera_info;
-use dynotraj_host::report::stream_report::{frames_data, predictions_data, summary};
-use dynotraj_host::report::write_table_files;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
+use dynotraj_sources::estimation::input::{KITTI_IMAGE_SIZE, sim_input};
+use dynotraj_sources::estimation::simulated::camera_info;
 
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]
@@ -75,7 +75,7 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
         eprintln!(
             "warning: --model {}: {}; the edge will refuse it",
             p.display(),
-            dynotraj_host::model_signing::describe(&e)
+            dynotraj_formats::model_signing::describe(&e)
         );
     }
     let timeout = Duration::from_secs_f64(args.timeout.max(0.0));

@@ -11,12 +11,12 @@ use clap::Args;
 use dynotraj_core::wire::CameraInfo;
 
 use super::common::{FrameRateArg, progress};
+use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
+use dynotraj_eval::report::{Format, Table};
 use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
 use dynotraj_frontend::check::{odometry06, stereo2015_d1};
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
-use dynotraj_host::report::data::{Cell, ColumnKind, Data};
-use dynotraj_host::report::{Format, Table};
 
 /// Options of `dynotraj track`.
 #[derive(Debug, Args)]

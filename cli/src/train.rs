@@ -11,12 +11,12 @@ use dynotraj_core::predict::PriorSettings;
 
 use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs, progress};
-use dynotraj_host::train::loss::LossConfig;
-use dynotraj_host::train::{
+use dynotraj_sources::trajectory::Source;
+use dynotraj_train::loss::LossConfig;
+use dynotraj_train::{
     DEFAULT_MIRROR, DEFAULT_SHRINK, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper,
     PriorChoice, TrainConfig, train_fold_with,
 };
-use dynotraj_host::trajectory::Source;
 
 /// Blob precisions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

@@ -9,9 +9,9 @@ use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use dynotraj_host::experiment::FoldReport;
-use dynotraj_host::experiment::folds::TrainProgress;
-use dynotraj_host::train::Event;
+use dynotraj_eval::experiment::FoldReport;
+use dynotraj_eval::experiment::folds::TrainProgress;
+use dynotraj_train::Event;
 
 /// The bars of one training stage.
 pub struct TrainBars {

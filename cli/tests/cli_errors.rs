@@ -160,9 +160,9 @@ fn a_blob_with_bytes_after_it_is_refused_by_sign_and_verify() {
     refused(&["sign", "--key", "dev", "--model", signed_s], 1, "bytes after the model blob's CRC");
     assert!(!twice.exists(), "a refused blob is not signed");
     // A doubly signed file made anyway verifies as a signature, and is refused as a blob.
-    let key = dynotraj_host::model_signing::development_signing_key().expect("dev key");
+    let key = dynotraj_formats::model_signing::development_signing_key().expect("dev key");
     let bytes = std::fs::read(&signed).expect("reads");
-    std::fs::write(&twice, dynotraj_host::model_signing::sign(&bytes, &key)).expect("writes");
+    std::fs::write(&twice, dynotraj_formats::model_signing::sign(&bytes, &key)).expect("writes");
     refused(&["verify", "--key", "dev", "--model", twice_s], 1, "bytes after the model blob's CRC");
     let (code, err) = run(&["verify", "--key", "dev", "--model", signed_s]);
     assert_eq!(code, 0, "{err}");

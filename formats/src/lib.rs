@@ -3,11 +3,12 @@
 //!
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
 //! - [`tracks_file`]: recorded feature-track streams (`.dtt`), the link's bytes.
-//! - [`model_file`]: model blobs on disk.
+//! - [`model_file`]: model blobs on disk; [`model_signing`]: their signing keys and signatures.
 //!
 //! It depends on the core alone (no OpenCV, no candle, no simulator), so the fuzz targets of
 //! these parsers build without the image and learning stacks.
 
 pub mod kitti;
 pub mod model_file;
+pub mod model_signing;
 pub mod tracks_file;

@@ -11,8 +11,8 @@ use dynotraj_core::wire::{FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Mess
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
-use dynotraj_host::estimation::bench::scene;
-use dynotraj_host::estimation::input::KITTI_IMAGE_SIZE;
+use dynotraj_sources::estimation::bench::scene;
+use dynotraj_sources::estimation::input::KITTI_IMAGE_SIZE;
 
 /// `frames` frames of the 16-car scene at the paper's 20 Hz.
 #[must_use]
@@ -21,7 +21,7 @@ pub fn scene_tracks(frames: usize) -> Tracks {
     let i = Intrinsics::KITTI_0926;
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
     let sim = simulate(&cams, &boxes, &SimSpec::kitti(i, KITTI_IMAGE_SIZE, dt, 3));
-    let camera = dynotraj_host::estimation::simulated::camera_info(&i, PAPER_FRAME_RATE_HZ);
+    let camera = dynotraj_sources::estimation::simulated::camera_info(&i, PAPER_FRAME_RATE_HZ);
     let frames = sim.iter().map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).unwrap()).collect();
     Tracks { camera, frames }
 }

@@ -9,7 +9,7 @@ use dynotraj_cli::bench::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{STATIC_OBJECT_ID, Track, frame_parts};
-use dynotraj_host::model_signing::{development_signing_key, sign};
+use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_tests::edge_fixture::{encode_all, host_messages, run_in_process, scene_tracks};
 use log::{Level, LevelFilter, Log, Metadata, Record};
 

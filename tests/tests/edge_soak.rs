@@ -4,8 +4,8 @@
 //! not grow (`dynotraj soak` runs the 100,000-frame version).
 
 use dynotraj_cli::soak::{SoakArgs, soak_edge};
+use dynotraj_eval::report::stream_report::soak_summary;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::report::stream_report::soak_summary;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]

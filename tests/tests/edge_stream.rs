@@ -17,7 +17,7 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
     let frames = feature_tracks(&drive, 256, 128, 9);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
     let i = Intrinsics::KITTI_0926;
-    let camera = dynotraj_host::estimation::simulated::camera_info(&i, 20.0);
+    let camera = dynotraj_sources::estimation::simulated::camera_info(&i, 20.0);
     let mut buf: FrameBuf = [0; MAX_FRAME_LEN];
     let n = encode(&Message::CameraInfo(camera), &mut buf).unwrap();
     let mut stream = buf[..n].to_vec();

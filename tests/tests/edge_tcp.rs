@@ -8,7 +8,7 @@ use dynotraj_cli::bench::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};
-use dynotraj_host::model_signing::{development_signing_key, sign};
+use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, stream};
 use dynotraj_tests::edge_fixture::{

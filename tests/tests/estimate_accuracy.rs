@@ -8,8 +8,8 @@ use std::collections::BTreeSet;
 use dynotraj_core::estimate::{DEFAULT_WINDOW, EstimatorParams, Intrinsics};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
-use dynotraj_host::estimation::runner::{EstimatorRun, Kind, run_estimator};
-use dynotraj_host::estimation::score::{RunScores, moving_objects, score_run};
+use dynotraj_sources::estimation::runner::{EstimatorRun, Kind, run_estimator};
+use dynotraj_sources::estimation::score::{RunScores, moving_objects, score_run};
 
 fn run(frames: &[SimFrame], spec: &SimSpec) -> (EstimatorRun, RunScores, BTreeSet<u16>) {
     let mut params = EstimatorParams::kitti(spec.intrinsics, spec.dt as f32);
@@ -77,7 +77,7 @@ fn real_kitti_labels_and_ego_poses_first_frames() {
     let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
     let data =
         dynotraj_formats::kitti::TrackingDir::open(&dir).expect("opens").load_sequence("0020").expect("loads 0020");
-    let input = dynotraj_host::estimation::input::sim_input(&data, &dynotraj_core::wire::ObjectClass::KITTI);
+    let input = dynotraj_sources::estimation::input::sim_input(&data, &dynotraj_core::wire::ObjectClass::KITTI);
     let n = 120;
     let boxes: Vec<LabelBox> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
     let spec = SimSpec::kitti(input.intrinsics, (1242.0, 375.0), 0.1, 3);

@@ -4,8 +4,8 @@
 use clap::Parser;
 use dynotraj_cli::estimate::estimate_sequences;
 use dynotraj_cli::{Cli, Command};
-use dynotraj_host::estimation::files::write_run;
-use dynotraj_host::report::estimator_tables::tables;
+use dynotraj_eval::report::estimator_tables::tables;
+use dynotraj_sources::estimation::files::write_run;
 
 #[test]
 fn estimate_prints_table_iii_and_writes_pose_files() {
@@ -62,12 +62,12 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
 /// a pair across a restart.
 fn object_files_give_the_printed_rpe(
     seq: &std::path::Path,
-    result: &dynotraj_host::estimation::simulated::SequenceResult,
+    result: &dynotraj_sources::estimation::simulated::SequenceResult,
 ) {
     use dynotraj_core::metrics::RpeAccumulator;
     use dynotraj_formats::kitti::read_tum;
-    use dynotraj_host::estimation::runner::Kind;
-    use dynotraj_host::estimation::score::moving_objects;
+    use dynotraj_sources::estimation::runner::Kind;
+    use dynotraj_sources::estimation::score::moving_objects;
 
     let micros = |t: f64| (t * 1e6).round() as i64;
     let moving = moving_objects(&result.sim, result.min_step_m);
@@ -107,7 +107,7 @@ fn object_files_give_the_printed_rpe(
 
 #[test]
 fn estimate_runs_a_rendering_with_both_profiles_and_keeps_its_tracks() {
-    use dynotraj_host::estimation::runner::Kind;
+    use dynotraj_sources::estimation::runner::Kind;
 
     let Some(dir) = dynotraj_tests::kitti_training_dir() else { return };
     let cache = tempfile::tempdir().expect("temp dir");

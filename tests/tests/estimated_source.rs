@@ -4,13 +4,13 @@
 
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, dataset, eval};
+use dynotraj_eval::report::Table;
 use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_host::estimation::simulated::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
-use dynotraj_host::estimation::tracks_of_estimates;
-use dynotraj_host::estimation::{Kind, run_estimator};
-use dynotraj_host::report::Table;
-use dynotraj_host::trajectory::ObjectTrack;
+use dynotraj_sources::estimation::simulated::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
+use dynotraj_sources::estimation::tracks_of_estimates;
+use dynotraj_sources::estimation::{Kind, run_estimator};
+use dynotraj_sources::trajectory::ObjectTrack;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {
@@ -40,7 +40,7 @@ fn estimated_source_on_a_synthetic_drive() {
         panic!()
     };
     let t = dataset::table(&args).unwrap();
-    println!("{}", t.render(dynotraj_host::report::Format::Md));
+    println!("{}", t.render(dynotraj_eval::report::Format::Md));
     let c = column(&t, "0000");
     // The labels: the car (60 frames) and the cyclist (40); the parked car does not move.
     assert_eq!(row(&t, "eligible objects (gt)", None)[c], "2");
@@ -68,7 +68,7 @@ fn estimated_source_on_a_synthetic_drive() {
         panic!()
     };
     let t = eval::table(&args).unwrap();
-    println!("{}", t.render(dynotraj_host::report::Format::Md));
+    println!("{}", t.render(dynotraj_eval::report::Format::Md));
     let avg = column(&t, "avg");
     let ade = |arm: &str| -> f64 { row(&t, "ADE", Some(arm))[avg].parse().unwrap() };
     // Every arm is scored against its own future; the smoothed estimate saw later frames and
@@ -107,15 +107,15 @@ fn the_estimated_source_from_a_rendering() {
         panic!()
     };
     let t = eval::table(&args).unwrap();
-    println!("{}", t.render(dynotraj_host::report::Format::Md));
+    println!("{}", t.render(dynotraj_eval::report::Format::Md));
     let tracking = TrackingDir::open(dir.path()).unwrap();
-    let settings = dynotraj_host::estimation::settings::EstimateSettings {
-        input: dynotraj_host::estimation::settings::SimulatedInput::Rendered,
-        ..dynotraj_host::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.05))
+    let settings = dynotraj_sources::estimation::settings::EstimateSettings {
+        input: dynotraj_sources::estimation::settings::SimulatedInput::Rendered,
+        ..dynotraj_sources::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.05))
     };
-    let seq = dynotraj_host::sequence::load_sequence(&tracking, "0000", 0.05, Some(&settings)).unwrap();
+    let seq = dynotraj_sources::sequence::load_sequence(&tracking, "0000", 0.05, Some(&settings)).unwrap();
     let e = seq.estimated.unwrap();
-    assert_eq!(e.input, dynotraj_host::estimation::EstimateInput::Rendered);
+    assert_eq!(e.input, dynotraj_sources::estimation::EstimateInput::Rendered);
     assert!(e.rpe.is_some() && !e.truth.is_empty(), "a rendering keeps its truth");
     // Rendered images -> SGBM -> KLT -> estimator: the car (60 labelled frames) is estimated
     // over most of them; a frame the estimator misses splits its run, and only the part of at
@@ -151,14 +151,15 @@ fn the_causal_estimate_never_sees_later_frames() {
     let full = evaluate_sequence("0003", &data, &opt);
     // The same simulated frames, cut after frame 60, through a fresh estimator.
     let params = params_for(full.intrinsics, sim_max_depth(), opt.pixel_sigma, opt.disparity_sigma, &opt);
-    let cut = run_estimator::<{ dynotraj_host::estimation::simulated::WINDOW }>(&full.sim[..60], params, opt.seed);
+    let cut = run_estimator::<{ dynotraj_sources::estimation::simulated::WINDOW }>(&full.sim[..60], params, opt.seed);
     let causal = states_before(&tracks_of_estimates(cut.of(Kind::Causal)), 60);
     assert!(causal.len() > 60, "objects were estimated: {}", causal.len());
     // The first 60 frames of the causal tracks are the same whether or not 30 more frames follow.
     assert_eq!(causal, states_before(&tracks_of_estimates(full.run.of(Kind::Causal)), 60));
     // The smoothed ones of the last window before frame 60 differ: they had seen later frames.
-    let smoothed =
-        |run: &dynotraj_host::estimation::EstimatorRun| states_before(&tracks_of_estimates(run.of(Kind::Smoothed)), 60);
+    let smoothed = |run: &dynotraj_sources::estimation::EstimatorRun| {
+        states_before(&tracks_of_estimates(run.of(Kind::Smoothed)), 60)
+    };
     assert_ne!(smoothed(&cut), smoothed(&full.run));
 }
 
@@ -168,17 +169,17 @@ fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     // image_02/, image_03/, instance masks, labels and poses.
     let root = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
     let dir = TrackingDir::open(&root).unwrap();
-    let settings = dynotraj_host::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
-    let seq = dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();
+    let settings = dynotraj_sources::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
+    let seq = dynotraj_sources::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();
     let e = seq.estimated.as_ref().unwrap();
-    assert_eq!(e.input, dynotraj_host::estimation::EstimateInput::Images);
+    assert_eq!(e.input, dynotraj_sources::estimation::EstimateInput::Images);
     assert!(e.rpe.is_none() && e.truth.is_empty(), "no truth from images");
     assert_eq!(e.frames, 24);
     // The moving car is estimated with a known heading over most of the frames.
     let longest = e.causal.iter().map(|t| t.frames.len()).max().unwrap_or(0);
     assert!(longest >= 12, "{:?}", e.causal.iter().map(|t| (t.track_id, t.frames.len())).collect::<Vec<_>>());
     // Without every image the simulator drives the source instead.
-    assert!(!dynotraj_host::estimation::from_images::has_images(&root, "0000", 25));
+    assert!(!dynotraj_sources::estimation::from_images::has_images(&root, "0000", 25));
 }
 
 #[test]
@@ -188,11 +189,11 @@ fn estimates_from_images_are_cached_under_a_key_that_covers_the_image_bytes() {
     let root = tmp.path().join("kitti");
     copy_tree(&fixture, &root);
     let cache = tmp.path().join("cache");
-    let mut settings = dynotraj_host::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
+    let mut settings = dynotraj_sources::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     settings.cache = Some(cache.clone());
     let load = || {
         let dir = TrackingDir::open(&root).unwrap();
-        dynotraj_host::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap().estimated.unwrap()
+        dynotraj_sources::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap().estimated.unwrap()
     };
     let first = load();
     let files = || std::fs::read_dir(&cache).unwrap().count();
@@ -232,7 +233,7 @@ fn the_error_budget_of_a_synthetic_drive() {
     };
     let (_, budget) = dataset::tables(&args).unwrap();
     let b = budget.expect("--budget gives the table");
-    println!("{}", b.render(dynotraj_host::report::Format::Md));
+    println!("{}", b.render(dynotraj_eval::report::Format::Md));
     let all = row(&b, "all", None);
     let num = |h: &str| all[column(&b, h)].parse::<f64>().unwrap();
     assert!(num("instances") > 0.0, "{all:?}");
@@ -248,8 +249,8 @@ fn the_error_budget_of_a_synthetic_drive() {
 
 /// The synthetic drive as a KITTI folder, estimated by the track-level simulator with `variants`.
 fn synthetic_drive_estimated(
-    variants: dynotraj_host::estimation::simulated::ObjectVariants,
-) -> dynotraj_host::estimation::simulated::SequenceResult {
+    variants: dynotraj_sources::estimation::simulated::ObjectVariants,
+) -> dynotraj_sources::estimation::simulated::SequenceResult {
     let dir = tempfile::tempdir().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
     let data = TrackingDir::open(dir.path()).unwrap().load_sequence("0000").unwrap();
@@ -258,7 +259,7 @@ fn synthetic_drive_estimated(
 
 #[test]
 fn a_realigned_heading_turns_the_frame_but_keeps_the_track() {
-    use dynotraj_host::estimation::simulated::ObjectVariants;
+    use dynotraj_sources::estimation::simulated::ObjectVariants;
     let base = synthetic_drive_estimated(ObjectVariants::default());
     // A tiny bound turns every vehicle's frame at each baseline of travel.
     let turned =
@@ -281,7 +282,7 @@ fn a_realigned_heading_turns_the_frame_but_keeps_the_track() {
                 let t = tracks.iter().find(|t| t.track_id == i32::from(oa.object_id) - 1).unwrap();
                 assert!(t.frames.contains(&a.frame) && t.frames.contains(&b.frame), "object {}", oa.object_id);
                 // ...while RPE never pairs poses of two orientations.
-                let runs = dynotraj_host::estimation::score::object_runs(causal, oa.object_id, |_| true);
+                let runs = dynotraj_sources::estimation::score::object_runs(causal, oa.object_id, |_| true);
                 assert!(
                     runs.iter()
                         .all(|r| !(r.iter().any(|x| x.1.frame == a.frame) && r.iter().any(|x| x.1.frame == b.frame)))
@@ -295,10 +296,11 @@ fn a_realigned_heading_turns_the_frame_but_keeps_the_track() {
 
 #[test]
 fn fusing_at_the_fit_reaches_the_estimator() {
-    use dynotraj_host::estimation::simulated::ObjectVariants;
+    use dynotraj_sources::estimation::simulated::ObjectVariants;
     let base = synthetic_drive_estimated(ObjectVariants::default());
     let fused = synthetic_drive_estimated(ObjectVariants { fuse_at_fit: true, ..ObjectVariants::default() });
-    let states = |r: &dynotraj_host::estimation::simulated::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
+    let states =
+        |r: &dynotraj_sources::estimation::simulated::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
     assert_ne!(states(&base), states(&fused), "the variant changes the estimates");
     let rpe = fused.scores.kinds[1].object.expect("objects scored (causal)");
     assert!(rpe.translation.is_finite() && rpe.translation < 1.0, "{rpe:?}");
@@ -306,7 +308,7 @@ fn fusing_at_the_fit_reaches_the_estimator() {
 
 #[test]
 fn the_birds_eye_track_moves_only_what_a_forecast_reads() {
-    use dynotraj_host::estimation::simulated::ObjectVariants;
+    use dynotraj_sources::estimation::simulated::ObjectVariants;
     let track = synthetic_drive_estimated(ObjectVariants::default());
     let poses = synthetic_drive_estimated(ObjectVariants { bev_track: false, ..ObjectVariants::default() });
     // Poses, motions and every smoothed or frame-to-frame estimate are the same, so is RPE...
@@ -314,7 +316,8 @@ fn the_birds_eye_track_moves_only_what_a_forecast_reads() {
     assert_eq!(track.run.of(Kind::FrameToFrame), poses.run.of(Kind::FrameToFrame));
     assert_eq!(track.scores, poses.scores);
     // ...while the causal bird's-eye states, what histories and forecasts take, are the track's.
-    let causal = |r: &dynotraj_host::estimation::simulated::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
+    let causal =
+        |r: &dynotraj_sources::estimation::simulated::SequenceResult| tracks_of_estimates(r.run.of(Kind::Causal));
     assert_ne!(causal(&track), causal(&poses));
     for (a, b) in track.run.of(Kind::Causal).iter().zip(poses.run.of(Kind::Causal)) {
         let (Some(a), Some(b)) = (a, b) else { continue };

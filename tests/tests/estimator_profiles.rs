@@ -5,8 +5,8 @@
 use dynotraj_core::estimate::{EDGE_PROFILE, EDGE_WINDOW, HOST_PROFILE, Intrinsics};
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_edge::Edge;
-use dynotraj_host::estimation::from_images::{render_camera, rendered_params};
-use dynotraj_host::estimation::simulated::EvalOptions;
+use dynotraj_sources::estimation::from_images::{render_camera, rendered_params};
+use dynotraj_sources::estimation::simulated::EvalOptions;
 
 #[test]
 fn the_edge_runs_the_edge_profile() {

@@ -108,7 +108,7 @@ fn the_report_folder_and_a_cached_rerun() {
     assert!(again.folds.iter().all(|f| f.cached), "{:?}", again.folds);
     let first = fs::read_to_string(out.join("table_iv.csv")).unwrap();
     assert_eq!(
-        again.table.render(dynotraj_host::report::Format::Csv),
+        again.table.render(dynotraj_eval::report::Format::Csv),
         first,
         "the cached rerun scores the same models"
     );

@@ -9,11 +9,11 @@ use dynotraj_core::model::blob::Precision;
 use dynotraj_core::{BevState, Point2};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::model_file::ModelFile;
-use dynotraj_host::scene::Scene;
-use dynotraj_host::sequence::load_ground_truth;
-use dynotraj_host::train::{TrainConfig, train_fold};
-use dynotraj_host::trajectory::{EligibilityRule, Source, eligible_runs};
+use dynotraj_sources::scene::Scene;
+use dynotraj_sources::sequence::load_ground_truth;
+use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;
+use dynotraj_train::{TrainConfig, train_fold};
 
 #[test]
 fn int8_forecasts_stay_within_two_centimetres_of_float() {

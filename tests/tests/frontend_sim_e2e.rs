@@ -5,8 +5,8 @@ use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_fixtures::image_sim::{Camera, ImageSim};
 use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_frontend::StereoParams;
-use dynotraj_host::estimation::Kind;
-use dynotraj_host::estimation::end_to_end;
+use dynotraj_sources::estimation::Kind;
+use dynotraj_sources::estimation::end_to_end;
 
 #[test]
 fn rendered_drive_through_front_end_and_estimator_tracks_camera_and_objects() {

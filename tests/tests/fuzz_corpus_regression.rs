@@ -18,8 +18,8 @@ use dynotraj_core::{BevState, Point2};
 use dynotraj_edge::provisioned::MODEL_KEY;
 use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_formats::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses, parse_tum};
+use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_formats::tracks_file::{self, TracksWriter};
-use dynotraj_host::model_signing::{development_signing_key, sign};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.

@@ -7,8 +7,8 @@
 use dynotraj_core::BevState;
 use dynotraj_core::geometry::angle_diff;
 use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_host::sequence::load_ground_truth;
-use dynotraj_host::trajectory::{EligibilityRule, Source, eligible_runs};
+use dynotraj_sources::sequence::load_ground_truth;
+use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;
 
 /// Mean |delta heading| (rad) and |delta speed| (m/s) between consecutive states.

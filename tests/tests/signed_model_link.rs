@@ -11,7 +11,7 @@ use dynotraj_core::model::signed::{SIGNATURE_LEN, SignatureError, TRAILER_LEN, k
 use dynotraj_core::wire::Message;
 use dynotraj_edge::ModelStatus;
 use dynotraj_edge::provisioned::MODEL_KEY;
-use dynotraj_host::model_signing::{development_public_key, development_signing_key, sign};
+use dynotraj_formats::model_signing::{development_public_key, development_signing_key, sign};
 use dynotraj_tests::edge_fixture::{InProcess, encode_all, host_messages, outputs, run_in_process, scene_tracks};
 use ed25519_dalek::{Signer as _, SigningKey};
 

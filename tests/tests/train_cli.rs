@@ -11,8 +11,8 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
 use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_host::train::export::load_checkpoint;
 use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_train::export::load_checkpoint;
 
 #[test]
 fn train_writes_blobs_and_a_checkpoint_that_core_runs() {

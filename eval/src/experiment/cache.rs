@@ -1,0 +1,224 @@
+//! Trained folds kept between runs of the experiment, so a rerun trains only the folds whose
+//! inputs changed.
+//!
+//! A fold is found by a key: CRC-64 (ECMA-182) over [`CACHE_VERSION`], the fold's settings
+//! (source, held-out sequences, frame period, eligibility, widths, optimisation, validation and
+//! reflection settings) and every frame and state of every track of every sequence it trains
+//! on, the source's own (labels, or the estimator's tracks). Changing any of those, or the
+//! estimator that made the tracks, makes a new key. What the key cannot see is a change to the
+//! training code itself: bump [`CACHE_VERSION`] with any change that alters what training
+//! computes, or run with `--no-cache`.
+//!
+//! Files, in the cache folder: `<arm>-<seq>-<key>.blob` (f32), `.blob.int8`, and `.fold` (one
+//! line: training instances, epoch kept, shrink factor, validation ADE, its cv ADE, seconds).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use crc::{CRC_64_ECMA_182, Crc};
+use dynotraj_core::predict::PriorSettings;
+
+use super::FoldReport;
+use dynotraj_train::TrainConfig;
+
+/// Version of what training computes; part of every key.
+pub const CACHE_VERSION: u32 = 4;
+
+/// A fold's blobs and report, as trained or as read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CachedFold {
+    /// The f32 blob.
+    pub f32_blob: Vec<u8>,
+    /// The int8 blob.
+    pub int8_blob: Vec<u8>,
+    /// What training did.
+    pub report: FoldReport,
+}
+
+/// A folder of trained folds.
+#[derive(Debug, Clone)]
+pub struct FoldCache {
+    dir: PathBuf,
+}
+
+/// The key of a fold's training inputs.
+#[must_use]
+pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
+    let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
+    let mut d = crc.digest();
+    let settings = format!(
+        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {} {:?}",
+        train.source,
+        train.exclude,
+        train.dt,
+        train.rule,
+        train.dims,
+        train.hyper,
+        train.validation_fraction,
+        train.validate_on_sequences,
+        train.mirror,
+        train.split_seed,
+        train.prior
+    );
+    d.update(settings.as_bytes());
+    for seq in train.sequences.iter().filter(|s| !train.exclude.contains(&s.id)) {
+        d.update(seq.id.as_bytes());
+        for t in seq.tracks_for(train.source) {
+            d.update(&t.track_id.to_le_bytes());
+            d.update(format!("{:?}", t.class).as_bytes());
+            for (f, s) in t.frames.iter().zip(&t.states) {
+                d.update(&f.to_le_bytes());
+                for v in [s.x, s.y, s.heading, s.speed] {
+                    d.update(&v.to_bits().to_le_bytes());
+                }
+            }
+        }
+    }
+    d.finalize()
+}
+
+impl FoldCache {
+    /// The cache in `dir` (created when missing).
+    ///
+    /// # Errors
+    /// The folder cannot be created.
+    pub fn open(dir: &Path) -> anyhow::Result<Self> {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating the fold cache {}", dir.display()))?;
+        Ok(Self { dir: dir.to_path_buf() })
+    }
+
+    fn path(&self, name: &str, key: u64, ext: &str) -> PathBuf {
+        self.dir.join(format!("{name}-{key:016x}.{ext}"))
+    }
+
+    /// The fold `name` with `key`, when all its files are there and readable; `report.arm` and
+    /// `report.sequence` are taken from `template`.
+    #[must_use]
+    pub fn load(&self, name: &str, key: u64, template: &FoldReport) -> Option<CachedFold> {
+        let f32_blob = std::fs::read(self.path(name, key, "blob")).ok()?;
+        let int8_blob = std::fs::read(self.path(name, key, "blob.int8")).ok()?;
+        let text = std::fs::read_to_string(self.path(name, key, "fold")).ok()?;
+        let v: Vec<&str> = text.split_whitespace().collect();
+        let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td] = v[..] else {
+            return None;
+        };
+        let prior = PriorSettings {
+            velocity_window: vw.parse().ok()?,
+            trend_window: tw.parse().ok()?,
+            accel_gain: ag.parse().ok()?,
+            turn_gain: tg.parse().ok()?,
+            accel_decay: ad.parse().ok()?,
+            turn_decay: td.parse().ok()?,
+        };
+        let report = FoldReport {
+            train_instances: instances.parse().ok()?,
+            best_epoch: epoch.parse().ok()?,
+            shrink: shrink.parse().ok()?,
+            val_ade: val.parse().ok()?,
+            val_cv_ade: cv.parse().ok()?,
+            val_prior_ade: val_prior.parse().ok()?,
+            prior: prior.is_valid().then_some(prior)?,
+            seconds: seconds.parse().ok()?,
+            ..template.clone()
+        };
+        Some(CachedFold { f32_blob, int8_blob, report })
+    }
+
+    /// Keeps `fold` under `name` and `key`.
+    ///
+    /// # Errors
+    /// A file cannot be written, named.
+    pub fn store(&self, name: &str, key: u64, fold: &CachedFold) -> anyhow::Result<()> {
+        let r = &fold.report;
+        let mut line = String::new();
+        let p = &r.prior;
+        let _ = writeln!(
+            line,
+            "{} {} {} {} {} {} {} {} {} {} {} {} {}",
+            r.train_instances,
+            r.best_epoch,
+            r.shrink,
+            r.val_ade,
+            r.val_cv_ade,
+            r.seconds,
+            r.val_prior_ade,
+            p.velocity_window,
+            p.trend_window,
+            p.accel_gain,
+            p.turn_gain,
+            p.accel_decay,
+            p.turn_decay
+        );
+        for (ext, bytes) in
+            [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
+        {
+            let path = self.path(name, key, ext);
+            std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynotraj_core::BevState;
+    use dynotraj_core::wire::ObjectClass;
+    use dynotraj_sources::sequence::SequenceTracks;
+    use dynotraj_sources::trajectory::{ObjectTrack, Source};
+
+    fn seq(id: &str, x: f32) -> SequenceTracks {
+        let track = ObjectTrack {
+            track_id: 1,
+            class: ObjectClass::Car,
+            frames: vec![0, 1],
+            states: vec![BevState::default(), BevState { x, ..BevState::default() }],
+        };
+        SequenceTracks { id: id.into(), frame_count: 2, tracks: vec![track], estimated: None }
+    }
+
+    #[test]
+    fn the_key_follows_training_inputs_only() {
+        let a = [seq("0000", 1.0), seq("0001", 2.0)];
+        let key = fold_key(&TrainConfig::new(&a, vec!["0000".into()], Source::Gt));
+        // A change in the held-out sequence does not matter; one in a training sequence does,
+        // and so do the settings.
+        let b = [seq("0000", 5.0), seq("0001", 2.0)];
+        assert_eq!(key, fold_key(&TrainConfig::new(&b, vec!["0000".into()], Source::Gt)));
+        let c = [seq("0000", 1.0), seq("0001", 2.5)];
+        assert_ne!(key, fold_key(&TrainConfig::new(&c, vec!["0000".into()], Source::Gt)));
+        assert_ne!(key, fold_key(&TrainConfig::new(&a, vec!["0000".into()], Source::GtEkf)));
+        let mut other = TrainConfig::new(&a, vec!["0000".into()], Source::Gt);
+        other.hyper.seed += 1;
+        assert_ne!(key, fold_key(&other));
+    }
+
+    #[test]
+    fn a_stored_fold_reads_back_and_a_damaged_one_is_a_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = FoldCache::open(dir.path()).unwrap();
+        let report = FoldReport {
+            arm: Source::Gt,
+            sequence: "0003".into(),
+            seed: 1,
+            train_instances: 10,
+            val_ade: 1.5,
+            val_cv_ade: 1.75,
+            val_prior_ade: 1.6,
+            prior: PriorSettings::DEFAULT,
+            best_epoch: 3,
+            shrink: 0.75,
+            seconds: 2.5,
+            cached: false,
+        };
+        let fold = CachedFold { f32_blob: vec![1, 2, 3], int8_blob: vec![4, 5], report: report.clone() };
+        cache.store("gt-0003", 7, &fold).unwrap();
+        let template = FoldReport { train_instances: 0, cached: true, ..report.clone() };
+        let read = CachedFold { report: FoldReport { cached: true, ..report }, ..fold };
+        assert_eq!(cache.load("gt-0003", 7, &template), Some(read));
+        assert_eq!(cache.load("gt-0003", 8, &template), None);
+        std::fs::write(dir.path().join(format!("gt-0003-{:016x}.fold", 7)), "3 x").unwrap();
+        assert_eq!(cache.load("gt-0003", 7, &template), None);
+    }
+}

@@ -1,0 +1,10 @@
+//! dynotraj-eval: forecasts scored and compared. Predictors run over eligible runs
+//! (`forecast_eval`), the paper's experiment and the benchmark (`experiment`), their reports,
+//! tables and figures (`report`), the predictors a command names (`predictors`), and the pool
+//! of jobs they run on (`jobs`).
+
+pub mod experiment;
+pub mod forecast_eval;
+pub mod jobs;
+pub mod predictors;
+pub mod report;
