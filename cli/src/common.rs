@@ -51,6 +51,32 @@ impl FrameRateArg {
     }
 }
 
+/// `--min-step`: the threshold of a moving object.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct MinStepArg {
+    /// An object counts as moving when it moves at least this many metres per frame on average
+    /// (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05). Only moving
+    /// objects are eligible for forecasts, and only moving objects are scored by RPE.
+    #[arg(
+        long = "min-step",
+        value_parser = crate::numbers::non_negative_single,
+        default_value_t = 0.1,
+        value_name = "METRES"
+    )]
+    pub metres: f64,
+}
+
+impl MinStepArg {
+    /// The threshold in single precision, as the eligibility rule holds it.
+    #[must_use]
+    pub fn single(&self) -> f32 {
+        // Within single precision: the parser refused anything beyond it.
+        #[allow(clippy::cast_possible_truncation)]
+        let m = self.metres as f32;
+        m
+    }
+}
+
 /// `--classes` of the objects forecast and scored.
 #[derive(Debug, Clone, Args)]
 pub struct ForecastClassesArg {
@@ -92,10 +118,9 @@ pub struct DataArgs {
     /// The classes.
     #[command(flatten)]
     pub classes: ForecastClassesArg,
-    /// An object moves when its net displacement over a run is at least this many metres per
-    /// frame (0.1 m/frame = 1 m/s at KITTI's real 10 Hz; parked cars drift 0.01-0.05).
-    #[arg(long, value_parser = crate::numbers::non_negative_f32, default_value_t = 0.1, value_name = "METRES")]
-    pub min_step: f32,
+    /// The moving threshold.
+    #[command(flatten)]
+    pub min_step: MinStepArg,
     /// The estimated source's input, its cache and the jobs.
     #[command(flatten)]
     pub ours: EstimatedSourceArgs,
@@ -258,8 +283,9 @@ impl DataArgs {
     /// A negative `--min-step`.
     pub fn rule(&self) -> anyhow::Result<EligibilityRule> {
         let classes = self.classes.list.clone();
-        anyhow::ensure!(self.min_step >= 0.0, "--min-step: expected metres >= 0, found {}", self.min_step);
-        Ok(EligibilityRule { classes, moving: MovingRule { min_step_m: self.min_step }, ..EligibilityRule::default() })
+        let min_step_m = self.min_step.single();
+        anyhow::ensure!(min_step_m >= 0.0, "--min-step: expected metres >= 0, found {min_step_m}");
+        Ok(EligibilityRule { classes, moving: MovingRule { min_step_m }, ..EligibilityRule::default() })
     }
 
     /// Opens the folder and loads `sequences` (all present when empty), with a progress bar;

@@ -13,7 +13,7 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
 
-use super::common::{EstimatedSourceArgs, FrameRateArg, SceneClassesArg, progress, sequence_ids};
+use super::common::{EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, sequence_ids};
 use dynotraj_eval::jobs::map_jobs;
 use dynotraj_eval::report::estimator_tables::{
     bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
@@ -72,9 +72,9 @@ pub struct EstimateArgs {
     /// The classes.
     #[command(flatten)]
     pub classes: SceneClassesArg,
-    /// An object is scored when its true motion averages at least this many metres per frame.
-    #[arg(long, value_parser = crate::numbers::non_negative, default_value_t = 0.1, value_name = "METRES")]
-    pub min_step: f64,
+    /// The moving threshold.
+    #[command(flatten)]
+    pub min_step: MinStepArg,
     /// Pixel noise of the simulated tracks, pixels.
     #[arg(long, value_parser = crate::numbers::non_negative, default_value_t = 0.5)]
     pub pixel_sigma: f64,
@@ -182,7 +182,7 @@ impl EstimateArgs {
         let opt = EvalOptions {
             dt: self.rate.period(),
             classes,
-            min_step_m: self.min_step,
+            min_step_m: self.min_step.metres,
             seed: self.seed,
             pixel_sigma: noise(self.pixel_sigma),
             disparity_sigma: noise(self.disparity_sigma),

@@ -58,6 +58,15 @@ pub fn non_negative(text: &str) -> Result<f64, String> {
     checked(text, "a number >= 0", |v| v >= 0.0)
 }
 
+/// [`non_negative`] within single precision, kept in double: the same value whichever
+/// precision a command holds it in.
+///
+/// # Errors
+/// As [`non_negative_f32`].
+pub fn non_negative_single(text: &str) -> Result<f64, String> {
+    non_negative(text).and_then(|v| single(v, text).map(|_| v))
+}
+
 /// [`non_negative`] as `f32`.
 ///
 /// # Errors
