@@ -1,18 +1,18 @@
 //! Inputs of the criterion benchmarks in `benches/`: the estimator's full-budget scene, model
 //! blobs with random weights, and a wire byte stream; the scene and the blobs are the ones
-//! `dynotraj estimate --bench` and `dynotraj bench` time (fixtures' `bench_inputs`), so that the
-//! benchmarks need only core and fixtures, not the host's OpenCV and candle.
+//! `dynotraj estimate --bench` and `dynotraj bench` time (the simulators' `bench_inputs`), so that the
+//! benchmarks need only core and sim, not the front-end's OpenCV or training's candle.
 
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::{FrameBuf, FrameTracks, Message, encode, frame_parts};
-use dynotraj_fixtures::bench_inputs;
-use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+use dynotraj_sim::bench_inputs;
+use dynotraj_sim::track_sim::{SimSpec, simulate};
 
 /// KITTI's image size, pixels.
 pub const KITTI_IMAGE_SIZE: (f64, f64) = (1242.0, 375.0);
 
 /// Each frame's wire parts of the estimator benchmark's scene
-/// ([`dynotraj_fixtures::bench_inputs::estimator_scene`]), simulated with noise, outliers and
+/// ([`dynotraj_sim::bench_inputs::estimator_scene`]), simulated with noise, outliers and
 /// track turnover (16 objects x 128 points + 256 static tracks).
 #[must_use]
 pub fn estimator_scene(frames: usize, seed: u64) -> Vec<Vec<FrameTracks>> {
@@ -24,7 +24,7 @@ pub fn estimator_scene(frames: usize, seed: u64) -> Vec<Vec<FrameTracks>> {
         .collect()
 }
 
-pub use dynotraj_fixtures::bench_inputs::random_blob;
+pub use dynotraj_sim::bench_inputs::random_blob;
 
 /// `parts` framed for the link, one after another: the byte stream a decoder reads.
 #[must_use]

@@ -57,10 +57,10 @@ pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
     Ok(d)
 }
 
-pub use dynotraj_fixtures::bench_inputs::random_blob;
+pub use dynotraj_sim::bench_inputs::random_blob;
 
 fn time_per_forecast(f: &mut dyn Predictor, dt: f32, iterations: u32) -> f64 {
-    let (history, other) = dynotraj_fixtures::bench_inputs::forecast_histories();
+    let (history, other) = dynotraj_sim::bench_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out: Forecast = [Point2::default(); HORIZON];
     let _ = f.predict_with_neighbours(&history, &neighbours, dt, &mut out);

@@ -7,9 +7,9 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
-use dynotraj_fixtures::track_sim::LabelBox;
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::image_sim::{Camera, ImageSim};
+use dynotraj_sim::track_sim::LabelBox;
 
 use super::common::{self, SceneClassesArg, progress};
 use dynotraj_formats::kitti::TrackingDir;

@@ -9,7 +9,7 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::{Forecaster, Notice, ObjectClass};
-use dynotraj_fixtures::track_sim::{SimSpec, simulate};
+use dynotraj_sim::track_sim::{SimSpec, simulate};
 
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
 use dynotraj_eval::report::stream_report::{frames_data, predictions_data, summary};

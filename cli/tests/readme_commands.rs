@@ -6,8 +6,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::kitti_layout::write_sequence;
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::kitti_layout::write_sequence;
 
 /// Runs the binary with `args`; asserts exit 0 and returns stdout and stderr together.
 fn ok(args: &[&str]) -> String {

@@ -10,8 +10,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::{Command, Output};
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::kitti_layout::write_sequence;
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::kitti_layout::write_sequence;
 use serde_json::Value;
 
 /// Columns that hold numbers wherever they appear.

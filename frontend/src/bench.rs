@@ -4,9 +4,9 @@
 
 use std::collections::BTreeMap;
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::image_sim::{Camera, ImageSim, RenderedFrame};
-use dynotraj_fixtures::track_sim::LabelBox;
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::image_sim::{Camera, ImageSim, RenderedFrame};
+use dynotraj_sim::track_sim::LabelBox;
 use opencv::core::Mat;
 use opencv::imgproc::{COLOR_BGR2GRAY, cvt_color};
 

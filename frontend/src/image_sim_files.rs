@@ -1,4 +1,4 @@
-//! Writes the image simulator's output ([`dynotraj_fixtures::image_sim`]) in the KITTI tracking
+//! Writes the image simulator's output ([`dynotraj_sim::image_sim`]) in the KITTI tracking
 //! layout that [`crate::sequence`] reads, plus the truth:
 //!
 //! ```text
@@ -21,7 +21,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context as _;
-use dynotraj_fixtures::image_sim::{ImageSim, RenderedFrame};
+use dynotraj_sim::image_sim::{ImageSim, RenderedFrame};
 use nalgebra::{Isometry3, Point3, Vector3};
 use opencv::core::{Mat, Vector};
 use opencv::imgcodecs::imwrite;

@@ -1,8 +1,8 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are the host's `estimation::end_to_end`).
 
-use dynotraj_fixtures::image_sim::ImageSim;
-use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_sim::image_sim::ImageSim;
+use dynotraj_sim::track_sim::SimFrame;
 
 use super::bench::input_of;
 use super::error::FrontEndError;

@@ -9,8 +9,8 @@ use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message, encode, model_chunks};
 use dynotraj_edge::{NoClock, Session, Transport};
-use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
+use dynotraj_sim::track_sim::{SimSpec, simulate};
 use dynotraj_sources::estimation::bench::scene;
 use dynotraj_sources::estimation::input::KITTI_IMAGE_SIZE;
 
@@ -229,7 +229,7 @@ fn checked_elf(path: PathBuf) -> PathBuf {
 /// `dynotraj-firmware-model` image.
 #[must_use]
 pub fn default_model_blob() -> PathBuf {
-    crate::manifest_dir().join("../fixtures/data/models/default-dims.int8")
+    crate::manifest_dir().join("../sim/data/models/default-dims.int8")
 }
 
 /// A free loopback port (free when this returns; QEMU binds it right after).

@@ -26,7 +26,7 @@ pub fn kitti_training_dir() -> Option<PathBuf> {
     if dir.join("label_02").is_dir() {
         Some(dir)
     } else {
-        dynotraj_fixtures::skip::skipped(
+        dynotraj_testkit::skipped(
             "kitti_training_dir",
             &format!("real KITTI data not found at {} (set DYNOTRAJ_KITTI)", dir.display()),
         );
@@ -47,7 +47,7 @@ pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
     if root.join(sub).is_dir() {
         Some(root)
     } else {
-        dynotraj_fixtures::skip::skipped(
+        dynotraj_testkit::skipped(
             what,
             &format!("{} not found (set DYNOTRAJ_KITTI_ROOT to the shared kitti folder)", root.join(sub).display()),
         );

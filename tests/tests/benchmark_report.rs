@@ -7,7 +7,7 @@ use std::fs;
 
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, benchmark};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn args(root: &str, out: &str, jobs: &str) -> benchmark::BenchmarkArgs {

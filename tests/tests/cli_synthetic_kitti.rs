@@ -7,7 +7,7 @@ use std::fs;
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, dataset, eval};
 use dynotraj_eval::report::Table;
-use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 fn cli(args: &[&str]) -> Command {

@@ -82,7 +82,7 @@ fn a_model_is_logged_as_accepted_or_refused_with_the_reason() {
     assert!(has(&refused, Level::Warn, "model refused: signature Unsigned"), "{refused:#?}");
 
     if !dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT {
-        dynotraj_fixtures::skip::skipped("edge_logs", "the edge was built with DYNOTRAJ_MODEL_PUBKEY: no signed case");
+        dynotraj_testkit::skipped("edge_logs", "the edge was built with DYNOTRAJ_MODEL_PUBKEY: no signed case");
         return;
     }
     let signed = sign(&blob, &development_signing_key().unwrap());

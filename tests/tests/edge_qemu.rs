@@ -27,7 +27,7 @@ fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
 }
 
 /// The image `scripts/build-firmware.sh` builds with a model of the default size linked in
-/// (fixtures/data/models: seeded weights, the memory and arithmetic of a trained model of those
+/// (sim/data/models: seeded weights, the memory and arithmetic of a trained model of those
 /// widths): it forecasts with the model, bit for bit as the host edge does, and leaves at least
 /// 16 KiB of the 128 KiB of RAM free.
 #[test]

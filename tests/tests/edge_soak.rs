@@ -5,7 +5,7 @@
 
 use dynotraj_cli::soak::{SoakArgs, soak_edge};
 use dynotraj_eval::report::stream_report::soak_summary;
-use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]

@@ -6,7 +6,7 @@
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_edge::{NoClock, Session};
-use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
+use dynotraj_sim::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::edge_fixture::MemLink;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;

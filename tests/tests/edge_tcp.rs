@@ -48,7 +48,7 @@ fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> (Vec<String>, Vec
 /// is sent) and compares with the in-process edge that has the blob linked in.
 fn run_over_tcp(model: Option<Vec<u8>>) {
     if model.is_some() && !dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT {
-        dynotraj_fixtures::skip::skipped(
+        dynotraj_testkit::skipped(
             "edge_tcp",
             "the edge was built with DYNOTRAJ_MODEL_PUBKEY; this test signs with the development key",
         );

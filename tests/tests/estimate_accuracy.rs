@@ -6,8 +6,8 @@
 use std::collections::BTreeSet;
 
 use dynotraj_core::estimate::{DEFAULT_WINDOW, EstimatorParams, Intrinsics};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
 use dynotraj_sources::estimation::runner::{EstimatorRun, Kind, run_estimator};
 use dynotraj_sources::estimation::score::{RunScores, moving_objects, score_run};
 

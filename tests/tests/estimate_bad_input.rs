@@ -6,8 +6,8 @@ use dynotraj_core::estimate::{
 };
 use dynotraj_core::limits::MAX_OBJECTS;
 use dynotraj_core::wire::{FrameTracks, ObjectClass, Track, frame_parts};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::track_sim::{LabelBox, SimFrame, SimSpec, simulate};
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 

@@ -5,7 +5,7 @@
 use clap::Parser as _;
 use dynotraj_cli::estimate::{EstimateArgs, estimate_sequences, estimate_tracks, run};
 use dynotraj_cli::{Cli, Command};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sources::estimation::Kind;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 

@@ -3,8 +3,8 @@
 
 use dynotraj_core::estimate::{DEFAULT_WINDOW, Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::track_sim::{LabelBox, SimSpec, simulate};
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::track_sim::{LabelBox, SimSpec, simulate};
 use dynotraj_tests::alloc_counter::{CountingAllocator, count_allocations};
 
 #[global_allocator]

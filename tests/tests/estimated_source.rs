@@ -5,8 +5,8 @@
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, dataset, eval};
 use dynotraj_eval::report::Table;
-use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sources::estimation::simulated::{EvalOptions, evaluate_sequence, params_for, sim_max_depth};
 use dynotraj_sources::estimation::tracks_of_estimates;
 use dynotraj_sources::estimation::{Kind, run_estimator};
@@ -167,7 +167,7 @@ fn the_causal_estimate_never_sees_later_frames() {
 fn a_folder_with_stereo_images_is_estimated_from_its_images() {
     // The committed rendered fixture: 24 frames of the synthetic drive at 0.4 scale, with
     // image_02/, image_03/, instance masks, labels and poses.
-    let root = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
+    let root = dynotraj_tests::manifest_dir().join("../sim/data/image_sim");
     let dir = TrackingDir::open(&root).unwrap();
     let settings = dynotraj_sources::estimation::settings::EstimateSettings::tracks(EvalOptions::kitti(0.1));
     let seq = dynotraj_sources::sequence::load_sequence(&dir, "0000", 0.1, Some(&settings)).unwrap();
@@ -184,7 +184,7 @@ fn a_folder_with_stereo_images_is_estimated_from_its_images() {
 
 #[test]
 fn estimates_from_images_are_cached_under_a_key_that_covers_the_image_bytes() {
-    let fixture = dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim");
+    let fixture = dynotraj_tests::manifest_dir().join("../sim/data/image_sim");
     let tmp = tempfile::tempdir().unwrap();
     let root = tmp.path().join("kitti");
     copy_tree(&fixture, &root);

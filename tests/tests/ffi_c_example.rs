@@ -44,7 +44,7 @@ fn c_example_on_the_host_answers_as_the_rust_edge() {
 fn c_example_on_a_cortex_m4f_under_qemu_answers_as_the_rust_edge() {
     for tool in ["arm-none-eabi-gcc", "qemu-system-arm"] {
         if Command::new(tool).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_err() {
-            dynotraj_fixtures::skip::skipped(
+            dynotraj_testkit::skipped(
                 "ffi_c_example_qemu",
                 &format!(
                     "{tool} not found (bash scripts/setup.sh installs gcc-arm-none-eabi, libnewlib-arm-none-eabi, qemu-system-arm)"

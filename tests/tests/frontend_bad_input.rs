@@ -4,12 +4,12 @@
 
 use std::path::Path;
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
-use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_frontend::image_sim_files::write_sequence;
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{DepthInput, Detection, FrameInput, FrontEnd, MaskInput, StereoParams, TrackerParams};
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::image_sim::{Camera, ImageSim};
+use dynotraj_sim::track_sim::LabelBox;
 use opencv::core::{CV_8UC1, Mat, Scalar};
 use opencv::prelude::*;
 
@@ -136,7 +136,7 @@ fn objects_beyond_the_capacity_are_dropped_and_counted() {
     for v in 0..h {
         for u in 0..w {
             *grey.at_2d_mut::<u8>(v, u).unwrap() =
-                (dynotraj_fixtures::image_sim::texture::hash((u / 3 * 7919 + v / 3 * 104_729) as u32) & 0xff) as u8;
+                (dynotraj_sim::image_sim::texture::hash((u / 3 * 7919 + v / 3 * 104_729) as u32) & 0xff) as u8;
             let (col, row) = (u / 45, v / 100);
             if u % 45 < 40 && v % 100 < 40 && row == 0 && col < 20 {
                 *labels.at_2d_mut::<u16>(v, u).unwrap() = (col + 1) as u16;

@@ -1,10 +1,10 @@
 //! Rendered images -> front-end -> core estimator, against the image simulator's exact truth
 //! (the synthetic drive: an overtaking car, a crossing cyclist, a parked car).
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
-use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_frontend::StereoParams;
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::image_sim::{Camera, ImageSim};
+use dynotraj_sim::track_sim::LabelBox;
 use dynotraj_sources::estimation::Kind;
 use dynotraj_sources::estimation::end_to_end;
 

@@ -16,10 +16,10 @@ use dynotraj_core::predict::Predictor;
 use dynotraj_core::wire::{self, CameraInfo, FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Message};
 use dynotraj_core::{BevState, Point2};
 use dynotraj_edge::provisioned::MODEL_KEY;
-use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_formats::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses, parse_tum};
 use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_formats::tracks_file::{self, TracksWriter};
+use dynotraj_sim::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.

@@ -1,20 +1,20 @@
-//! The committed rendered fixture (fixtures/data/image_sim): it loads through the KITTI-layout
+//! The committed rendered fixture (sim/data/image_sim): it loads through the KITTI-layout
 //! reader, the front-end tracks it, and re-rendering with the recorded settings gives the same
 //! pixels, depth and instance ids.
 
 use std::path::PathBuf;
 
-use dynotraj_fixtures::drive::{DriveSpec, generate};
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
-use dynotraj_fixtures::track_sim::LabelBox;
 use dynotraj_frontend::image_io::read_u16;
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams};
+use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sim::image_sim::{Camera, ImageSim};
+use dynotraj_sim::track_sim::LabelBox;
 use opencv::imgcodecs::{IMREAD_COLOR, imread};
 use opencv::prelude::*;
 
 fn fixture() -> PathBuf {
-    dynotraj_tests::manifest_dir().join("../fixtures/data/image_sim")
+    dynotraj_tests::manifest_dir().join("../sim/data/image_sim")
 }
 
 #[test]

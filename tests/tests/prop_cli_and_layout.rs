@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use dynotraj_cli::numbers::{self, FRAME_RATE_RANGE, MAX_SECONDS};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 use proptest::prelude::*;
 

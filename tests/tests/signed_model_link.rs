@@ -35,7 +35,7 @@ fn forecasts(r: &InProcess) -> usize {
 fn development_build() -> bool {
     let dev = dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT;
     if !dev {
-        dynotraj_fixtures::skip::skipped(
+        dynotraj_testkit::skipped(
             "signed_model_link",
             "the edge was built with DYNOTRAJ_MODEL_PUBKEY; these tests sign with the development key",
         );

@@ -10,7 +10,7 @@ use dynotraj_core::Point2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
-use dynotraj_fixtures::drive::{DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 use dynotraj_train::export::load_checkpoint;
 

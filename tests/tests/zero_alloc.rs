@@ -7,7 +7,7 @@ use dynotraj_core::predict::{Baseline, Predictor};
 use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_core::{BevState, Point2};
-use dynotraj_fixtures::drive::{DriveSpec, feature_tracks, generate};
+use dynotraj_sim::drive::{DriveSpec, feature_tracks, generate};
 use dynotraj_tests::alloc_counter::{CountingAllocator, count_allocations};
 use nalgebra::Isometry3;
 

@@ -4,7 +4,7 @@
 
 use dynotraj_core::BevState;
 use dynotraj_core::predict::PriorSettings;
-pub use dynotraj_fixtures::unicycle_runs::constant_control_runs;
+pub use dynotraj_sim::unicycle_runs::constant_control_runs;
 
 use super::dataset::{Sample, sample_at};
 

@@ -136,7 +136,7 @@ mod tests {
     use dynotraj_core::wire::ObjectClass;
 
     use super::*;
-    use dynotraj_fixtures::unicycle_runs::constant_control_runs;
+    use dynotraj_sim::unicycle_runs::constant_control_runs;
     use dynotraj_sources::trajectory::{EligibilityRule, ObjectTrack};
     use dynotraj_train::Hyper;
 

@@ -79,7 +79,7 @@ pub fn kitti_split(test: &str) -> Option<PathBuf> {
     });
     let split = given.join("label_02").is_dir().then(|| given.clone());
     if split.is_none() {
-        dynotraj_fixtures::skip::skipped(
+        dynotraj_testkit::skipped(
             test,
             &format!(
                 "real KITTI data not found at {} (expected label_02/ there; set DYNOTRAJ_KITTI \

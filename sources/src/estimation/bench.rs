@@ -1,7 +1,7 @@
 //! Compute per frame of the estimator at the ECU's full budget: 16 objects x 128 points and 256
 //! static tracks in every frame. The scene is synthetic (the KITTI sequences rarely fill the
 //! budget): 16 cars in four rows ahead of the ego vehicle, all driving along with it at slightly
-//! different speeds and weaving gently, simulated with [`dynotraj_fixtures::track_sim`] (noise,
+//! different speeds and weaving gently, simulated with [`dynotraj_sim::track_sim`] (noise,
 //! outliers and track turnover as in `dynotraj estimate`). Parts are decoded before timing: the
 //! time is the estimator's alone (assembly, ego-motion, 16 object fits, 17 smoother solves).
 
@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, Intrinsics, PoseEstimate, Pushed};
 use dynotraj_core::wire::FrameTracks;
-use dynotraj_fixtures::track_sim::{SimSpec, simulate};
 use dynotraj_formats::tracks_file::TracksFrame;
+use dynotraj_sim::track_sim::{SimSpec, simulate};
 
 use super::input::KITTI_IMAGE_SIZE;
 use super::simulated::WINDOW;
@@ -45,7 +45,7 @@ impl BenchResult {
     }
 }
 
-pub use dynotraj_fixtures::bench_inputs::estimator_scene as scene;
+pub use dynotraj_sim::bench_inputs::estimator_scene as scene;
 
 /// Runs the benchmark over `frames` frames (after `warmup` untimed ones), with `joint_sweeps`
 /// sweeps of the joint camera-object solve per frame.

@@ -2,8 +2,8 @@
 //! whole image path with exact truth.
 
 use dynotraj_core::estimate::EstimatorParams;
-use dynotraj_fixtures::image_sim::ImageSim;
-use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_sim::image_sim::ImageSim;
+use dynotraj_sim::track_sim::SimFrame;
 
 use super::score::moving_objects;
 use super::simulated::WINDOW;

@@ -34,7 +34,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use dynotraj_core::estimate::PoseEstimate;
 use dynotraj_core::geometry::Pose3;
-use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_sim::track_sim::SimFrame;
 use nalgebra::Isometry3;
 
 use super::runner::{EstimatorRun, Kind};

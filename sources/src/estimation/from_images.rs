@@ -13,9 +13,9 @@ use std::path::Path;
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
 
-use dynotraj_fixtures::image_sim::{Camera, ImageSim};
+use dynotraj_sim::image_sim::{Camera, ImageSim};
 
-use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_sim::track_sim::SimFrame;
 
 use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};

@@ -2,7 +2,7 @@
 
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::ObjectClass;
-use dynotraj_fixtures::track_sim::LabelBox;
+use dynotraj_sim::track_sim::LabelBox;
 use nalgebra::{Isometry3, Point3};
 
 use dynotraj_formats::kitti::SequenceData;

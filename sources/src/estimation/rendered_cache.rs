@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
 use dynotraj_core::wire::{ObjectClass, Track};
-use dynotraj_fixtures::track_sim::{ObjectTruth, SimFrame};
+use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 

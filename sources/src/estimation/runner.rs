@@ -2,8 +2,8 @@
 
 use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, PoseEstimate, Pushed};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode};
-use dynotraj_fixtures::track_sim::SimFrame;
 use dynotraj_formats::tracks_file::TracksFrame;
+use dynotraj_sim::track_sim::SimFrame;
 
 /// Which of the estimator's outputs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

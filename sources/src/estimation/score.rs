@@ -14,7 +14,7 @@ use dynotraj_core::BevState;
 use dynotraj_core::estimate::{ObjectEstimate, PoseEstimate};
 use dynotraj_core::geometry::angle_diff;
 use dynotraj_core::metrics::{PairError, RpeAccumulator, RpeResult};
-use dynotraj_fixtures::track_sim::SimFrame;
+use dynotraj_sim::track_sim::SimFrame;
 
 use super::runner::{EstimatorRun, Kind};
 
@@ -293,9 +293,9 @@ pub fn smoothness(est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> (Smoo
 mod tests {
     use super::*;
     use crate::estimation::simulated::{EvalOptions, evaluate_sequence};
-    use dynotraj_fixtures::drive::{DriveSpec, generate};
-    use dynotraj_fixtures::kitti_layout::write_sequence;
     use dynotraj_formats::kitti::TrackingDir;
+    use dynotraj_sim::drive::{DriveSpec, generate};
+    use dynotraj_sim::kitti_layout::write_sequence;
 
     #[test]
     fn the_rpe_over_time_is_the_pairs_table_iii_averages() {

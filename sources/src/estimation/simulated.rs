@@ -7,7 +7,7 @@ use dynotraj_core::estimate::{
     EstimatorParams, EstimatorProfile, EstimatorStats, HOST_PROFILE, Intrinsics, SmootherParams,
 };
 use dynotraj_core::wire::{CameraInfo, ObjectClass};
-use dynotraj_fixtures::track_sim::{SimFrame, SimSpec, simulate};
+use dynotraj_sim::track_sim::{SimFrame, SimSpec, simulate};
 
 use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, run_estimator, run_parts};

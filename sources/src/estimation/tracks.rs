@@ -28,8 +28,8 @@ use crate::estimation::score::{FrameRpe, moving_objects, rpe_over_time};
 use crate::estimation::simulated::{EvalOptions, evaluate_sequence};
 use crate::estimation::{EstimatorRun, Kind, RunScores};
 use crate::trajectory::ObjectTrack;
-use dynotraj_fixtures::track_sim::SimFrame;
 use dynotraj_formats::kitti::SequenceData;
+use dynotraj_sim::track_sim::SimFrame;
 
 /// What the estimator ran on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

@@ -136,15 +136,15 @@ mod tests {
     use super::*;
     use dynotraj_core::model::Dims;
     use dynotraj_core::model::blob::Precision;
-    use dynotraj_fixtures::bench_inputs::random_blob;
-    use dynotraj_fixtures::drive::{DriveSpec, generate};
-    use dynotraj_fixtures::kitti_layout::write_sequence;
     use dynotraj_formats::kitti::TrackingDir;
+    use dynotraj_sim::bench_inputs::random_blob;
+    use dynotraj_sim::drive::{DriveSpec, generate};
+    use dynotraj_sim::kitti_layout::write_sequence;
     use dynotraj_sources::estimation::settings::EstimateSettings;
     use dynotraj_sources::estimation::simulated::EvalOptions;
     use dynotraj_sources::sequence::load_sequence;
 
-    /// Sequence 0000 of the fixtures' synthetic drive with the estimator's tracks, at 10 Hz.
+    /// Sequence 0000 of the simulators' synthetic drive with the estimator's tracks, at 10 Hz.
     fn drive_0000(root: &Path) -> SequenceTracks {
         write_sequence(root, "0000", &generate(&DriveSpec::default())).unwrap();
         let dir = TrackingDir::open(root).unwrap();
