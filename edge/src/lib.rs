@@ -9,8 +9,8 @@
 //!
 //! - [`transport`]: the [`Transport`] (any `embedded-io` byte stream, through [`Io`]) and
 //!   [`Clock`] the platform provides;
-//! - [`link`]: decoding ([`EdgeLoop`]; the estimator assembles the frame parts);
-//! - [`pipeline`]: the per-frame work ([`Edge`]);
+//! - [`link`]: decoding ([`LinkDecoder`]; the estimator assembles the frame parts);
+//! - [`pipeline`]: the per-frame work ([`Pipeline`]);
 //! - [`model_load`]: a model blob over the link into a fixed buffer, checked by CRC;
 //! - [`provisioned`]: the Ed25519 key a model over the link must be signed with (build time);
 //! - [`session`]: one link session tying them together ([`Session::run`]).
@@ -42,7 +42,7 @@ pub struct IntegrationGuide;
 pub use embedded_io;
 #[cfg(feature = "async")]
 pub use embedded_io_async;
-pub use link::EdgeLoop;
-pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, Edge, EdgeStats};
+pub use link::LinkDecoder;
+pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, EdgeStats, Pipeline};
 pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
 pub use transport::{Clock, Io, NoClock, Split, Transport};

@@ -6,17 +6,17 @@ use dynotraj_core::wire::{DecoderStats, FrameDecoder, Message};
 
 /// Decodes the received byte stream.
 #[derive(Debug, Clone)]
-pub struct EdgeLoop {
+pub struct LinkDecoder {
     decoder: FrameDecoder,
 }
 
-impl Default for EdgeLoop {
+impl Default for LinkDecoder {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl EdgeLoop {
+impl LinkDecoder {
     /// A fresh link.
     #[must_use]
     pub const fn new() -> Self {

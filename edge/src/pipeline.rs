@@ -76,7 +76,7 @@ impl Default for EdgeStats {
 /// The estimator and the predictor over one stream, and what they keep between frames.
 /// `W` is the estimator's smoothing window.
 #[derive(Debug)]
-pub struct Edge<'m, const W: usize = EDGE_WINDOW> {
+pub struct Pipeline<'m, const W: usize = EDGE_WINDOW> {
     estimator: Estimator<W>,
     camera: Option<CameraInfo>,
     /// Frame period of forecasts, seconds (from the camera model's rate).
@@ -94,13 +94,13 @@ pub struct Edge<'m, const W: usize = EDGE_WINDOW> {
     pending_compute: u64,
 }
 
-impl<const W: usize> Default for Edge<'_, W> {
+impl<const W: usize> Default for Pipeline<'_, W> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<'m, const W: usize> Edge<'m, W> {
+impl<'m, const W: usize> Pipeline<'m, W> {
     /// An edge with no camera model yet and no learned model (constant-velocity forecasts).
     #[must_use]
     pub const fn new() -> Self {
@@ -119,7 +119,7 @@ impl<'m, const W: usize> Edge<'m, W> {
         }
     }
 
-    /// Back to the state of [`Edge::new`], in place (no second edge on the stack: the MCU
+    /// Back to the state of [`Pipeline::new`], in place (no second edge on the stack: the MCU
     /// keeps the edge in a static and has less stack than its size).
     pub fn reset(&mut self) {
         // Every field named (no `..`), as in `Estimator::reset`.

@@ -10,10 +10,10 @@ use dynotraj_core::wire::{
     Forecaster, FrameBuf, LinkStats, MAX_FRAME_LEN, Message, ModelRefusal, Notice, WireError, encode,
 };
 
-use crate::link::EdgeLoop;
+use crate::link::LinkDecoder;
 #[cfg(feature = "model-over-link")]
 use crate::model_load::{ChunkOutcome, ModelLoader};
-use crate::pipeline::{EDGE_WINDOW, Edge};
+use crate::pipeline::{EDGE_WINDOW, Pipeline};
 use crate::transport::{Clock, Transport};
 
 /// Bytes read from the transport at a time.
@@ -118,8 +118,8 @@ pub enum RunError<E> {
 /// with its own [`LinkStats`].
 #[derive(Debug)]
 pub struct Session<'m, const W: usize = EDGE_WINDOW> {
-    link: EdgeLoop,
-    edge: Edge<'m, W>,
+    link: LinkDecoder,
+    edge: Pipeline<'m, W>,
     /// The loader of a model sent over the link, with the key it must be signed with.
     #[cfg(feature = "model-over-link")]
     loader: Option<(ModelLoader<'m>, PublicKey)>,
@@ -142,8 +142,8 @@ impl<'m, const W: usize> Session<'m, W> {
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            link: EdgeLoop::new(),
-            edge: Edge::new(),
+            link: LinkDecoder::new(),
+            edge: Pipeline::new(),
             #[cfg(feature = "model-over-link")]
             loader: None,
             model: ModelStatus::None,
@@ -154,7 +154,7 @@ impl<'m, const W: usize> Session<'m, W> {
         }
     }
 
-    /// Back to the state of [`Session::new`], in place (see [`Edge::reset`]).
+    /// Back to the state of [`Session::new`], in place (see [`Pipeline::reset`]).
     pub fn reset(&mut self) {
         // Every field named (no `..`), as in `Estimator::reset`.
         let Self {
@@ -168,7 +168,7 @@ impl<'m, const W: usize> Session<'m, W> {
             ended,
             chunk_refusal_told,
         } = self;
-        *link = EdgeLoop::new();
+        *link = LinkDecoder::new();
         edge.reset();
         #[cfg(feature = "model-over-link")]
         {
@@ -225,13 +225,13 @@ impl<'m, const W: usize> Session<'m, W> {
 
     /// The pipeline (for its counters).
     #[must_use]
-    pub const fn edge(&self) -> &Edge<'m, W> {
+    pub const fn pipeline(&self) -> &Pipeline<'m, W> {
         &self.edge
     }
 
     /// The link layer (for its counters).
     #[must_use]
-    pub const fn link(&self) -> &EdgeLoop {
+    pub const fn link(&self) -> &LinkDecoder {
         &self.link
     }
 
@@ -429,7 +429,7 @@ fn on_chunk<'m, const W: usize>(
     loader: &mut Option<(ModelLoader<'m>, PublicKey)>,
     model: &mut ModelStatus,
     load: &mut LoadStats,
-    edge: &mut Edge<'m, W>,
+    edge: &mut Pipeline<'m, W>,
 ) -> Option<Notice> {
     let Some((l, _)) = loader.as_mut().filter(|_| edge.stats().frames_estimated == 0) else {
         log::debug!("model chunk at {} refused: not accepted now", chunk.offset);
@@ -479,7 +479,7 @@ fn accept_signed<'m, const W: usize>(
     bytes: &'m [u8],
     key: &PublicKey,
     load: &mut LoadStats,
-    edge: &mut Edge<'m, W>,
+    edge: &mut Pipeline<'m, W>,
 ) -> ModelStatus {
     let blob = match signed::verify(bytes, key) {
         Ok(blob) => blob,

@@ -140,8 +140,8 @@ fn edge_survives_corrupted_dropped_and_duplicated_bytes_and_resynchronises() {
 
     let link_stats = session.link_stats().received;
     assert!(link_stats.crc_errors + link_stats.cobs_errors >= 3, "{link_stats:?}");
-    assert!(session.edge().estimator().stats().parts_duplicate >= 1, "the repeated part is recognised");
-    assert_eq!(session.edge().estimator().stats().frames_incomplete, 3);
+    assert!(session.pipeline().estimator().stats().parts_duplicate >= 1, "the repeated part is recognised");
+    assert_eq!(session.pipeline().estimator().stats().frames_incomplete, 3);
     assert!(session.ended(), "the goodbye arrived and ended the session");
 }
 

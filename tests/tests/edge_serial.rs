@@ -54,7 +54,7 @@ fn serial_pty_edge_matches_the_in_process_edge() {
         session.run(&mut pty, &mut NoClock).unwrap();
         // Both ends stay open until the host has read everything: closing the master hangs up
         // the line and discards what the host has not read yet.
-        (session.edge().stats().frames_estimated, pty, slave)
+        (session.pipeline().stats().frames_estimated, pty, slave)
     });
     let (rx, tx) = connect(&Endpoint::Serial(path.into()), Duration::from_secs(5)).unwrap();
     let opt = StreamOptions { lockstep: true, ..StreamOptions::default() };

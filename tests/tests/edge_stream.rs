@@ -45,7 +45,7 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
         session.on_bytes(chunk, &mut sink, &mut NoClock).unwrap();
         rest = tail;
     }
-    let s = session.edge().estimator().stats();
+    let s = session.pipeline().estimator().stats();
     let link = session.link().decoder_stats();
     assert_eq!(s.frames_processed as usize, frames.len() - 1, "every frame but the corrupted one");
     assert_eq!(s.frames_incomplete, 1);

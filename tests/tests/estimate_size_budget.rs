@@ -11,7 +11,7 @@ use dynotraj_core::estimate::{
     ChainScratch, ChainSmoother, DEFAULT_WINDOW, EDGE_WINDOW, Estimator, Landmarks, ObjectRun, PoseEstimate,
 };
 use dynotraj_core::model::LearnedPredictor;
-use dynotraj_edge::EdgeLoop;
+use dynotraj_edge::LinkDecoder;
 
 fn report(name: &str, size: usize, budget: usize) {
     println!("{name:<40} {size:>7} B (budget {budget} B)");
@@ -36,7 +36,7 @@ fn estimator_state_fits_the_ecu_budget() {
     // crate).
     let est = size_of::<Estimator<EDGE_WINDOW>>();
     report("estimate::Estimator<EDGE_WINDOW> (firmware, edge profile)", est, 100 * 1024);
-    let image = est + size_of::<EdgeLoop>() + size_of::<LearnedPredictor<'_>>() + 8 * 1024;
+    let image = est + size_of::<LinkDecoder>() + size_of::<LearnedPredictor<'_>>() + 8 * 1024;
     report("estimator<EDGE> + edge + predictor + 8 KiB stack", image, 128 * 1024);
     // Each frame of window costs what the constant's docs say (about 2.5 KiB).
     let per_frame = (host - est) / (W - EDGE_WINDOW);

@@ -4,14 +4,14 @@
 
 use dynotraj_core::estimate::{EDGE_PROFILE, EDGE_WINDOW, HOST_PROFILE, Intrinsics};
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_edge::Edge;
+use dynotraj_edge::Pipeline;
 use dynotraj_sources::estimation::from_images::{render_camera, rendered_params};
 use dynotraj_sources::estimation::simulated::EvalOptions;
 
 #[test]
 fn the_edge_runs_the_edge_profile() {
     let dt = 1.0 / PAPER_FRAME_RATE_HZ;
-    let edge: Box<Edge<'_>> = Box::new(Edge::new());
+    let edge: Box<Pipeline<'_>> = Box::new(Pipeline::new());
     assert_eq!(edge.estimator().params(), &EDGE_PROFILE.params(Intrinsics::KITTI_0926, dt));
     assert_eq!(EDGE_WINDOW, EDGE_PROFILE.window);
     assert_eq!(dynotraj_edge::EDGE_WINDOW, EDGE_PROFILE.window);

@@ -9,7 +9,7 @@ use dynotraj_core::model::{LearnedPredictor, Scratch};
 use dynotraj_core::predict::Forecast;
 use dynotraj_core::smooth::{FixedLagRts, UnicycleEkf};
 use dynotraj_core::wire::{FrameDecoder, MAX_FRAME_LEN, Message};
-use dynotraj_edge::EdgeLoop;
+use dynotraj_edge::LinkDecoder;
 
 fn report(name: &str, size: usize, budget: usize) {
     println!("{name:<28} {size:>6} B (budget {budget} B)");
@@ -26,13 +26,13 @@ fn core_state_types_fit_their_budgets() {
     report("predict::Forecast", size_of::<Forecast>(), 240);
     report("metrics::ForecastScores", size_of::<ForecastScores>(), 64);
     report("metrics::RpeAccumulator", size_of::<RpeAccumulator>(), 128);
-    report("edge::EdgeLoop", size_of::<EdgeLoop>(), 1_600);
+    report("edge::LinkDecoder", size_of::<LinkDecoder>(), 1_600);
     // Inference scratch is sized by the largest widths a blob may declare (MAX_ENC, MAX_DEC...),
     // so one predictor serves every model this build accepts.
     report("model::Scratch", size_of::<Scratch>(), 8_192);
     report("model::LearnedPredictor", size_of::<LearnedPredictor<'_>>(), 8_320);
     // One EKF per tracked object, the link state and one predictor (objects are forecast one
     // after another) stay far inside 128 KiB.
-    let per_ecu = 16 * size_of::<UnicycleEkf>() + size_of::<EdgeLoop>() + size_of::<LearnedPredictor<'_>>();
+    let per_ecu = 16 * size_of::<UnicycleEkf>() + size_of::<LinkDecoder>() + size_of::<LearnedPredictor<'_>>();
     report("16 EKFs + edge + predictor", per_ecu, 128 * 1024);
 }

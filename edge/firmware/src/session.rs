@@ -41,7 +41,7 @@ pub fn close<E: Debug>(
     (bytes_lost, buffer, high_water): (u32, &str, usize),
     result: Result<(), RunError<E>>,
 ) -> ! {
-    let e = session.edge().stats();
+    let e = session.pipeline().stats();
     let l = session.link_stats();
     hprintln!(
         "{}: frames estimated {} lost {} | forecasts {} (fallback {}, failed {}) | frames received {} rejected {} | \

@@ -30,7 +30,7 @@ pub fn model(status: ModelStatus) -> String {
 
 /// One session's line: how it ended and its counters.
 pub fn session_line(who: &str, session: &Session<'_>, ended: &str) -> String {
-    let e = session.edge().stats();
+    let e = session.pipeline().stats();
     let l = session.link_stats().received;
     let ld = session.load_stats();
     format!(
@@ -72,7 +72,7 @@ pub struct Totals {
 impl Totals {
     /// Adds one session.
     pub fn add(&mut self, session: &Session<'_>, result: &Result<(), RunError<LinkError>>) {
-        let e = session.edge().stats();
+        let e = session.pipeline().stats();
         self.sessions += 1;
         self.frames_estimated += u64::from(e.frames_estimated);
         self.forecasts += u64::from(e.forecasts);
