@@ -8,6 +8,7 @@ pub mod estimate;
 pub mod eval;
 pub mod experiment;
 pub mod fold_run;
+pub mod forecast;
 pub mod interrupt;
 pub mod numbers;
 pub mod progress;
@@ -84,6 +85,9 @@ pub enum Command {
     /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
     #[cfg(feature = "images")]
     Track(track::TrackArgs),
+    /// The edge's session in this process over a tracks recording or a simulated sequence: its
+    /// forecasts, as `stream` writes them, without an edge process.
+    Forecast(forecast::ForecastArgs),
     /// Streams feature tracks to an edge (TCP or serial) and collects its forecasts.
     Stream(stream::StreamArgs),
     /// A long stream into the host build of the edge over a link with random faults: losses
@@ -123,6 +127,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(&a),
         #[cfg(feature = "images")]
         Command::Track(a) => track::run(&a),
+        Command::Forecast(a) => forecast::run(&a),
         Command::Stream(a) => stream::run(&a),
         Command::Soak(a) => soak::run(&a),
         Command::Keygen(a) => sign::keygen(&a),

@@ -238,3 +238,20 @@ fn a_bad_object_is_refused_naming_the_flag_before_anything_is_trained() {
     );
     assert!(!out.join("models").exists(), "nothing trained");
 }
+
+#[test]
+fn forecast_names_a_model_that_is_no_model_and_writes_nothing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().unwrap();
+    let bad = dir.path().join("bad.model");
+    std::fs::write(&bad, b"garbage").unwrap();
+    let out = dir.path().join("out");
+    let args = ["forecast", "--kitti", kitti, "--sequences", "0000", "--model", bad.to_str().unwrap()];
+    refused(&[&args[..], &["--out", out.to_str().unwrap()]].concat(), 1, "expected a model blob, model blob too short");
+    assert!(!out.exists(), "nothing written for a refused model");
+    let (code, err) = run(&["forecast", "--kitti", kitti, "--sequences", "0000", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let table = std::fs::read_to_string(out.join("forecasts.csv")).unwrap();
+    assert!(table.starts_with("frame,object_id,step,x,y\n") && table.lines().count() > 30, "{table}");
+}

@@ -97,3 +97,53 @@ fn tcp_edge_matches_the_in_process_edge_with_constant_velocity() {
 fn tcp_edge_matches_the_in_process_edge_with_a_model_sent_over_the_link() {
     run_over_tcp(Some(random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)));
 }
+
+/// `dynotraj forecast` (the session in process) writes the forecasts `dynotraj stream` collects
+/// from a `dynotraj-edge` process given the same signed model, byte for byte.
+#[test]
+fn forecast_in_process_writes_what_the_tcp_edge_answers() {
+    if !dynotraj_edge::provisioned::MODEL_KEY_IS_DEVELOPMENT {
+        dynotraj_testkit::skipped(
+            "forecast_in_process_writes_what_the_tcp_edge_answers",
+            "the edge was built with DYNOTRAJ_MODEL_PUBKEY; this test signs with the development key",
+        );
+        return;
+    }
+    use clap::Parser as _;
+    let dir = tempfile::tempdir().unwrap();
+    let tracks = scene_tracks(10);
+    let dtt = dir.path().join("scene.dtt");
+    let mut w = dynotraj_formats::tracks_file::TracksWriter::create(&dtt, &tracks.camera).unwrap();
+    for f in &tracks.frames {
+        let all: Vec<_> = f.tracks().copied().collect();
+        w.write_frame(f.frame, f.timestamp_us, &all).unwrap();
+    }
+    w.finish().unwrap();
+    let blob = random_blob(&Dims::DEFAULT, Precision::Int8, 0.05);
+    let signed = sign(&blob, &development_signing_key().unwrap());
+    let model = dir.path().join("model.signed");
+    std::fs::write(&model, &signed).unwrap();
+
+    let out = dir.path().join("forecast");
+    let args = ["dynotraj", "forecast", "--tracks", dtt.to_str().unwrap(), "--model", model.to_str().unwrap()];
+    let cli = dynotraj_cli::Cli::try_parse_from(args.into_iter().chain(["--out", out.to_str().unwrap()])).unwrap();
+    dynotraj_cli::run(cli).unwrap();
+    let in_process = std::fs::read_to_string(out.join("forecasts.csv")).unwrap();
+
+    let (mut edge, lines, addr) = spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--sessions", "1"]);
+    let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10)).unwrap();
+    let opt = StreamOptions { lockstep: true, model: Some(signed), ..StreamOptions::default() };
+    let result = stream(&tracks, rx, tx, &opt);
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(edge.wait().unwrap().success(), "edge failed: {rest:?}");
+    let streamed = dir.path().join("stream");
+    dynotraj_eval::report::write_table_files(
+        &streamed,
+        "forecasts",
+        &dynotraj_eval::report::stream_report::predictions_data(&result),
+    )
+    .unwrap();
+    let over_tcp = std::fs::read_to_string(streamed.join("forecasts.csv")).unwrap();
+    assert!(in_process.lines().count() > 16 * 5 * 30, "the cars are forecast: {} rows", in_process.lines().count());
+    assert_eq!(in_process, over_tcp, "forecast and stream wrote different forecasts");
+}

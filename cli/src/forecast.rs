@@ -1,0 +1,127 @@
+//! `dynotraj forecast`: the edge's session run in this process over a tracks recording (or a
+//! simulated sequence), with a model or with constant velocity, and its forecasts written as
+//! `dynotraj stream` writes them. No edge process, no link, no pacing: the same bytes the edge
+//! would receive, the same session code, the same answers.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use clap::Args;
+use dynotraj_core::model::signed;
+use dynotraj_core::wire::{DecoderStats, FrameDecoder, LinkStats, Message};
+use dynotraj_edge::{NoClock, Session, Split};
+use dynotraj_eval::report::stream_report::predictions_data;
+use dynotraj_eval::report::write_table_files;
+use dynotraj_formats::model_file::read_model_file;
+use dynotraj_formats::tracks_file::Tracks;
+use dynotraj_link::stream::StreamResult;
+use dynotraj_link::wire_io::WireSender;
+
+use super::stream::{FORECASTS, REPLIES_BIN, input_tracks};
+
+/// Options of `dynotraj forecast`.
+#[derive(Debug, Args)]
+pub struct ForecastArgs {
+    /// A tracks file (.dtt) to forecast from, as `dynotraj track` writes it.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
+    pub tracks: Option<PathBuf>,
+    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's labels and ego
+    /// poses drive the track-level simulator, as for `dynotraj stream`.
+    #[arg(long, value_name = "DIR")]
+    pub kitti: Option<PathBuf>,
+    /// The KITTI sequence to simulate, e.g. 0000 (one).
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    pub sequences: Vec<String>,
+    /// Only the first N frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// A model blob, signed (`dynotraj sign`, checked against the key this build's edge is
+    /// provisioned with, as the edge would) or not (taken as a model linked into the edge).
+    /// Without it the edge forecasts with constant velocity.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Folder for `forecasts.csv` / `.json` (frame, object_id, step, x, y: world bird's-eye,
+    /// metres, as `dynotraj stream` writes them) and `replies.bin` (the edge's replies, wire
+    /// frames).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// What an in-process session answered.
+#[derive(Debug)]
+pub struct Forecasts {
+    /// The edge's replies, decoded, as a stream would have collected them.
+    pub result: StreamResult,
+    /// Camera frames sent.
+    pub frames: usize,
+}
+
+/// Runs `dynotraj forecast`.
+///
+/// # Errors
+/// Input, model or output errors, named.
+pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
+    crate::common::output_folder("--out", &args.out)?;
+    let tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, args.frames)?;
+    let tracks =
+        Tracks { frames: tracks.frames.into_iter().take(args.frames.unwrap_or(usize::MAX)).collect(), ..tracks };
+    let model = args.model.as_deref().map(model_blob).transpose()?;
+    let out = forecast(&tracks, model.as_deref())?;
+    write_table_files(&args.out, FORECASTS, &predictions_data(&out.result))?;
+    let path = args.out.join(REPLIES_BIN);
+    std::fs::write(&path, &out.result.raw).with_context(|| format!("--out: writing {}", path.display()))?;
+    let forecasts = out.result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
+    println!(
+        "{} frames, {forecasts} forecasts ({}); written to {}",
+        out.frames,
+        out.result.forecaster().map_or_else(|| "forecaster not said".to_string(), |f| f.to_string()),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// The model blob of the file at `path`: a signed one verified against the provisioned key.
+fn model_blob(path: &Path) -> anyhow::Result<Vec<u8>> {
+    let bytes = read_model_file(path).context("--model")?;
+    let blob = match signed::split(&bytes) {
+        Ok(_) => signed::verify(&bytes, &dynotraj_edge::provisioned::MODEL_KEY).map(<[u8]>::to_vec).map_err(|e| {
+            anyhow::anyhow!("--model {}: {}", path.display(), dynotraj_formats::model_signing::describe(&e))
+        })?,
+        Err(signed::SignatureError::Unsigned) => bytes,
+        Err(e) => anyhow::bail!("--model {}: {}", path.display(), dynotraj_formats::model_signing::describe(&e)),
+    };
+    dynotraj_core::model::blob::ModelBlob::parse_exact(&blob)
+        .map_err(|e| anyhow::anyhow!("--model {}: expected a model blob, {e}", path.display()))?;
+    Ok(blob)
+}
+
+/// The edge's session over `tracks` in this process: the host's side of the link (camera
+/// model, every frame's parts, the goodbye) as bytes into [`Session::run`], its replies
+/// decoded. With `model`, the session forecasts with it.
+///
+/// # Errors
+/// A model the edge refuses, or a message that cannot be encoded.
+pub fn forecast(tracks: &Tracks, model: Option<&[u8]>) -> anyhow::Result<Forecasts> {
+    let mut host = WireSender::new(Vec::new());
+    host.send(&Message::CameraInfo(tracks.camera))?;
+    for frame in &tracks.frames {
+        for part in &frame.parts {
+            host.send(&Message::FrameTracks(part.clone()))?;
+        }
+    }
+    let frames_sent = u32::try_from(host.sent() + 1).unwrap_or(u32::MAX);
+    host.send(&Message::LinkStats(LinkStats { frames_sent, received: DecoderStats::default() }))?;
+    let input = host.writer().clone();
+    let mut session: Box<Session<'_>> = Box::new(match model {
+        Some(blob) => Session::with_model(blob).map_err(|e| anyhow::anyhow!("--model: the edge refuses it: {e}"))?,
+        None => Session::new(),
+    });
+    let mut link = Split(input.as_slice(), Vec::new());
+    session.run(&mut link, &mut NoClock).map_err(|e| anyhow::anyhow!("the in-process edge: {e:?}"))?;
+    let raw = link.1;
+    let replies: Vec<Message> = FrameDecoder::new().feed(&raw).collect();
+    let notices = replies.iter().filter_map(|m| if let Message::Notice(n) = m { Some(*n) } else { None }).collect();
+    let edge_link = replies.iter().find_map(|m| if let Message::LinkStats(l) = m { Some(*l) } else { None });
+    let result = StreamResult { replies, raw, notices, edge_link, ..StreamResult::default() };
+    Ok(Forecasts { result, frames: tracks.frames.len() })
+}
