@@ -134,13 +134,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sign(a) => sign::sign(&a),
         Command::Verify(a) => sign::verify(&a),
         Command::Completions { shell } => {
-            clap_complete::generate(
-                shell,
-                &mut <Cli as clap::CommandFactory>::command(),
-                "dynotraj",
-                &mut std::io::stdout(),
-            );
-            Ok(())
+            // Into memory first: clap_complete panics when its writer fails.
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut <Cli as clap::CommandFactory>::command(), "dynotraj", &mut script);
+            std::io::Write::write_all(&mut std::io::stdout(), &script).context("writing the completions")
         }
         Command::Man => {
             let man = clap_mangen::Man::new(<Cli as clap::CommandFactory>::command());

@@ -1,5 +1,7 @@
 //! The `dynotraj` command.
 
+use std::io::Write as _;
+
 use clap::Parser as _;
 use dynotraj_cli::{Cli, run};
 
@@ -16,8 +18,43 @@ fn one_compute_thread() {
     }
 }
 
+/// The exit code of a command whose reader closed its standard output early (`| head`): what a
+/// process killed by SIGPIPE reports, 128 + 13.
+const CLOSED_PIPE_EXIT: u8 = 141;
+
+/// Whether `e` comes of a reader that closed the output pipe.
+fn closed_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}
+
+/// Makes a failed write to standard output or error an exit, not a panic: Rust's `print!`
+/// family panics when the write fails, wherever it is called. A reader that closed the pipe
+/// ends the command quietly with [`CLOSED_PIPE_EXIT`]; any other failure (a full disk) is
+/// said on standard error, if that still works, and exits 1.
+fn exit_on_output_errors() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or_default();
+        if message.starts_with("failed printing to std") {
+            if message.contains("Broken pipe") {
+                std::process::exit(i32::from(CLOSED_PIPE_EXIT));
+            }
+            let what = message.trim_start_matches("failed printing to ");
+            let _ = writeln!(std::io::stderr(), "error: writing to {what}");
+            std::process::exit(1);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> std::process::ExitCode {
     one_compute_thread();
+    exit_on_output_errors();
     let cli = Cli::parse();
     let mut logger = env_logger::Builder::new();
     logger.filter_level(cli.log_level());
@@ -27,6 +64,7 @@ fn main() -> std::process::ExitCode {
     logger.init();
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if closed_pipe(&e) => std::process::ExitCode::from(CLOSED_PIPE_EXIT),
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE

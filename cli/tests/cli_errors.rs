@@ -255,3 +255,41 @@ fn forecast_names_a_model_that_is_no_model_and_writes_nothing() {
     let table = std::fs::read_to_string(out.join("forecasts.csv")).unwrap();
     assert!(table.starts_with("frame,object_id,step,x,y\n") && table.lines().count() > 30, "{table}");
 }
+
+/// Runs the binary with its standard output going to `stdout`; returns its exit code and stderr.
+fn run_into(args: &[&str], stdout: std::process::Stdio) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_dynotraj"))
+        .args(args)
+        .env_remove("DYNOTRAJ_KITTI")
+        .stdout(stdout)
+        .output()
+        .expect("runs the binary");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+#[test]
+fn output_that_cannot_be_written_ends_the_command_without_a_panic() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().unwrap();
+    // A full disk: `println!` (dataset's table) and a writer's error (completions) alike.
+    for args in [&["dataset", "--kitti", kitti][..], &["completions", "bash"][..], &["man"][..]] {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").expect("/dev/full");
+        let (code, err) = run_into(args, full.into());
+        assert_eq!(code, 1, "dynotraj {}: exit {code}, stderr:\n{err}", args.join(" "));
+        assert!(err.contains("No space left on device"), "dynotraj {}: stderr:\n{err}", args.join(" "));
+        assert!(!err.contains("panicked"), "dynotraj {}: panicked:\n{err}", args.join(" "));
+    }
+    // A reader that closed the pipe before the command wrote: the exit code of SIGPIPE, quietly.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dynotraj"))
+        .args(["completions", "bash"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawns");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("waits");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "stderr:\n{err}");
+    assert!(!err.contains("panicked") && !err.contains("error"), "stderr:\n{err}");
+}
