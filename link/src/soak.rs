@@ -10,7 +10,7 @@
 //! resident memory is read from /proc at the start and the end when its process id is known.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -39,6 +39,9 @@ pub struct SoakOptions {
     pub max_in_flight: u64,
     /// Told the number of camera frames sent, after each.
     pub on_frame: Option<OnFrame>,
+    /// Set (by a signal handler) to stop sending: the soak then ends as if `frames` were
+    /// reached, says goodbye and counts what it sent.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 impl std::fmt::Debug for SoakOptions {
@@ -50,6 +53,7 @@ impl std::fmt::Debug for SoakOptions {
             .field("reply_timeout", &self.reply_timeout)
             .field("max_in_flight", &self.max_in_flight)
             .field("on_frame", &self.on_frame.is_some())
+            .field("stop", &self.stop)
             .finish()
     }
 }
@@ -63,6 +67,7 @@ impl Default for SoakOptions {
             reply_timeout: Duration::from_secs(30),
             max_in_flight: 8,
             on_frame: None,
+            stop: None,
         }
     }
 }
@@ -109,6 +114,8 @@ pub struct SoakReport {
     pub edge_memory: Option<(Memory, Memory)>,
     /// Wall-clock seconds.
     pub seconds: f64,
+    /// Whether [`SoakOptions::stop`] ended it before `frames`.
+    pub interrupted: bool,
 }
 
 impl SoakReport {
@@ -178,6 +185,10 @@ pub fn soak(
         .map_or(50_000, |(b, a)| b.timestamp_us.saturating_sub(a.timestamp_us).max(1));
     let mut edge_start = None;
     for k in 0..opt.frames {
+        if opt.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed)) {
+            report.interrupted = true;
+            break;
+        }
         // Bounded backlog: wait (with a deadline, since a damaged frame is never answered)
         // until the edge has answered a frame close enough behind this one.
         let deadline = Instant::now() + Duration::from_millis(500);
@@ -186,13 +197,24 @@ pub fn soak(
         }
         let Some(f) = usize::try_from(k).ok().and_then(|i| base.frames.get(i % base.frames.len())) else { break };
         let frame = u32::try_from(k).context("frame number")?;
-        for part in &f.parts {
-            let mut p = part.clone();
-            p.frame = frame;
-            p.timestamp_us = k * period_us;
-            sender.send(&Message::FrameTracks(p))?;
+        let sent = f
+            .parts
+            .iter()
+            .try_for_each(|part| {
+                let mut p = part.clone();
+                p.frame = frame;
+                p.timestamp_us = k * period_us;
+                sender.send(&Message::FrameTracks(p))
+            })
+            .and_then(|()| sender.flush());
+        if let Err(e) = sent {
+            // A signal that stops this soak may have stopped the edge first.
+            if opt.stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed)) {
+                report.interrupted = true;
+                break;
+            }
+            return Err(e);
         }
-        sender.flush()?;
         if let Some(d) = usize::try_from(k).ok().and_then(|i| damaged.get_mut(i)) {
             *d = sender.writer_mut().take_damaged();
         }
@@ -210,11 +232,15 @@ pub fn soak(
         received: DecoderStats::default(),
     };
     sender.writer_mut().arm(false);
-    sender.send(&Message::LinkStats(goodbye))?;
-    sender.flush()?;
+    let said = sender.send(&Message::LinkStats(goodbye)).and_then(|()| sender.flush());
+    // Interrupted, the edge may have been stopped by the same signal: what was counted stands.
+    if !report.interrupted {
+        said?;
+    }
     report.wire_frames_sent = sender.sent();
     report.faults = sender.writer().counts();
     let seen = seen_rx.recv_timeout(opt.reply_timeout).unwrap_or_default();
+    damaged.truncate(usize::try_from(report.frames_sent).unwrap_or(usize::MAX));
     let mut answered = vec![false; damaged.len()];
     for &f in &seen.answered {
         if let Some(a) = answered.get_mut(f as usize) {
