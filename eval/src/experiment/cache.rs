@@ -96,8 +96,18 @@ impl FoldCache {
     /// `report.sequence` are taken from `template`.
     #[must_use]
     pub fn load(&self, name: &str, key: u64, template: &FoldReport) -> Option<CachedFold> {
-        let f32_blob = std::fs::read(self.path(name, key, "blob")).ok()?;
-        let int8_blob = std::fs::read(self.path(name, key, "blob.int8")).ok()?;
+        let blob = |ext| {
+            let path = self.path(name, key, ext);
+            let bytes = std::fs::read(&path).ok()?;
+            match dynotraj_core::model::blob::ModelBlob::parse_exact(&bytes) {
+                Ok(_) => Some(bytes),
+                Err(e) => {
+                    log::warn!("{}: a damaged fold cache file ({e}); the fold is trained again", path.display());
+                    None
+                }
+            }
+        };
+        let (f32_blob, int8_blob) = (blob("blob")?, blob("blob.int8")?);
         let text = std::fs::read_to_string(self.path(name, key, "fold")).ok()?;
         let v: Vec<&str> = text.split_whitespace().collect();
         let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td] = v[..] else {
@@ -150,11 +160,19 @@ impl FoldCache {
             p.accel_decay,
             p.turn_decay
         );
+        // The .fold file last: a fold is read only when all three are there, and each is
+        // written under a temporary name and renamed, so an interrupted run leaves no fold that
+        // looks complete.
         for (ext, bytes) in
             [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
         {
             let path = self.path(name, key, ext);
-            std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+            let mut partial = path.clone().into_os_string();
+            partial.push(".partial");
+            let partial = PathBuf::from(partial);
+            std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
+            std::fs::rename(&partial, &path)
+                .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
         }
         Ok(())
     }
@@ -212,13 +230,27 @@ mod tests {
             seconds: 2.5,
             cached: false,
         };
-        let fold = CachedFold { f32_blob: vec![1, 2, 3], int8_blob: vec![4, 5], report: report.clone() };
+        let blob = |p| dynotraj_sim::bench_inputs::random_blob(&dynotraj_core::model::Dims::DEFAULT, p, 0.05);
+        let (f32_blob, int8_blob) =
+            (blob(dynotraj_core::model::blob::Precision::F32), blob(dynotraj_core::model::blob::Precision::Int8));
+        let fold = CachedFold { f32_blob, int8_blob, report: report.clone() };
         cache.store("gt-0003", 7, &fold).unwrap();
         let template = FoldReport { train_instances: 0, cached: true, ..report.clone() };
         let read = CachedFold { report: FoldReport { cached: true, ..report }, ..fold };
         assert_eq!(cache.load("gt-0003", 7, &template), Some(read));
         assert_eq!(cache.load("gt-0003", 8, &template), None);
+        let int8 = dir.path().join(format!("gt-0003-{:016x}.blob.int8", 7));
+        let good = std::fs::read(&int8).unwrap();
+        let mut bad = good.clone();
+        let mid = bad.len() / 2;
+        bad[mid] ^= 1;
+        std::fs::write(&int8, &bad).unwrap();
+        assert_eq!(cache.load("gt-0003", 7, &template), None, "a damaged model blob is a miss, not an error later");
+        std::fs::write(&int8, &good).unwrap();
         std::fs::write(dir.path().join(format!("gt-0003-{:016x}.fold", 7)), "3 x").unwrap();
         assert_eq!(cache.load("gt-0003", 7, &template), None);
+        assert!(
+            std::fs::read_dir(dir.path()).unwrap().all(|e| !e.unwrap().path().to_string_lossy().ends_with(".partial"))
+        );
     }
 }

@@ -7,13 +7,15 @@
 //! bump the version with one, or run with `--no-cache`. Estimates from real images are not
 //! cached (the key would have to read every image).
 //!
-//! File: `estimated-<seq>-<key>.bin`, the [`EstimatedTracks`] as postcard bytes. A file that
-//! does not decode is a miss, never an error.
+//! File: `estimated-<seq>-<key>.bin`, the [`EstimatedTracks`] as postcard bytes followed by
+//! their CRC-32 (little-endian). A file whose checksum does not match or that does not decode
+//! is a miss (said in a warning), never an error; a file is written under a temporary name and
+//! renamed, so an interrupted run leaves none that looks complete.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use crc::{CRC_64_ECMA_182, Crc};
+use crc::{CRC_32_ISO_HDLC, CRC_64_ECMA_182, Crc};
 
 use super::settings::EstimateSettings;
 use crate::estimation::EstimatedTracks;
@@ -23,8 +25,12 @@ use dynotraj_formats::kitti::SequenceData;
 /// estimator's arithmetic (2: one-pass Levenberg-Marquardt with a cost-based stop; 4: RANSAC's
 /// hypotheses by TRIAD instead of an SVD, and a step whose promised decrease is below the stop
 /// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame; 6: and the
-/// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept).
-pub const ESTIMATE_CACHE_VERSION: u32 = 7;
+/// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept;
+/// 8: files end in a checksum).
+pub const ESTIMATE_CACHE_VERSION: u32 = 8;
+
+/// The checksum every cache file ends in.
+const FILE_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
 /// The key of sequence `id`'s estimation inputs.
 ///
@@ -74,17 +80,29 @@ pub fn load(dir: &Path, id: &str, key: u64) -> Option<EstimatedTracks> {
     load_file(&path(dir, id, key))
 }
 
-/// The value a cache file at `path` holds, if it is readable and decodes (else a miss).
+/// The value a cache file at `path` holds, if it is readable, its checksum matches and it
+/// decodes; else a miss, with a warning when the file is there but damaged.
 pub(crate) fn load_file<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
-    postcard::from_bytes(&std::fs::read(path).ok()?).ok()
+    let bytes = std::fs::read(path).ok()?;
+    let value = bytes
+        .split_last_chunk::<4>()
+        .filter(|(payload, crc)| FILE_CRC.checksum(payload) == u32::from_le_bytes(**crc))
+        .and_then(|(payload, _)| postcard::from_bytes(payload).ok());
+    if value.is_none() {
+        log::warn!("{}: a damaged cache file (checksum or contents); computed again", path.display());
+    }
+    value
 }
 
 /// Writes `value` as the cache file `path` in `dir` (created if missing); `what` names it in
 /// an encoding error.
 pub(crate) fn store_file<T: serde::Serialize>(dir: &Path, path: &Path, value: &T, what: &str) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let bytes = postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?;
-    std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))
+    let mut bytes = postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?;
+    bytes.extend_from_slice(&FILE_CRC.checksum(&bytes).to_le_bytes());
+    let partial = path.with_extension("partial");
+    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
+    std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
 }
 
 /// Keeps `tracks` of `id` under `key`.
@@ -143,5 +161,40 @@ mod tests {
         assert_eq!(load(dir.path(), "0003", 10), None);
         std::fs::write(path(dir.path(), "0003", 9), [1, 2, 3]).unwrap();
         assert_eq!(load(dir.path(), "0003", 9), None);
+    }
+
+    #[test]
+    fn every_single_byte_flip_or_cut_of_a_cache_file_is_a_miss() {
+        let dir = tempfile::tempdir().unwrap();
+        let track = ObjectTrack {
+            track_id: 1,
+            class: ObjectClass::Car,
+            frames: vec![0, 1, 2],
+            states: vec![BevState { x: 10.0, y: 3.0, heading: 0.1, speed: 7.0 }; 3],
+        };
+        let tracks = EstimatedTracks {
+            input: EstimateInput::Tracks,
+            causal: vec![track.clone()],
+            smoothed: vec![track.clone()],
+            rpe: None,
+            truth: vec![track],
+            cameras: std::collections::BTreeMap::new(),
+            rpe_frames: [vec![], vec![], vec![]],
+            frames: 3,
+        };
+        store(dir.path(), "0003", 1, &tracks).unwrap();
+        let file = path(dir.path(), "0003", 1);
+        let good = std::fs::read(&file).unwrap();
+        assert!(!file.with_extension("partial").exists(), "written under a temporary name, then renamed");
+        for at in 0..good.len() {
+            let mut bad = good.clone();
+            bad[at] ^= 0x10;
+            std::fs::write(&file, &bad).unwrap();
+            assert_eq!(load(dir.path(), "0003", 1), None, "byte {at} flipped was read back");
+        }
+        std::fs::write(&file, &good[..good.len() - 1]).unwrap();
+        assert_eq!(load(dir.path(), "0003", 1), None, "a cut file was read back");
+        std::fs::write(&file, &good).unwrap();
+        assert_eq!(load(dir.path(), "0003", 1), Some(tracks));
     }
 }

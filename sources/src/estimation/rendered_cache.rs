@@ -6,8 +6,9 @@
 //! rendering depends on (sequence id, classes, seed, render scale, frame period, frame limit)
 //! and the bytes of the sequence's label, calibration and pose files. The estimator's settings
 //! are not part of it. What the key cannot see is a change to the image simulator or the
-//! front-end: bump the version with one. File: `rendered-<seq>-<key>.bin`, postcard bytes; a file
-//! that does not decode is a miss, never an error.
+//! front-end: bump the version with one. File: `rendered-<seq>-<key>.bin`, postcard bytes and their
+//! CRC-32, written as the estimate cache writes its files; a file whose checksum does not match
+//! or that does not decode is a miss, never an error.
 
 use std::path::{Path, PathBuf};
 
@@ -22,8 +23,9 @@ use super::cache::{load_file, store_file};
 use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
-/// clear of object masks; 3: a ground plane fitted under the ego path).
-pub const RENDERED_CACHE_VERSION: u32 = 3;
+/// clear of object masks; 3: a ground plane fitted under the ego path; 4: files end in a
+/// checksum).
+pub const RENDERED_CACHE_VERSION: u32 = 4;
 
 /// What a rendering depends on besides the sequence's files.
 #[derive(Debug, Clone, PartialEq)]
