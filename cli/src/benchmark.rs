@@ -31,7 +31,7 @@ pub struct BenchmarkArgs {
     #[arg(long, value_delimiter = ',', default_value = "gt,gt-ekf,estimated", value_name = "LIST")]
     pub arms: Vec<Source>,
     /// Sequences to load (default: every sequence in --kitti); each is held out once.
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Number of folds: the sorted sequences are dealt out in turn (fold k holds the k-th,
     /// (k + N)-th, ... sequence).

@@ -14,7 +14,7 @@ pub struct DatasetArgs {
     #[command(flatten)]
     pub data: DataArgs,
     /// Sequences to list, comma-separated (default: every sequence in the folder).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Sources whose tracks are counted, comma-separated: gt (the labels; gt-ekf and gt-rts
     /// share their runs), estimated (the estimator's causal tracks), estimated-smoothed.

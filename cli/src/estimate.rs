@@ -44,7 +44,7 @@ pub struct EstimateArgs {
     )]
     pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// The feature tracks' source (rendered by default, as every command; `tracks`: the
     /// track-level simulator with the noise below), the renderings' cache and the jobs.

@@ -30,7 +30,7 @@ pub struct EvalArgs {
     pub predictor: Vec<PredictorSpec>,
     /// Test sequences, comma-separated (default: the paper's 0000,0003,0005,0018,0020), as
     /// `experiment --tests`.
-    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[arg(long, value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub tests: Vec<String>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]

@@ -26,10 +26,10 @@ pub struct ExperimentArgs {
     /// Sequences to load (default: every sequence in --kitti); every loaded sequence that is
     /// not the fold's test sequence is trained on. The paper's setting is
     /// `--sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020`.
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Test sequences, each held out in turn (default: the paper's 0000, 0003, 0005, 0018, 0020).
-    #[arg(long, value_delimiter = ',', value_name = "LIST")]
+    #[arg(long, value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub tests: Vec<String>,
     /// Objects the per-object figures draw, as SEQ:ID with ID the object number (the KITTI
     /// track id plus 1, as in the pose files and `estimate --per-object`); repeatable or

@@ -30,7 +30,7 @@ pub struct ForecastArgs {
     #[arg(long, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
     /// The KITTI sequence to simulate, e.g. 0000 (one).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
     pub sequences: Vec<String>,
     /// Only the first N frames.
     #[arg(long, value_name = "N")]

@@ -138,6 +138,15 @@ pub fn object_class(text: &str) -> Result<dynotraj_core::wire::ObjectClass, Stri
     })
 }
 
+/// A sequence id (`--sequences`, `--tests`, `--exclude`): it names files and folders, so it
+/// is a plain name ([`dynotraj_formats::kitti::checked_sequence_id`]).
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn sequence_id(text: &str) -> Result<String, String> {
+    dynotraj_formats::kitti::checked_sequence_id(text.trim()).map(str::to_string).map_err(|e| e.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

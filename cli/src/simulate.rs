@@ -30,7 +30,7 @@ pub struct SimulateArgs {
     pub drive: bool,
     /// Sequences to render, comma-separated (default: every sequence in the folder). The
     /// synthetic drive is one sequence, written as 0000 unless one id is given.
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Output folder (KITTI tracking layout).
     #[arg(long, value_name = "DIR", required_unless_present = "e2e")]

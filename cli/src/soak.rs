@@ -29,7 +29,7 @@ pub struct SoakArgs {
     #[arg(long, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
     /// The KITTI sequence to simulate, e.g. 0000 (one: a stream is one sequence).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
     pub sequences: Vec<String>,
     /// Camera frames to send.
     #[arg(long, default_value_t = 100_000, value_name = "N")]

@@ -33,7 +33,7 @@ pub struct StreamArgs {
     #[arg(long, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
     /// The KITTI sequence to simulate and send, e.g. 0000 (one: a stream is one sequence).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "ID")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
     pub sequences: Vec<String>,
     /// Only the first N frames.
     #[arg(long, value_name = "N")]

@@ -27,7 +27,7 @@ pub struct TrackArgs {
     pub kitti: Option<PathBuf>,
     /// Sequences to track, comma-separated (default: every sequence with images in
     /// image_02/).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Folder for the tracks files, one per sequence: `<DIR>/<sequence>.dtt`.
     #[arg(long, value_name = "DIR", required_unless_present_any = ["bench", "check"])]

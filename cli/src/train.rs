@@ -56,11 +56,11 @@ pub struct TrainArgs {
     #[arg(long, default_value = "gt", value_name = "SOURCE")]
     pub source: Source,
     /// Sequences held out of training (the fold's test sequences), comma-separated.
-    #[arg(long, value_delimiter = ',', required = true, value_name = "SEQ[,SEQ..]")]
+    #[arg(long, value_delimiter = ',', value_parser = crate::numbers::sequence_id, required = true, value_name = "SEQ[,SEQ..]")]
     pub exclude: Vec<String>,
     /// Sequences to load, comma-separated (default: every sequence in the folder); the
     /// excluded ones are then dropped.
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_name = "LIST")]
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Folder for the model: `model.blob` (at --precision), `model.blob.int8` (the int8 blob)
     /// and `model.blob.safetensors` (the checkpoint: every parameter, training-only ones too,

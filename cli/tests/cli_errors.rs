@@ -293,3 +293,18 @@ fn output_that_cannot_be_written_ends_the_command_without_a_panic() {
     assert_eq!(out.status.code(), Some(141), "stderr:\n{err}");
     assert!(!err.contains("panicked") && !err.contains("error"), "stderr:\n{err}");
 }
+
+#[test]
+fn a_sequence_id_that_is_a_path_is_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("sim");
+    let sim = out.to_str().unwrap();
+    refused(
+        &["simulate", "--drive", "--sequences", "../../escape", "--out", sim, "--frames", "2", "--scale", "0.5"],
+        2,
+        "expected a sequence id of 1 to 64 letters, digits, `_` or `-` (it names files), e.g. 0003, found `../../escape`",
+    );
+    refused(&["dataset", "--kitti", ".", "--sequences", "0000,a/b"], 2, "found `a/b`");
+    refused(&["train", "--kitti", ".", "--source", "gt", "--exclude", "..", "--out", sim], 2, "found `..`");
+    assert!(!out.exists() && !dir.path().join("escape").exists(), "nothing written");
+}

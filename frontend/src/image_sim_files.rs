@@ -131,6 +131,7 @@ pub fn write_sequence_with(
     frames: usize,
     on_frame: Option<&dyn Fn(u64)>,
 ) -> anyhow::Result<()> {
+    let seq = dynotraj_formats::kitti::checked_sequence_id(seq)?;
     for folder in ["image_02", "image_03", "depth_02", "instance_02"] {
         let d = dir.join(folder).join(seq);
         std::fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;

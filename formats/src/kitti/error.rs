@@ -62,6 +62,15 @@ pub enum KittiError {
         pose_count: usize,
     },
 
+    /// A sequence id that is no plain name: ids name files and folders (`label_02/<id>.txt`),
+    /// so one holding a path separator or `..` could reach outside the tracking directory.
+    #[error("{}: sequence `{id}`: {}", root.display(), SEQUENCE_ID_EXPECTED)]
+    BadSequenceId {
+        /// The tracking directory.
+        root: PathBuf,
+        /// The id given.
+        id: String,
+    },
     /// The path of the tracking directory names something that exists but is not a folder.
     #[error("{}: not a folder (the KITTI tracking directory holds label_02/, calib/, ...)", path.display())]
     NotADirectory {
@@ -78,6 +87,25 @@ pub enum KittiError {
     },
 }
 
+/// What a sequence id must be.
+pub const SEQUENCE_ID_EXPECTED: &str =
+    "expected a sequence id of 1 to 64 letters, digits, `_` or `-` (it names files), e.g. 0003";
+
+/// A sequence id that is no plain name ([`checked_sequence_id`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{SEQUENCE_ID_EXPECTED}, found `{0}`")]
+pub struct SequenceIdError(pub String);
+
+/// `id` when it is a plain name: 1 to 64 ASCII letters, digits, `_` or `-`. Sequence ids name
+/// files and folders, in the tracking directory and in outputs.
+///
+/// # Errors
+/// Anything else ([`SequenceIdError`]).
+pub fn checked_sequence_id(id: &str) -> Result<&str, SequenceIdError> {
+    let plain = (1..=64).contains(&id.len()) && id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-');
+    if plain { Ok(id) } else { Err(SequenceIdError(id.to_string())) }
+}
+
 impl KittiError {
     /// The file or directory this error is about.
     #[must_use]
@@ -87,6 +115,7 @@ impl KittiError {
             | KittiError::Parse { path, .. }
             | KittiError::Missing { path, .. }
             | KittiError::NotADirectory { path } => path,
+            KittiError::BadSequenceId { root, .. } => root,
             KittiError::FrameCountMismatch { poses_path, .. } => poses_path,
         }
     }
@@ -107,6 +136,24 @@ impl fmt::Display for ColumnNote {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sequence_ids_are_plain_names() {
+        for good in ["0003", "drive_2026-12-04", "a"] {
+            assert_eq!(checked_sequence_id(good), Ok(good));
+        }
+        let long = "x".repeat(65);
+        for bad in ["", "../../escape", "a/b", "..", ".", "x y", "a\\b", "0003\n", long.as_str()] {
+            let e = checked_sequence_id(bad).unwrap_err();
+            assert!(e.to_string().contains("expected a sequence id") && e.0 == bad, "{bad}: {e}");
+        }
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::create_dir(tmp.path().join("label_02")).unwrap();
+        let dir = crate::kitti::TrackingDir::open(tmp.path()).unwrap();
+        let e = dir.load_sequence("../../etc").unwrap_err();
+        assert!(matches!(&e, KittiError::BadSequenceId { id, .. } if id == "../../etc"), "{e}");
+        assert!(e.to_string().contains("sequence `../../etc`: expected a sequence id"), "{e}");
+    }
 
     #[test]
     fn parse_message_names_file_line_field_column() {

@@ -174,6 +174,11 @@ impl TrackingDir {
         self.file(source.folder(), id)
     }
 
+    /// `id` as a plain name, or the error that names the folder and the id.
+    fn checked_id<'a>(&self, id: &'a str) -> Result<&'a str, KittiError> {
+        super::checked_sequence_id(id).map_err(|e| KittiError::BadSequenceId { root: self.root.clone(), id: e.0 })
+    }
+
     /// The pose sources present for sequence `id`, in order of preference.
     #[must_use]
     pub fn pose_sources(&self, id: &str) -> Vec<PoseSource> {
@@ -187,6 +192,7 @@ impl TrackingDir {
     /// [`KittiError::Missing`] when no pose source exists, otherwise as
     /// [`TrackingDir::load_sequence_with`].
     pub fn load_sequence(&self, id: &str) -> Result<SequenceData, KittiError> {
+        self.checked_id(id)?;
         let Some(source) = self.pose_sources(id).first().copied() else {
             return Err(KittiError::Missing {
                 path: self.root.clone(),
@@ -205,6 +211,7 @@ impl TrackingDir {
     /// malformed), and [`KittiError::FrameCountMismatch`] unless the pose count equals the highest
     /// labelled frame + 1; [`KittiError::Missing`] when the label file has no rows.
     pub fn load_sequence_with(&self, id: &str, source: PoseSource) -> Result<SequenceData, KittiError> {
+        self.checked_id(id)?;
         let labels_path = self.labels_path(id);
         let calib_path = self.calib_path(id);
         let poses_path = self.poses_path(id, source);

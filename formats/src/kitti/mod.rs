@@ -33,7 +33,7 @@ mod text;
 mod test_support;
 
 pub use calib::{Calib, parse_calib, read_calib};
-pub use error::KittiError;
+pub use error::{KittiError, SequenceIdError, checked_sequence_id};
 pub use label::{LabelRow, format_label_row, label_frame_count, parse_labels, read_labels, write_labels};
 pub use layout::{PoseSource, SequenceData, TrackingDir};
 pub use oxts::{OxtsPacket, camera_poses_from_oxts, oxts_to_imu_poses, parse_oxts, read_oxts};
