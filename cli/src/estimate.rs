@@ -210,6 +210,28 @@ impl EstimateArgs {
     }
 }
 
+/// An `--outliers` share from which most of the simulated tracks lie: the estimate is then
+/// expected to fail, which deserves a word before it does.
+pub const OUTLIERS_WARNING: f64 = 0.5;
+
+/// A share of frames with numerical failures from which the estimate is said to be unreliable.
+pub const NUMERICAL_FAILURE_SHARE: f64 = 0.05;
+
+/// The warning for `failures` numerical failures in `frames` frames of sequence `id`, when they
+/// are [`NUMERICAL_FAILURE_SHARE`] of the frames or more: each is a solve the estimator
+/// answered by holding its state, so many of them mean the figures printed are not the
+/// estimator's.
+#[must_use]
+pub fn numerical_warning(id: &str, profile: &str, failures: u32, frames: usize) -> Option<String> {
+    (failures > 0 && f64::from(failures) >= NUMERICAL_FAILURE_SHARE * frames as f64).then(|| {
+        format!(
+            "warning: sequence {id} ({profile} profile): {failures} numerical failures in {frames} frames (singular or \
+             non-finite systems, answered by holding the state): the figures are not trustworthy; check the \
+             calibration and the noise settings (--counters lists every counter)"
+        )
+    })
+}
+
 /// Runs every sequence, prints the tables and writes the files.
 ///
 /// # Errors
@@ -242,7 +264,20 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         }
         return print_tables(args, named);
     }
+    if !args.noise_free && args.outliers >= OUTLIERS_WARNING {
+        eprintln!(
+            "warning: --outliers {}: at least {:.0} % of every frame's simulated tracks are outliers; expect the \
+             estimate to fail",
+            args.outliers,
+            OUTLIERS_WARNING * 100.0
+        );
+    }
     let results = estimate_sequences(args)?;
+    for r in &results {
+        if let Some(w) = numerical_warning(&r.id, r.profile, r.stats.numerical_failures, r.frames) {
+            eprintln!("{w}");
+        }
+    }
     if let (true, Some(dir)) = (args.write_tracks, &args.out) {
         std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
         // Every profile estimates the same simulated tracks: write them once.
@@ -392,4 +427,18 @@ pub fn estimate_sequences(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceRes
         }
     }
     Ok(by_profile.into_iter().flatten().collect())
+}
+
+#[cfg(test)]
+mod warning_tests {
+    use super::*;
+
+    #[test]
+    fn many_numerical_failures_are_said_and_a_few_are_not() {
+        assert_eq!(numerical_warning("0003", "host", 0, 100), None);
+        assert_eq!(numerical_warning("0003", "host", 4, 100), None);
+        let w = numerical_warning("0003", "host", 142, 144).unwrap();
+        assert!(w.starts_with("warning: sequence 0003 (host profile): 142 numerical failures in 144 frames"), "{w}");
+        assert!(w.contains("--counters"), "{w}");
+    }
 }

@@ -308,3 +308,20 @@ fn a_sequence_id_that_is_a_path_is_refused_before_anything_is_written() {
     refused(&["train", "--kitti", ".", "--source", "gt", "--exclude", "..", "--out", sim], 2, "found `..`");
     assert!(!out.exists() && !dir.path().join("escape").exists(), "nothing written");
 }
+
+#[test]
+fn an_outlier_share_that_swamps_the_tracks_is_warned_about() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    synthetic_kitti(dir.path());
+    let kitti = dir.path().to_str().unwrap();
+    let base = ["estimate", "--kitti", kitti, "--sequences", "0000", "--ours-input", "tracks", "--frames", "10"];
+    let (code, err) = run(&[&base[..], &["--outliers", "1"]].concat());
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("warning: --outliers 1: at least 50 % of every frame's simulated tracks are outliers"),
+        "{err}"
+    );
+    let (code, err) = run(&base);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("warning: --outliers"), "{err}");
+}
