@@ -148,3 +148,28 @@ fn a_session_reset_in_place_answers_as_a_new_one() {
     assert!(!first.output.is_empty());
     assert_eq!(first.output, second.output, "the reset session answers bit for bit as the new one");
 }
+
+/// A host streaming faster than the edge's 100 ms poll leaves no quiet read; a second client is
+/// still told at once that the edge is busy, not served when the first session ends.
+#[test]
+fn a_client_is_told_the_edge_is_busy_while_another_streams_fast() {
+    let tracks = scene_tracks(80);
+    let (mut edge, lines, addr) = spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--sessions", "1"]);
+    let first_addr = addr.clone();
+    let first = std::thread::spawn(move || {
+        let (rx, tx) = connect(&Endpoint::Tcp(first_addr), Duration::from_secs(10)).unwrap();
+        let opt = StreamOptions { rate_hz: Some(20.0), ..StreamOptions::default() };
+        stream(&tracks, rx, tx, &opt)
+    });
+    std::thread::sleep(Duration::from_secs(1));
+    let started = Instant::now();
+    let second = TcpStream::connect(&addr).unwrap();
+    assert_eq!(notices_until_closed(second), [Notice::Busy], "the second client is told the edge is busy");
+    let waited = started.elapsed();
+    let one = first.join().unwrap();
+    assert!(one.edge_link.is_some(), "the first session ran to its goodbye");
+    assert!(waited < Duration::from_millis(1500), "told within the poll, not after the session: {waited:?}");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(edge.wait().unwrap().success(), "{rest:#?}");
+    assert!(rest.iter().any(|l| l.contains("refused 127.0.0.1:")), "{rest:#?}");
+}

@@ -53,6 +53,10 @@ pub trait OnPoll {
     /// # Errors
     /// The link should stop waiting.
     fn on_poll(&mut self, idle_for: Duration) -> Result<(), LinkError>;
+
+    /// Called after each read that brought bytes: a busy link is never quiet, and what a poll
+    /// does that cannot wait for quiet (answering waiting clients) happens here too.
+    fn on_bytes(&mut self) {}
 }
 
 /// Waits only for the stop flag (serial, stdio).
@@ -87,7 +91,11 @@ impl<R: Read, W, P: OnPoll> embedded_io::Read for Link<R, W, P> {
                 Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
                     self.poll.on_poll(quiet_since.elapsed())?;
                 }
-                other => return other.map_err(LinkError::Io),
+                Ok(n) => {
+                    self.poll.on_bytes();
+                    return Ok(n);
+                }
+                Err(e) => return Err(LinkError::Io(e)),
             }
         }
     }

@@ -6,7 +6,7 @@
 use std::io::Write as _;
 use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs as _};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, Notice, encode};
 
@@ -22,8 +22,17 @@ pub struct TcpPoll<'a> {
     stop: &'a AtomicBool,
     idle_limit: Duration,
     serving: SocketAddr,
+    /// When waiting clients were last refused.
+    refused_at: Instant,
     /// Clients refused while this session ran.
     pub refused: u32,
+}
+
+impl TcpPoll<'_> {
+    fn refuse(&mut self) {
+        self.refused += refuse_waiting(self.listener, self.serving);
+        self.refused_at = Instant::now();
+    }
 }
 
 impl OnPoll for TcpPoll<'_> {
@@ -31,8 +40,16 @@ impl OnPoll for TcpPoll<'_> {
         if self.stop.load(Ordering::Relaxed) {
             return Err(LinkError::Stopped);
         }
-        self.refused += refuse_waiting(self.listener, self.serving);
+        self.refuse();
         if idle_for >= self.idle_limit { Err(LinkError::Idle(self.idle_limit)) } else { Ok(()) }
+    }
+
+    /// A host streaming faster than [`POLL`] leaves no quiet read: waiting clients are refused
+    /// every [`POLL`] all the same.
+    fn on_bytes(&mut self) {
+        if self.refused_at.elapsed() >= POLL {
+            self.refuse();
+        }
     }
 }
 
@@ -96,7 +113,8 @@ pub fn session_link<'a>(
     client.set_read_timeout(Some(POLL))?;
     client.set_nodelay(true)?;
     let rx = client.try_clone()?;
-    Ok(Link { rx, tx: client, poll: TcpPoll { listener, stop, idle_limit, serving: peer, refused: 0 } })
+    let poll = TcpPoll { listener, stop, idle_limit, serving: peer, refused_at: Instant::now(), refused: 0 };
+    Ok(Link { rx, tx: client, poll })
 }
 
 /// Tells every client waiting on `listener` that the edge is busy with `serving`, and closes
