@@ -173,3 +173,28 @@ fn a_client_is_told_the_edge_is_busy_while_another_streams_fast() {
     assert!(edge.wait().unwrap().success(), "{rest:#?}");
     assert!(rest.iter().any(|l| l.contains("refused 127.0.0.1:")), "{rest:#?}");
 }
+
+/// Bytes that decode to no frame do not keep a session alive: a client trickling garbage is
+/// told it is idle at the limit, as a silent one is.
+#[test]
+fn a_client_trickling_garbage_is_idle_all_the_same() {
+    use std::io::Write as _;
+    let (mut edge, lines, addr) =
+        spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--idle-timeout", "1", "--sessions", "1"]);
+    let mut client = TcpStream::connect(&addr).unwrap();
+    let reader = client.try_clone().unwrap();
+    let started = Instant::now();
+    let told = std::thread::spawn(move || notices_until_closed(reader));
+    while started.elapsed() < Duration::from_secs(6) && !told.is_finished() {
+        if client.write_all(&[0x55]).is_err() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(40));
+    }
+    let notices = told.join().unwrap();
+    let waited = started.elapsed();
+    assert_eq!(notices, [Notice::IdleTimeout { seconds: 1 }], "the garbage client is told why");
+    assert!(waited < Duration::from_secs(4), "ended near its limit, not held: {waited:?}");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(edge.wait().unwrap().success(), "{rest:#?}");
+}

@@ -2,7 +2,8 @@
 //! wake every [`POLL`] so that a stop request or an idle link is noticed while waiting.
 
 use std::io::{ErrorKind, Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use dynotraj_core::wire::ComputeUnit;
@@ -55,8 +56,14 @@ pub trait OnPoll {
     fn on_poll(&mut self, idle_for: Duration) -> Result<(), LinkError>;
 
     /// Called after each read that brought bytes: a busy link is never quiet, and what a poll
-    /// does that cannot wait for quiet (answering waiting clients) happens here too.
-    fn on_bytes(&mut self) {}
+    /// does that cannot wait for quiet (answering waiting clients, an idle limit that counts
+    /// frames, not bytes) happens here too; an error ends the read.
+    ///
+    /// # Errors
+    /// The link should stop.
+    fn on_bytes(&mut self) -> Result<(), LinkError> {
+        Ok(())
+    }
 }
 
 /// Waits only for the stop flag (serial, stdio).
@@ -92,7 +99,7 @@ impl<R: Read, W, P: OnPoll> embedded_io::Read for Link<R, W, P> {
                     self.poll.on_poll(quiet_since.elapsed())?;
                 }
                 Ok(n) => {
-                    self.poll.on_bytes();
+                    self.poll.on_bytes()?;
                     return Ok(n);
                 }
                 Err(e) => return Err(LinkError::Io(e)),
@@ -115,12 +122,32 @@ impl<R, W: Write, P> embedded_io::Write for Link<R, W, P> {
 
 impl<R: Read, W: Write, P: OnPoll> Transport for Link<R, W, P> {}
 
-/// Nanoseconds since the edge started.
-pub struct WallClock(pub Instant);
+/// Nanoseconds since the edge started. The session reads it around the work of every frame
+/// part it decoded, so its last reading is also when a frame last arrived whole
+/// ([`WallClock::last_frame`]).
+pub struct WallClock {
+    start: Instant,
+    last: Arc<AtomicU64>,
+}
+
+impl WallClock {
+    /// A clock from now.
+    pub fn new() -> Self {
+        Self { start: Instant::now(), last: Arc::new(AtomicU64::new(0)) }
+    }
+
+    /// When a frame part was last decoded and worked on, as the shared reading and the instant
+    /// it counts from.
+    pub fn last_frame(&self) -> (Arc<AtomicU64>, Instant) {
+        (Arc::clone(&self.last), self.start)
+    }
+}
 
 impl Clock for WallClock {
     const UNIT: ComputeUnit = ComputeUnit::Nanoseconds;
     fn now(&mut self) -> u64 {
-        u64::try_from(self.0.elapsed().as_nanos()).unwrap_or(u64::MAX)
+        let now = u64::try_from(self.start.elapsed().as_nanos()).unwrap_or(u64::MAX);
+        self.last.store(now, Ordering::Relaxed);
+        now
     }
 }

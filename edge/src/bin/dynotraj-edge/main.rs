@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use clap::Parser;
 use dynotraj_core::model::blob::ModelBlob;
@@ -171,12 +171,8 @@ impl Edge {
 
 fn serve(args: &Args) -> Result<(), String> {
     let model = args.model.as_deref().map(model_file).transpose()?;
-    let mut edge = Edge {
-        model,
-        buffer: vec![0u8; MODEL_BUFFER_LEN],
-        clock: WallClock(Instant::now()),
-        totals: Totals::default(),
-    };
+    let mut edge =
+        Edge { model, buffer: vec![0u8; MODEL_BUFFER_LEN], clock: WallClock::new(), totals: Totals::default() };
     if let Some(url) = &args.listen {
         serve_tcp(&mut edge, url, args)
     } else if let Some(path) = &args.serial {
@@ -214,7 +210,8 @@ fn serve_tcp(edge: &mut Edge, url: &str, args: &Args) -> Result<(), String> {
         let Some((client, peer)) = tcp::next_client(&listener, &stop)? else { break };
         let who = format!("{} from {peer}", edge.totals.sessions + 1);
         eprintln!("dynotraj-edge: session {who} started");
-        let mut io = match tcp::session_link(client, peer, &listener, &stop, args.idle_timeout) {
+        let mut io = match tcp::session_link(client, peer, &listener, &stop, args.idle_timeout, edge.clock.last_frame())
+        {
             Ok(io) => io,
             Err(e) => {
                 eprintln!("dynotraj-edge: session {who} failed: setting up the socket: {e}");

@@ -5,7 +5,8 @@
 
 use std::io::Write as _;
 use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs as _};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use dynotraj_core::wire::{FrameBuf, MAX_FRAME_LEN, Message, Notice, encode};
@@ -24,6 +25,11 @@ pub struct TcpPoll<'a> {
     serving: SocketAddr,
     /// When waiting clients were last refused.
     refused_at: Instant,
+    /// When the session started.
+    started: Instant,
+    /// The clock's last reading (nanoseconds from `clock_start`): when a frame last decoded.
+    last_frame: Arc<AtomicU64>,
+    clock_start: Instant,
     /// Clients refused while this session ran.
     pub refused: u32,
 }
@@ -33,23 +39,37 @@ impl TcpPoll<'_> {
         self.refused += refuse_waiting(self.listener, self.serving);
         self.refused_at = Instant::now();
     }
+
+    /// Time since a frame last decoded (or since the session started): bytes that decode to
+    /// nothing do not keep a session alive.
+    fn idle_for(&self) -> Duration {
+        let last = self.clock_start + Duration::from_nanos(self.last_frame.load(Ordering::Relaxed));
+        self.started.max(last).elapsed()
+    }
+
+    fn idle(&self) -> Result<(), LinkError> {
+        if self.idle_for() >= self.idle_limit { Err(LinkError::Idle(self.idle_limit)) } else { Ok(()) }
+    }
 }
 
 impl OnPoll for TcpPoll<'_> {
-    fn on_poll(&mut self, idle_for: Duration) -> Result<(), LinkError> {
+    fn on_poll(&mut self, _quiet_for: Duration) -> Result<(), LinkError> {
         if self.stop.load(Ordering::Relaxed) {
             return Err(LinkError::Stopped);
         }
         self.refuse();
-        if idle_for >= self.idle_limit { Err(LinkError::Idle(self.idle_limit)) } else { Ok(()) }
+        self.idle()
     }
 
     /// A host streaming faster than [`POLL`] leaves no quiet read: waiting clients are refused
-    /// every [`POLL`] all the same.
-    fn on_bytes(&mut self) {
+    /// every [`POLL`] all the same, and a client trickling bytes that decode to no frame is
+    /// idle all the same.
+    fn on_bytes(&mut self) -> Result<(), LinkError> {
         if self.refused_at.elapsed() >= POLL {
             self.refuse();
+            return self.idle();
         }
+        Ok(())
     }
 }
 
@@ -108,12 +128,24 @@ pub fn session_link<'a>(
     listener: &'a TcpListener,
     stop: &'a AtomicBool,
     idle_limit: Duration,
+    (last_frame, clock_start): (Arc<AtomicU64>, Instant),
 ) -> std::io::Result<TcpLink<'a>> {
     client.set_nonblocking(false)?;
     client.set_read_timeout(Some(POLL))?;
     client.set_nodelay(true)?;
     let rx = client.try_clone()?;
-    let poll = TcpPoll { listener, stop, idle_limit, serving: peer, refused_at: Instant::now(), refused: 0 };
+    let now = Instant::now();
+    let poll = TcpPoll {
+        listener,
+        stop,
+        idle_limit,
+        serving: peer,
+        refused_at: now,
+        started: now,
+        last_frame,
+        clock_start,
+        refused: 0,
+    };
     Ok(Link { rx, tx: client, poll })
 }
 
