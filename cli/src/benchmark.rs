@@ -51,6 +51,7 @@ pub struct BenchmarkArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
+    args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
     args.run.check_table(&["weighted", "goal"])?;
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;

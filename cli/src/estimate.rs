@@ -237,6 +237,7 @@ pub fn numerical_warning(id: &str, profile: &str, failures: u32, frames: usize) 
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
+    args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
     let mut names = if args.bench {
         vec!["bench"]
     } else if args.tracks.is_some() {

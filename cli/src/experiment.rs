@@ -101,6 +101,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// # Errors
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
+    args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
     let names: &[&str] =
         if args.arms.iter().any(Source::is_estimated) { &["table_iv", "table_iv_truth"] } else { &["table_iv"] };
     args.run.check_table(names)?;

@@ -114,6 +114,7 @@ pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
+    args.out.as_deref().map(|d| common::output_folder("--out", d)).transpose()?;
     for id in sequence_ids(args)? {
         let sim = build(args, &id)?;
         let n = args.frames.unwrap_or(sim.len()).min(sim.len());

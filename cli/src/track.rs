@@ -66,6 +66,7 @@ pub struct TrackArgs {
 /// # Errors
 /// Reading, tracking or writing errors, named.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
+    args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
     anyhow::ensure!(
         args.rate.hz.is_finite() && args.rate.hz > 0.0,
         "--rate: expected a positive frame rate, found {}",

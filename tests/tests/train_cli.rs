@@ -122,4 +122,18 @@ fn an_out_that_cannot_be_a_folder_is_refused_before_any_work() {
     let Command::Soak(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the soak command") };
     let e = format!("{:#}", dynotraj_cli::soak::run(&a).unwrap_err());
     assert!(e.starts_with("--out ") && e.contains("expected a folder"), "{e}");
+    // Every other command that writes a folder checks it first too.
+    let (kitti, out) = (missing.to_str().unwrap(), file.to_str().unwrap());
+    for command in [
+        &["experiment"][..],
+        &["benchmark"][..],
+        &["estimate"][..],
+        &["track", "--sequences", "0000"][..],
+        &["simulate", "--sequences", "0000"][..],
+        &["stream", "--sequences", "0000", "--to", "tcp://127.0.0.1:9"][..],
+    ] {
+        let args = [&["dynotraj"][..], command, &["--kitti", kitti, "--out", out][..]].concat();
+        let e = format!("{:#}", dynotraj_cli::run(Cli::try_parse_from(&args).unwrap()).unwrap_err());
+        assert!(e.starts_with("--out ") && e.contains("expected a folder"), "{}: {e}", command[0]);
+    }
 }
