@@ -67,13 +67,12 @@ pub struct MinStepArg {
 }
 
 impl MinStepArg {
-    /// The threshold in single precision, as the eligibility rule holds it.
+    /// The threshold in single precision, as the eligibility rule holds it (within it: the
+    /// parser refused anything beyond).
     #[must_use]
+    #[allow(clippy::cast_possible_truncation)]
     pub fn single(&self) -> f32 {
-        // Within single precision: the parser refused anything beyond it.
-        #[allow(clippy::cast_possible_truncation)]
-        let m = self.metres as f32;
-        m
+        self.metres as f32
     }
 }
 

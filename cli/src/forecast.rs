@@ -17,21 +17,14 @@ use dynotraj_formats::tracks_file::Tracks;
 use dynotraj_link::stream::StreamResult;
 use dynotraj_link::wire_io::WireSender;
 
-use super::stream::{FORECASTS, REPLIES_BIN, input_tracks};
+use super::stream::{FORECASTS, REPLIES_BIN, TracksInputArgs};
 
 /// Options of `dynotraj forecast`.
 #[derive(Debug, Args)]
 pub struct ForecastArgs {
-    /// A tracks file (.dtt) to forecast from, as `dynotraj track` writes it.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
-    pub tracks: Option<PathBuf>,
-    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's labels and ego
-    /// poses drive the track-level simulator, as for `dynotraj stream`.
-    #[arg(long, value_name = "DIR")]
-    pub kitti: Option<PathBuf>,
-    /// The KITTI sequence to simulate, e.g. 0000 (one).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
-    pub sequences: Vec<String>,
+    /// Where the tracks come from.
+    #[command(flatten)]
+    pub input: TracksInputArgs,
     /// Only the first N frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
@@ -62,9 +55,7 @@ pub struct Forecasts {
 /// Input, model or output errors, named.
 pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
     crate::common::output_folder("--out", &args.out)?;
-    let tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, args.frames)?;
-    let tracks =
-        Tracks { frames: tracks.frames.into_iter().take(args.frames.unwrap_or(usize::MAX)).collect(), ..tracks };
+    let tracks = args.input.load(args.frames)?;
     let model = args.model.as_deref().map(model_blob).transpose()?;
     let out = forecast(&tracks, model.as_deref())?;
     write_table_files(&args.out, FORECASTS, &predictions_data(&out.result))?;
@@ -83,10 +74,8 @@ pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
 /// The model blob of the file at `path`: a signed one verified against the provisioned key.
 fn model_blob(path: &Path) -> anyhow::Result<Vec<u8>> {
     let bytes = read_model_file(path).context("--model")?;
-    let blob = match signed::split(&bytes) {
-        Ok(_) => signed::verify(&bytes, &dynotraj_edge::provisioned::MODEL_KEY).map(<[u8]>::to_vec).map_err(|e| {
-            anyhow::anyhow!("--model {}: {}", path.display(), dynotraj_formats::model_signing::describe(&e))
-        })?,
+    let blob = match signed::verify(&bytes, &dynotraj_edge::provisioned::MODEL_KEY) {
+        Ok(blob) => blob.to_vec(),
         Err(signed::SignatureError::Unsigned) => bytes,
         Err(e) => anyhow::bail!("--model {}: {}", path.display(), dynotraj_formats::model_signing::describe(&e)),
     };
@@ -111,7 +100,7 @@ pub fn forecast(tracks: &Tracks, model: Option<&[u8]>) -> anyhow::Result<Forecas
     }
     let frames_sent = u32::try_from(host.sent() + 1).unwrap_or(u32::MAX);
     host.send(&Message::LinkStats(LinkStats { frames_sent, received: DecoderStats::default() }))?;
-    let input = host.writer().clone();
+    let input = host.into_writer();
     let mut session: Box<Session<'_>> = Box::new(match model {
         Some(blob) => Session::with_model(blob).map_err(|e| anyhow::anyhow!("--model: the edge refuses it: {e}"))?,
         None => Session::new(),

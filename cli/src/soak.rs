@@ -11,7 +11,7 @@ use anyhow::Context as _;
 use clap::Args;
 
 use super::common::progress;
-use super::stream::input_tracks;
+use super::stream::TracksInputArgs;
 use dynotraj_eval::report::stream_report::{soak_data, soak_summary};
 use dynotraj_eval::report::write_table_files;
 use dynotraj_formats::tracks_file::Tracks;
@@ -21,16 +21,9 @@ use dynotraj_link::soak::{SoakOptions, SoakReport, soak};
 /// Options of `dynotraj soak`.
 #[derive(Debug, Args)]
 pub struct SoakArgs {
-    /// A tracks file (.dtt) whose frames are looped.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
-    pub tracks: Option<PathBuf>,
-    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's simulated
-    /// tracks are looped.
-    #[arg(long, value_name = "DIR")]
-    pub kitti: Option<PathBuf>,
-    /// The KITTI sequence to simulate, e.g. 0000 (one: a stream is one sequence).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
-    pub sequences: Vec<String>,
+    /// Where the tracks come from; their frames are looped.
+    #[command(flatten)]
+    pub input: TracksInputArgs,
     /// Camera frames to send.
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub frames: u64,
@@ -84,7 +77,7 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         "--fault-probability: expected 0..=1, found {}",
         args.fault_probability
     );
-    let base: Tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, None)?;
+    let base: Tracks = args.input.load(None)?;
     let edge = match &args.edge {
         Some(p) => p.clone(),
         None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),
@@ -118,7 +111,7 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         frames: args.frames,
         fault_probability: args.fault_probability,
         seed: args.seed,
-        on_frame: Some(bar.hook().shared()),
+        on_frame: Some(dynotraj_link::OnFrame(bar.hook().shared())),
         stop: Some(crate::interrupt::stop_flag()?),
         ..SoakOptions::default()
     };

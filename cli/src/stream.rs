@@ -24,17 +24,9 @@ use dynotraj_sources::estimation::simulated::camera_info;
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]
 pub struct StreamArgs {
-    /// A tracks file (.dtt) to send, as `dynotraj track` writes it.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
-    pub tracks: Option<PathBuf>,
-    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's labels and ego
-    /// poses drive the track-level simulator (as `dynotraj estimate` does) and its tracks are
-    /// sent.
-    #[arg(long, value_name = "DIR")]
-    pub kitti: Option<PathBuf>,
-    /// The KITTI sequence to simulate and send, e.g. 0000 (one: a stream is one sequence).
-    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
-    pub sequences: Vec<String>,
+    /// Where the tracks come from.
+    #[command(flatten)]
+    pub input: TracksInputArgs,
     /// Only the first N frames.
     #[arg(long, value_name = "N")]
     pub frames: Option<usize>,
@@ -67,7 +59,7 @@ pub struct StreamArgs {
 /// Input, link or output errors, named.
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
-    let tracks = load(args)?;
+    let tracks = args.input.load(args.frames)?;
     let model =
         args.model.as_ref().map(|p| dynotraj_formats::model_file::read_model_file(p).context("--model")).transpose()?;
     if let (Some(bytes), Some(p)) = (&model, &args.model)
@@ -89,7 +81,7 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
         reply_timeout: timeout,
         model,
         stop: Some(stop),
-        on_frame: Some(bar.hook().shared()),
+        on_frame: Some(dynotraj_link::OnFrame(bar.hook().shared())),
     };
     let (rx, tx) = connect(&args.to, timeout)?;
     let result = stream(&tracks, rx, tx, &opt);
@@ -176,33 +168,43 @@ fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
     std::fs::write(&path, &result.raw).with_context(|| format!("--out: writing {}", path.display()))
 }
 
-/// The tracks to send.
-pub(crate) fn load(args: &StreamArgs) -> anyhow::Result<Tracks> {
-    let mut tracks = input_tracks(args.tracks.as_deref(), args.kitti.as_deref(), &args.sequences, args.frames)?;
-    if let Some(n) = args.frames {
-        tracks.frames.truncate(n);
-    }
-    Ok(tracks)
+/// Where a one-stream command (stream, soak, forecast) takes its tracks: a tracks file, or the
+/// track-level simulator's stream of one sequence of a KITTI folder.
+#[derive(Debug, Args)]
+pub struct TracksInputArgs {
+    /// A tracks file (.dtt), as `dynotraj track` writes it.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["kitti", "sequences"])]
+    pub tracks: Option<PathBuf>,
+    /// A KITTI tracking split folder (default: $DYNOTRAJ_KITTI): the sequence's labels and ego
+    /// poses drive the track-level simulator (as `dynotraj estimate` does).
+    #[arg(long, value_name = "DIR")]
+    pub kitti: Option<PathBuf>,
+    /// The KITTI sequence to simulate, e.g. 0000 (one: a stream is one sequence).
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "ID")]
+    pub sequences: Vec<String>,
 }
 
-/// The stream a one-stream command (stream, soak) sends: the tracks file when one is given,
-/// else the track-level simulator's stream of the one sequence of the KITTI folder (`kitti`,
-/// else `$DYNOTRAJ_KITTI`; simulated up to `frames`).
-///
-/// # Errors
-/// No input, not exactly one sequence, or loading errors, named.
-pub fn input_tracks(
-    tracks: Option<&Path>,
-    kitti: Option<&Path>,
-    sequences: &[String],
-    frames: Option<usize>,
-) -> anyhow::Result<Tracks> {
-    if let Some(path) = tracks {
-        return Ok(tracks_file::read(path)?);
+impl TracksInputArgs {
+    /// The tracks file when one is given, else the simulated stream of the one sequence of the
+    /// KITTI folder (`--kitti`, else `$DYNOTRAJ_KITTI`); only the first `frames` with a limit.
+    ///
+    /// # Errors
+    /// No input, not exactly one sequence, or loading errors, named.
+    pub fn load(&self, frames: Option<usize>) -> anyhow::Result<Tracks> {
+        let mut tracks = match &self.tracks {
+            Some(path) => tracks_file::read(path)?,
+            None => {
+                let dir = kitti_or_env(self.kitti.as_deref()).with_context(|| {
+                    format!("--tracks FILE, or a KITTI folder (--kitti DIR or ${KITTI_ENV}), is needed")
+                })?;
+                simulated(&dir, one_sequence(&self.sequences)?, frames)?
+            }
+        };
+        if let Some(n) = frames {
+            tracks.frames.truncate(n);
+        }
+        Ok(tracks)
     }
-    let dir = kitti_or_env(kitti)
-        .with_context(|| format!("--tracks FILE, or a KITTI folder (--kitti DIR or ${KITTI_ENV}), is needed"))?;
-    simulated(&dir, one_sequence(sequences)?, frames)
 }
 
 /// The track-level simulator's stream for a KITTI sequence at the paper's 20 Hz.

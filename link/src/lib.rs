@@ -19,4 +19,11 @@ use std::sync::Arc;
 pub use endpoint::{Endpoint, LinkReader, LinkWriter, connect};
 
 /// Told the number of camera frames sent, after each (a progress display, say).
-pub type OnFrame = Arc<dyn Fn(u64) + Send + Sync>;
+#[derive(Clone)]
+pub struct OnFrame(pub Arc<dyn Fn(u64) + Send + Sync>);
+
+impl std::fmt::Debug for OnFrame {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("OnFrame(..)")
+    }
+}

@@ -24,7 +24,7 @@ use crate::fault::FaultInjector;
 use crate::wire_io::{LinkEvent, WireSender, read_link};
 
 /// How to soak.
-#[derive(Clone)]
+#[derive(Debug, Clone)]
 pub struct SoakOptions {
     /// Camera frames to send.
     pub frames: u64,
@@ -42,20 +42,6 @@ pub struct SoakOptions {
     /// Set (by a signal handler) to stop sending: the soak then ends as if `frames` were
     /// reached, says goodbye and counts what it sent.
     pub stop: Option<Arc<AtomicBool>>,
-}
-
-impl std::fmt::Debug for SoakOptions {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SoakOptions")
-            .field("frames", &self.frames)
-            .field("fault_probability", &self.fault_probability)
-            .field("seed", &self.seed)
-            .field("reply_timeout", &self.reply_timeout)
-            .field("max_in_flight", &self.max_in_flight)
-            .field("on_frame", &self.on_frame.is_some())
-            .field("stop", &self.stop)
-            .finish()
-    }
 }
 
 impl Default for SoakOptions {
@@ -220,7 +206,7 @@ pub fn soak(
         }
         report.frames_sent += 1;
         if let Some(hook) = &opt.on_frame {
-            hook(report.frames_sent);
+            (hook.0)(report.frames_sent);
         }
         if k == 16 {
             edge_start = edge_pid.and_then(memory_of);

@@ -24,7 +24,7 @@ use crate::wire_io::{LinkEvent, WireSender, read_link};
 const STOP_POLL: Duration = Duration::from_millis(100);
 
 /// How to stream.
-#[derive(Clone)]
+#[derive(Debug, Clone)]
 pub struct StreamOptions {
     /// Frames per second to send at; `None` sends as fast as the link (and lockstep) allows.
     pub rate_hz: Option<f64>,
@@ -39,19 +39,6 @@ pub struct StreamOptions {
     pub stop: Option<Arc<AtomicBool>>,
     /// Told the number of camera frames sent, after each.
     pub on_frame: Option<OnFrame>,
-}
-
-impl std::fmt::Debug for StreamOptions {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("StreamOptions")
-            .field("rate_hz", &self.rate_hz)
-            .field("lockstep", &self.lockstep)
-            .field("reply_timeout", &self.reply_timeout)
-            .field("model", &self.model.as_ref().map(Vec::len))
-            .field("stop", &self.stop)
-            .field("on_frame", &self.on_frame.is_some())
-            .finish()
-    }
 }
 
 impl Default for StreamOptions {
@@ -203,7 +190,7 @@ impl Run<'_> {
             }
             let sent = self.start.elapsed();
             if let Some(hook) = &self.opt.on_frame {
-                hook(k as u64 + 1);
+                (hook.0)(k as u64 + 1);
             }
             self.out.frames.push(FrameReport {
                 frame: frame.frame,

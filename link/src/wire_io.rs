@@ -53,6 +53,11 @@ impl<W: Write> WireSender<W> {
         &self.writer
     }
 
+    /// The writer, with everything sent.
+    pub fn into_writer(self) -> W {
+        self.writer
+    }
+
     /// The writer, to set it up between messages.
     pub const fn writer_mut(&mut self) -> &mut W {
         &mut self.writer

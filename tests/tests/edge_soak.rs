@@ -13,9 +13,11 @@ fn a_faulty_link_loses_only_damaged_frames_and_memory_stays_flat() {
     let dir = tempfile::tempdir().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
     let args = SoakArgs {
-        tracks: None,
-        kitti: Some(dir.path().to_path_buf()),
-        sequences: vec!["0000".into()],
+        input: dynotraj_cli::stream::TracksInputArgs {
+            tracks: None,
+            kitti: Some(dir.path().to_path_buf()),
+            sequences: vec!["0000".into()],
+        },
         frames: 2000,
         fault_probability: 0.02,
         seed: 7,
@@ -83,11 +85,11 @@ fn a_stopped_soak_counts_only_what_it_sent() {
     let opt = dynotraj_link::soak::SoakOptions {
         frames: 1_000,
         fault_probability: 0.02,
-        on_frame: Some(Arc::new(move |n| {
+        on_frame: Some(dynotraj_link::OnFrame(Arc::new(move |n| {
             if n == 60 {
                 flag.store(true, Ordering::Relaxed);
             }
-        })),
+        }))),
         stop: Some(stop),
         ..dynotraj_link::soak::SoakOptions::default()
     };

@@ -72,7 +72,7 @@ impl ObjectClass {
         if name == "Person" {
             return Some(Self::PersonSitting);
         }
-        Self::ALL.into_iter().find(|c| *c != Self::Background && c.kitti_name() == name)
+        Self::KITTI.into_iter().find(|c| c.kitti_name() == name)
     }
 
     /// The KITTI label `type` string of this class. `Background` has none in KITTI and
