@@ -53,6 +53,7 @@ pub struct BenchmarkArgs {
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
     args.run.check_table(&["weighted", "goal"])?;
+    args.run.check(&args.data, &args.arms)?;
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let loaded_s = start.elapsed().as_secs_f64();

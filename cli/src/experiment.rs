@@ -57,6 +57,7 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
 /// Loading, training or writing errors, named.
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
+    args.run.check(&args.data, &args.arms)?;
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     // A bad --object fails before the folds are trained, not after.
     subjects(&args.objects, &sequences, &args.data.rule()?)?;

@@ -75,6 +75,15 @@ impl FoldRunArgs {
         data.ours.estimate_cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
     }
 
+    /// Checks every flag [`Self::config`] reads before a sequence is loaded: a value out of
+    /// range fails at once, not after the estimation.
+    ///
+    /// # Errors
+    /// A flag out of range, named.
+    pub fn check(&self, data: &DataArgs, arms: &[Source]) -> anyhow::Result<()> {
+        self.config(data, arms, Vec::new()).map(|_| ())
+    }
+
     /// The run's configuration for `arms` and `folds`.
     ///
     /// # Errors

@@ -15,7 +15,7 @@ use dynotraj_sources::trajectory::Source;
 use dynotraj_train::loss::LossConfig;
 use dynotraj_train::{
     DEFAULT_MIRROR, DEFAULT_SHRINK, DEFAULT_VALIDATE_ON_SEQUENCES, DEFAULT_VALIDATION_FRACTION, Event, Hyper,
-    PriorChoice, TrainConfig, train_fold_with,
+    PriorChoice, PriorObjective, TrainConfig, train_fold_with,
 };
 
 /// Blob precisions.
@@ -34,6 +34,18 @@ impl From<PrecisionArg> for Precision {
             PrecisionArg::Int8 => Self::Int8,
         }
     }
+}
+
+/// What a fold's motion prior settings are chosen for (`--prior-objective`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PriorObjectiveArg {
+    /// The least mean ADE on the training sequences.
+    Ade,
+    /// The least mean ADE among the settings whose consistency error (ACE) on the training
+    /// sequences is no worse than constant velocity's.
+    AdeWithinCvAce,
+    /// The least mean ADE plus mean ACE.
+    AdePlusAce,
 }
 
 /// The model blob's name in `train --out`'s folder.
@@ -175,6 +187,10 @@ pub struct HyperArgs {
     /// chosen on the training sequences.
     #[arg(long = "no-prior", action = clap::ArgAction::SetFalse)]
     pub prior: bool,
+    /// What the motion prior's settings are chosen for on the training sequences
+    /// (docs/decisions.md, "A motion prior under the network").
+    #[arg(long, value_enum, default_value = "ade", conflicts_with = "prior", value_name = "OBJECTIVE")]
+    pub prior_objective: PriorObjectiveArg,
 }
 
 // The three switches above turn a default off; they would mean nothing if a default were off.
@@ -249,7 +265,12 @@ impl HyperArgs {
     /// The fold's motion prior: chosen on the training sequences, or off (`--no-prior`).
     #[must_use]
     pub fn prior_choice(&self) -> PriorChoice {
-        if self.prior { PriorChoice::Tuned } else { PriorChoice::Fixed(PriorSettings::OFF) }
+        match (self.prior, self.prior_objective) {
+            (false, _) => PriorChoice::Fixed(PriorSettings::OFF),
+            (true, PriorObjectiveArg::Ade) => PriorChoice::Tuned,
+            (true, PriorObjectiveArg::AdeWithinCvAce) => PriorChoice::TunedFor(PriorObjective::AdeWithinCvAce),
+            (true, PriorObjectiveArg::AdePlusAce) => PriorChoice::TunedFor(PriorObjective::AdePlusAce),
+        }
     }
 }
 

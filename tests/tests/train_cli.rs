@@ -137,3 +137,22 @@ fn an_out_that_cannot_be_a_folder_is_refused_before_any_work() {
         assert!(e.starts_with("--out ") && e.contains("expected a folder"), "{}: {e}", command[0]);
     }
 }
+
+#[test]
+fn training_flags_out_of_range_are_refused_before_any_sequence_is_loaded() {
+    let dir = tempfile::tempdir().unwrap();
+    // The data folder does not exist: a flag error coming first shows that nothing was loaded.
+    let missing = dir.path().join("no-kitti");
+    let kitti = missing.to_str().unwrap();
+    for (flags, named) in [
+        (&["--epochs", "0"][..], "--epochs"),
+        (&["--restarts", "0"][..], "--restarts"),
+        (&["--val-fraction", "0.9", "--ema-decay", "1"][..], "--ema-decay"),
+    ] {
+        for command in ["experiment", "benchmark"] {
+            let args = [&["dynotraj", command, "--kitti", kitti][..], flags].concat();
+            let e = format!("{:#}", dynotraj_cli::run(Cli::try_parse_from(&args).unwrap()).unwrap_err());
+            assert!(e.contains(named) && !e.contains("no-kitti"), "{command} {flags:?}: {e}");
+        }
+    }
+}

@@ -50,6 +50,7 @@ use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, Source};
 pub use fit::{DEFAULT_SHRINK, EpochReport, Event, Hyper};
 pub use model::Network;
+pub use prior_fit::PriorObjective;
 
 /// Default share of a fold's training runs held out for early stopping and model selection
 /// (chosen on the tuning folds: docs/decisions.md).
@@ -68,9 +69,11 @@ pub const DEFAULT_MIRROR: bool = true;
 /// How a fold's motion prior is set.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PriorChoice {
-    /// Chosen on the fold's training sequences through its source ([`prior_fit::tune_prior`]):
-    /// the default.
+    /// Chosen on the fold's training sequences through its source ([`prior_fit::tune_prior`])
+    /// for the least mean ADE: the default.
     Tuned,
+    /// Chosen the same way under another objective.
+    TunedFor(PriorObjective),
     /// Given; [`PriorSettings::OFF`] is the paper's setting (seven states, no prior).
     Fixed(PriorSettings),
 }
@@ -81,7 +84,7 @@ impl PriorChoice {
     #[must_use]
     pub fn history_frames(&self) -> usize {
         let prior = match self {
-            Self::Tuned => dynotraj_core::limits::PRIOR_STATES,
+            Self::Tuned | Self::TunedFor(_) => dynotraj_core::limits::PRIOR_STATES,
             Self::Fixed(s) => s.states(),
         };
         prior.max(dynotraj_core::model::arch::MAX_STEPS) - 1
@@ -151,11 +154,17 @@ impl<'a> TrainConfig<'a> {
     pub fn prior_settings(&self) -> PriorSettings {
         match self.prior {
             PriorChoice::Fixed(p) => p,
-            PriorChoice::Tuned => prior_fit::tune_prior(
-                &prior_fit::prior_instances(&self.training_sequences(), self.source, self.dt, &self.rule),
-                self.dt,
-            ),
+            PriorChoice::Tuned => self.tuned_prior(PriorObjective::Ade),
+            PriorChoice::TunedFor(objective) => self.tuned_prior(objective),
         }
+    }
+
+    fn tuned_prior(&self, objective: PriorObjective) -> PriorSettings {
+        prior_fit::tune_prior(
+            &prior_fit::prior_instances(&self.training_sequences(), self.source, self.dt, &self.rule),
+            self.dt,
+            objective,
+        )
     }
 
     /// The fold's samples over motion prior `prior`, split by run (or by sequence, with
