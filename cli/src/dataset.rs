@@ -17,7 +17,8 @@ pub struct DatasetArgs {
     #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Sources whose tracks are counted, comma-separated: gt (the labels; gt-ekf and gt-rts
-    /// share their runs), estimated (the estimator's causal tracks), estimated-smoothed.
+    /// share their runs), estimated (the estimator's causal tracks; estimated-ekf shares
+    /// them), estimated-smoothed.
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,
     /// Also the error budget of the estimated source: per test instance of its causal tracks,

@@ -18,7 +18,8 @@ pub struct EvalArgs {
     /// Trajectory sources, comma-separated: gt (labels), gt-ekf (forward EKF: causal), gt-rts
     /// (fixed-lag RTS smoother: its inputs have seen later frames, reported apart), estimated
     /// (Ours: the core estimator's newest-frame estimates on the KITTI-driven simulator:
-    /// causal), estimated-smoothed (its estimates as they leave the smoothing window: saw later
+    /// causal), estimated-ekf (those through gt-ekf's forward EKF: causal), estimated-smoothed
+    /// (its estimates as they leave the smoothing window: saw later
     /// frames). Each source is scored against its own future (the paper's protocol).
     #[arg(long, value_delimiter = ',', default_value = "gt", value_name = "LIST")]
     pub source: Vec<Source>,

@@ -19,7 +19,7 @@ pub struct ExperimentArgs {
     /// Data options.
     #[command(flatten)]
     pub data: DataArgs,
-    /// Arms: the sources trained and tested (gt, gt-ekf, estimated; gt-rts and
+    /// Arms: the sources trained and tested (gt, gt-ekf, estimated, estimated-ekf; gt-rts and
     /// estimated-smoothed are the labelled non-causal variants), comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "gt,gt-ekf", value_name = "LIST")]
     pub arms: Vec<Source>,

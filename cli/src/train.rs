@@ -64,7 +64,8 @@ pub struct TrainArgs {
     /// Trajectory source for inputs and targets: gt (labels), gt-ekf (forward EKF: causal),
     /// gt-rts (fixed-lag RTS smoother: inputs have seen later frames), estimated (Ours: the core
     /// estimator's newest-frame estimates on the KITTI-driven simulator, no labels) or
-    /// estimated-smoothed (its states as they leave the smoothing window).
+    /// estimated-ekf (Ours through gt-ekf's forward EKF: causal) or estimated-smoothed (its
+    /// states as they leave the smoothing window).
     #[arg(long, default_value = "gt", value_name = "SOURCE")]
     pub source: Source,
     /// Sequences held out of training (the fold's test sequences), comma-separated.

@@ -31,9 +31,9 @@ impl SequenceTracks {
     #[must_use]
     pub fn tracks_for(&self, source: Source) -> &[ObjectTrack] {
         match (source, &self.estimated) {
-            (Source::Estimated, Some(e)) => &e.causal,
+            (Source::Estimated | Source::EstimatedEkf, Some(e)) => &e.causal,
             (Source::EstimatedSmoothed, Some(e)) => &e.smoothed,
-            (Source::Estimated | Source::EstimatedSmoothed, None) => &[],
+            (Source::Estimated | Source::EstimatedEkf | Source::EstimatedSmoothed, None) => &[],
             _ => &self.tracks,
         }
     }

@@ -25,6 +25,9 @@ pub enum Source {
     /// Ours: the estimator's newest-frame estimate at each frame (causal), from its own tracks
     /// ([`super::estimated`]); no label enters a state.
     Estimated,
+    /// Ours through the same forward unicycle EKF as `GtEkf` (causal): what a vehicle gets by
+    /// filtering its own estimates before forecasting.
+    EstimatedEkf,
     /// The estimator's states as they leave its smoothing window (each has seen up to `W - 1`
     /// later frames, as the paper's DynoSAM output). Not causal; reported apart.
     EstimatedSmoothed,
@@ -32,7 +35,8 @@ pub enum Source {
 
 impl Source {
     /// Every source.
-    pub const ALL: [Self; 5] = [Self::Gt, Self::GtEkf, Self::GtRts, Self::Estimated, Self::EstimatedSmoothed];
+    pub const ALL: [Self; 6] =
+        [Self::Gt, Self::GtEkf, Self::GtRts, Self::Estimated, Self::EstimatedEkf, Self::EstimatedSmoothed];
 
     /// The command-line name.
     #[must_use]
@@ -42,6 +46,7 @@ impl Source {
             Self::GtEkf => "gt-ekf",
             Self::GtRts => "gt-rts",
             Self::Estimated => "estimated",
+            Self::EstimatedEkf => "estimated-ekf",
             Self::EstimatedSmoothed => "estimated-smoothed",
         }
     }
@@ -49,7 +54,7 @@ impl Source {
     /// True when the states come from the estimator's tracks, not from the labels.
     #[must_use]
     pub const fn is_estimated(&self) -> bool {
-        matches!(self, Self::Estimated | Self::EstimatedSmoothed)
+        matches!(self, Self::Estimated | Self::EstimatedEkf | Self::EstimatedSmoothed)
     }
 
     /// True when each state depends only on frames up to its own.
@@ -66,7 +71,7 @@ impl Source {
     pub fn apply(&self, labels: &[BevState], dt: f32) -> Vec<BevState> {
         match self {
             Self::Gt | Self::Estimated | Self::EstimatedSmoothed => labels.to_vec(),
-            Self::GtEkf => {
+            Self::GtEkf | Self::EstimatedEkf => {
                 let mut ekf = UnicycleEkf::new(EkfParams::vehicle(dt));
                 measurements(labels, dt)
                     .map(|z| {
@@ -108,7 +113,8 @@ impl FromStr for Source {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Self::ALL.into_iter().find(|src| src.name() == s).ok_or_else(|| {
-            format!("unknown source `{s}`: expected one of gt, gt-ekf, gt-rts, estimated, estimated-smoothed")
+            let names: Vec<&str> = Self::ALL.iter().map(Self::name).collect();
+            format!("unknown source `{s}`: expected one of {}", names.join(", "))
         })
     }
 }
@@ -142,11 +148,22 @@ mod tests {
         let base = noisy_line(40);
         let mut changed = base.clone();
         changed[30].y += 5.0;
-        for src in [Source::GtEkf, Source::GtRts] {
+        for src in [Source::GtEkf, Source::GtRts, Source::EstimatedEkf] {
             let a = src.apply(&base, 0.1);
             let b = src.apply(&changed, 0.1);
             let early_equal = a[..30].iter().zip(&b[..30]).all(|(p, q)| p == q);
             assert_eq!(early_equal, src.is_causal(), "{src}");
         }
+    }
+
+    #[test]
+    fn the_estimates_filtered_are_the_estimates_through_the_labels_filter() {
+        let base = noisy_line(40);
+        assert_eq!(Source::EstimatedEkf.apply(&base, 0.1), Source::GtEkf.apply(&base, 0.1));
+        assert_ne!(Source::EstimatedEkf.apply(&base, 0.1), base);
+        assert!(Source::EstimatedEkf.is_estimated() && Source::EstimatedEkf.is_causal());
+        assert_eq!("estimated-ekf".parse::<Source>(), Ok(Source::EstimatedEkf));
+        let e = "estimated-kf".parse::<Source>().unwrap_err();
+        assert!(e.contains("estimated-ekf") && e.contains("gt-rts"), "{e}");
     }
 }
