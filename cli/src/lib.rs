@@ -9,6 +9,7 @@ pub mod eval;
 pub mod experiment;
 pub mod fold_run;
 pub mod forecast;
+pub mod import;
 pub mod interrupt;
 pub mod numbers;
 pub mod progress;
@@ -85,6 +86,11 @@ pub enum Command {
     /// The image front-end: a KITTI-layout image sequence to a tracks file (.dtt).
     #[cfg(feature = "images")]
     Track(track::TrackArgs),
+    /// A ROS 2 bag (MCAP: stereo or RGB-D images, CameraInfo, detections) to a sequence in the
+    /// KITTI tracking layout that `track` reads.
+    Import(import::ImportArgs),
+    /// A sequence in the KITTI tracking layout as a ROS 2 bag (MCAP), as a stereo rig records.
+    ExportBag(import::ExportBagArgs),
     /// The edge's session in this process over a tracks recording or a simulated sequence: its
     /// forecasts, as `stream` writes them, without an edge process.
     Forecast(forecast::ForecastArgs),
@@ -127,6 +133,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(&a),
         #[cfg(feature = "images")]
         Command::Track(a) => track::run(&a),
+        Command::Import(a) => import::run(&a),
+        Command::ExportBag(a) => import::export_bag(&a),
         Command::Forecast(a) => forecast::run(&a),
         Command::Stream(a) => stream::run(&a),
         Command::Soak(a) => soak::run(&a),

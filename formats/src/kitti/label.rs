@@ -110,6 +110,14 @@ impl LabelRow {
         self.track_id < 0 || self.object_type == DONT_CARE
     }
 
+    /// Whether this row is a 2D detection without a 3D box: the devkit's placeholders
+    /// (size `-1 -1 -1`, location `-1000 -1000 -1000`), as a 2D detector's output or an
+    /// imported bag's detections are written. Such rows serve as image boxes only.
+    #[must_use]
+    pub fn is_box_only(&self) -> bool {
+        [self.height, self.width, self.length] == [-1.0; 3] && [self.x, self.y, self.z] == [-1000.0; 3]
+    }
+
     /// Bottom centre of the 3D box in rectified camera-0 coordinates.
     #[must_use]
     pub fn location(&self) -> Vector3<f64> {
@@ -221,8 +229,8 @@ fn parse_row(toks: &[&str], ctx: LineCtx<'_>) -> Result<LabelRow, KittiError> {
         rotation_y: num(16)?,
         score: if toks.len() > LABEL_COLUMNS { Some(num(17)?) } else { None },
     };
-    if !row.is_dont_care() {
-        // DontCare rows carry -1000 / -10 placeholders; a real object has a size and lies
+    if !row.is_dont_care() && !row.is_box_only() {
+        // DontCare and box-only rows carry -1 / -1000 / -10 placeholders; a 3D object has a size and lies
         // within reach of the camera.
         for (c, v) in [(10, row.height), (11, row.width), (12, row.length)] {
             if v <= 0.0 {
@@ -362,6 +370,17 @@ mod tests {
         assert_eq!(rows[2].frame, 1);
         assert_eq!(label_frame_count(&rows), Some(2));
         assert_eq!(label_frame_count(&[]), None);
+    }
+
+    #[test]
+    fn a_box_only_detection_parses_and_says_so() {
+        let rows = parse_labels("3 7 Car 0 0 -10 10 20 50 60 -1 -1 -1 -1000 -1000 -1000 -10 0.8\n", &p()).unwrap();
+        assert!(rows[0].is_box_only() && !rows[0].is_dont_care());
+        assert_eq!((rows[0].bbox_left, rows[0].bbox_bottom, rows[0].score), (10.0, 60.0, Some(0.8)));
+        // Only the devkit's placeholders make a row box-only: any other size is checked.
+        let m = err("3 7 Car 0 0 -10 10 20 50 60 -1 -1 -1 0 1 10 -10\n");
+        assert!(m.contains("field `height` (column 11)"), "{m}");
+        assert!(!parse_labels(GOOD, &p()).unwrap().iter().any(LabelRow::is_box_only));
     }
 
     #[test]

@@ -39,7 +39,7 @@ pub fn sim_input(data: &SequenceData, classes: &[ObjectClass]) -> SimInput {
     let boxes = data
         .labels
         .iter()
-        .filter(|r| !r.is_dont_care())
+        .filter(|r| !r.is_dont_care() && !r.is_box_only())
         .filter_map(|r| {
             let class = ObjectClass::from_kitti_name(&r.object_type)?;
             if !classes.contains(&class) {

@@ -112,7 +112,7 @@ pub fn label_tracks(data: &SequenceData, dt: f32) -> Vec<ObjectTrack> {
     let observations: Vec<LabelledObservation> = data
         .labels
         .iter()
-        .filter(|r| !r.is_dont_care())
+        .filter(|r| !r.is_dont_care() && !r.is_box_only())
         .filter_map(|r| {
             Some(LabelledObservation {
                 frame: u32::try_from(r.frame).ok()?,

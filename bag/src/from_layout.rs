@@ -1,0 +1,175 @@
+//! A sequence in the KITTI tracking layout written as a ROS 2 bag in MCAP, as a stereo rig's
+//! driver and a detector would record it: the bag the import reads back, for the import's
+//! tests and for trying the import without a robot.
+//!
+//! Topics: `/stereo/left/image_raw`, `/stereo/right/image_raw` (`sensor_msgs/Image`, rgb8),
+//! `/stereo/left/camera_info`, `/stereo/right/camera_info` (once per frame, the right camera's
+//! `p[3] = -fx * baseline`), `/stereo/left/instances` (16UC1 instance ids, where the layout
+//! has instance_02/), `/detections` (`vision_msgs/Detection2DArray`, where it has label_02/).
+//! Header stamps are `start + k / rate`.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+
+use anyhow::{Context as _, ensure};
+use dynotraj_formats::kitti::{read_calib, read_labels};
+
+use crate::ros2::{
+    self, BoundingBox2D, CAMERA_INFO, CameraInfo, DETECTION_2D_ARRAY, Detection2D, Detection2DArray, Header, IMAGE,
+    Image, ObjectHypothesis, ObjectHypothesisWithPose, Point2D, Pose2D, Time,
+};
+
+/// The stamp of the first frame: an arbitrary, recognisable time (2024-01-01 00:00:00 UTC).
+pub const START_NS: i64 = 1_704_067_200_000_000_000;
+
+/// The left camera's namespace.
+pub const LEFT: &str = "/stereo/left";
+/// The right camera's namespace.
+pub const RIGHT: &str = "/stereo/right";
+/// The detections' topic.
+pub const DETECTIONS: &str = "/detections";
+
+/// An MCAP writer with ROS 2 channels by topic.
+struct BagWriter {
+    writer: mcap::Writer<BufWriter<File>>,
+    channels: BTreeMap<String, u16>,
+    sequence: u32,
+}
+
+impl BagWriter {
+    fn channel(&mut self, topic: &str, schema: &str) -> anyhow::Result<u16> {
+        if let Some(&id) = self.channels.get(topic) {
+            return Ok(id);
+        }
+        // ROS 2 bags name the message definition's type; the definition text is optional.
+        let schema_id = self.writer.add_schema(schema, "ros2msg", b"")?;
+        let id = self.writer.add_channel(schema_id, topic, ros2::CDR, &BTreeMap::new())?;
+        self.channels.insert(topic.to_string(), id);
+        Ok(id)
+    }
+
+    fn write(&mut self, topic: &str, schema: &str, stamp: Time, payload: &[u8]) -> anyhow::Result<()> {
+        let channel_id = self.channel(topic, schema)?;
+        let t = u64::try_from(stamp.nanos()).unwrap_or(0);
+        self.sequence += 1;
+        let header = mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time: t, publish_time: t };
+        self.writer.write_to_known_channel(&header, payload)?;
+        Ok(())
+    }
+}
+
+fn image_message(path: &Path, header: Header, mask: bool) -> anyhow::Result<Image> {
+    let decoded = image::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let (width, height) = (decoded.width(), decoded.height());
+    Ok(if mask {
+        let v = decoded.to_luma16();
+        Image {
+            header,
+            height,
+            width,
+            encoding: "16UC1".into(),
+            is_bigendian: 0,
+            step: width * 2,
+            data: v.as_raw().iter().flat_map(|p| p.to_le_bytes()).collect(),
+        }
+    } else {
+        Image {
+            header,
+            height,
+            width,
+            encoding: "rgb8".into(),
+            is_bigendian: 0,
+            step: width * 3,
+            data: decoded.to_rgb8().into_raw(),
+        }
+    })
+}
+
+/// Writes sequence `seq` of the layout at `dir` (frames 0.. while image_02 has them) as the bag
+/// `out` at `rate_hz`; returns the frames written.
+///
+/// # Errors
+/// A missing or unreadable file of the layout, named; an output that cannot be written.
+pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow::Result<usize> {
+    ensure!(rate_hz.is_finite() && rate_hz > 0.0, "frame rate: expected Hz > 0, found {rate_hz}");
+    let calib_path = dir.join("calib").join(format!("{seq}.txt"));
+    let calib = read_calib(&calib_path).with_context(|| format!("reading {}", calib_path.display()))?;
+    let labels_path = dir.join("label_02").join(format!("{seq}.txt"));
+    let labels = if labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
+    let file = File::create(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut bag =
+        BagWriter { writer: mcap::Writer::new(BufWriter::new(file))?, channels: BTreeMap::new(), sequence: 0 };
+    let mut frames = 0;
+    loop {
+        let name = format!("{frames:06}.png");
+        let left = dir.join("image_02").join(seq).join(&name);
+        if !left.is_file() {
+            break;
+        }
+        let stamp = Time::from_nanos(START_NS + (frames as f64 * 1e9 / rate_hz).round() as i64);
+        for (ns, folder, cam) in [(LEFT, "image_02", 2), (RIGHT, "image_03", 3)] {
+            let header =
+                Header { stamp, frame_id: format!("{}_optical", ns.trim_start_matches('/').replace('/', "_")) };
+            let img = image_message(&dir.join(folder).join(seq).join(&name), header.clone(), false)?;
+            let p = calib.p.get(cam).copied().unwrap_or_default();
+            let info = CameraInfo {
+                header: header.clone(),
+                height: img.height,
+                width: img.width,
+                distortion_model: "plumb_bob".into(),
+                d: vec![0.0; 5],
+                k: [p[(0, 0)], p[(0, 1)], p[(0, 2)], p[(1, 0)], p[(1, 1)], p[(1, 2)], 0.0, 0.0, 1.0],
+                r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                p: std::array::from_fn(|i| p[(i / 4, i % 4)]),
+                ..CameraInfo::default()
+            };
+            bag.write(&format!("{ns}/image_raw"), IMAGE, stamp, &ros2::encode(&img)?)?;
+            bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, stamp, &ros2::encode(&info)?)?;
+            let mask = dir.join("instance_02").join(seq).join(&name);
+            if cam == 2 && mask.is_file() {
+                bag.write(
+                    &format!("{ns}/instances"),
+                    IMAGE,
+                    stamp,
+                    &ros2::encode(&image_message(&mask, header, true)?)?,
+                )?;
+            }
+        }
+        if !labels.is_empty() {
+            let detections = labels
+                .iter()
+                .filter(|r| r.frame == frames && !r.is_dont_care())
+                .map(|r| Detection2D {
+                    results: vec![ObjectHypothesisWithPose {
+                        hypothesis: ObjectHypothesis {
+                            class_id: r.object_type.to_lowercase(),
+                            score: r.score.unwrap_or(1.0),
+                        },
+                        ..ObjectHypothesisWithPose::default()
+                    }],
+                    bbox: BoundingBox2D {
+                        center: Pose2D {
+                            position: Point2D {
+                                x: (r.bbox_left + r.bbox_right) / 2.0,
+                                y: (r.bbox_top + r.bbox_bottom) / 2.0,
+                            },
+                            theta: 0.0,
+                        },
+                        size_x: r.bbox_right - r.bbox_left,
+                        size_y: r.bbox_bottom - r.bbox_top,
+                    },
+                    id: r.track_id.to_string(),
+                    ..Detection2D::default()
+                })
+                .collect();
+            let msg = Detection2DArray { header: Header { stamp, frame_id: "stereo_left_optical".into() }, detections };
+            bag.write(DETECTIONS, DETECTION_2D_ARRAY, stamp, &ros2::encode(&msg)?)?;
+        }
+        frames += 1;
+    }
+    ensure!(frames > 0, "{}: no left images 000000.png ...", dir.join("image_02").join(seq).display());
+    bag.writer.finish().with_context(|| format!("finishing {}", out.display()))?;
+    Ok(frames)
+}

@@ -1,0 +1,14 @@
+//! ROS 2 bags in, recordings out, both in MCAP.
+//!
+//! - [`ros2`]: the ROS 2 messages a bag brings (images, camera info, 2D detections) and their
+//!   CDR decoding.
+//! - [`from_layout`]: a sequence in the KITTI tracking layout written as such a bag.
+//! - [`import`]: a bag (an `.mcap` file, or a ROS 2 bag folder of them) to a folder in the KITTI
+//!   tracking layout that the rest of the pipeline reads.
+//! - [`record`]: recordings of what the pipeline computed, in MCAP with Foxglove's schemas, for
+//!   a standard viewer.
+
+pub mod from_layout;
+pub mod import;
+pub mod record;
+pub mod ros2;
