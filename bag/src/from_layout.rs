@@ -98,7 +98,10 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
     let calib = read_calib(&calib_path).with_context(|| format!("reading {}", calib_path.display()))?;
     let labels_path = dir.join("label_02").join(format!("{seq}.txt"));
     let labels = if labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
-    let file = File::create(out).with_context(|| format!("creating {}", out.display()))?;
+    // Written under a temporary name and renamed when finished: a bag cut short is not left
+    // under the name of a complete one.
+    let partial = out.with_extension("mcap.partial");
+    let file = File::create(&partial).with_context(|| format!("creating {}", partial.display()))?;
     let mut bag =
         BagWriter { writer: mcap::Writer::new(BufWriter::new(file))?, channels: BTreeMap::new(), sequence: 0 };
     let mut frames = 0;
@@ -169,7 +172,13 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
         }
         frames += 1;
     }
-    ensure!(frames > 0, "{}: no left images 000000.png ...", dir.join("image_02").join(seq).display());
-    bag.writer.finish().with_context(|| format!("finishing {}", out.display()))?;
+    if frames == 0 {
+        drop(bag);
+        let _ = std::fs::remove_file(&partial);
+        anyhow::bail!("{}: no left images 000000.png ...", dir.join("image_02").join(seq).display());
+    }
+    bag.writer.finish().with_context(|| format!("finishing {}", partial.display()))?;
+    drop(bag);
+    std::fs::rename(&partial, out).with_context(|| format!("renaming {} to {}", partial.display(), out.display()))?;
     Ok(frames)
 }

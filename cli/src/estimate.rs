@@ -7,11 +7,15 @@
 //! and logs. `--bench` times the estimator per frame. `--write-tracks` records the tracks as a
 //! tracks file; `--tracks` estimates on one (no truth: pose files and log only).
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
+use dynotraj_bag::record::{CAMERA_FRAME, Line, Pose, Recorder, RecordingSummary, Rgba, WORLD_FRAME, frame_time_ns};
 use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherParams};
+use dynotraj_core::wire::{ObjectClass, Track};
+use dynotraj_sim::track_sim::SimFrame;
 
 use super::common::{EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, sequence_ids};
 use dynotraj_eval::jobs::map_jobs;
@@ -66,6 +70,16 @@ pub struct EstimateArgs {
     /// `--tracks`: the folder itself).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas, JSON) with, per
+    /// frame, the estimated camera (`/tf`: world to camera; `/camera/path`), each object's
+    /// estimated trajectory so far (`/objects/estimated`, causal estimates), with simulated input
+    /// the simulator's truth (`/objects/truth`, `/camera/truth`), and the frame's measured
+    /// points in the camera frame (`/points/static`, `/points/objects`). One sequence (or
+    /// --tracks): FILE is the recording; several sequences or profiles, or FILE an existing
+    /// folder: FILE is a folder of `<sequence>.mcap` (`<profile>/<sequence>.mcap` with several
+    /// profiles; the tracks file's name with --tracks).
+    #[arg(long, value_name = "FILE", conflicts_with = "bench")]
+    pub record: Option<PathBuf>,
     /// The frame rate.
     #[command(flatten)]
     pub rate: FrameRateArg,
@@ -311,7 +325,127 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
             eprintln!("wrote {}", dir.display());
         }
     }
+    if let Some(target) = &args.record {
+        let folder = results.len() > 1 || target.is_dir();
+        let several_profiles = args.profiles.len() > 1;
+        for r in &results {
+            let path = match (folder, several_profiles) {
+                (false, _) => target.clone(),
+                (true, false) => target.join(format!("{}.mcap", r.id)),
+                (true, true) => target.join(r.profile).join(format!("{}.mcap", r.id)),
+            };
+            let frames: Vec<(u32, &[Track])> = r.sim.iter().map(|f| (f.frame, f.tracks.as_slice())).collect();
+            let input = RecordInput {
+                frames: &frames,
+                run: &r.run,
+                truth: &r.sim,
+                intrinsics: r.intrinsics,
+                rate_hz: f64::from(args.rate.hz),
+            };
+            report_recording(&record(&path, &input).context("--record")?);
+        }
+    }
     Ok(())
+}
+
+/// What a recording of an estimate is made from.
+#[derive(Debug, Clone, Copy)]
+pub struct RecordInput<'a> {
+    /// Per frame estimated: its index and the tracks the estimator got.
+    pub frames: &'a [(u32, &'a [Track])],
+    /// The estimator's outputs, indexed like `frames`.
+    pub run: &'a EstimatorRun,
+    /// The simulator's frames, indexed like `frames`, for their truth; empty without truth.
+    pub truth: &'a [SimFrame],
+    /// The camera the tracks were measured with.
+    pub intrinsics: Intrinsics,
+    /// Frames per second: a frame's log time is its index over it.
+    pub rate_hz: f64,
+}
+
+/// Colour of the estimated object trajectories.
+const ESTIMATED_COLOR: Rgba = Rgba::opaque(1.0, 0.55, 0.1);
+/// Colour of the true object trajectories.
+const TRUTH_COLOR: Rgba = Rgba::opaque(0.2, 0.85, 0.3);
+
+/// Writes the recording of an estimator run to `path`: per frame (log time: frame index over
+/// the rate), the causal camera pose (`/tf`, `/camera/path`), each object's causal bird's-eye
+/// trajectory so far (`/objects/estimated`), with truth the true ones (`/objects/truth`,
+/// `/camera/truth`), and the frame's tracks back-projected into the camera frame, static and
+/// object points apart (`/points/static`, `/points/objects`). The estimator keeps its
+/// landmarks to itself; these points are its measurements, placed by the estimated camera.
+/// Every frame has one message on each topic but `/tf`, which has one per estimated frame.
+///
+/// # Errors
+/// Writing errors, named.
+pub fn record(path: &std::path::Path, input: &RecordInput<'_>) -> anyhow::Result<RecordingSummary> {
+    let mut rec = Recorder::create(path)?;
+    let mut camera_path: Vec<Pose> = Vec::new();
+    let mut truth_path: Vec<Pose> = Vec::new();
+    let mut estimated: BTreeMap<u16, Vec<[f64; 3]>> = BTreeMap::new();
+    let mut truth: BTreeMap<u16, Vec<[f64; 3]>> = BTreeMap::new();
+    for (i, &(frame, tracks)) in input.frames.iter().enumerate() {
+        let t = frame_time_ns(frame, input.rate_hz).with_context(|| format!("recording {}", path.display()))?;
+        let mut lines = Vec::new();
+        if let Some(e) = input.run.causal.get(i).and_then(Option::as_ref) {
+            let (p, q) = (e.camera.translation.vector, e.camera.rotation.coords);
+            let pose = Pose::from_camera_world([p.x, p.y, p.z].map(f64::from), [q.x, q.y, q.z, q.w].map(f64::from));
+            rec.camera_transform("/tf", t, &pose)?;
+            camera_path.push(pose);
+            for o in e.objects.iter().filter(|o| o.bev.is_finite()) {
+                let points = estimated.entry(o.object_id).or_default();
+                points.push([f64::from(o.bev.x), f64::from(o.bev.y), 0.0]);
+                lines.push(object_line(o.object_id, o.class, points, ESTIMATED_COLOR));
+            }
+        }
+        rec.poses("/camera/path", t, WORLD_FRAME, &camera_path)?;
+        rec.lines("/objects/estimated", t, &lines)?;
+        if let Some(f) = input.truth.get(i) {
+            let (p, q) = (f.camera.translation.vector, f.camera.rotation.coords);
+            truth_path.push(Pose::from_camera_world([p.x, p.y, p.z], [q.x, q.y, q.z, q.w]));
+            rec.poses("/camera/truth", t, WORLD_FRAME, &truth_path)?;
+            let lines: Vec<Line> = f
+                .objects
+                .iter()
+                .map(|o| {
+                    let c = o.pose.translation.vector;
+                    let points = truth.entry(o.object_id).or_default();
+                    points.push([c.x, c.z, 0.0]);
+                    object_line(o.object_id, o.class, points, TRUTH_COLOR)
+                })
+                .collect();
+            rec.lines("/objects/truth", t, &lines)?;
+        }
+        let (statics, objects): (Vec<&Track>, Vec<&Track>) = tracks.iter().partition(|k| k.is_static());
+        rec.points("/points/static", t, CAMERA_FRAME, &back_project(&statics, &input.intrinsics))?;
+        rec.points("/points/objects", t, CAMERA_FRAME, &back_project(&objects, &input.intrinsics))?;
+    }
+    rec.finish()
+}
+
+/// An object's trajectory as a line entity (its id the object id).
+fn object_line(id: u16, class: ObjectClass, points: &[[f64; 3]], color: Rgba) -> Line {
+    Line {
+        id: id.to_string(),
+        points: points.to_vec(),
+        color,
+        thickness: 0.15,
+        metadata: vec![("class".into(), format!("{class:?}"))],
+    }
+}
+
+/// Tracks (pixel and depth) as points of the camera frame (x right, y down, z forward).
+fn back_project(tracks: &[&Track], k: &Intrinsics) -> Vec<[f32; 3]> {
+    tracks
+        .iter()
+        .filter(|t| t.depth.is_finite() && t.depth > 0.0)
+        .map(|t| [(t.u - k.cx) / k.fx * t.depth, (t.v - k.cy) / k.fy * t.depth, t.depth])
+        .collect()
+}
+
+/// Says where a recording went.
+fn report_recording(summary: &RecordingSummary) {
+    eprintln!("recorded {} ({} bytes)", summary.path.display(), summary.bytes);
 }
 
 /// Prints `named` tables in `--format`: Markdown each followed by a blank line, CSV or JSON as
@@ -337,6 +471,12 @@ pub struct Replay {
     pub run: EstimatorRun,
     /// Wall time of estimation, seconds.
     pub estimate_seconds: f64,
+    /// Each frame's tracks as read, indexed like `frames`.
+    pub tracks: Vec<Vec<Track>>,
+    /// The camera of the tracks file.
+    pub intrinsics: Intrinsics,
+    /// The tracks file's frame rate, Hz.
+    pub rate_hz: f64,
 }
 
 /// Estimates on the tracks file `path` with `args`' noise model and priors (no truth, no scores).
@@ -363,7 +503,14 @@ pub fn estimate_tracks(args: &EstimateArgs, path: &std::path::Path) -> anyhow::R
     let t0 = std::time::Instant::now();
     let run = run_with_window(&frames, params, &opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();
-    Ok(Replay { frames: frames.iter().map(|f| (f.frame, f.timestamp_us)).collect(), run, estimate_seconds })
+    Ok(Replay {
+        frames: frames.iter().map(|f| (f.frame, f.timestamp_us)).collect(),
+        run,
+        estimate_seconds,
+        tracks: frames.iter().map(|f| f.parts.iter().flat_map(|p| p.tracks.iter().copied()).collect()).collect(),
+        intrinsics: Intrinsics::from(&cam),
+        rate_hz: f64::from(cam.frame_rate_hz),
+    })
 }
 
 /// Estimates on a tracks file, writes the files of `--out`, and returns the summary table and
@@ -373,6 +520,19 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
     if let Some(out) = &args.out {
         write_estimates(out, &r.frames, &r.run)?;
         eprintln!("wrote {}", out.display());
+    }
+    if let Some(target) = &args.record {
+        let file = if target.is_dir() {
+            let stem = path.file_stem().map_or_else(|| "replay".into(), |s| s.to_string_lossy().into_owned());
+            target.join(format!("{stem}.mcap"))
+        } else {
+            target.clone()
+        };
+        let frames: Vec<(u32, &[Track])> =
+            r.frames.iter().zip(&r.tracks).map(|(&(frame, _), tracks)| (frame, tracks.as_slice())).collect();
+        let input =
+            RecordInput { frames: &frames, run: &r.run, truth: &[], intrinsics: r.intrinsics, rate_hz: r.rate_hz };
+        report_recording(&record(&file, &input).context("--record")?);
     }
     Ok(replay_tables(&path.display().to_string(), r.frames.len(), &r.run, r.estimate_seconds))
 }

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context as _;
 use clap::Args;
 use dynotraj_bag::import::{ImportOptions, import};
 
@@ -23,9 +24,9 @@ pub struct ImportArgs {
     /// label_02/ with detections, instance_02/ with masks).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// The sequence id of the drive in the layout.
+    /// The drive's sequence id in the layout (its files' names).
     #[arg(long, default_value = "0000", value_parser = crate::numbers::sequence_id, value_name = "ID")]
-    pub sequence: String,
+    pub name: String,
     /// Left (or RGB) image topic.
     #[arg(long, value_name = "TOPIC")]
     pub left: Option<String>,
@@ -80,7 +81,7 @@ pub fn run(args: &ImportArgs) -> anyhow::Result<()> {
         max_frames: args.frames,
         rgbd: args.rgbd,
     };
-    let s = import(&args.bag, &args.sequence, &args.out, &opt)?;
+    let s = import(&args.bag, &args.name, &args.out, &opt)?;
     for (role, topic) in &s.topics {
         println!("{role:>18}: {topic}");
     }
@@ -105,11 +106,11 @@ pub fn run(args: &ImportArgs) -> anyhow::Result<()> {
     } else {
         " --masks none"
     };
+    // track reads the capture times (times/) the import wrote: no --rate needed.
     println!(
-        "next: dynotraj track --kitti {} --sequences {} --rate {:.2}{depth}{masks} --out TRACKS",
+        "next: dynotraj track --kitti {} --sequences {}{depth}{masks} --out TRACKS",
         args.out.display(),
-        args.sequence,
-        s.rate_hz
+        args.name
     );
     Ok(())
 }
@@ -119,25 +120,30 @@ pub fn run(args: &ImportArgs) -> anyhow::Result<()> {
 pub struct ExportBagArgs {
     /// A folder in the KITTI tracking layout with images (image_02/, image_03/, calib/;
     /// instance_02/ and label_02/ when present), e.g. sim/data/image_sim.
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
     pub kitti: PathBuf,
-    /// The sequence to write.
-    #[arg(long, default_value = "0000", value_parser = crate::numbers::sequence_id, value_name = "ID")]
-    pub sequence: String,
+    /// The sequences to write, comma-separated: one bag each.
+    #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', required = true, value_parser = crate::numbers::sequence_id, value_name = "LIST")]
+    pub sequences: Vec<String>,
     /// Frame rate of the stamps, Hz.
     #[arg(long, default_value_t = 10.0, value_parser = frame_rate, value_name = "HZ")]
     pub rate: f64,
-    /// The bag file to write (.mcap).
-    #[arg(long, value_name = "FILE")]
+    /// Folder for the bags, `<DIR>/<sequence>.mcap`.
+    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
 }
 
-/// Writes the bag and says where.
+/// Writes the bags and says where.
 ///
 /// # Errors
 /// See [`dynotraj_bag::from_layout::layout_to_bag`].
 pub fn export_bag(args: &ExportBagArgs) -> anyhow::Result<()> {
-    let frames = dynotraj_bag::from_layout::layout_to_bag(&args.kitti, &args.sequence, &args.out, args.rate)?;
-    println!("wrote {frames} frames of sequence {} as a ROS 2 bag to {}", args.sequence, args.out.display());
+    crate::common::output_folder("--out", &args.out)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    for seq in &args.sequences {
+        let bag = args.out.join(format!("{seq}.mcap"));
+        let frames = dynotraj_bag::from_layout::layout_to_bag(&args.kitti, seq, &bag, args.rate)?;
+        println!("wrote {frames} frames of sequence {seq} as a ROS 2 bag to {}", bag.display());
+    }
     Ok(())
 }

@@ -133,6 +133,11 @@ pub fn track_sequence(
 ) -> anyhow::Result<(StageTimes, FrontEndStats, usize)> {
     let s = ImageSequence::open(dir, seq, args.depth, args.masks)?;
     let [fx, fy, cx, cy] = s.intrinsics;
+    // Capture times from the layout's times/ say the real rate; --rate is for layouts without.
+    let rate_hz = s.measured_rate_hz().map_or(args.rate.hz, |r| r as f32);
+    if let Some(r) = s.measured_rate_hz() {
+        log::info!("sequence {seq}: {r:.3} Hz measured from times/{seq}.txt (--rate not used)");
+    }
     let camera = CameraInfo {
         fx: fx as f32,
         fy: fy as f32,
@@ -141,12 +146,12 @@ pub fn track_sequence(
         stereo_fb: s.fb as f32,
         width: u16::try_from(s.size.0).context("image width")?,
         height: u16::try_from(s.size.1).context("image height")?,
-        frame_rate_hz: args.rate.hz,
+        frame_rate_hz: rate_hz,
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
     let bar = progress(args.frames.map_or(0, |n| n as u64), "frames tracked");
-    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(args.rate.hz), |frame, t_us, tracks| {
+    let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(rate_hz), |frame, t_us, tracks| {
         w.write_frame(frame, t_us, tracks)?;
         bar.inc(1);
         Ok(())

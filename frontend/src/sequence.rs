@@ -8,7 +8,11 @@
 //!                                     else KITTI track id + 1)
 //! <dir>/label_02/<seq>.txt            KITTI labels: classes, and 2D boxes     masks, second choice
 //! <dir>/calib/<seq>.txt               P2, P3 (left and right colour cameras)  required
+//! <dir>/times/<seq>.txt               capture time of each frame, seconds     optional
 //! ```
+//!
+//! With times/ (what `dynotraj import` writes from a bag's stamps), each frame's capture time
+//! and the frame rate come from it; without, frame / rate.
 //!
 //! The frames are those of image_02 from the first to the last number; a gap is a missing frame
 //! and an error naming the missing file, as is a missing right image or depth map. The
@@ -65,6 +69,8 @@ pub struct ImageSequence {
     pub fb: f64,
     /// Image size of the first frame (width, height).
     pub size: (i32, i32),
+    /// Capture times from times/<seq>.txt, seconds, one per frame from the first.
+    pub times_s: Option<Vec<f64>>,
     labels: BTreeMap<u32, Vec<LabelRow>>,
     depth: DepthMode,
     masks: MaskMode,
@@ -82,6 +88,34 @@ fn list_frames(folder: &Path) -> Result<Vec<u32>, FrontEndError> {
     }
     frames.sort_unstable();
     Ok(frames)
+}
+
+/// The capture times of `path`, when it exists: one number of seconds per line, increasing,
+/// at least one per frame.
+fn read_times(path: &Path, frames: usize) -> Result<Option<Vec<f64>>, FrontEndError> {
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(path).map_err(|cause| FrontEndError::Io { path: path.to_path_buf(), cause })?;
+    let bad = |line: usize, found: &str| FrontEndError::Unreadable {
+        path: path.to_path_buf(),
+        expected: format!("line {line}: a capture time in seconds, later than the line before, found `{found}`"),
+    };
+    let mut times: Vec<f64> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let t: f64 = line.trim().parse().map_err(|_| bad(i + 1, line))?;
+        if !t.is_finite() || times.last().is_some_and(|&last| t <= last) {
+            return Err(bad(i + 1, line));
+        }
+        times.push(t);
+    }
+    if times.len() < frames {
+        return Err(FrontEndError::Unreadable {
+            path: path.to_path_buf(),
+            expected: format!("a capture time for each of the {frames} frames, found {}", times.len()),
+        });
+    }
+    Ok(Some(times))
 }
 
 impl ImageSequence {
@@ -127,6 +161,7 @@ impl ImageSequence {
             MaskMode::Auto => MaskMode::None,
             m => m,
         };
+        let times_s = read_times(&dir.join("times").join(format!("{seq}.txt")), frames.len())?;
         let first_path = left_dir.join(format!("{first:06}.png"));
         let m = read_grey(&first_path, "left image")?;
         let mut s = Self {
@@ -136,6 +171,7 @@ impl ImageSequence {
             intrinsics,
             fb,
             size: (m.cols(), m.rows()),
+            times_s,
             labels,
             depth,
             masks,
@@ -160,8 +196,18 @@ impl ImageSequence {
         self.masks
     }
 
+    /// The frame rate the capture times give (the median period), when the sequence has them.
+    #[must_use]
+    pub fn measured_rate_hz(&self) -> Option<f64> {
+        let t = self.times_s.as_ref()?;
+        let mut periods: Vec<f64> = t.windows(2).filter_map(|w| Some(w.get(1)? - w.first()?)).collect();
+        periods.sort_by(f64::total_cmp);
+        periods.get(periods.len() / 2).filter(|p| **p > 0.0).map(|p| 1.0 / p)
+    }
+
     /// Tracks the first `frames` frames with `fe` and hands each frame's tracks to `each` with
-    /// its number and capture time (frame / `rate_hz`, microseconds); returns the frames done.
+    /// its number and capture time (from times/, else frame / `rate_hz`; microseconds);
+    /// returns the frames done.
     ///
     /// # Errors
     /// An unreadable frame or a front-end failure, with the frame named; what `each` returns.
@@ -173,11 +219,12 @@ impl ImageSequence {
         mut each: impl FnMut(u32, u64, &[Track]) -> anyhow::Result<()>,
     ) -> anyhow::Result<usize> {
         let n = frames.min(self.frames.len());
-        for &frame in self.frames.iter().take(n) {
+        for (k, &frame) in self.frames.iter().take(n).enumerate() {
             let tracks = fe
                 .process(self.load(frame)?)
                 .map_err(|e| anyhow::anyhow!("{}: image_02/{}/{frame:06}.png: {e}", self.dir.display(), self.seq))?;
-            let timestamp_us = (f64::from(frame) * 1e6 / rate_hz).round() as u64;
+            let seconds = self.times_s.as_ref().and_then(|t| t.get(k).copied()).unwrap_or(f64::from(frame) / rate_hz);
+            let timestamp_us = (seconds * 1e6).round() as u64;
             each(frame, timestamp_us, &tracks)?;
         }
         Ok(n)

@@ -51,6 +51,27 @@ fn a_missing_frame_is_an_error_naming_the_file() {
 }
 
 #[test]
+fn capture_times_give_the_rate_and_bad_ones_are_named_by_line() {
+    let dir = layout();
+    let open = || ImageSequence::open(dir.path(), "0000", DepthMode::Stereo, MaskMode::Auto);
+    assert_eq!(open().unwrap().measured_rate_hz(), None);
+    std::fs::create_dir(dir.path().join("times")).unwrap();
+    let times = dir.path().join("times/0000.txt");
+    std::fs::write(&times, "0.0\n0.04\n0.08\n").unwrap();
+    let rate = open().unwrap().measured_rate_hz().unwrap();
+    assert!((rate - 25.0).abs() < 1e-9, "{rate}");
+    for (text, expected) in [
+        ("0.0\n0.04\nx\n", "line 3: a capture time in seconds, later than the line before, found `x`"),
+        ("0.0\n0.04\n0.04\n", "line 3"),
+        ("0.0\n0.04\n", "a capture time for each of the 3 frames, found 2"),
+    ] {
+        std::fs::write(&times, text).unwrap();
+        let e = open().unwrap_err().to_string();
+        assert!(e.contains("times/0000.txt") && e.contains(expected), "{e}");
+    }
+}
+
+#[test]
 fn a_missing_right_image_is_an_error_naming_the_file() {
     let dir = layout();
     std::fs::remove_file(png(dir.path(), "image_03", 2)).unwrap();

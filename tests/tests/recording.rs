@@ -1,0 +1,169 @@
+//! `dynotraj forecast --record` and `dynotraj estimate --record` on the committed image-sim
+//! fixture, read back by Python's `mcap` package (tests/python/read_recording.py), as a user's
+//! tools outside this workspace would: Foxglove's schema names, every message JSON matching its
+//! channel's schema, the expected topics with one message per frame.
+//!
+//! Needs `cargo build -p dynotraj-cli` first. The Python packages live in a virtual environment
+//! outside the repository (`$DYNOTRAJ_VENV`, else `$HOME/.cache/dynotraj-venv`), made once from
+//! tests/python/requirements.txt and reused; without python3, venv or pip the tests say they
+//! skipped.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Mutex;
+
+use dynotraj_bag::record::partial_path;
+use dynotraj_tests::edge_fixture::dynotraj_command;
+use dynotraj_tests::manifest_dir;
+
+/// Frames of the fixture's sequence 0000.
+const FIXTURE_FRAMES: usize = 24;
+
+fn fixture() -> PathBuf {
+    manifest_dir().join("../sim/data/image_sim")
+}
+
+/// The Python of the test's virtual environment, made on first use; `Err` says why there is
+/// none (no python3, no venv module or pip, no network for the packages).
+fn python() -> Result<PathBuf, String> {
+    // Both tests run in one process: the environment is made once, not twice at the same time.
+    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(make_venv).clone()
+}
+
+fn make_venv() -> Result<PathBuf, String> {
+    let requirements = manifest_dir().join("python/requirements.txt");
+    let wanted = std::fs::read_to_string(&requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
+    let venv = std::env::var_os("DYNOTRAJ_VENV")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("dynotraj-venv")));
+    let venv = venv.ok_or("neither DYNOTRAJ_VENV nor HOME is set")?;
+    let python = venv.join("bin").join("python");
+    // The requirements the environment was completed with: a change of pins installs again.
+    let stamp = venv.join("dynotraj-requirements.txt");
+    if python.exists() && std::fs::read_to_string(&stamp).is_ok_and(|s| s == wanted) {
+        return Ok(python);
+    }
+    let run = |cmd: &mut Command, what: &str| -> Result<(), String> {
+        let out = cmd.output().map_err(|e| format!("{what}: {e}"))?;
+        if out.status.success() {
+            Ok(())
+        } else {
+            Err(format!("{what}: {}\n{}", out.status, String::from_utf8_lossy(&out.stderr).trim()))
+        }
+    };
+    run(Command::new("python3").arg("--version"), "python3")?;
+    if !python.exists() {
+        run(Command::new("python3").args(["-m", "venv"]).arg(&venv), "python3 -m venv")?;
+    }
+    run(Command::new(&python).args(["-m", "pip", "--version"]), "pip in the virtual environment")?;
+    run(
+        Command::new(&python)
+            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "-r"])
+            .arg(&requirements),
+        "pip install -r tests/python/requirements.txt",
+    )?;
+    std::fs::write(&stamp, wanted).map_err(|e| format!("{}: {e}", stamp.display()))?;
+    Ok(python)
+}
+
+/// Runs `dynotraj` with `args`, which must succeed; returns its stderr.
+fn dynotraj(args: &[&str]) -> String {
+    let out = dynotraj_command().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "dynotraj {args:?} failed:\n{stderr}");
+    stderr
+}
+
+/// Checks the recording at `path` is complete and reads it back with the Python script
+/// (`script_args` after the file); prints the script's summary.
+fn read_back(path: &Path, command: &str, script_args: &[&str]) {
+    assert!(path.is_file(), "{} was not written", path.display());
+    assert!(!partial_path(path).exists(), "the temporary file of {} is left", path.display());
+    let bytes = std::fs::metadata(path).unwrap().len();
+    eprintln!("{}: {bytes} bytes", path.display());
+    let python = match python() {
+        Ok(p) => p,
+        Err(why) => {
+            dynotraj_testkit::skipped("recording", &format!("no Python environment to read the recording: {why}"));
+            return;
+        }
+    };
+    let script = manifest_dir().join("python/read_recording.py");
+    let out = Command::new(python).arg(script).arg(command).arg(path).args(script_args).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stdout}");
+    assert!(out.status.success(), "read_recording.py {command} {}: {}\n{stderr}", path.display(), out.status);
+}
+
+#[test]
+fn forecast_records_histories_and_forecasts() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("forecast");
+    let rec = out.join("rec.mcap");
+    let kitti = fixture();
+    let stderr = dynotraj(&[
+        "forecast",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("recorded"), "{stderr}");
+    let frames = FIXTURE_FRAMES.to_string();
+    read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "cv"]);
+}
+
+#[test]
+fn estimate_records_camera_objects_truth_and_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("estimate");
+    let rec = out.join("rec.mcap");
+    let kitti = fixture();
+    dynotraj(&[
+        "estimate",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--ours-input",
+        "tracks",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    let frames = FIXTURE_FRAMES.to_string();
+    read_back(&rec, "estimate", &["--frames", &frames]);
+}
+
+#[test]
+fn estimate_with_several_profiles_records_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("recordings");
+    let kitti = fixture();
+    dynotraj(&[
+        "estimate",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--ours-input",
+        "tracks",
+        "--profile",
+        "host,edge",
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    for profile in ["host", "edge"] {
+        let path = rec.join(profile).join("0000.mcap");
+        assert!(path.is_file(), "{} was not written", path.display());
+        assert!(!partial_path(&path).exists());
+    }
+}
