@@ -65,7 +65,7 @@ fn estimator_frame(c: &mut Criterion) {
 }
 
 fn forecasts(c: &mut Criterion) {
-    let (history, other) = dynotraj_sim::bench_inputs::forecast_histories();
+    let (history, other) = dynotraj_sim::cost_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut g = quick(c);
     for (name, precision) in

@@ -345,7 +345,7 @@ mod tests {
 
     #[test]
     fn the_default_dims_flag_is_the_core_default() {
-        assert_eq!(super::super::bench::parse_dims(DEFAULT_DIMS).unwrap(), Dims::DEFAULT);
+        assert_eq!(super::super::model_cost::parse_dims(DEFAULT_DIMS).unwrap(), Dims::DEFAULT);
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! profiles (`--profile host,edge`); prints the paper's Table III (camera and object RPE) for
 //! the frame-to-frame, causal and smoothed estimates, the restarts of object runs by cause, the
 //! smoothness of object trajectories against the KITTI labels, and optionally writes pose files
-//! and logs. `--bench` times the estimator per frame. `--write-tracks` records the tracks as a
+//! and logs. `--cost` times the estimator per frame. `--write-tracks` records the tracks as a
 //! tracks file; `--tracks` estimates on one (no truth: pose files and log only).
 
 use std::collections::BTreeMap;
@@ -20,7 +20,7 @@ use dynotraj_sim::track_sim::SimFrame;
 use super::common::{EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, sequence_ids};
 use dynotraj_eval::jobs::map_jobs;
 use dynotraj_eval::report::estimator_tables::{
-    bench_table, counters_table, data_tables, per_object_table, replay_tables, tables,
+    cost_table, counters_table, data_tables, per_object_table, replay_tables, tables,
 };
 use dynotraj_eval::report::{Format, Table, check_table, render_tables};
 use dynotraj_formats::kitti::TrackingDir;
@@ -44,7 +44,7 @@ pub struct EstimateArgs {
         visible_alias = "sim-kitti",
         env = "DYNOTRAJ_KITTI",
         value_name = "DIR",
-        required_unless_present_any = ["bench", "tracks"],
+        required_unless_present_any = ["cost", "tracks"],
     )]
     pub kitti: Option<PathBuf>,
     /// Sequences, comma-separated (default: every sequence in the folder).
@@ -59,7 +59,7 @@ pub struct EstimateArgs {
     /// file's camera model; `--pixel-sigma`, `--disparity-sigma` and `--noise-free` set the
     /// noise model the estimator assumes (give the values the recording was simulated with to
     /// reproduce a simulated run bit for bit). A tracks file has no truth: no RPE is printed.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["bench", "write_tracks"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["cost", "write_tracks"])]
     pub tracks: Option<PathBuf>,
     /// Also write each sequence's simulated tracks into --out as a tracks file,
     /// `<DIR>/<sequence>.dtt` (as `dynotraj track` names them), for `--tracks` replay.
@@ -78,7 +78,7 @@ pub struct EstimateArgs {
     /// --tracks): FILE is the recording; several sequences or profiles, or FILE an existing
     /// folder: FILE is a folder of `<sequence>.mcap` (`<profile>/<sequence>.mcap` with several
     /// profiles; the tracks file's name with --tracks).
-    #[arg(long, value_name = "FILE", conflicts_with = "bench")]
+    #[arg(long, value_name = "FILE", conflicts_with = "cost")]
     pub record: Option<PathBuf>,
     /// The frame rate.
     #[command(flatten)]
@@ -149,15 +149,15 @@ pub struct EstimateArgs {
     pub format: Format,
     /// With --format csv or json, print only this table: table_iii, restarts, smoothness,
     /// counters (with --counters), per_object (with --per-object); replay (and counters) on a
-    /// tracks file; bench with --bench. CSV holds one table, so it needs this flag whenever
+    /// tracks file; cost with --cost. CSV holds one table, so it needs this flag whenever
     /// several tables are printed.
     #[arg(long, value_name = "NAME")]
     pub table: Option<String>,
     /// Instead of the KITTI sequences, time the estimator per frame on a synthetic scene at the
     /// ECU's full budget (16 objects x 128 points + 256 static tracks); `--frames` sets how many
     /// frames are timed (default 300). Build with `--release` for meaningful figures.
-    #[arg(long)]
-    pub bench: bool,
+    #[arg(long, alias = "bench")]
+    pub cost: bool,
 }
 
 impl EstimateArgs {
@@ -252,24 +252,24 @@ pub fn numerical_warning(id: &str, profile: &str, failures: u32, frames: usize) 
 /// Loading or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
-    let mut names = if args.bench {
-        vec!["bench"]
+    let mut names = if args.cost {
+        vec!["cost"]
     } else if args.tracks.is_some() {
         vec!["replay"]
     } else {
         vec!["table_iii", "restarts", "smoothness"]
     };
-    if args.counters && !args.bench {
+    if args.counters && !args.cost {
         names.push("counters");
     }
-    if args.per_object && !args.bench && args.tracks.is_none() {
+    if args.per_object && !args.cost && args.tracks.is_none() {
         names.push("per_object");
     }
     check_table(args.format, args.table.as_deref(), &names)?;
-    if args.bench {
+    if args.cost {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-        let r = dynotraj_sources::estimation::bench::bench(args.frames.unwrap_or(300), 30, args.seed, sweeps);
-        return print_tables(args, vec![("bench", bench_table(&r))]);
+        let r = dynotraj_sources::estimation::cost::measure(args.frames.unwrap_or(300), 30, args.seed, sweeps);
+        return print_tables(args, vec![("cost", cost_table(&r))]);
     }
     if let Some(path) = &args.tracks {
         let (t, counters) = replay(args, path)?;

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs};
+use super::model_cost::parse_dims;
 use super::train::HyperArgs;
 use dynotraj_eval::experiment::ExperimentConfig;
 use dynotraj_eval::report::{Format, check_table, render_tables};

@@ -1,6 +1,5 @@
 //! The `dynotraj` command line.
 
-pub mod bench;
 pub mod benchmark;
 pub mod common;
 pub mod dataset;
@@ -11,6 +10,7 @@ pub mod fold_run;
 pub mod forecast;
 pub mod import;
 pub mod interrupt;
+pub mod model_cost;
 pub mod numbers;
 pub mod progress;
 pub mod sign;
@@ -73,8 +73,9 @@ pub enum Command {
     Estimate(estimate::EstimateArgs),
     /// Trains the predictor on every sequence but the excluded ones; writes the model blob.
     Train(train::TrainArgs),
-    /// Inference time per object and memory of the predictor, float and int8.
-    Bench(bench::BenchArgs),
+    /// Inference time per object and memory of the predictor, float and int8 (`bench` before).
+    #[command(alias = "bench")]
+    ModelCost(model_cost::ModelCostArgs),
     /// Leave-one-sequence-out training and testing per arm: the paper's Table IV.
     Experiment(experiment::ExperimentArgs),
     /// Generalisation benchmark: every sequence held out once in folds of whole sequences,
@@ -126,7 +127,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(a) => eval::run(&a),
         Command::Estimate(a) => estimate::run(&a),
         Command::Train(a) => train::run(&a),
-        Command::Bench(a) => bench::run(&a),
+        Command::ModelCost(a) => model_cost::run(&a),
         Command::Experiment(a) => experiment::run(&a),
         Command::Benchmark(a) => benchmark::run(&a),
         #[cfg(feature = "images")]

@@ -1,7 +1,7 @@
 //! `dynotraj track`: the front-end over an image sequence in the KITTI tracking layout (a real
 //! KITTI download, or `dynotraj simulate`'s output), writing the tracks file that
 //! `dynotraj estimate --tracks` and `dynotraj stream --tracks` read. Also:
-//! `--bench` times the stages at KITTI resolution on rendered frames, and `--check` measures the
+//! `--cost` times the stages at KITTI resolution on rendered frames, and `--check` measures the
 //! front-end on the real KITTI images in ../shared/kitti (stereo D1, KLT survival, ego-motion).
 
 use std::path::{Path, PathBuf};
@@ -23,14 +23,14 @@ use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, Track
 pub struct TrackArgs {
     /// A folder in the KITTI tracking layout (image_02/, image_03/, calib/, label_02/; see
     /// `dynotraj simulate` for the optional depth_02/ and instance_02/).
-    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["bench", "check"])]
+    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["cost", "check"])]
     pub kitti: Option<PathBuf>,
     /// Sequences to track, comma-separated (default: every sequence with images in
     /// image_02/).
     #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Folder for the tracks files, one per sequence: `<DIR>/<sequence>.dtt`.
-    #[arg(long, value_name = "DIR", required_unless_present_any = ["bench", "check"])]
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check"])]
     pub out: Option<PathBuf>,
     /// Depth from stereo matching or from the given depth maps (depth_02/).
     #[arg(long, value_enum, default_value_t = DepthMode::Stereo)]
@@ -53,8 +53,8 @@ pub struct TrackArgs {
     pub counters: bool,
     /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead; with
     /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth.
-    #[arg(long)]
-    pub bench: bool,
+    #[arg(long, alias = "bench")]
+    pub cost: bool,
     /// Measure the front-end on the real KITTI images of this folder (odometry/06,
     /// stereo2015/) instead, e.g. ../shared/kitti.
     #[arg(long, value_name = "DIR")]
@@ -76,9 +76,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     if let Some(root) = &args.check {
         return check(root, stereo);
     }
-    if args.bench {
+    if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
-        let (times, stats) = dynotraj_frontend::bench::run(args.frames.unwrap_or(30), stereo, boxes)?;
+        let (times, stats) = dynotraj_frontend::cost::run(args.frames.unwrap_or(30), stereo, boxes)?;
         println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
         print_times(&times, &stereo);
         if args.counters {

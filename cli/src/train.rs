@@ -9,8 +9,8 @@ use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::predict::PriorSettings;
 
-use super::bench::parse_dims;
 use super::common::{DEFAULT_DIMS, DataArgs, progress};
+use super::model_cost::parse_dims;
 use dynotraj_sources::trajectory::Source;
 use dynotraj_train::loss::LossConfig;
 use dynotraj_train::{

@@ -69,9 +69,9 @@ fn the_data_training_and_evaluation_commands_run() {
     let t = ok(&["eval", "--kitti", kitti, "--tests", "0000", "--predictor", &predictors, "--rate", "10"]);
     says(&t, "model model.blob.int8 on gt");
 
-    let t = ok(&["bench", "--dims", "8,8,2,16"]);
+    let t = ok(&["model-cost", "--dims", "8,8,2,16"]);
     says(&t, "int8");
-    let t = ok(&["bench", "--model", blob_s]);
+    let t = ok(&["model-cost", "--model", blob_s]);
     says(&t, "int8");
 }
 
@@ -133,7 +133,7 @@ fn the_estimator_simulator_and_front_end_commands_run() {
     assert!(dynotraj_formats::tracks_file::read(&dtt).is_ok_and(|t| t.frames.len() == 8), "{t}");
     says(&t, "| static_tracked");
     says(&t, "s] frames tracked done: 8 steps");
-    let t = ok(&["track", "--bench", "--frames", "2", "--counters"]);
+    let t = ok(&["track", "--cost", "--frames", "2", "--counters"]);
     says(&t, "stereo");
     says(&t, "| counter");
     says(&t, "| static_tracked");

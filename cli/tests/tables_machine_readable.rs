@@ -227,9 +227,9 @@ fn the_dataset_eval_bench_and_estimate_tables_read_as_typed_data() {
     assert!(t.numbers("instances").iter().all(|n| n.fract() == 0.0 && *n >= 0.0));
     assert!(t.numbers("ade").iter().all(|v| v.is_finite() && *v >= 0.0));
 
-    let bench = ["bench", "--dims", "8,8,2,16", "--iterations", "20"];
+    let bench = ["model-cost", "--dims", "8,8,2,16", "--iterations", "20"];
     let csv_text = stdout(&[&bench[..], &["--format", "csv"]].concat());
-    let t = check_both("bench", &csv_text, &stdout(&[&bench[..], &["--format", "json"]].concat()));
+    let t = check_both("model-cost", &csv_text, &stdout(&[&bench[..], &["--format", "json"]].concat()));
     assert_eq!(t.numbers("enc"), vec![8.0, 8.0], "the widths are split into numeric columns");
 
     // Several tables: JSON is one object of them; CSV is one table per run, chosen by --table.
@@ -268,9 +268,9 @@ fn the_dataset_eval_bench_and_estimate_tables_read_as_typed_data() {
     let read = read_csv("log.csv", &log, &numeric.iter().map(ToString::to_string).collect());
     assert!(read.cells["frame"].iter().all(Option::is_some), "every log row names its frame");
 
-    let b = ["estimate", "--bench", "--frames", "3"];
+    let b = ["estimate", "--cost", "--frames", "3"];
     let csv_text = stdout(&[&b[..], &["--format", "csv"]].concat());
-    let t = check_both("estimate --bench", &csv_text, &stdout(&[&b[..], &["--format", "json"]].concat()));
+    let t = check_both("estimate --cost", &csv_text, &stdout(&[&b[..], &["--format", "json"]].concat()));
     assert_eq!(t.numbers("frames_timed"), vec![3.0]);
 }
 

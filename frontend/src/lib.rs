@@ -16,8 +16,8 @@
 //! Everything the front-end cannot use (no depth, an empty mask, a textureless region, more
 //! than the capacities) is counted in [`FrontEndStats`], never a crash.
 
-pub mod bench;
 pub mod check;
+pub mod cost;
 pub mod depth;
 pub mod error;
 pub mod features;

@@ -4,7 +4,7 @@
 use dynotraj_sim::image_sim::ImageSim;
 use dynotraj_sim::track_sim::SimFrame;
 
-use super::bench::input_of;
+use super::cost::input_of;
 use super::error::FrontEndError;
 use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;

@@ -11,7 +11,7 @@ use dynotraj_core::wire::{FrameBuf, FrameDecoder, LinkStats, MAX_FRAME_LEN, Mess
 use dynotraj_edge::{NoClock, Session, Transport};
 use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
 use dynotraj_sim::track_sim::{SimSpec, simulate};
-use dynotraj_sources::estimation::bench::scene;
+use dynotraj_sources::estimation::cost::scene;
 use dynotraj_sources::estimation::input::KITTI_IMAGE_SIZE;
 
 /// `frames` frames of the 16-car scene at the paper's 20 Hz.

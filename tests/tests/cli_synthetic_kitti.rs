@@ -112,13 +112,17 @@ fn bench_labels_a_models_rows_by_the_blobs_precision() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     // `--out` keeps each --dims set's random int8 blob.
-    let Command::Bench(a) = cli(&["bench", "--dims", "8,8,2,16", "--iterations", "1", "--out", out]) else { panic!() };
-    let t = dynotraj_cli::bench::table(&a).unwrap();
+    let Command::ModelCost(a) = cli(&["model-cost", "--dims", "8,8,2,16", "--iterations", "1", "--out", out]) else {
+        panic!()
+    };
+    let t = dynotraj_cli::model_cost::table(&a).unwrap();
     let labels: Vec<&str> = (0..2).map(|r| cell(&t, r, "predictor")).collect();
     assert_eq!(labels, ["f32 (random weights)", "int8 (random weights)"]);
     let blob = dir.path().join("random-8,8,2,16.int8");
-    let Command::Bench(a) = cli(&["bench", "--model", blob.to_str().unwrap(), "--iterations", "1"]) else { panic!() };
-    let t = dynotraj_cli::bench::table(&a).unwrap();
+    let Command::ModelCost(a) = cli(&["model-cost", "--model", blob.to_str().unwrap(), "--iterations", "1"]) else {
+        panic!()
+    };
+    let t = dynotraj_cli::model_cost::table(&a).unwrap();
     let models: Vec<&str> =
         (0..t.rows.len()).map(|r| cell(&t, r, "predictor")).filter(|p| p.contains("random-8,8,2,16")).collect();
     assert_eq!(models, [format!("int8 ({})", blob.display())], "an int8 blob is timed once, as int8");

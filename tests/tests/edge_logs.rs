@@ -5,7 +5,7 @@
 
 use std::cell::RefCell;
 
-use dynotraj_cli::bench::random_blob;
+use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{STATIC_OBJECT_ID, Track, frame_parts};

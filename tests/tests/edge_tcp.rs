@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use dynotraj_cli::bench::random_blob;
+use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};

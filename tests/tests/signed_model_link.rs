@@ -4,7 +4,7 @@
 //! A refused model is counted, the edge keeps forecasting with constant velocity, and every
 //! answer is then bit-identical to an edge that never saw a model.
 
-use dynotraj_cli::bench::random_blob;
+use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::model::signed::{SIGNATURE_LEN, SignatureError, TRAILER_LEN, key_id};

@@ -114,7 +114,7 @@ fn the_counter_sees_allocations() {
 
 #[test]
 fn learned_inference_does_not_allocate() {
-    use dynotraj_cli::bench::random_blob;
+    use dynotraj_cli::model_cost::random_blob;
     use dynotraj_core::model::blob::{ModelBlob, Precision};
     use dynotraj_core::model::{Dims, LearnedPredictor};
 

@@ -230,7 +230,7 @@ mod tests {
             seconds: 2.5,
             cached: false,
         };
-        let blob = |p| dynotraj_sim::bench_inputs::random_blob(&dynotraj_core::model::Dims::DEFAULT, p, 0.05);
+        let blob = |p| dynotraj_sim::cost_inputs::random_blob(&dynotraj_core::model::Dims::DEFAULT, p, 0.05);
         let (f32_blob, int8_blob) =
             (blob(dynotraj_core::model::blob::Precision::F32), blob(dynotraj_core::model::blob::Precision::Int8));
         let fold = CachedFold { f32_blob, int8_blob, report: report.clone() };

@@ -9,7 +9,7 @@
 use dynotraj_core::estimate::EstimatorStats;
 
 use super::{Cell, ColumnKind, Data, Table};
-use dynotraj_sources::estimation::bench::BenchResult;
+use dynotraj_sources::estimation::cost::CostResult;
 use dynotraj_sources::estimation::score::{moving_objects, object_rpe};
 use dynotraj_sources::estimation::simulated::SequenceResult;
 use dynotraj_sources::estimation::{EstimatorRun, Kind, RunScores};
@@ -411,7 +411,7 @@ pub fn replay_tables(source: &str, frames: usize, run: &EstimatorRun, estimate_s
 
 /// The estimator's compute benchmark as a table.
 #[must_use]
-pub fn bench_table(r: &BenchResult) -> Table {
+pub fn cost_table(r: &CostResult) -> Table {
     let mut t = Table::new(["quantity", "value"]);
     let profile = if cfg!(debug_assertions) { "debug (use --release)" } else { "release" };
     let rows = [

@@ -17,8 +17,8 @@
 //! - [`settings`]: how the Estimated source is made (options, simulated or rendered tracks).
 //! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
-pub mod bench;
 pub mod cache;
+pub mod cost;
 #[cfg(feature = "images")]
 pub mod end_to_end;
 pub mod files;

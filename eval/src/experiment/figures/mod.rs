@@ -137,7 +137,7 @@ mod tests {
     use dynotraj_core::model::Dims;
     use dynotraj_core::model::blob::Precision;
     use dynotraj_formats::kitti::TrackingDir;
-    use dynotraj_sim::bench_inputs::random_blob;
+    use dynotraj_sim::cost_inputs::random_blob;
     use dynotraj_sim::drive::{DriveSpec, generate};
     use dynotraj_sim::kitti_layout::write_sequence;
     use dynotraj_sources::estimation::settings::EstimateSettings;

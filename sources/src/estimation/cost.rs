@@ -17,7 +17,7 @@ use super::simulated::WINDOW;
 
 /// Timing of a benchmark run.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BenchResult {
+pub struct CostResult {
     /// Frames timed.
     pub frames: usize,
     /// Mean tracks per frame.
@@ -30,7 +30,7 @@ pub struct BenchResult {
     pub state_bytes: usize,
 }
 
-impl BenchResult {
+impl CostResult {
     /// The `q`-quantile of the per-frame time, microseconds.
     #[must_use]
     pub fn quantile(&self, q: f64) -> f64 {
@@ -45,12 +45,12 @@ impl BenchResult {
     }
 }
 
-pub use dynotraj_sim::bench_inputs::estimator_scene as scene;
+pub use dynotraj_sim::cost_inputs::estimator_scene as scene;
 
 /// Runs the benchmark over `frames` frames (after `warmup` untimed ones), with `joint_sweeps`
 /// sweeps of the joint camera-object solve per frame.
 #[must_use]
-pub fn bench(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> BenchResult {
+pub fn measure(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> CostResult {
     let n = frames + warmup;
     let (cams, boxes) = scene(n);
     let intrinsics = Intrinsics::KITTI_0926;
@@ -82,7 +82,7 @@ pub fn bench(frames: usize, warmup: usize, seed: u64, joint_sweeps: u8) -> Bench
     }
     micros.sort_by(f64::total_cmp);
     let timed = frames.max(1) as f64;
-    BenchResult {
+    CostResult {
         frames,
         tracks_per_frame: tracks as f64 / timed,
         objects_per_frame: objects as f64 / timed,

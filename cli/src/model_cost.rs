@@ -1,4 +1,4 @@
-//! `dynotraj bench`: speed and memory of predictor inference on this machine, per object, for
+//! `dynotraj model-cost`: speed and memory of predictor inference on this machine, per object, for
 //! float and int8 blobs, beside the baselines.
 
 use std::hint::black_box;
@@ -18,9 +18,9 @@ use dynotraj_core::predict::Predictor;
 use dynotraj_eval::report::{Cell, ColumnKind, Data, Format, Table};
 use dynotraj_formats::model_file::ModelFile;
 
-/// Options of `dynotraj bench`.
+/// Options of `dynotraj model-cost`.
 #[derive(Debug, Args)]
-pub struct BenchArgs {
+pub struct ModelCostArgs {
     /// A trained blob. An f32 one is timed with its int8 twin, read from PATH.int8 when
     /// present, else quantised here; an int8 one is timed alone. Without it, blobs of --dims
     /// with seeded random weights are timed (same cost).
@@ -57,10 +57,10 @@ pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
     Ok(d)
 }
 
-pub use dynotraj_sim::bench_inputs::random_blob;
+pub use dynotraj_sim::cost_inputs::random_blob;
 
 fn time_per_forecast(f: &mut dyn Predictor, dt: f32, iterations: u32) -> f64 {
-    let (history, other) = dynotraj_sim::bench_inputs::forecast_histories();
+    let (history, other) = dynotraj_sim::cost_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out: Forecast = [Point2::default(); HORIZON];
     let _ = f.predict_with_neighbours(&history, &neighbours, dt, &mut out);
@@ -79,7 +79,7 @@ type TimedModel = (String, Dims, Vec<(&'static str, Vec<u8>)>);
 ///
 /// # Errors
 /// A bad --dims or an unreadable model.
-pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
+pub fn table(args: &ModelCostArgs) -> anyhow::Result<Table> {
     let dt = 0.05;
     use ColumnKind::{Int, Num, Text};
     let mut t =
@@ -179,7 +179,7 @@ pub fn table(args: &BenchArgs) -> anyhow::Result<Table> {
 ///
 /// # Errors
 /// See [`table`].
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+pub fn run(args: &ModelCostArgs) -> anyhow::Result<()> {
     print!("{}", table(args)?.render(args.format));
     Ok(())
 }
