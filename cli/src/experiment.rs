@@ -1,11 +1,14 @@
 //! `dynotraj experiment`: the paper's leave-one-sequence-out experiment for the chosen arms.
 
+use std::path::PathBuf;
+
 use clap::Args;
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_eval::experiment::figures::{ObjectChoice, parse_object_choice, subjects, write_figures};
+use dynotraj_eval::experiment::figures::{FoldModels, ObjectChoice, parse_object_choice, subjects, write_figures};
+use dynotraj_eval::experiment::recording::write_recordings;
 use dynotraj_eval::experiment::report::write_report;
 use dynotraj_eval::experiment::sections::{RunSettings, experiment_report};
 use dynotraj_eval::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
@@ -37,6 +40,12 @@ pub struct ExperimentArgs {
     /// its heading).
     #[arg(long = "object", value_delimiter = ',', value_parser = parse_object_choice, value_name = "SEQ:ID")]
     pub objects: Vec<ObjectChoice>,
+    /// Also write recordings for Foxglove, one per test sequence (`DIR/<seq>.mcap`, MCAP with
+    /// Foxglove's schemas): per arm and frame, each eligible object's recent states and the
+    /// forecasts of its fold model (int8) and of constant velocity. Needs --out (the fold
+    /// models are read from its models/).
+    #[arg(long, value_name = "DIR", requires = "out")]
+    pub record: Option<PathBuf>,
     /// Widths, training settings, report folder and format.
     #[command(flatten)]
     pub run: FoldRunArgs,
@@ -51,6 +60,15 @@ pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
     Ok((result.table, summary))
 }
 
+/// The test sequences: `--tests`, else the paper's five.
+fn test_ids(args: &ExperimentArgs) -> anyhow::Result<Vec<String>> {
+    Ok(if args.tests.is_empty() {
+        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
+    } else {
+        super::common::distinct_ids("--tests", args.tests.clone())?
+    })
+}
+
 /// Runs the experiment; returns its result, the fold summary and the loaded sequences.
 ///
 /// # Errors
@@ -61,11 +79,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     // A bad --object fails before the folds are trained, not after.
     subjects(&args.objects, &sequences, &args.data.rule()?)?;
-    let test_sequences: Vec<String> = if args.tests.is_empty() {
-        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
-    } else {
-        super::common::distinct_ids("--tests", args.tests.clone())?
-    };
+    let test_sequences = test_ids(args)?;
     let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
     let loading_seconds = start.elapsed().as_secs_f64();
     let bars = TrainBars::new(config.arms.len() * config.folds.len());
@@ -103,6 +117,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
+    args.record.as_deref().map(|d| super::common::output_folder("--record", d)).transpose()?;
     let names: &[&str] =
         if args.arms.iter().any(Source::is_estimated) { &["table_iv", "table_iv_truth"] } else { &["table_iv"] };
     args.run.check_table(names)?;
@@ -143,6 +158,14 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
         r.figures = write_figures(&figures, &sequences, &args.arms, &rule, args.data.dt()?, &models, &args.objects)?;
         let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
+        if let Some(record) = &args.record {
+            let ids = test_ids(args)?;
+            let tests: Vec<&SequenceTracks> = sequences.iter().filter(|s| ids.contains(&s.id)).collect();
+            let fold_models = FoldModels::load(&models, &args.arms, &sequences)?;
+            for w in write_recordings(record, &tests, &args.arms, &fold_models, &rule, args.data.dt()?)? {
+                eprintln!("recorded {} ({} bytes)", w.path.display(), w.bytes);
+            }
+        }
     }
     printed
 }

@@ -18,6 +18,7 @@ fn the_report_folder_and_a_cached_rerun() {
         write_sequence(&root, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
     }
     let out = dir.path().join("report");
+    let recordings = out.join("recordings");
     let args = [
         "dynotraj",
         "experiment",
@@ -39,11 +40,43 @@ fn the_report_folder_and_a_cached_rerun() {
         "tracks",
         "--out",
         out.to_str().unwrap(),
+        "--record",
+        recordings.to_str().unwrap(),
     ];
     let Command::Experiment(a) = Cli::try_parse_from(args).unwrap().command else {
         panic!("not the experiment command")
     };
     experiment::run(&a).unwrap();
+    // The recording of the test sequence: per arm and frame, tracks, learned and cv forecasts.
+    let bytes = fs::read(out.join("recordings/0000.mcap")).unwrap();
+    let mut per_topic: std::collections::BTreeMap<String, (usize, usize)> = Default::default();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        assert_eq!(m.channel.schema.as_ref().unwrap().name, "foxglove.SceneUpdate");
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        let e = per_topic.entry(m.channel.topic.clone()).or_default();
+        e.0 += 1;
+        e.1 += v["entities"].as_array().unwrap().len();
+    }
+    let topics: Vec<&str> = per_topic.keys().map(String::as_str).collect();
+    assert_eq!(
+        topics,
+        [
+            "/estimated/forecasts/cv",
+            "/estimated/forecasts/learned",
+            "/estimated/tracks",
+            "/gt/forecasts/cv",
+            "/gt/forecasts/learned",
+            "/gt/tracks"
+        ]
+    );
+    let frames = per_topic["/gt/tracks"].0;
+    assert!(frames > 30 && per_topic.values().all(|(n, _)| *n == frames), "{per_topic:?}");
+    for arm in ["gt", "estimated"] {
+        let (learned, cv) =
+            (per_topic[&format!("/{arm}/forecasts/learned")].1, per_topic[&format!("/{arm}/forecasts/cv")].1);
+        assert!(learned > 0 && learned == cv, "{arm}: {learned} learned and {cv} cv forecasts");
+    }
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
     println!("{md}");
