@@ -7,6 +7,7 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use dynotraj_bag::ros2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
@@ -20,10 +21,11 @@ use dynotraj_formats::kitti::{parse_calib, parse_labels, parse_oxts, parse_poses
 use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_formats::tracks_file::{self, TracksWriter};
 use dynotraj_sim::drive::{DriveSpec, feature_tracks, generate};
+use dynotraj_sources::estimation::{cache as estimate_cache, rendered_cache};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.
-const TARGETS: [&str; 8] = [
+const TARGETS: [&str; 10] = [
     "wire_decoder",
     "model_blob",
     "model_signature",
@@ -32,6 +34,8 @@ const TARGETS: [&str; 8] = [
     "kitti_poses",
     "kitti_oxts",
     "tracks_file",
+    "cache_file",
+    "ros2_messages",
 ];
 
 fn fuzz_dir() -> PathBuf {
@@ -89,6 +93,17 @@ fn run_target(target: &str, data: &[u8]) {
         "kitti_poses" => drop(text.map(|t| (parse_poses(t, path), parse_tum(t, path)))),
         "kitti_oxts" => drop(text.map(|t| parse_oxts(t, path))),
         "tracks_file" => drop(tracks_file::parse(path, data)),
+        "cache_file" => {
+            let key = data.first_chunk::<8>().map_or(0, |k| u64::from_le_bytes(*k));
+            drop(estimate_cache::decode::<dynotraj_sources::estimation::EstimatedTracks>(data, key));
+            drop(rendered_cache::decode_frames(data, key));
+        }
+        "ros2_messages" => {
+            drop(ros2::decode::<ros2::Image>(data));
+            drop(ros2::decode::<ros2::CompressedImage>(data));
+            drop(ros2::decode::<ros2::CameraInfo>(data));
+            drop(ros2::decode::<ros2::Detection2DArray>(data));
+        }
         other => panic!("unknown fuzz target {other}"),
     }
 }
@@ -172,6 +187,49 @@ fn write_seeds(root: &Path) {
     let oxts_row = "49.0 8.4 112.0 0.02 0.01 1.5 5.0 0.1 5.0 0.1 0.0 0.2 0.1 9.8 0.2 0.1 9.8 0.0 0.0 0.01 0.0 0.0 \
         0.01 0.3 0.2 4 10 4 4 0\n";
     seed("kitti_oxts", "two_packets", format!("{oxts_row}{oxts_row}").as_bytes());
+    // Cache files: the simulated drive's estimated tracks, stored under key 1 (first 8 bytes).
+    let track = dynotraj_sources::trajectory::ObjectTrack {
+        track_id: 1,
+        class: dynotraj_core::wire::ObjectClass::Car,
+        frames: vec![0, 1, 2],
+        states: vec![BevState { x: 10.0, y: 3.0, heading: 0.1, speed: 7.0 }; 3],
+    };
+    let tracks = dynotraj_sources::estimation::EstimatedTracks {
+        input: dynotraj_sources::estimation::EstimateInput::Tracks,
+        causal: vec![track.clone()],
+        smoothed: vec![track.clone()],
+        rpe: None,
+        truth: vec![track],
+        cameras: std::collections::BTreeMap::new(),
+        rpe_frames: [vec![], vec![], vec![]],
+        frames: 3,
+    };
+    estimate_cache::store(tmp.path(), "0000", 1, &tracks).unwrap();
+    let cached = fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("estimated-")));
+    seed("cache_file", "estimated", &fs::read(cached.unwrap()).unwrap());
+    // ROS 2 messages as a bag holds them.
+    let image = ros2::Image {
+        height: 2,
+        width: 2,
+        encoding: "rgb8".into(),
+        step: 6,
+        data: (0..12).collect(),
+        ..ros2::Image::default()
+    };
+    seed("ros2_messages", "image", &ros2::encode(&image).unwrap());
+    let info = ros2::CameraInfo {
+        p: [721.5, 0.0, 609.6, -387.6, 0.0, 721.5, 172.9, 0.0, 0.0, 0.0, 1.0, 0.0],
+        ..Default::default()
+    };
+    seed("ros2_messages", "camera_info", &ros2::encode(&info).unwrap());
+    let det = ros2::Detection2DArray {
+        detections: vec![ros2::Detection2D { id: "3".into(), ..Default::default() }],
+        ..Default::default()
+    };
+    seed("ros2_messages", "detections", &ros2::encode(&det).unwrap());
     // Seeds must be valid inputs, or the fuzzer starts from the error paths only.
     let read = |t: &str, n: &str| fs::read_to_string(root.join("corpus").join(t).join(n)).unwrap();
     assert!(!parse_labels(&read("kitti_labels", "labels"), &dtt).unwrap().is_empty());

@@ -7,8 +7,8 @@
 //! bump the version with one, or run with `--no-cache`. Estimates from real images are not
 //! cached (the key would have to read every image).
 //!
-//! File: `estimated-<seq>-<key>.bin`, the [`EstimatedTracks`] as postcard bytes followed by
-//! their CRC-32 (little-endian). A file whose checksum does not match or that does not decode
+//! File: `estimated-<seq>-<key>.bin`: the key (u64, little-endian), the [`EstimatedTracks`] as
+//! postcard bytes, and the CRC-32 (little-endian) of both ([`decode`]). A file whose checksum does not match or that does not decode
 //! is a miss (said in a warning), never an error; a file is written under a temporary name and
 //! renamed, so an interrupted run leaves none that looks complete.
 
@@ -77,28 +77,51 @@ fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
 /// The cached tracks of `id` under `key`, if a readable file holds them.
 #[must_use]
 pub fn load(dir: &Path, id: &str, key: u64) -> Option<EstimatedTracks> {
-    load_file(&path(dir, id, key))
+    load_file(&path(dir, id, key), key)
 }
 
-/// The value a cache file at `path` holds, if it is readable, its checksum matches and it
-/// decodes; else a miss, with a warning when the file is there but damaged.
-pub(crate) fn load_file<T: serde::de::DeserializeOwned>(path: &Path) -> Option<T> {
+/// The value a cache file at `path` holds for `key`, if it is readable, its checksum matches,
+/// it was stored under `key` and it decodes; else a miss, with a warning when the file is there
+/// but damaged or holds another key's entry.
+pub(crate) fn load_file<T: serde::de::DeserializeOwned>(path: &Path, key: u64) -> Option<T> {
     let bytes = std::fs::read(path).ok()?;
-    let value = bytes
-        .split_last_chunk::<4>()
-        .filter(|(payload, crc)| FILE_CRC.checksum(payload) == u32::from_le_bytes(**crc))
-        .and_then(|(payload, _)| postcard::from_bytes(payload).ok());
-    if value.is_none() {
-        log::warn!("{}: a damaged cache file (checksum or contents); computed again", path.display());
+    let value = decode(&bytes, key);
+    if let Err(why) = &value {
+        log::warn!("{}: {why}; computed again", path.display());
     }
-    value
+    value.ok()
 }
 
-/// Writes `value` as the cache file `path` in `dir` (created if missing); `what` names it in
-/// an encoding error.
-pub(crate) fn store_file<T: serde::Serialize>(dir: &Path, path: &Path, value: &T, what: &str) -> anyhow::Result<()> {
+/// The value of a cache file's bytes for `key`: `[key: u64 LE][postcard value][CRC-32 LE of
+/// what precedes it]`.
+///
+/// # Errors
+/// What is wrong with the bytes, in words: a checksum that does not match, another key's
+/// entry, or a value that does not decode.
+pub fn decode<T: serde::de::DeserializeOwned>(bytes: &[u8], key: u64) -> Result<T, &'static str> {
+    let (body, crc) = bytes.split_last_chunk::<4>().ok_or("a damaged cache file (too short)")?;
+    if FILE_CRC.checksum(body) != u32::from_le_bytes(*crc) {
+        return Err("a damaged cache file (checksum)");
+    }
+    let (stored_key, payload) = body.split_first_chunk::<8>().ok_or("a damaged cache file (no key)")?;
+    if u64::from_le_bytes(*stored_key) != key {
+        return Err("a cache file holding another key's entry (renamed or copied)");
+    }
+    postcard::from_bytes(payload).map_err(|_| "a damaged cache file (contents)")
+}
+
+/// Writes `value` under `key` as the cache file `path` in `dir` (created if missing); `what`
+/// names it in an encoding error.
+pub(crate) fn store_file<T: serde::Serialize>(
+    dir: &Path,
+    path: &Path,
+    key: u64,
+    value: &T,
+    what: &str,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut bytes = postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?;
+    let mut bytes = key.to_le_bytes().to_vec();
+    bytes.extend(postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?);
     bytes.extend_from_slice(&FILE_CRC.checksum(&bytes).to_le_bytes());
     let partial = path.with_extension("partial");
     std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
@@ -110,7 +133,7 @@ pub(crate) fn store_file<T: serde::Serialize>(dir: &Path, path: &Path, value: &T
 /// # Errors
 /// The folder or file cannot be written, named.
 pub fn store(dir: &Path, id: &str, key: u64, tracks: &EstimatedTracks) -> anyhow::Result<()> {
-    store_file(dir, &path(dir, id, key), tracks, "estimated tracks")
+    store_file(dir, &path(dir, id, key), key, tracks, "estimated tracks")
 }
 
 #[cfg(test)]
@@ -195,6 +218,14 @@ mod tests {
         std::fs::write(&file, &good[..good.len() - 1]).unwrap();
         assert_eq!(load(dir.path(), "0003", 1), None, "a cut file was read back");
         std::fs::write(&file, &good).unwrap();
-        assert_eq!(load(dir.path(), "0003", 1), Some(tracks));
+        assert_eq!(load(dir.path(), "0003", 1), Some(tracks.clone()));
+        // A whole, valid entry under another key's name is a miss, not that key's value.
+        std::fs::copy(&file, path(dir.path(), "0003", 2)).unwrap();
+        assert_eq!(load(dir.path(), "0003", 2), None, "another key's entry was read back");
+        assert_eq!(
+            decode::<EstimatedTracks>(&good, 2),
+            Err("a cache file holding another key's entry (renamed or copied)")
+        );
+        assert_eq!(decode::<EstimatedTracks>(&good, 1), Ok(tracks));
     }
 }

@@ -6,9 +6,10 @@
 //! rendering depends on (sequence id, classes, seed, render scale, frame period, frame limit)
 //! and the bytes of the sequence's label, calibration and pose files. The estimator's settings
 //! are not part of it. What the key cannot see is a change to the image simulator or the
-//! front-end: bump the version with one. File: `rendered-<seq>-<key>.bin`, postcard bytes and their
-//! CRC-32, written as the estimate cache writes its files; a file whose checksum does not match
-//! or that does not decode is a miss, never an error.
+//! front-end: bump the version with one. File: `rendered-<seq>-<key>.bin`, the key, postcard
+//! bytes and their CRC-32, written as the estimate cache writes its files
+//! ([`super::cache::decode`]); a file whose checksum does not match, that holds another key's
+//! entry or that does not decode is a miss, never an error.
 
 use std::path::{Path, PathBuf};
 
@@ -123,8 +124,17 @@ fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
 /// The cached front-end frames of `id` under `key`, if a readable file holds them.
 #[must_use]
 pub fn load(dir: &Path, id: &str, key: u64) -> Option<Vec<SimFrame>> {
-    let frames: Vec<StoredFrame> = load_file(&path(dir, id, key))?;
+    let frames: Vec<StoredFrame> = load_file(&path(dir, id, key), key)?;
     Some(frames.into_iter().map(restored).collect())
+}
+
+/// The front-end frames of a cache file's bytes stored under `key` ([`super::cache::decode`]).
+///
+/// # Errors
+/// What is wrong with the bytes, in words.
+pub fn decode_frames(bytes: &[u8], key: u64) -> Result<Vec<SimFrame>, &'static str> {
+    let frames: Vec<StoredFrame> = super::cache::decode(bytes, key)?;
+    Ok(frames.into_iter().map(restored).collect())
 }
 
 /// Keeps the front-end frames of `id` under `key`.
@@ -133,7 +143,7 @@ pub fn load(dir: &Path, id: &str, key: u64) -> Option<Vec<SimFrame>> {
 /// The folder or file cannot be written, named.
 pub fn store(dir: &Path, id: &str, key: u64, frames: &[SimFrame]) -> anyhow::Result<()> {
     let stored: Vec<StoredFrame> = frames.iter().map(stored).collect();
-    store_file(dir, &path(dir, id, key), &stored, "rendered frames")
+    store_file(dir, &path(dir, id, key), key, &stored, "rendered frames")
 }
 
 #[cfg(test)]
