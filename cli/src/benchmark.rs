@@ -65,7 +65,9 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
         ids.len(),
         args.folds
     );
-    let config = args.run.config(&args.data, &args.arms, folds)?;
+    let mut config = args.run.config(&args.data, &args.arms, folds)?;
+    // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
+    config.stop = Some(crate::interrupt::stop_flag()?);
     let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
     let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
     bars.finish();

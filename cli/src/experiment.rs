@@ -80,7 +80,9 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     // A bad --object fails before the folds are trained, not after.
     subjects(&args.objects, &sequences, &args.data.rule()?)?;
     let test_sequences = test_ids(args)?;
-    let config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
+    let mut config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
+    // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
+    config.stop = Some(crate::interrupt::stop_flag()?);
     let loading_seconds = start.elapsed().as_secs_f64();
     let bars = TrainBars::new(config.arms.len() * config.folds.len());
     let result = run_experiment(&sequences, &config, &bars);

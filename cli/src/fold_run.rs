@@ -108,6 +108,7 @@ impl FoldRunArgs {
             out: self.out.as_ref().map(|d| d.join("models")),
             cache: self.fold_cache(),
             jobs: data.ours.jobs,
+            stop: None,
         })
     }
 }

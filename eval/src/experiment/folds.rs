@@ -69,11 +69,27 @@ impl FoldSpec {
     }
 }
 
+/// A run stopped by [`super::ExperimentConfig::stop`] before every fold was trained.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "interrupted after {done} of {total} folds; {}",
+    if *kept { "the trained folds are in the fold cache, and a rerun with the same --out continues from them" } else { "nothing is kept without --out" }
+)]
+pub struct Interrupted {
+    /// Folds trained or read from the cache.
+    pub done: usize,
+    /// Folds the run had.
+    pub total: usize,
+    /// Whether a fold cache keeps the trained ones.
+    pub kept: bool,
+}
+
 /// Trains (or reads from the cache) every fold of `specs`, `config.jobs` at a time; the
 /// results are in the order of `specs` and do not depend on the number of jobs.
 ///
 /// # Errors
-/// A fold with no training data; a numerical failure; cache or blob errors, named by fold.
+/// A fold with no training data; a numerical failure; cache or blob errors, named by fold;
+/// [`Interrupted`] when `config.stop` was set before every fold ran.
 pub fn train_folds(
     sequences: &[SequenceTracks],
     config: &ExperimentConfig,
@@ -81,7 +97,11 @@ pub fn train_folds(
     progress: &dyn TrainProgress,
 ) -> anyhow::Result<Vec<CachedFold>> {
     let cache = config.cache.as_deref().map(FoldCache::open).transpose()?;
-    let results = map_jobs(specs, config.jobs, |spec| -> anyhow::Result<CachedFold> {
+    let stopped = || config.stop.as_ref().is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed));
+    let results = map_jobs(specs, config.jobs, |spec| -> anyhow::Result<Option<CachedFold>> {
+        if stopped() {
+            return Ok(None);
+        }
         let train = spec.train_config(sequences, config);
         let name = spec.name(config);
         let key = fold_key(&train);
@@ -102,7 +122,7 @@ pub fn train_folds(
         if let Some(fold) = cache.as_ref().and_then(|c| c.load(&name, key, &template)) {
             log::info!("{name}: trained fold {key:016x} read from the cache");
             progress.done(&name, &fold.report);
-            return Ok(fold);
+            return Ok(Some(fold));
         }
         let model = train_fold_with(&train, &mut |e| progress.event(&name, e))
             .with_context(|| format!("training fold {name}"))?;
@@ -125,9 +145,14 @@ pub fn train_folds(
             c.store(&name, key, &fold)?;
         }
         progress.done(&name, &fold.report);
-        Ok(fold)
+        Ok(Some(fold))
     })?;
-    results.into_iter().collect()
+    let folds: Vec<Option<CachedFold>> = results.into_iter().collect::<anyhow::Result<_>>()?;
+    let done = folds.iter().flatten().count();
+    if done < folds.len() {
+        return Err(Interrupted { done, total: folds.len(), kept: cache.is_some() }.into());
+    }
+    Ok(folds.into_iter().flatten().collect())
 }
 
 #[cfg(test)]
@@ -169,6 +194,7 @@ mod tests {
             out: None,
             cache: None,
             jobs,
+            stop: None,
         }
     }
 

@@ -68,6 +68,9 @@ pub struct ExperimentConfig {
     pub cache: Option<PathBuf>,
     /// Folds trained at the same time ([`crate::jobs`]).
     pub jobs: usize,
+    /// Set (by a signal) to stop: folds not started by then are not trained, and the run ends
+    /// with [`folds::Interrupted`].
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl ExperimentConfig {
