@@ -1,6 +1,7 @@
 //! Recordings of what the pipeline computed, for a standard viewer: MCAP files whose messages
 //! use Foxglove's well-known schemas (`foxglove.SceneUpdate`, `foxglove.FrameTransform`,
-//! `foxglove.PosesInFrame`, `foxglove.PointCloud`, `foxglove.CompressedImage`) in the JSON
+//! `foxglove.PosesInFrame`, `foxglove.PointCloud`, `foxglove.CompressedImage`,
+//! `foxglove.ImageAnnotations`) in the JSON
 //! encoding (schema encoding `jsonschema`, message encoding `json`), so that Foxglove, the
 //! `mcap` tool and Python's `mcap` package all read them without code of ours.
 //!
@@ -42,6 +43,8 @@ pub const POSES_IN_FRAME: &str = "foxglove.PosesInFrame";
 pub const POINT_CLOUD: &str = "foxglove.PointCloud";
 /// Schema name of an encoded image.
 pub const COMPRESSED_IMAGE: &str = "foxglove.CompressedImage";
+/// Schema name of 2D annotations drawn over an image.
+pub const IMAGE_ANNOTATIONS: &str = "foxglove.ImageAnnotations";
 
 /// The MCAP schema encoding of every schema written.
 pub const SCHEMA_ENCODING: &str = "jsonschema";
@@ -50,6 +53,10 @@ pub const MESSAGE_ENCODING: &str = "json";
 
 /// The `foxglove.PointCloud` numeric type of a 32-bit float field (its `NumericType` enum).
 const FLOAT32: u32 = 7;
+/// The `foxglove.PointCloud` numeric type of an unsigned 32-bit integer field.
+const UINT32: u32 = 5;
+/// `foxglove.PointsAnnotation` type: each point drawn on its own.
+const POINTS: u32 = 1;
 /// `foxglove.LinePrimitive` type: a polyline through the points in order.
 const LINE_STRIP: u32 = 0;
 /// `foxglove.SceneEntityDeletion` type: every entity older than the deletion's timestamp.
@@ -141,6 +148,18 @@ pub struct Line {
     pub thickness: f64,
     /// Key-value pairs shown with the entity (e.g. class).
     pub metadata: Vec<(String, String)>,
+}
+
+/// One group of a [`Recorder::image_points`] message: points drawn over an image in one colour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImagePoints {
+    /// Pixel coordinates `[column, row]`, the top-left pixel's centre at `(0, 0)` (OpenCV's
+    /// convention, the tracks').
+    pub points: Vec<[f64; 2]>,
+    /// Colour.
+    pub color: Rgba,
+    /// Diameter of each point, pixels.
+    pub size: f64,
 }
 
 /// What [`Recorder::finish`] wrote.
@@ -304,16 +323,87 @@ impl Recorder {
     /// Writing errors, or `topic` already used with another schema; named.
     pub fn points(&mut self, topic: &str, time_ns: u64, frame_id: &str, points: &[[f32; 3]]) -> anyhow::Result<()> {
         let data: Vec<u8> = points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
-        let field = |name: &str, offset: u32| json!({"name": name, "offset": offset, "type": FLOAT32});
+        let fields = [float_field("x", 0), float_field("y", 4), float_field("z", 8)];
+        self.point_cloud(topic, time_ns, frame_id, 12, &fields, &data)
+    }
+
+    /// Points each carrying an unsigned integer (e.g. the object id) as a `foxglove.PointCloud`
+    /// on `topic`: x, y, z (metres, in `frame_id`) as little-endian 32-bit floats, then the
+    /// integer as a little-endian `uint32` field named `label`; 16 bytes a point. Foxglove can
+    /// colour the points by that field, so each object stands out without a colour chosen here.
+    ///
+    /// # Errors
+    /// Writing errors, or `topic` already used with another schema; named.
+    pub fn labelled_points(
+        &mut self,
+        topic: &str,
+        time_ns: u64,
+        frame_id: &str,
+        label: &str,
+        points: &[([f32; 3], u32)],
+    ) -> anyhow::Result<()> {
+        let data: Vec<u8> = points
+            .iter()
+            .flat_map(|([x, y, z], id)| {
+                [x.to_le_bytes(), y.to_le_bytes(), z.to_le_bytes(), id.to_le_bytes()].into_iter().flatten()
+            })
+            .collect();
+        let fields = [
+            float_field("x", 0),
+            float_field("y", 4),
+            float_field("z", 8),
+            json!({"name": label, "offset": 12, "type": UINT32}),
+        ];
+        self.point_cloud(topic, time_ns, frame_id, 16, &fields, &data)
+    }
+
+    /// A `foxglove.PointCloud` of packed points `data`, `stride` bytes each, laid out as `fields`.
+    fn point_cloud(
+        &mut self,
+        topic: &str,
+        time_ns: u64,
+        frame_id: &str,
+        stride: u32,
+        fields: &[Value],
+        data: &[u8],
+    ) -> anyhow::Result<()> {
         let message = json!({
             "timestamp": time(time_ns),
             "frame_id": frame_id,
             "pose": Pose::IDENTITY.to_json(),
-            "point_stride": 12,
-            "fields": [field("x", 0), field("y", 4), field("z", 8)],
-            "data": base64::engine::general_purpose::STANDARD.encode(&data),
+            "point_stride": stride,
+            "fields": fields,
+            "data": base64::engine::general_purpose::STANDARD.encode(data),
         });
         self.write(topic, POINT_CLOUD, time_ns, &message)
+    }
+
+    /// Points drawn over an image, one group per [`ImagePoints`], as a
+    /// `foxglove.ImageAnnotations` on `topic` (Foxglove's image panel lists it for the image
+    /// topics). Foxglove places the origin at the top-left pixel's corner, not its centre, so
+    /// the points are written half a pixel further right and down than given.
+    ///
+    /// # Errors
+    /// Writing errors, or `topic` already used with another schema; named.
+    pub fn image_points(&mut self, topic: &str, time_ns: u64, groups: &[ImagePoints]) -> anyhow::Result<()> {
+        let annotations: Vec<Value> = groups
+            .iter()
+            .map(|g| {
+                json!({
+                    "timestamp": time(time_ns),
+                    "type": POINTS,
+                    "points": g.points.iter().map(|&[x, y]| json!({"x": x + 0.5, "y": y + 0.5})).collect::<Vec<_>>(),
+                    "outline_color": g.color.to_json(),
+                    "outline_colors": [],
+                    "fill_color": g.color.to_json(),
+                    "thickness": g.size,
+                })
+            })
+            .collect();
+        // Circles and texts are written empty rather than left out: every field of the schema
+        // is there, as Foxglove's own writers do.
+        let message = json!({"circles": [], "points": annotations, "texts": []});
+        self.write(topic, IMAGE_ANNOTATIONS, time_ns, &message)
     }
 
     /// An encoded image (`format`: `png`, `jpeg`, ...) seen from `frame_id`, as a
@@ -410,6 +500,11 @@ impl Drop for Recorder {
     }
 }
 
+/// A 32-bit float field of a `foxglove.PointCloud` at byte `offset` of each point.
+fn float_field(name: &str, offset: u32) -> Value {
+    json!({"name": name, "offset": offset, "type": FLOAT32})
+}
+
 /// A `Time` (or `Duration`) of `ns` nanoseconds.
 fn time(ns: u64) -> Value {
     json!({"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000})
@@ -440,6 +535,11 @@ fn schema_of(name: &str) -> anyhow::Result<Value> {
         COMPRESSED_IMAGE => {
             object(&[("timestamp", time_schema()), ("frame_id", string()), ("data", bytes()), ("format", string())])
         }
+        IMAGE_ANNOTATIONS => object(&[
+            ("circles", array(circle_annotation())),
+            ("points", array(points_annotation())),
+            ("texts", array(text_annotation())),
+        ]),
         _ => anyhow::bail!("no schema for {name}"),
     };
     let mut schema = body;
@@ -513,6 +613,44 @@ fn line_primitive() -> Value {
         ("color", color()),
         ("colors", array(color())),
         ("indices", array(integer(0))),
+    ])
+}
+
+fn point2() -> Value {
+    object(&[("x", number()), ("y", number())])
+}
+
+fn points_annotation() -> Value {
+    object(&[
+        ("timestamp", time_schema()),
+        ("type", json!({"type": "integer", "enum": [0, 1, 2, 3, 4]})),
+        ("points", array(point2())),
+        ("outline_color", color()),
+        ("outline_colors", array(color())),
+        ("fill_color", color()),
+        ("thickness", number()),
+    ])
+}
+
+fn circle_annotation() -> Value {
+    object(&[
+        ("timestamp", time_schema()),
+        ("position", point2()),
+        ("diameter", number()),
+        ("thickness", number()),
+        ("fill_color", color()),
+        ("outline_color", color()),
+    ])
+}
+
+fn text_annotation() -> Value {
+    object(&[
+        ("timestamp", time_schema()),
+        ("position", point2()),
+        ("text", string()),
+        ("font_size", number()),
+        ("text_color", color()),
+        ("background_color", color()),
     ])
 }
 
@@ -605,6 +743,11 @@ mod tests {
             rec.lines("/forecasts/cv", t, &[]).unwrap();
             rec.points("/points/static", t, CAMERA_FRAME, &[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]).unwrap();
             rec.image("/camera/image", t, CAMERA_FRAME, "png", &[0x89, b'P', b'N', b'G']).unwrap();
+            let labelled = [([1.0, 2.0, 3.0], 7), ([4.0, 5.0, 6.0], u32::from(u16::MAX))];
+            rec.labelled_points("/points/objects", t, CAMERA_FRAME, "object_id", &labelled).unwrap();
+            let dots = |x: f64, color| ImagePoints { points: vec![[x, 0.0], [x, 149.0]], color, size: 3.0 };
+            let groups = [dots(0.0, Rgba::opaque(0.0, 1.0, 0.0)), dots(10.0, Rgba::opaque(1.0, 0.0, 0.0))];
+            rec.image_points("/camera/annotations", t, &groups).unwrap();
         }
         rec.finish().unwrap()
     }
@@ -626,10 +769,12 @@ mod tests {
             ("/forecasts/cv", SCENE_UPDATE),
             ("/points/static", POINT_CLOUD),
             ("/camera/image", COMPRESSED_IMAGE),
+            ("/points/objects", POINT_CLOUD),
+            ("/camera/annotations", IMAGE_ANNOTATIONS),
         ];
         let info = mcap::Summary::read(&bytes).unwrap().expect("a summary section");
         let stats = info.stats.as_ref().expect("statistics");
-        assert_eq!(stats.message_count, 18);
+        assert_eq!(stats.message_count, 24);
         assert_eq!((stats.message_start_time, stats.message_end_time), (0, 100_000_000));
         let mut counts: BTreeMap<String, u64> = BTreeMap::new();
         let mut times: Vec<u64> = Vec::new();
@@ -645,8 +790,13 @@ mod tests {
             let msg: Value = serde_json::from_slice(&m.data).unwrap();
             conforms(&schema, &msg, &m.channel.topic).unwrap();
             // The stamp inside is the log time.
-            let stamp =
-                if schema["title"] == SCENE_UPDATE { &msg["deletions"][0]["timestamp"] } else { &msg["timestamp"] };
+            let stamp = if schema["title"] == SCENE_UPDATE {
+                &msg["deletions"][0]["timestamp"]
+            } else if schema["title"] == IMAGE_ANNOTATIONS {
+                &msg["points"][0]["timestamp"]
+            } else {
+                &msg["timestamp"]
+            };
             assert_eq!(stamp["sec"].as_u64().unwrap() * 1_000_000_000 + stamp["nsec"].as_u64().unwrap(), m.log_time);
             match m.channel.topic.as_str() {
                 "/tf" => {
@@ -669,6 +819,28 @@ mod tests {
                     assert_eq!(msg["fields"][2]["name"], "z");
                 }
                 "/camera/image" => assert_eq!(msg["format"], "png"),
+                "/points/objects" => {
+                    let data = base64::engine::general_purpose::STANDARD.decode(msg["data"].as_str().unwrap()).unwrap();
+                    assert_eq!(msg["point_stride"], 16);
+                    assert_eq!(data.len(), 2 * 16);
+                    assert_eq!(f32::from_le_bytes(data[16..20].try_into().unwrap()), 4.0);
+                    assert_eq!(u32::from_le_bytes(data[12..16].try_into().unwrap()), 7);
+                    assert_eq!(u32::from_le_bytes(data[28..32].try_into().unwrap()), 65_535);
+                    assert_eq!(msg["fields"][3], json!({"name": "object_id", "offset": 12, "type": UINT32}));
+                }
+                "/camera/annotations" => {
+                    let groups = msg["points"].as_array().unwrap();
+                    assert_eq!(groups.len(), 2);
+                    assert_eq!(groups[1]["type"], POINTS);
+                    // Shifted half a pixel: Foxglove's origin is the top-left pixel's corner.
+                    assert_eq!(groups[1]["points"][1], json!({"x": 10.5, "y": 149.5}));
+                    assert_eq!(groups[1]["outline_color"]["r"], 1.0);
+                    assert_eq!(groups[1]["thickness"], 3.0);
+                    assert_eq!(
+                        (msg["circles"].as_array().unwrap().len(), msg["texts"].as_array().unwrap().len()),
+                        (0, 0)
+                    );
+                }
                 _ => {}
             }
             *counts.entry(m.channel.topic.to_string()).or_insert(0) += 1;

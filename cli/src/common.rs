@@ -146,6 +146,20 @@ pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Where `--record FILE` puts the recording of sequence `id`: FILE itself when the run makes
+/// one recording (`several` false) and FILE is not an existing folder; otherwise FILE is a
+/// folder holding `<id>.mcap`, under `<group>/` when a group is given (e.g. the estimator
+/// profile, when several are run). Shared by the commands that record, so that every one lays
+/// out a folder of recordings the same way.
+#[must_use]
+pub fn record_path(target: &Path, several: bool, group: Option<&str>, id: &str) -> PathBuf {
+    if !several && !target.is_dir() {
+        return target.to_path_buf();
+    }
+    let dir = group.map_or_else(|| target.to_path_buf(), |g| target.join(g));
+    dir.join(format!("{id}.mcap"))
+}
+
 /// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
 ///
 /// # Errors
@@ -336,6 +350,16 @@ impl DataArgs {
 #[must_use]
 pub fn progress(len: u64, what: &str) -> Progress {
     Progress::new(len, what)
+}
+
+/// The camera-frame point (x right, y down, z forward, metres) of a track's pixel and depth,
+/// for focal lengths `f` and principal point `c` in pixels; `None` without a usable depth (the
+/// front-end keeps tracks whose depth is unknown, and they have no place in 3D).
+#[must_use]
+pub fn track_point(k: &dynotraj_core::wire::Track, f: [f32; 2], c: [f32; 2]) -> Option<[f32; 3]> {
+    let [fx, fy] = f;
+    let [cx, cy] = c;
+    (k.depth.is_finite() && k.depth > 0.0).then(|| [(k.u - cx) / fx * k.depth, (k.v - cy) / fy * k.depth, k.depth])
 }
 
 #[cfg(test)]

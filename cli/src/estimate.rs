@@ -17,7 +17,9 @@ use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherPa
 use dynotraj_core::wire::{ObjectClass, Track};
 use dynotraj_sim::track_sim::SimFrame;
 
-use super::common::{EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, sequence_ids};
+use super::common::{
+    EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, record_path, sequence_ids,
+};
 use dynotraj_eval::jobs::map_jobs;
 use dynotraj_eval::report::estimator_tables::{
     cost_table, counters_table, data_tables, per_object_table, replay_tables, tables,
@@ -326,14 +328,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(target) = &args.record {
-        let folder = results.len() > 1 || target.is_dir();
         let several_profiles = args.profiles.len() > 1;
         for r in &results {
-            let path = match (folder, several_profiles) {
-                (false, _) => target.clone(),
-                (true, false) => target.join(format!("{}.mcap", r.id)),
-                (true, true) => target.join(r.profile).join(format!("{}.mcap", r.id)),
-            };
+            let path = record_path(target, results.len() > 1, several_profiles.then_some(r.profile), &r.id);
             let frames: Vec<(u32, &[Track])> = r.sim.iter().map(|f| (f.frame, f.tracks.as_slice())).collect();
             let input = RecordInput {
                 frames: &frames,
@@ -436,11 +433,7 @@ fn object_line(id: u16, class: ObjectClass, points: &[[f64; 3]], color: Rgba) ->
 
 /// Tracks (pixel and depth) as points of the camera frame (x right, y down, z forward).
 fn back_project(tracks: &[&Track], k: &Intrinsics) -> Vec<[f32; 3]> {
-    tracks
-        .iter()
-        .filter(|t| t.depth.is_finite() && t.depth > 0.0)
-        .map(|t| [(t.u - k.cx) / k.fx * t.depth, (t.v - k.cy) / k.fy * t.depth, t.depth])
-        .collect()
+    tracks.iter().filter_map(|t| super::common::track_point(t, [k.fx, k.fy], [k.cx, k.cy])).collect()
 }
 
 /// Says where a recording went.
@@ -522,12 +515,8 @@ fn replay(args: &EstimateArgs, path: &std::path::Path) -> anyhow::Result<(Table,
         eprintln!("wrote {}", out.display());
     }
     if let Some(target) = &args.record {
-        let file = if target.is_dir() {
-            let stem = path.file_stem().map_or_else(|| "replay".into(), |s| s.to_string_lossy().into_owned());
-            target.join(format!("{stem}.mcap"))
-        } else {
-            target.clone()
-        };
+        let stem = path.file_stem().map_or_else(|| "replay".into(), |s| s.to_string_lossy().into_owned());
+        let file = record_path(target, false, None, &stem);
         let frames: Vec<(u32, &[Track])> =
             r.frames.iter().zip(&r.tracks).map(|(&(frame, _), tracks)| (frame, tracks.as_slice())).collect();
         let input =

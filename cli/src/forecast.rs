@@ -9,7 +9,10 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_bag::record::{Line, Pose, Recorder, RecordingSummary, Rgba, frame_time_ns};
+use dynotraj_core::geometry::{BevState, Point2};
+use dynotraj_core::limits::{HORIZON, MAX_HISTORY};
 use dynotraj_core::model::signed;
+use dynotraj_core::predict::{Forecast, constant_velocity};
 use dynotraj_core::wire::{DecoderStats, EstimateKind, FrameDecoder, LinkStats, Message, ObjectStates, Prediction};
 use dynotraj_edge::{NoClock, Session, Split};
 use dynotraj_eval::report::stream_report::predictions_data;
@@ -41,9 +44,9 @@ pub struct ForecastArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Also write a recording to look at in Foxglove: an MCAP file (Foxglove's schemas, JSON)
-    /// with, per frame, each object's history (`/objects/tracks`), its forecast
-    /// (`/forecasts/cv`, or `/forecasts/learned` with --model) and the camera (`/tf`). A forecast
-    /// is one sequence, so FILE is the recording itself.
+    /// with, per frame, each object's history (`/objects/tracks`), its constant-velocity
+    /// forecast (`/forecasts/cv`), with --model also the model's (`/forecasts/learned`), and the
+    /// camera (`/tf`). A forecast is one sequence, so FILE is the recording itself.
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
 }
@@ -70,8 +73,8 @@ pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
     let path = args.out.join(REPLIES_BIN);
     std::fs::write(&path, &out.result.raw).with_context(|| format!("--out: writing {}", path.display()))?;
     if let Some(file) = &args.record {
-        let predictor = if args.model.is_some() { "learned" } else { "cv" };
-        let written = record(file, &tracks, &out.result, predictor).context("--record")?;
+        let forecaster = if args.model.is_some() { Forecaster::Learned } else { Forecaster::ConstantVelocity };
+        let written = record(file, &tracks, &out.result, forecaster).context("--record")?;
         eprintln!("recorded {} ({} bytes)", written.path.display(), written.bytes);
     }
     let forecasts = out.result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
@@ -86,14 +89,29 @@ pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
 
 /// Colour of the objects' histories.
 const HISTORY_COLOR: Rgba = Rgba::opaque(0.2, 0.6, 1.0);
-/// Colour of the forecasts.
+/// Colour of the edge's forecasts.
 const FORECAST_COLOR: Rgba = Rgba::opaque(1.0, 0.4, 0.1);
+/// Colour of the constant-velocity forecasts made here beside a model's, apart from the edge's.
+const CV_COLOR: Rgba = Rgba::opaque(0.7, 0.7, 0.7);
+
+/// What the edge forecast with in a run being recorded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Forecaster {
+    /// Constant velocity (no model): its forecasts are the edge's own, on `/forecasts/cv`.
+    ConstantVelocity,
+    /// A learned model: its forecasts on `/forecasts/learned`, and constant velocity computed
+    /// here on `/forecasts/cv` for comparison.
+    Learned,
+}
 
 /// Writes the recording of a forecast run to `path`: per frame sent (log time: frame index
 /// over the camera's frame rate), the camera's causal pose on `/tf`, each object's history on
 /// `/objects/tracks` (its causal bird's-eye states so far, as the edge reported them) and its
-/// forecast from that frame on `/forecasts/<predictor>`, both as lines in the bird's-eye plane
-/// (z = 0). Every frame has one message per topic, empty when the edge said nothing of it.
+/// forecasts from that frame, all as lines in the bird's-eye plane (z = 0). The edge's own
+/// forecasts go to `/forecasts/cv` or `/forecasts/learned` (`forecaster`); with a learned
+/// model, `/forecasts/cv` holds constant velocity ([`cv_forecasts`]) for the same objects and
+/// frames, so the two can be compared. Every frame has one message per forecast and history
+/// topic, empty when the edge said nothing of it.
 ///
 /// # Errors
 /// Writing errors, named.
@@ -101,7 +119,7 @@ pub fn record(
     path: &Path,
     tracks: &Tracks,
     result: &StreamResult,
-    predictor: &str,
+    forecaster: Forecaster,
 ) -> anyhow::Result<RecordingSummary> {
     let rate = f64::from(tracks.camera.frame_rate_hz);
     let mut states: BTreeMap<u32, &ObjectStates> = BTreeMap::new();
@@ -115,7 +133,11 @@ pub fn record(
             _ => {}
         }
     }
-    let forecasts_topic = format!("/forecasts/{predictor}");
+    let cv = match forecaster {
+        Forecaster::ConstantVelocity => None,
+        // The edge's frame period, 1 / the camera model's rate: its forecasts' dt too.
+        Forecaster::Learned => Some(cv_forecasts(&states, &predictions, 1.0 / tracks.camera.frame_rate_hz)),
+    };
     let mut rec = Recorder::create(path)?;
     let mut history: BTreeMap<u16, Vec<[f64; 3]>> = BTreeMap::new();
     for frame in &tracks.frames {
@@ -138,21 +160,76 @@ pub fn record(
             }
         }
         rec.lines("/objects/tracks", t, &lines)?;
-        let forecasts: Vec<Line> = predictions
-            .get(&frame.frame)
-            .into_iter()
-            .flatten()
-            .map(|p| Line {
-                id: p.object_id.to_string(),
-                points: p.points.iter().map(|q| ground(q.x, q.y)).collect(),
-                color: FORECAST_COLOR,
-                thickness: 0.25,
-                metadata: vec![("predictor".into(), predictor.to_string())],
-            })
-            .collect();
-        rec.lines(&forecasts_topic, t, &forecasts)?;
+        let edge: Vec<(u16, &[Point2])> =
+            predictions.get(&frame.frame).into_iter().flatten().map(|p| (p.object_id, p.points.as_slice())).collect();
+        match &cv {
+            None => rec.lines("/forecasts/cv", t, &forecast_lines(&edge, "cv", FORECAST_COLOR))?,
+            Some(cv) => {
+                rec.lines("/forecasts/learned", t, &forecast_lines(&edge, "learned", FORECAST_COLOR))?;
+                let ours: Vec<(u16, &[Point2])> =
+                    cv.get(&frame.frame).into_iter().flatten().map(|(id, points)| (*id, points.as_slice())).collect();
+                rec.lines("/forecasts/cv", t, &forecast_lines(&ours, "cv", CV_COLOR))?;
+            }
+        }
     }
     rec.finish()
+}
+
+/// Forecasts (object id, bird's-eye points) as line entities, each labelled with `predictor`.
+fn forecast_lines(forecasts: &[(u16, &[Point2])], predictor: &str, color: Rgba) -> Vec<Line> {
+    forecasts
+        .iter()
+        .map(|(id, points)| Line {
+            id: id.to_string(),
+            points: points.iter().map(|q| ground(q.x, q.y)).collect(),
+            color,
+            thickness: 0.25,
+            metadata: vec![("predictor".into(), predictor.to_string())],
+        })
+        .collect()
+}
+
+/// Constant-velocity forecasts ([`constant_velocity`], [`HORIZON`] points `dt` apart) for each
+/// (frame, object) the edge forecast, from the object's causal bird's-eye states up to that
+/// frame as the edge reported them: its run of consecutive frames ending there, so that a lost
+/// frame restarts the history as it does on the edge. Frame -> (object id, points); an object
+/// whose history is too short or implausible for constant velocity has none.
+///
+/// The edge also restarts a history when the estimator re-orients an object's frame, which its
+/// reports do not say. That does not matter here: the edge forecasts nothing from a history of
+/// one state, and constant velocity reads the last two, so the forecasts are the ones the edge
+/// makes without a model (tests/tests/recording.rs holds the two equal).
+#[must_use]
+pub fn cv_forecasts(
+    states: &BTreeMap<u32, &ObjectStates>,
+    predictions: &BTreeMap<u32, Vec<&Prediction>>,
+    dt: f32,
+) -> BTreeMap<u32, Vec<(u16, Vec<Point2>)>> {
+    // Each object's current run: (frame of its newest state, its states, oldest first).
+    let mut runs: BTreeMap<u16, (u32, Vec<BevState>)> = BTreeMap::new();
+    let mut out: BTreeMap<u32, Vec<(u16, Vec<Point2>)>> = BTreeMap::new();
+    for (&frame, s) in states {
+        for o in &s.objects {
+            let run = runs.entry(o.object_id).or_insert_with(|| (frame, Vec::new()));
+            if run.0.checked_add(1) != Some(frame) {
+                run.1.clear();
+            }
+            run.0 = frame;
+            run.1.push(o.state);
+            // Constant velocity reads the newest states only; the edge keeps as many.
+            if run.1.len() > MAX_HISTORY + 1 {
+                run.1.remove(0);
+            }
+        }
+        for p in predictions.get(&frame).into_iter().flatten() {
+            let Some((_, history)) = runs.get(&p.object_id).filter(|(last, _)| *last == frame) else { continue };
+            let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
+            if constant_velocity(history, dt, &mut points).is_ok() {
+                out.entry(frame).or_default().push((p.object_id, points.to_vec()));
+            }
+        }
+    }
+    out
 }
 
 /// A bird's-eye position on the recording's ground plane.

@@ -3,14 +3,16 @@
 //! `dynotraj estimate --tracks` and `dynotraj stream --tracks` read. Also:
 //! `--cost` times the stages at KITTI resolution on rendered frames, and `--check` measures the
 //! front-end on the real KITTI images in ../shared/kitti (stereo D1, KLT survival, ego-motion).
+//! `--record` also writes what the front-end saw and found for Foxglove (MCAP).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::wire::CameraInfo;
+use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary, Rgba};
+use dynotraj_core::wire::{CameraInfo, Track};
 
-use super::common::{FrameRateArg, progress};
+use super::common::{FrameRateArg, progress, record_path};
 use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
 use dynotraj_eval::report::{Format, Table};
 use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
@@ -51,6 +53,14 @@ pub struct TrackArgs {
     /// Print the front-end's counters.
     #[arg(long)]
     pub counters: bool,
+    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas, JSON) with, per
+    /// frame at its capture time, the left image as it is on disk (`/camera/left/compressed`),
+    /// the frame's tracks back-projected into the camera frame (`/tracks/static`;
+    /// `/tracks/objects` with each point's `object_id`) and drawn over the image
+    /// (`/camera/left/annotations`). One sequence: FILE is the recording; several, or FILE an
+    /// existing folder: FILE is a folder of `<sequence>.mcap`.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["cost", "check"])]
+    pub record: Option<PathBuf>,
     /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead; with
     /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth.
     #[arg(long, alias = "bench")]
@@ -88,10 +98,15 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     let (Some(dir), Some(out)) = (&args.kitti, &args.out) else { anyhow::bail!("--kitti and --out are needed") };
     std::fs::create_dir_all(out).with_context(|| format!("creating the output folder {}", out.display()))?;
-    for id in image_sequences(dir, &args.sequences)? {
-        let file = tracks_path(out, &id);
-        let (times, stats, frames) = track_sequence(dir, &id, &file, args, stereo)?;
+    let ids = image_sequences(dir, &args.sequences)?;
+    for id in &ids {
+        let file = tracks_path(out, id);
+        let record = args.record.as_deref().map(|target| record_path(target, ids.len() > 1, None, id));
+        let (times, stats, frames, recorded) = track_sequence(dir, id, &file, record.as_deref(), args, stereo)?;
         eprintln!("wrote {frames} frames of sequence {id} to {}", file.display());
+        if let Some(r) = recorded {
+            eprintln!("recorded {} ({} bytes)", r.path.display(), r.bytes);
+        }
         print_times(&times, &stereo);
         if args.counters {
             println!("{}", counters_table(&stats).render(Format::Md));
@@ -120,7 +135,9 @@ fn image_sequences(dir: &Path, given: &[String]) -> anyhow::Result<Vec<String>> 
     Ok(ids)
 }
 
-/// Tracks sequence `seq` of `dir` into the tracks file `out`.
+/// Tracks sequence `seq` of `dir` into the tracks file `out`, and with `record` also into a
+/// recording there ([`FrameRecorder`]); returns the stage times, the counters, the frames
+/// tracked and what the recording holds.
 ///
 /// # Errors
 /// Reading, tracking or writing errors, named.
@@ -128,9 +145,10 @@ pub fn track_sequence(
     dir: &Path,
     seq: &str,
     out: &Path,
+    record: Option<&Path>,
     args: &TrackArgs,
     stereo: StereoParams,
-) -> anyhow::Result<(StageTimes, FrontEndStats, usize)> {
+) -> anyhow::Result<(StageTimes, FrontEndStats, usize, Option<RecordingSummary>)> {
     let s = ImageSequence::open(dir, seq, args.depth, args.masks)?;
     let [fx, fy, cx, cy] = s.intrinsics;
     // Capture times from the layout's times/ say the real rate; --rate is for layouts without.
@@ -150,15 +168,96 @@ pub fn track_sequence(
     };
     let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
+    let mut rec = record
+        .map(|path| -> anyhow::Result<FrameRecorder> {
+            Ok(FrameRecorder {
+                rec: Recorder::create(path).context("--record")?,
+                left_dir: dir.join("image_02").join(seq),
+                camera,
+            })
+        })
+        .transpose()?;
     let bar = progress(args.frames.map_or(0, |n| n as u64), "frames tracked");
     let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(rate_hz), |frame, t_us, tracks| {
         w.write_frame(frame, t_us, tracks)?;
+        if let Some(r) = rec.as_mut() {
+            r.frame(frame, t_us, tracks).context("--record")?;
+        }
         bar.inc(1);
         Ok(())
     })?;
     bar.finish_and_clear();
     w.finish()?;
-    Ok((fe.times, fe.tracker.stats, n))
+    let recorded = rec.map(|r| r.rec.finish().context("--record")).transpose()?;
+    Ok((fe.times, fe.tracker.stats, n, recorded))
+}
+
+/// Colour of the static tracks drawn over the image.
+const STATIC_COLOR: Rgba = Rgba::opaque(0.2, 0.9, 0.3);
+/// Colours of the objects' tracks drawn over the image, by object id in turn: distinct hues,
+/// none of them the static tracks' green.
+const OBJECT_COLORS: [Rgba; 6] = [
+    Rgba::opaque(1.0, 0.3, 0.2),
+    Rgba::opaque(0.2, 0.6, 1.0),
+    Rgba::opaque(1.0, 0.8, 0.1),
+    Rgba::opaque(0.9, 0.3, 0.9),
+    Rgba::opaque(0.1, 0.9, 0.9),
+    Rgba::opaque(1.0, 0.55, 0.1),
+];
+/// Diameter of a track drawn over the image, pixels.
+const DOT_PX: f64 = 4.0;
+
+/// A `track --record` recording being written, frame by frame.
+struct FrameRecorder {
+    rec: Recorder,
+    /// The sequence's left images, `NNNNNN.png`: the front-end reads them by the same names.
+    left_dir: PathBuf,
+    /// The camera the tracks were measured with.
+    camera: CameraInfo,
+}
+
+impl FrameRecorder {
+    /// Writes frame `frame` (captured at `t_us`, the log time) and its `tracks`: the left
+    /// image's file as it is (a PNG is already what `foxglove.CompressedImage` carries, so it
+    /// is not decoded and encoded again), the tracks with a depth as points of the camera
+    /// frame, static and object tracks apart, and every track over the image.
+    fn frame(&mut self, frame: u32, t_us: u64, tracks: &[Track]) -> anyhow::Result<()> {
+        let t = t_us.checked_mul(1000).with_context(|| format!("frame {frame}: capture time {t_us} us overflows"))?;
+        let image = self.left_dir.join(format!("{frame:06}.png"));
+        let bytes = std::fs::read(&image).with_context(|| format!("reading {}", image.display()))?;
+        self.rec.image("/camera/left/compressed", t, CAMERA_FRAME, "png", &bytes)?;
+        let (statics, objects): (Vec<&Track>, Vec<&Track>) = tracks.iter().partition(|k| k.is_static());
+        let static_points: Vec<[f32; 3]> = statics.iter().filter_map(|k| self.back_project(k)).collect();
+        self.rec.points("/tracks/static", t, CAMERA_FRAME, &static_points)?;
+        let object_points: Vec<([f32; 3], u32)> =
+            objects.iter().filter_map(|k| Some((self.back_project(k)?, u32::from(k.object_id)))).collect();
+        self.rec.labelled_points("/tracks/objects", t, CAMERA_FRAME, "object_id", &object_points)?;
+        self.rec.image_points("/camera/left/annotations", t, &image_groups(&statics, &objects))?;
+        Ok(())
+    }
+
+    /// The camera-frame point of a track ([`super::common::track_point`]).
+    fn back_project(&self, k: &Track) -> Option<[f32; 3]> {
+        let c = &self.camera;
+        super::common::track_point(k, [c.fx, c.fy], [c.cx, c.cy])
+    }
+}
+
+/// The tracks drawn over the image: the static ones in one group, each object's in a group of
+/// its own colour (every track, with or without a depth: this is what the front-end followed).
+fn image_groups(statics: &[&Track], objects: &[&Track]) -> Vec<ImagePoints> {
+    let pixel = |k: &&Track| [f64::from(k.u), f64::from(k.v)];
+    let mut groups =
+        vec![ImagePoints { points: statics.iter().map(pixel).collect(), color: STATIC_COLOR, size: DOT_PX }];
+    let mut by_object: std::collections::BTreeMap<u16, Vec<[f64; 2]>> = std::collections::BTreeMap::new();
+    for k in objects {
+        by_object.entry(k.object_id).or_default().push(pixel(k));
+    }
+    for (id, points) in by_object {
+        let color = OBJECT_COLORS[usize::from(id) % OBJECT_COLORS.len()];
+        groups.push(ImagePoints { points, color, size: DOT_PX });
+    }
+    groups
 }
 
 fn print_times(t: &StageTimes, stereo: &StereoParams) {

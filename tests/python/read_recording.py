@@ -1,11 +1,12 @@
-"""Reads a `dynotraj forecast|estimate --record` recording with Python's `mcap` package, as
-any user's tool would, prints a summary (channels, schema names, messages per topic, first and
-last log time) and exits non-zero when something expected is missing: a Foxglove schema name,
-a message that does not decode as JSON or does not match its channel's JSON schema, a topic
-without exactly one message per frame.
+"""Reads a `dynotraj forecast|estimate|track --record` recording with Python's `mcap` package,
+as any user's tool would, prints a summary (channels, schema names, messages per topic, first
+and last log time) and exits non-zero when something expected is missing: a Foxglove schema
+name, a message that does not decode as JSON or does not match its channel's JSON schema, a
+topic without exactly one message per frame, an image that is not a PNG.
 
-    python read_recording.py forecast FILE --frames N [--predictor cv|learned]
+    python read_recording.py forecast FILE --frames N [--predictor cv|learned ...]
     python read_recording.py estimate FILE --frames N [--no-truth]
+    python read_recording.py track FILE --frames N
 """
 
 import argparse
@@ -23,17 +24,32 @@ FOXGLOVE = {
     "foxglove.PosesInFrame",
     "foxglove.PointCloud",
     "foxglove.CompressedImage",
+    "foxglove.ImageAnnotations",
 }
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+# foxglove.PointCloud numeric types written (FLOAT32, UINT32) and their sizes, bytes.
+FIELD_BYTES = {7: 4, 5: 4}
 
 
 def expected_topics(args):
     """Topic -> (schema name, whether it has one message per frame)."""
     if args.command == "forecast":
-        return {
+        topics = {
             "/objects/tracks": ("foxglove.SceneUpdate", True),
-            f"/forecasts/{args.predictor}": ("foxglove.SceneUpdate", True),
             # Only frames the edge estimated place the camera.
             "/tf": ("foxglove.FrameTransform", False),
+        }
+        for predictor in predictors(args):
+            topics[f"/forecasts/{predictor}"] = ("foxglove.SceneUpdate", True)
+        return topics
+    if args.command == "track":
+        return {
+            "/camera/left/compressed": ("foxglove.CompressedImage", True),
+            "/camera/left/annotations": ("foxglove.ImageAnnotations", True),
+            "/tracks/static": ("foxglove.PointCloud", True),
+            "/tracks/objects": ("foxglove.PointCloud", True),
         }
     topics = {
         "/tf": ("foxglove.FrameTransform", False),
@@ -48,15 +64,22 @@ def expected_topics(args):
     return topics
 
 
+def predictors(args):
+    """The forecast topics' predictors asked for (cv when none is)."""
+    return args.predictor or ["cv"]
+
+
 def stamp_ns(msg, schema_name):
     """The message's own time stamp, nanoseconds."""
     if schema_name == "foxglove.SceneUpdate":
         stamps = [d["timestamp"] for d in msg["deletions"]] + [e["timestamp"] for e in msg["entities"]]
-        if not stamps:
-            return None
-        t = stamps[0]
+    elif schema_name == "foxglove.ImageAnnotations":
+        stamps = [a["timestamp"] for kind in ("circles", "points", "texts") for a in msg[kind]]
     else:
-        t = msg["timestamp"]
+        stamps = [msg["timestamp"]]
+    if not stamps:
+        return None
+    t = stamps[0]
     return t["sec"] * 1_000_000_000 + t["nsec"]
 
 
@@ -74,6 +97,15 @@ def check_message(msg, schema_name):
         data = base64.b64decode(msg["data"], validate=True)
         if len(data) % msg["point_stride"] != 0:
             problems.append(f"point cloud of {len(data)} bytes, stride {msg['point_stride']}")
+        for field in msg["fields"]:
+            if field["offset"] + FIELD_BYTES.get(field["type"], 0) > msg["point_stride"]:
+                problems.append(f"field {field['name']} of type {field['type']} beyond the point's stride")
+            if field["type"] not in FIELD_BYTES:
+                problems.append(f"field {field['name']} of unexpected type {field['type']}")
+    elif schema_name == "foxglove.CompressedImage":
+        data = base64.b64decode(msg["data"], validate=True)
+        if msg["format"] == "png" and not data.startswith(PNG_SIGNATURE):
+            problems.append(f"format png, but the data starts with {data[:8]!r}")
     elif schema_name == "foxglove.FrameTransform":
         if (msg["parent_frame_id"], msg["child_frame_id"]) != ("world", "camera"):
             problems.append(f"transform {msg['parent_frame_id']} -> {msg['child_frame_id']}")
@@ -82,16 +114,18 @@ def check_message(msg, schema_name):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("command", choices=["forecast", "estimate"])
+    parser.add_argument("command", choices=["forecast", "estimate", "track"])
     parser.add_argument("file")
     parser.add_argument("--frames", type=int, required=True, help="frames the run had")
-    parser.add_argument("--predictor", default="cv")
+    parser.add_argument("--predictor", action="append", help="a forecast topic expected (repeat; default cv)")
     parser.add_argument("--no-truth", action="store_true", help="a run without the simulator's truth")
     args = parser.parse_args()
 
     problems = []
     counts = Counter()
     entities = Counter()
+    points = Counter()
+    fields = {}
     channels = {}
     first = last = None
     with open(args.file, "rb") as f:
@@ -128,10 +162,23 @@ def main():
                 problems.append(f"{where}: stamped {stamp} ns")
             problems += [f"{where}: {p}" for p in check_message(msg, schema.name)]
             entities[channel.topic] += len(msg.get("entities", []))
+            if schema.name == "foxglove.PointCloud":
+                points[channel.topic] += len(base64.b64decode(msg["data"])) // msg["point_stride"]
+                fields[channel.topic] = [f["name"] for f in msg["fields"]]
+            elif schema.name == "foxglove.ImageAnnotations":
+                points[channel.topic] += sum(len(a["points"]) for a in msg["points"])
+            if "frame_id" in msg and schema.name != "foxglove.PosesInFrame" and msg["frame_id"] != "camera":
+                problems.append(f"{where}: frame {msg['frame_id']}, expected camera")
 
     print(f"{args.file}: {sum(counts.values())} messages, log time {first} .. {last} ns")
     for topic, (name, encoding, message_encoding, _) in sorted(channels.items()):
-        extra = f", {entities[topic]} entities" if name == "foxglove.SceneUpdate" else ""
+        extra = ""
+        if name == "foxglove.SceneUpdate":
+            extra = f", {entities[topic]} entities"
+        elif name == "foxglove.PointCloud":
+            extra = f", {points[topic]} points (fields {', '.join(fields.get(topic, []))})"
+        elif name == "foxglove.ImageAnnotations":
+            extra = f", {points[topic]} points drawn"
         print(f"  {topic}: {name} ({encoding}/{message_encoding}), {counts[topic]} messages{extra}")
 
     for topic, (name, encoding, message_encoding, _) in channels.items():
@@ -150,9 +197,16 @@ def main():
             problems.append(f"{topic}: {n} messages, expected one per frame ({args.frames})")
         if not per_frame and not 0 < n <= args.frames:
             problems.append(f"{topic}: {n} messages, expected 1 to {args.frames}")
-    for topic in ("/objects/tracks", "/objects/estimated", f"/forecasts/{args.predictor}"):
+    forecasts = [f"/forecasts/{p}" for p in predictors(args)] if args.command == "forecast" else []
+    for topic in ["/objects/tracks", "/objects/estimated"] + forecasts:
         if topic in channels and entities[topic] == 0:
             problems.append(f"{topic}: no entity in any frame")
+    if args.command == "track":
+        for topic in ("/tracks/static", "/tracks/objects", "/camera/left/annotations"):
+            if topic in channels and points[topic] == 0:
+                problems.append(f"{topic}: no point in any frame")
+        if "/tracks/objects" in fields and "object_id" not in fields["/tracks/objects"]:
+            problems.append(f"/tracks/objects: fields {fields['/tracks/objects']}, expected an object_id")
 
     for p in problems:
         print(f"problem: {p}", file=sys.stderr)

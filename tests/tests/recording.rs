@@ -1,5 +1,5 @@
-//! `dynotraj forecast --record` and `dynotraj estimate --record` on the committed image-sim
-//! fixture, read back by Python's `mcap` package (tests/python/read_recording.py), as a user's
+//! `dynotraj forecast --record`, `dynotraj estimate --record` and `dynotraj track --record` on
+//! the committed image-sim fixture, read back by Python's `mcap` package (tests/python/read_recording.py), as a user's
 //! tools outside this workspace would: Foxglove's schema names, every message JSON matching its
 //! channel's schema, the expected topics with one message per frame.
 //!
@@ -12,8 +12,15 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Mutex;
 
+use std::collections::BTreeMap;
+
 use dynotraj_bag::record::partial_path;
-use dynotraj_tests::edge_fixture::dynotraj_command;
+use dynotraj_cli::forecast::{cv_forecasts, forecast};
+use dynotraj_cli::model_cost::random_blob;
+use dynotraj_core::model::Dims;
+use dynotraj_core::model::blob::Precision;
+use dynotraj_core::wire::{EstimateKind, Message, ObjectStates, Prediction};
+use dynotraj_tests::edge_fixture::{dynotraj_command, scene_tracks};
 use dynotraj_tests::manifest_dir;
 
 /// Frames of the fixture's sequence 0000.
@@ -118,6 +125,112 @@ fn forecast_records_histories_and_forecasts() {
     assert!(stderr.contains("recorded"), "{stderr}");
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "cv"]);
+}
+
+#[test]
+fn forecast_with_a_model_records_learned_and_constant_velocity_forecasts() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("forecast");
+    let rec = out.join("rec.mcap");
+    // Random weights, unsigned: `forecast --model` takes an unsigned blob as linked into the
+    // edge. Its frame period is the fixture's 20 Hz.
+    let model = dir.path().join("random.int8");
+    std::fs::write(&model, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
+    let kitti = fixture();
+    let stderr = dynotraj(&[
+        "forecast",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--model",
+        model.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("recorded"), "{stderr}");
+    let frames = FIXTURE_FRAMES.to_string();
+    read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "learned", "--predictor", "cv"]);
+}
+
+/// The constant-velocity forecasts recorded beside a model's are the ones the edge makes
+/// without a model: same objects, same frames, same points.
+#[test]
+fn cv_beside_a_model_is_what_the_edge_forecasts_without_one() {
+    let tracks = scene_tracks(30);
+    let blob = random_blob(&Dims::DEFAULT, Precision::Int8, 0.05);
+    let learned = forecast(&tracks, Some(&blob)).unwrap();
+    let mut states: BTreeMap<u32, &ObjectStates> = BTreeMap::new();
+    let mut predictions: BTreeMap<u32, Vec<&Prediction>> = BTreeMap::new();
+    for m in &learned.result.replies {
+        match m {
+            Message::ObjectStates(s) if s.kind == EstimateKind::Causal => {
+                states.insert(s.frame, s);
+            }
+            Message::Prediction(p) => predictions.entry(p.frame).or_default().push(p),
+            _ => {}
+        }
+    }
+    let ours = cv_forecasts(&states, &predictions, 1.0 / tracks.camera.frame_rate_hz);
+    let cv = forecast(&tracks, None).unwrap();
+    let mut edge: BTreeMap<u32, Vec<(u16, Vec<dynotraj_core::geometry::Point2>)>> = BTreeMap::new();
+    for m in &cv.result.replies {
+        if let Message::Prediction(p) = m {
+            edge.entry(p.frame).or_default().push((p.object_id, p.points.to_vec()));
+        }
+    }
+    assert!(edge.values().map(Vec::len).sum::<usize>() > 100, "the scene's cars are forecast");
+    assert_eq!(ours, edge);
+}
+
+#[test]
+fn track_records_images_tracks_and_annotations() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("track");
+    let rec = out.join("rec.mcap");
+    let kitti = fixture();
+    let stderr = dynotraj(&[
+        "track",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("recorded"), "{stderr}");
+    assert!(out.join("0000.dtt").is_file(), "the tracks file is still written");
+    let frames = FIXTURE_FRAMES.to_string();
+    read_back(&rec, "track", &["--frames", &frames]);
+}
+
+#[test]
+fn track_records_into_an_existing_folder_by_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let kitti = fixture();
+    let out = dir.path().join("track");
+    let folder = dir.path().join("recordings");
+    std::fs::create_dir_all(&folder).unwrap();
+    dynotraj(&[
+        "track",
+        "--kitti",
+        kitti.to_str().unwrap(),
+        "--sequences",
+        "0000",
+        "--frames",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        folder.to_str().unwrap(),
+    ]);
+    let path = folder.join("0000.mcap");
+    assert!(path.is_file(), "{} was not written", path.display());
+    assert!(!partial_path(&path).exists());
 }
 
 #[test]
