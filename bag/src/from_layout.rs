@@ -5,7 +5,8 @@
 //! Topics: `/stereo/left/image_raw`, `/stereo/right/image_raw` (`sensor_msgs/Image`, rgb8),
 //! `/stereo/left/camera_info`, `/stereo/right/camera_info` (once per frame, the right camera's
 //! `p[3] = -fx * baseline`), `/stereo/left/instances` (16UC1 instance ids, where the layout
-//! has instance_02/), `/detections` (`vision_msgs/Detection2DArray`, where it has label_02/).
+//! has instance_02/), `/stereo/left/depth` (16UC1 millimetres, where it has depth_02/),
+//! `/detections` (`vision_msgs/Detection2DArray`, where it has label_02/).
 //! Header stamps are `start + k / rate`.
 
 use std::collections::BTreeMap;
@@ -60,10 +61,31 @@ impl BagWriter {
     }
 }
 
-fn image_message(path: &Path, header: Header, mask: bool) -> anyhow::Result<Image> {
+/// What a layout image becomes in the bag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Colour,
+    Mask,
+    /// depth_02's 1/256 m as millimetres (REP 118's 16UC1 depth).
+    Depth,
+}
+
+fn image_message(path: &Path, header: Header, kind: Kind) -> anyhow::Result<Image> {
     let decoded = image::open(path).with_context(|| format!("reading {}", path.display()))?;
     let (width, height) = (decoded.width(), decoded.height());
-    Ok(if mask {
+    Ok(if kind == Kind::Depth {
+        let mm: Vec<u16> =
+            decoded.to_luma16().as_raw().iter().map(|&v| (f64::from(v) * 1000.0 / 256.0).round() as u16).collect();
+        Image {
+            header,
+            height,
+            width,
+            encoding: "16UC1".into(),
+            is_bigendian: 0,
+            step: width * 2,
+            data: mm.iter().flat_map(|p| p.to_le_bytes()).collect(),
+        }
+    } else if kind == Kind::Mask {
         let v = decoded.to_luma16();
         Image {
             header,
@@ -115,7 +137,7 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
         for (ns, folder, cam) in [(LEFT, "image_02", 2), (RIGHT, "image_03", 3)] {
             let header =
                 Header { stamp, frame_id: format!("{}_optical", ns.trim_start_matches('/').replace('/', "_")) };
-            let img = image_message(&dir.join(folder).join(seq).join(&name), header.clone(), false)?;
+            let img = image_message(&dir.join(folder).join(seq).join(&name), header.clone(), Kind::Colour)?;
             let p = calib.p.get(cam).copied().unwrap_or_default();
             let info = CameraInfo {
                 header: header.clone(),
@@ -130,14 +152,13 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
             };
             bag.write(&format!("{ns}/image_raw"), IMAGE, stamp, &ros2::encode(&img)?)?;
             bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, stamp, &ros2::encode(&info)?)?;
-            let mask = dir.join("instance_02").join(seq).join(&name);
-            if cam == 2 && mask.is_file() {
-                bag.write(
-                    &format!("{ns}/instances"),
-                    IMAGE,
-                    stamp,
-                    &ros2::encode(&image_message(&mask, header, true)?)?,
-                )?;
+            for (folder, topic, kind) in [("instance_02", "instances", Kind::Mask), ("depth_02", "depth", Kind::Depth)]
+            {
+                let file = dir.join(folder).join(seq).join(&name);
+                if cam == 2 && file.is_file() {
+                    let msg = image_message(&file, header.clone(), kind)?;
+                    bag.write(&format!("{ns}/{topic}"), IMAGE, stamp, &ros2::encode(&msg)?)?;
+                }
             }
         }
         if !labels.is_empty() {

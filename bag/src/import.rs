@@ -753,17 +753,22 @@ mod tests {
     /// The fixture as a bag in `dir`, each message passed through `edit` (topic, payload ->
     /// payload, or `None` to leave it out).
     fn bag(dir: &Path, mut edit: impl FnMut(&str, Vec<u8>) -> Option<Vec<u8>>) -> PathBuf {
+        bag_with(dir, |topic, schema, p| edit(topic, p).map(|p| (schema.to_string(), p)))
+    }
+
+    /// As [`bag`], `edit` also choosing each message's schema name.
+    fn bag_with(dir: &Path, mut edit: impl FnMut(&str, &str, Vec<u8>) -> Option<(String, Vec<u8>)>) -> PathBuf {
         let plain = dir.join("plain.mcap");
         layout_to_bag(&fixture(), "0000", &plain, 10.0).unwrap();
         let out = dir.join("edited.mcap");
         let mut w = mcap::Writer::new(BufWriter::new(File::create(&out).unwrap())).unwrap();
         let mut channels: BTreeMap<String, u16> = BTreeMap::new();
         for_each_message(&[plain], |t, _, m| {
-            let Some(payload) = edit(&t.name, m.data.to_vec()) else { return Ok(()) };
+            let Some((schema_name, payload)) = edit(&t.name, &t.schema, m.data.to_vec()) else { return Ok(()) };
             let id = match channels.get(&t.name) {
                 Some(&id) => id,
                 None => {
-                    let schema = w.add_schema(&t.schema, "ros2msg", b"")?;
+                    let schema = w.add_schema(&schema_name, "ros2msg", b"")?;
                     let id = w.add_channel(schema, &t.name, &t.encoding, &BTreeMap::new())?;
                     channels.insert(t.name.clone(), id);
                     id
@@ -783,6 +788,17 @@ mod tests {
         out
     }
 
+    /// The image `name` of the imported layout `out` has the fixture's pixels; depth beyond
+    /// 16UC1's 65.535 m (the fixture's sky) comes back as that limit.
+    fn same_pixels(name: &str, out: &Path) {
+        let (a, b) =
+            (image::open(fixture().join(name)).unwrap().to_rgb16(), image::open(out.join(name)).unwrap().to_rgb16());
+        assert_eq!(a.dimensions(), b.dimensions(), "{name}");
+        let limit = if name.starts_with("depth_02") { depth_units(65.535) } else { u16::MAX };
+        let differ = a.as_raw().iter().zip(b.as_raw()).filter(|(p, q)| (**p).min(limit) != **q).count();
+        assert_eq!(differ, 0, "{name}: {differ} values differ");
+    }
+
     fn error(bag: &Path, opt: &ImportOptions) -> String {
         let dir = bag.parent().unwrap().join("out");
         let e = format!("{:#}", import(bag, "0000", &dir, opt).unwrap_err());
@@ -799,12 +815,9 @@ mod tests {
         assert_eq!(s.frames, 24);
         assert!((s.rate_hz - 10.0).abs() < 1e-6, "{}", s.rate_hz);
         assert!(s.unmatched.iter().all(|(_, n)| *n == 0), "{:?}", s.unmatched);
-        for folder in ["image_02", "image_03", "instance_02"] {
+        for folder in ["image_02", "image_03", "instance_02", "depth_02"] {
             for k in [0, 23] {
-                let name = format!("{folder}/0000/{k:06}.png");
-                let a = image::open(fixture().join(&name)).unwrap();
-                let b = image::open(out.join(&name)).unwrap();
-                assert_eq!(a.to_rgb16().as_raw(), b.to_rgb16().as_raw(), "{name}");
+                same_pixels(&format!("{folder}/0000/{k:06}.png"), &out);
             }
         }
         let calib = |dir: &Path| read_calib(dir.join("calib/0000.txt")).unwrap().p;
@@ -831,6 +844,42 @@ mod tests {
     }
 
     use dynotraj_formats::kitti::read_calib;
+
+    #[test]
+    fn an_rgbd_bag_with_compressed_images_imports_the_same_pixels_and_depth() {
+        let tmp = tempfile::tempdir().unwrap();
+        let left = format!("{LEFT}/image_raw");
+        let b = bag_with(tmp.path(), |topic, schema, p| {
+            if topic.starts_with(RIGHT) {
+                return None;
+            }
+            if topic != left {
+                return Some((schema.to_string(), p));
+            }
+            // The left camera as image_transport's compressed PNG.
+            let m: Image = ros2::decode(&p).unwrap();
+            let rgb = RgbImage::from_raw(m.width, m.height, m.data).unwrap();
+            let mut png = Vec::new();
+            rgb.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+            let c = CompressedImage { header: m.header, format: "rgb8; png compressed rgb8".into(), data: png };
+            Some((COMPRESSED_IMAGE.to_string(), ros2::encode(&c).unwrap()))
+        });
+        let out = tmp.path().join("layout");
+        let s = import(&b, "0000", &out, &ImportOptions { rgbd: true, ..options() }).unwrap();
+        assert_eq!(s.frames, 24);
+        assert!(s.topics.iter().any(|(r, t)| r == "depth" && t == "/stereo/left/depth"), "{:?}", s.topics);
+        assert!(!out.join("image_03").exists(), "an RGB-D import has no right images");
+        for folder in ["image_02", "depth_02"] {
+            same_pixels(&format!("{folder}/0000/000011.png"), &out);
+        }
+        // Without the right camera and without --rgbd the depth topic makes it RGB-D all the same;
+        // without depth either, the import says what is missing.
+        let dir = tmp.path().join("mono");
+        std::fs::create_dir(&dir).unwrap();
+        let mono = bag(&dir, |t, p| (!t.starts_with(RIGHT) && !t.ends_with("/depth")).then_some(p));
+        let e = error(&mono, &options());
+        assert!(e.contains("no right image topic and no depth topic"), "{e}");
+    }
 
     #[test]
     fn bad_bags_are_named_by_file_topic_message_and_field() {
