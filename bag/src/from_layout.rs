@@ -44,8 +44,9 @@ impl BagWriter {
         if let Some(&id) = self.channels.get(topic) {
             return Ok(id);
         }
-        // ROS 2 bags name the message definition's type; the definition text is optional.
-        let schema_id = self.writer.add_schema(schema, "ros2msg", b"")?;
+        // The definition text as rosbag2 writes it, so that ROS 2 tools decode the payloads.
+        let text = ros2::schema_text(schema).with_context(|| format!("no message definition of {schema}"))?;
+        let schema_id = self.writer.add_schema(schema, "ros2msg", text.as_bytes())?;
         let id = self.writer.add_channel(schema_id, topic, ros2::CDR, &BTreeMap::new())?;
         self.channels.insert(topic.to_string(), id);
         Ok(id)

@@ -22,6 +22,72 @@ pub const DETECTION_2D_ARRAY: &str = "vision_msgs/msg/Detection2DArray";
 /// The message encoding of ROS 2 bags.
 pub const CDR: &str = "cdr";
 
+/// The separator between a message definition and each definition it uses, as rosbag2 writes
+/// the `ros2msg` schema of a channel.
+const DEFINITION_SEPARATOR: &str = "================================================================================";
+
+/// The message definitions (ROS 2 `.msg` field lists) the bag's messages are built from, by
+/// full type name: what a `ros2msg` schema carries so that ROS 2 tools decode the payloads.
+const DEFINITIONS: [(&str, &str); 17] = [
+    ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec"),
+    ("std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id"),
+    (
+        "sensor_msgs/Image",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\nuint8[] data",
+    ),
+    ("sensor_msgs/CompressedImage", "std_msgs/Header header\nstring format\nuint8[] data"),
+    ("sensor_msgs/RegionOfInterest", "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify"),
+    (
+        "sensor_msgs/CameraInfo",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\n\
+         float64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi",
+    ),
+    ("geometry_msgs/Point", "float64 x\nfloat64 y\nfloat64 z"),
+    ("geometry_msgs/Quaternion", "float64 x\nfloat64 y\nfloat64 z\nfloat64 w"),
+    ("geometry_msgs/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation"),
+    ("geometry_msgs/PoseWithCovariance", "geometry_msgs/Pose pose\nfloat64[36] covariance"),
+    ("vision_msgs/ObjectHypothesis", "string class_id\nfloat64 score"),
+    (
+        "vision_msgs/ObjectHypothesisWithPose",
+        "vision_msgs/ObjectHypothesis hypothesis\ngeometry_msgs/PoseWithCovariance pose",
+    ),
+    ("vision_msgs/Point2D", "float64 x\nfloat64 y"),
+    ("vision_msgs/Pose2D", "vision_msgs/Point2D position\nfloat64 theta"),
+    ("vision_msgs/BoundingBox2D", "vision_msgs/Pose2D center\nfloat64 size_x\nfloat64 size_y"),
+    (
+        "vision_msgs/Detection2D",
+        "std_msgs/Header header\nvision_msgs/ObjectHypothesisWithPose[] results\nvision_msgs/BoundingBox2D bbox\nstring id",
+    ),
+    ("vision_msgs/Detection2DArray", "std_msgs/Header header\nvision_msgs/Detection2D[] detections"),
+];
+
+/// The `ros2msg` schema text of `schema` (`sensor_msgs/msg/Image`, ...): its definition, then
+/// every definition it uses, each after a separator line and `MSG: <type>`; `None` for a type
+/// this crate does not know.
+#[must_use]
+pub fn schema_text(schema: &str) -> Option<String> {
+    let name = schema.replacen("/msg/", "/", 1);
+    let definition = |n: &str| DEFINITIONS.iter().find(|(t, _)| *t == n).map(|(_, d)| *d);
+    let mut text = definition(&name)?.to_string();
+    // Every type used, depth first, each once.
+    let mut pending = vec![name];
+    let mut seen: Vec<String> = Vec::new();
+    while let Some(t) = pending.pop() {
+        for line in definition(&t).unwrap_or_default().lines() {
+            let used = line.split_whitespace().next().unwrap_or_default();
+            let used = used.split('[').next().unwrap_or_default();
+            if used.contains('/') && !seen.iter().any(|s| s == used) {
+                seen.push(used.to_string());
+                pending.push(used.to_string());
+            }
+        }
+    }
+    for t in &seen {
+        text.push_str(&format!("\n{DEFINITION_SEPARATOR}\nMSG: {t}\n{}", definition(t)?));
+    }
+    Some(text)
+}
+
 /// `builtin_interfaces/Time`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default, Serialize, Deserialize)]
 pub struct Time {
@@ -318,6 +384,18 @@ mod tests {
         assert_eq!((image.header.frame_id.as_str(), image.width, image.height), ("cam", 2, 1));
         assert_eq!((image.encoding.as_str(), image.step, image.data.as_slice()), ("rgb8", 6, &[1, 2, 3, 4, 5, 6][..]));
         assert_eq!(encode(&image).unwrap(), IMAGE_2X1);
+    }
+
+    #[test]
+    fn schema_texts_hold_every_definition_used_once() {
+        let text = schema_text(CAMERA_INFO).unwrap();
+        assert!(text.starts_with("std_msgs/Header header\nuint32 height"), "{text}");
+        for t in ["std_msgs/Header", "builtin_interfaces/Time", "sensor_msgs/RegionOfInterest"] {
+            assert_eq!(text.matches(&format!("MSG: {t}\n")).count(), 1, "{t} in {text}");
+        }
+        let text = schema_text(DETECTION_2D_ARRAY).unwrap();
+        assert_eq!(text.matches("MSG: ").count(), 12, "{text}");
+        assert_eq!(schema_text("sensor_msgs/msg/Imu"), None);
     }
 
     #[test]

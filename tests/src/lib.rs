@@ -3,6 +3,7 @@
 pub mod alloc_counter;
 pub mod edge_fixture;
 pub mod firmware_memory;
+pub mod python_env;
 pub mod synthetic_kitti;
 
 use std::path::PathBuf;

@@ -1,11 +1,13 @@
 //! A ROS 2 bag in, through the built `dynotraj`: the committed rendered fixture written as a
 //! bag (`export-bag`), imported back (`import`), and tracked: the tracks file is byte for byte
 //! the one tracked from the fixture itself at the bag's rate, with instance masks and with the
-//! detector's boxes.
+//! detector's boxes; and the bag decodes with ROS 2's MCAP decoder in Python.
 
 use std::path::Path;
 
 use dynotraj_tests::edge_fixture::dynotraj_command;
+use dynotraj_tests::manifest_dir;
+use dynotraj_tests::python_env::python;
 
 fn run(args: &[&str]) -> String {
     let out = dynotraj_command().args(args).output().unwrap();
@@ -22,6 +24,7 @@ fn a_bag_of_the_fixture_imports_and_tracks_to_the_same_tracks() {
     let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
     let said = run(&["export-bag", "--kitti", fixture, "--sequences", "0000", "--out", &p("bags")]);
     assert!(said.contains("wrote 24 frames"), "{said}");
+    ros2_tools_read(Path::new(&p("bags/0000.mcap")));
     let said = run(&["import", "--bag", &p("bags/0000.mcap"), "--out", &p("layout")]);
     assert!(said.contains("imported 24 frames at 10.00 Hz") && said.contains("66 detection boxes"), "{said}");
     assert!(said.contains("next: dynotraj track --kitti") && said.contains("--masks png"), "{said}");
@@ -36,6 +39,27 @@ fn a_bag_of_the_fixture_imports_and_tracks_to_the_same_tracks() {
         assert!(a.len() > 1000, "{masks}: {} bytes", a.len());
         assert!(a == b, "{masks}: the imported bag tracks differently");
     }
+}
+
+/// The bag decodes with the ROS 2 MCAP decoder of Python's `mcap-ros2-support`, as ROS 2
+/// tools read it (tests/python/read_bag.py); skipped, and said so, without Python.
+fn ros2_tools_read(bag: &Path) {
+    let python = match python() {
+        Ok(p) => p,
+        Err(why) => {
+            dynotraj_testkit::skipped("ros2_tools_read", &format!("no Python environment to decode the bag: {why}"));
+            return;
+        }
+    };
+    let script = manifest_dir().join("python/read_bag.py");
+    let out = std::process::Command::new(python).arg(script).arg(bag).arg("24").output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    eprintln!("{said}");
+    assert!(out.status.success(), "read_bag.py: {said}");
+    assert!(
+        said.contains("/stereo/left/image_raw: sensor_msgs/msg/Image, 24 messages; first: 497 x 150 rgb8"),
+        "{said}"
+    );
 }
 
 #[test]
