@@ -1,5 +1,9 @@
-//! Ctrl-C and SIGTERM as a request to stop: the command finishes what it has (writes what it
-//! received) and exits non-zero; a second signal ends it at once.
+//! Ctrl-C and SIGTERM. Commands that can stop part-way and keep what they did (stream, soak,
+//! experiment, benchmark) take them as a request to stop ([`stop_flag`]): they finish what they
+//! have and exit non-zero, and a second signal ends them at once. Every other command is ended at
+//! once by the first, saying so ([`end_on_signal`]): it writes its outputs when they are
+//! complete (or under a temporary name, or, for a tracks file, with a closing mark readers
+//! check), so nothing it leaves looks complete.
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -19,4 +23,32 @@ pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
         signal_hook::flag::register(signal, Arc::clone(&stop)).context("installing a signal handler")?;
     }
     Ok(stop)
+}
+
+/// Ends the process on the first SIGINT or SIGTERM with exit code 130, saying on standard
+/// error that `command` was interrupted and what that leaves.
+///
+/// # Errors
+/// The handler cannot be installed.
+pub fn end_on_signal(command: &'static str) -> anyhow::Result<()> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]).context("installing a signal handler")?;
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            if let Some(signal) = signals.forever().next() {
+                let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
+                let _ = std::io::Write::write_all(
+                    &mut std::io::stderr(),
+                    format!(
+                        "error: dynotraj {command} interrupted by {name} before it finished: its outputs are incomplete \
+                         (finished files and caches are kept)\n"
+                    )
+                    .as_bytes(),
+                );
+                std::process::exit(130);
+            }
+        })
+        .context("starting the signal thread")?;
+    Ok(())
 }

@@ -116,6 +116,44 @@ pub enum Command {
     Man,
 }
 
+impl Command {
+    /// The command's name, as typed.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Dataset(_) => "dataset",
+            Self::Eval(_) => "eval",
+            Self::Estimate(_) => "estimate",
+            Self::Train(_) => "train",
+            Self::ModelCost(_) => "model-cost",
+            Self::Experiment(_) => "experiment",
+            Self::Benchmark(_) => "benchmark",
+            #[cfg(feature = "images")]
+            Self::Simulate(_) => "simulate",
+            #[cfg(feature = "images")]
+            Self::Track(_) => "track",
+            Self::Import(_) => "import",
+            Self::ExportBag(_) => "export-bag",
+            Self::Forecast(_) => "forecast",
+            Self::Stream(_) => "stream",
+            Self::Soak(_) => "soak",
+            Self::Keygen(_) => "keygen",
+            Self::Sign(_) => "sign",
+            Self::Verify(_) => "verify",
+            Self::Completions { .. } => "completions",
+            Self::Man => "man",
+        }
+    }
+
+    /// Whether the command takes SIGINT and SIGTERM as a request to stop and keep what it did
+    /// ([`interrupt::stop_flag`]); every other command is ended by them at once
+    /// ([`interrupt::end_on_signal`]).
+    #[must_use]
+    pub const fn stops_on_signal(&self) -> bool {
+        matches!(self, Self::Stream(_) | Self::Soak(_) | Self::Experiment(_) | Self::Benchmark(_))
+    }
+}
+
 /// Runs the parsed command line.
 ///
 /// # Errors

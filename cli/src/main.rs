@@ -52,16 +52,46 @@ fn exit_on_output_errors() {
     }));
 }
 
+/// Prints what clap has to say instead of running (help, version, a usage error) through the
+/// same checks as every other write: clap's own printing ignores a failed write and exits 0.
+fn clap_exit(e: &clap::Error) -> std::process::ExitCode {
+    use std::io::IsTerminal as _;
+    let (written, what) = if e.use_stderr() {
+        let text = if std::io::stderr().is_terminal() { e.render().ansi().to_string() } else { e.render().to_string() };
+        (std::io::stderr().write_all(text.as_bytes()), "stderr")
+    } else {
+        let text = if std::io::stdout().is_terminal() { e.render().ansi().to_string() } else { e.render().to_string() };
+        (std::io::stdout().write_all(text.as_bytes()).and_then(|()| std::io::stdout().flush()), "stdout")
+    };
+    match written {
+        Ok(()) => std::process::ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(1)),
+        Err(io) if io.kind() == std::io::ErrorKind::BrokenPipe => std::process::ExitCode::from(CLOSED_PIPE_EXIT),
+        Err(io) => {
+            let _ = writeln!(std::io::stderr(), "error: writing to {what}: {io}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
 fn main() -> std::process::ExitCode {
     one_compute_thread();
     exit_on_output_errors();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return clap_exit(&e),
+    };
     let mut logger = env_logger::Builder::new();
     logger.filter_level(cli.log_level());
     if let Ok(filters) = std::env::var("RUST_LOG") {
         logger.parse_filters(&filters);
     }
     logger.init();
+    if !cli.command.stops_on_signal()
+        && let Err(e) = dynotraj_cli::interrupt::end_on_signal(cli.command.name())
+    {
+        eprintln!("error: {e:#}");
+        return std::process::ExitCode::FAILURE;
+    }
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) if closed_pipe(&e) => std::process::ExitCode::from(CLOSED_PIPE_EXIT),

@@ -295,6 +295,54 @@ fn output_that_cannot_be_written_ends_the_command_without_a_panic() {
 }
 
 #[test]
+fn every_command_help_and_the_version_written_to_a_full_disk_exit_1_without_a_panic() {
+    use clap::CommandFactory as _;
+    let mut invocations: Vec<Vec<String>> = vec![vec!["--version".into()], vec!["--help".into()]];
+    for sub in dynotraj_cli::Cli::command().get_subcommands() {
+        invocations.push(vec![sub.get_name().to_string(), "--help".into()]);
+    }
+    assert!(invocations.len() > 20, "{} invocations", invocations.len());
+    for args in &invocations {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").expect("/dev/full");
+        let (code, err) = run_into(&args, full.into());
+        assert_eq!(code, 1, "dynotraj {}: exit {code}, stderr:\n{err}", args.join(" "));
+        assert!(
+            err.contains("error: writing to stdout: No space left on device"),
+            "dynotraj {}: {err}",
+            args.join(" ")
+        );
+        assert!(!err.contains("panicked"), "dynotraj {}: panicked:\n{err}", args.join(" "));
+    }
+}
+
+#[test]
+fn a_command_without_a_stop_of_its_own_is_ended_by_sigterm_and_says_so() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("sim");
+    let child = Command::new(env!("CARGO_BIN_EXE_dynotraj"))
+        .args(["simulate", "--drive", "--sequences", "0000", "--frames", "2000", "--scale", "1"])
+        .args(["--out", out.to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("starts");
+    // Rendering has begun once the first frame's image is there.
+    let first = out.join("image_02/0000/000000.png");
+    let waited = std::time::Instant::now();
+    while !first.exists() && waited.elapsed() < std::time::Duration::from_secs(60) {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(first.exists(), "simulate did not start rendering");
+    let killed = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().expect("kill");
+    assert!(killed.success());
+    let out = child.wait_with_output().expect("waits");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("error: dynotraj simulate interrupted by SIGTERM"), "{err}");
+}
+
+#[test]
 fn a_sequence_id_that_is_a_path_is_refused_before_anything_is_written() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("sim");
