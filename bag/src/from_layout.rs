@@ -123,7 +123,7 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
     let labels = if labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
     // Written under a temporary name and renamed when finished: a bag cut short is not left
     // under the name of a complete one.
-    let partial = out.with_extension("mcap.partial");
+    let partial = dynotraj_formats::atomic::partial_path(out);
     let file = File::create(&partial).with_context(|| format!("creating {}", partial.display()))?;
     let mut bag =
         BagWriter { writer: mcap::Writer::new(BufWriter::new(file))?, channels: BTreeMap::new(), sequence: 0 };

@@ -659,7 +659,7 @@ fn import_into(
     let write = |sub: &str, text: &str| -> anyhow::Result<()> {
         let path = dir.join(sub).join(format!("{seq}.txt"));
         std::fs::create_dir_all(dir.join(sub)).with_context(|| format!("creating {}", dir.join(sub).display()))?;
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+        dynotraj_formats::atomic::write_file(&path, text).with_context(|| format!("writing {}", path.display()))
     };
     let right_topic = chosen.right_info.clone().unwrap_or_default();
     write("calib", &calib_text(left_info, right_info, opt.baseline_m, &right_topic)?)?;
@@ -888,7 +888,7 @@ mod tests {
         // Truncated.
         let cut = tmp.path().join("cut.mcap");
         let bytes = std::fs::read(&good).unwrap();
-        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        dynotraj_formats::atomic::write_file(&cut, &bytes[..bytes.len() / 2]).unwrap();
         let e = error(&cut, &options());
         assert!(e.contains("cut.mcap: not a readable MCAP file after") && e.contains("truncated"), "{e}");
         // A topic that is not there, and one of the wrong type.

@@ -184,15 +184,8 @@ pub fn frame_time_ns(frame: u32, rate_hz: f64) -> anyhow::Result<u64> {
     Ok((f64::from(frame) * 1e9 / rate_hz).round() as u64)
 }
 
-/// The temporary name a recording is written under until [`Recorder::finish`]: the file's
-/// name with `.partial` appended, in the same folder (so the final rename stays on one file
-/// system).
-#[must_use]
-pub fn partial_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
-    name.push(".partial");
-    path.with_file_name(name)
-}
+/// The temporary name a recording is written under until [`Recorder::finish`].
+pub use dynotraj_formats::atomic::partial_path;
 
 /// A recording being written. Dropped without [`Recorder::finish`], it removes its temporary
 /// file.

@@ -71,7 +71,8 @@ pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
     let out = forecast(&tracks, model.as_deref())?;
     write_table_files(&args.out, FORECASTS, &predictions_data(&out.result))?;
     let path = args.out.join(REPLIES_BIN);
-    std::fs::write(&path, &out.result.raw).with_context(|| format!("--out: writing {}", path.display()))?;
+    dynotraj_formats::atomic::write_file(&path, &out.result.raw)
+        .with_context(|| format!("--out: writing {}", path.display()))?;
     if let Some(file) = &args.record {
         let forecaster = if args.model.is_some() { Forecaster::Learned } else { Forecaster::ConstantVelocity };
         let written = record(file, &tracks, &out.result, forecaster).context("--record")?;

@@ -125,7 +125,7 @@ pub fn table(args: &ModelCostArgs) -> anyhow::Result<Table> {
             if let Some(dir) = &args.out {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
                 let path = dir.join(format!("random-{},{},{},{}.int8", dims.enc, dims.edge, dims.k, dims.dec));
-                std::fs::write(&path, random_blob(&dims, Precision::Int8, dt))
+                dynotraj_formats::atomic::write_file(&path, random_blob(&dims, Precision::Int8, dt))
                     .with_context(|| format!("writing {}", path.display()))?;
             }
             configs.push((

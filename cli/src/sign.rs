@@ -86,7 +86,7 @@ pub fn sign(args: &SignArgs) -> anyhow::Result<()> {
         None => args.model.with_file_name(name),
     };
     let signed = model_signing::sign(&blob, &key);
-    std::fs::write(&out, &signed).with_context(|| format!("writing {}", out.display()))?;
+    dynotraj_formats::atomic::write_file(&out, &signed).with_context(|| format!("writing {}", out.display()))?;
     println!(
         "{}: {} B blob + {} B signature by key {}",
         out.display(),

@@ -165,7 +165,8 @@ fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
     write_table_files(dir, FORECASTS, &predictions_data(result))?;
     write_table_files(dir, FRAMES, &frames_data(result))?;
     let path = dir.join(REPLIES_BIN);
-    std::fs::write(&path, &result.raw).with_context(|| format!("--out: writing {}", path.display()))
+    dynotraj_formats::atomic::write_file(&path, &result.raw)
+        .with_context(|| format!("--out: writing {}", path.display()))
 }
 
 /// Where a one-stream command (stream, soak, forecast) takes its tracks: a tracks file, or the

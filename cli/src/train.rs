@@ -323,7 +323,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     let files = model.save(&args.out.join(MODEL_FILE))?;
     if args.precision != PrecisionArg::F32 {
         let path = &files.f32_blob;
-        std::fs::write(path, model.blob(args.precision.into())?)
+        dynotraj_formats::atomic::write_file(path, model.blob(args.precision.into())?)
             .with_context(|| format!("writing {}", path.display()))?;
     }
     let r = &model.report;

@@ -1,6 +1,7 @@
 //! dynotraj-formats: the files dynotraj reads and writes, each reader strict and each error
 //! naming the file, line (or byte offset) and field.
 //!
+//! - [`atomic`]: output files written whole or not at all.
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
 //! - [`tracks_file`]: recorded feature-track streams (`.dtt`), the link's bytes.
 //! - [`model_file`]: model blobs on disk; [`model_signing`]: their signing keys and signatures.
@@ -8,6 +9,7 @@
 //! It depends on the core alone (no OpenCV, no candle, no simulator), so the fuzz targets of
 //! these parsers build without the image and learning stacks.
 
+pub mod atomic;
 pub mod kitti;
 pub mod model_file;
 pub mod model_signing;

@@ -110,7 +110,7 @@ pub fn keygen(dir: &Path, name: &str) -> anyhow::Result<(PathBuf, PathBuf)> {
         bail!("{}: a secret key is already there; not overwriting it", secret.display());
     }
     write_secret(&secret, &KeyKind::Secret.file_text(&seed))?;
-    std::fs::write(&public, KeyKind::Public.file_text(key.verifying_key().as_bytes()))
+    crate::atomic::write_file(&public, KeyKind::Public.file_text(key.verifying_key().as_bytes()))
         .with_context(|| format!("writing {}", public.display()))?;
     Ok((secret, public))
 }
@@ -130,7 +130,7 @@ fn write_secret(path: &Path, text: &str) -> anyhow::Result<()> {
 
 #[cfg(not(unix))]
 fn write_secret(path: &Path, text: &str) -> anyhow::Result<()> {
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+    crate::atomic::write_file(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Lowercase hex of `bytes`.

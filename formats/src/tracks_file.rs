@@ -110,13 +110,14 @@ pub struct TracksWriter {
 }
 
 impl TracksWriter {
-    /// Creates `path` and writes the camera model.
+    /// Creates `path` (under its temporary name, [`crate::atomic::partial_path`], until
+    /// [`Self::finish`]) and writes the camera model.
     ///
     /// # Errors
     /// When the file cannot be created or written.
     pub fn create(path: &Path, camera: &CameraInfo) -> Result<Self, TracksFileError> {
         let io = |source| TracksFileError::Io { path: path.to_path_buf(), cause: source };
-        let out = BufWriter::new(File::create(path).map_err(io)?);
+        let out = BufWriter::new(File::create(crate::atomic::partial_path(path)).map_err(io)?);
         let mut w = Self { path: path.to_path_buf(), out, buf: [0; MAX_FRAME_LEN], written: 0 };
         w.write_message(&Message::CameraInfo(*camera))?;
         Ok(w)
@@ -145,14 +146,16 @@ impl TracksWriter {
         self.out.write_all(bytes).map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
     }
 
-    /// Writes the end-of-recording mark, flushes and closes the file.
+    /// Writes the end-of-recording mark, flushes and closes the file, and gives it its name.
     ///
     /// # Errors
-    /// When the final writes fail.
+    /// When the final writes or the rename fail.
     pub fn finish(mut self) -> Result<(), TracksFileError> {
         let mark = LinkStats { frames_sent: self.written.saturating_add(1), received: DecoderStats::default() };
         self.write_message(&Message::LinkStats(mark))?;
-        self.out.flush().map_err(|source| TracksFileError::Io { path: self.path.clone(), cause: source })
+        let io = |source| TracksFileError::Io { path: self.path.clone(), cause: source };
+        self.out.flush().map_err(io)?;
+        std::fs::rename(crate::atomic::partial_path(&self.path), &self.path).map_err(io)
     }
 }
 

@@ -164,10 +164,12 @@ pub fn write_sequence_with(
         }
     }
     let calib = dir.join("calib").join(format!("{seq}.txt"));
-    std::fs::write(&calib, calib_text(sim)).with_context(|| format!("writing {}", calib.display()))?;
+    dynotraj_formats::atomic::write_file(&calib, calib_text(sim))
+        .with_context(|| format!("writing {}", calib.display()))?;
     write_labels(dir.join("label_02").join(format!("{seq}.txt")), &labels)?;
     write_poses(dir.join("poses").join(format!("{seq}.txt")), &sim.poses[..n])?;
     let truth_path = dir.join("truth").join(format!("{seq}.csv"));
-    std::fs::write(&truth_path, truth).with_context(|| format!("writing {}", truth_path.display()))?;
+    dynotraj_formats::atomic::write_file(&truth_path, truth)
+        .with_context(|| format!("writing {}", truth_path.display()))?;
     Ok(())
 }

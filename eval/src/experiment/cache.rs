@@ -167,12 +167,8 @@ impl FoldCache {
             [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
         {
             let path = self.path(name, key, ext);
-            let mut partial = path.clone().into_os_string();
-            partial.push(".partial");
-            let partial = PathBuf::from(partial);
-            std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
-            std::fs::rename(&partial, &path)
-                .with_context(|| format!("renaming {} to {}", partial.display(), path.display()))?;
+            dynotraj_formats::atomic::write_file(&path, bytes)
+                .with_context(|| format!("writing {}", path.display()))?;
         }
         Ok(())
     }

@@ -284,7 +284,8 @@ pub fn score_seed(
             let name = spec.name(config);
             for (ext, bytes) in [("blob", &fold.f32_blob), ("blob.int8", &fold.int8_blob)] {
                 let path = dir.join(format!("{name}.{ext}"));
-                std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+                dynotraj_formats::atomic::write_file(&path, bytes)
+                    .with_context(|| format!("writing {}", path.display()))?;
             }
         }
     }

@@ -99,7 +99,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let write = |name: String, text: &str| -> anyhow::Result<()> {
         let path = dir.join(name);
-        std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+        dynotraj_formats::atomic::write_file(&path, text).with_context(|| format!("writing {}", path.display()))
     };
     let mut md = format!("# {}\n\n", report.title);
     let _ = write!(md, "Made by `{}` in {:.0} s ({:.1} min).", report.command, report.seconds, report.seconds / 60.0);
@@ -147,7 +147,7 @@ pub fn write_report(dir: &Path, report: &Report) -> anyhow::Result<PathBuf> {
         }
     }
     let path = dir.join("REPORT.md");
-    std::fs::write(&path, md).with_context(|| format!("writing {}", path.display()))?;
+    dynotraj_formats::atomic::write_file(&path, md).with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
 }
 

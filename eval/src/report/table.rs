@@ -143,7 +143,8 @@ pub fn write_table_files(dir: &std::path::Path, stem: &str, data: &super::Data) 
     std::fs::create_dir_all(dir).with_context(|| format!("--out: creating {}", dir.display()))?;
     for (ext, text) in [("csv", data.csv()), ("json", json_text(&data.json()))] {
         let path = dir.join(format!("{stem}.{ext}"));
-        std::fs::write(&path, text).with_context(|| format!("--out: writing {}", path.display()))?;
+        dynotraj_formats::atomic::write_file(&path, text)
+            .with_context(|| format!("--out: writing {}", path.display()))?;
     }
     Ok(())
 }

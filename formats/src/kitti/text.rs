@@ -36,7 +36,7 @@ pub(crate) fn read_text(path: &Path, what: &str) -> Result<String, KittiError> {
 
 /// Writes `text` to `path`, creating or truncating it.
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), KittiError> {
-    std::fs::write(path, text).map_err(|source| KittiError::Io { path: path.to_path_buf(), cause: source })
+    crate::atomic::write_file(path, text).map_err(|source| KittiError::Io { path: path.to_path_buf(), cause: source })
 }
 
 /// Maps an I/O error on `path` to `Missing` (not found) or `Io`.

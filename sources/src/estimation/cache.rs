@@ -123,9 +123,7 @@ pub(crate) fn store_file<T: serde::Serialize>(
     let mut bytes = key.to_le_bytes().to_vec();
     bytes.extend(postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?);
     bytes.extend_from_slice(&FILE_CRC.checksum(&bytes).to_le_bytes());
-    let partial = path.with_extension("partial");
-    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
-    std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+    dynotraj_formats::atomic::write_file(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Keeps `tracks` of `id` under `key`.
@@ -208,7 +206,10 @@ mod tests {
         store(dir.path(), "0003", 1, &tracks).unwrap();
         let file = path(dir.path(), "0003", 1);
         let good = std::fs::read(&file).unwrap();
-        assert!(!file.with_extension("partial").exists(), "written under a temporary name, then renamed");
+        assert!(
+            !dynotraj_formats::atomic::partial_path(&file).exists(),
+            "written under a temporary name, then renamed"
+        );
         for at in 0..good.len() {
             let mut bad = good.clone();
             bad[at] ^= 0x10;

@@ -187,7 +187,7 @@ fn write_readme(dir: &Path, rate: &RateNote, truth: bool) -> anyhow::Result<()> 
         );
     }
     let path = dir.join("README.txt");
-    std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))
+    dynotraj_formats::atomic::write_file(&path, text).with_context(|| format!("writing {}", path.display()))
 }
 
 /// The runs of object `id` in a kind's estimates that RPE pairs ([`object_runs`]), as (seconds,
@@ -259,5 +259,5 @@ fn write_log(path: &Path, frames: &[(u32, u64)], truth: Option<&[SimFrame]>, run
             }
         }
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    dynotraj_formats::atomic::write_file(path, s).with_context(|| format!("writing {}", path.display()))
 }

@@ -1,0 +1,54 @@
+//! Output files written whole or not at all: under a temporary name beside the file
+//! (`<name>.partial`), renamed to the name once complete, so that an interrupted run or a full
+//! disk never leaves a file that looks complete.
+
+use std::ffi::OsString;
+use std::path::{Path, PathBuf};
+
+/// The temporary name `path` is written under until it is complete: its file name with
+/// `.partial` appended, in the same folder (so the rename stays on one file system).
+#[must_use]
+pub fn partial_path(path: &Path) -> PathBuf {
+    let mut name = path.file_name().map(OsString::from).unwrap_or_default();
+    name.push(".partial");
+    path.with_file_name(name)
+}
+
+/// Writes `bytes` as the file `path`: to [`partial_path`], then renamed. On an error the
+/// temporary file is removed.
+///
+/// # Errors
+/// The write or the rename failed.
+pub fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
+    let partial = partial_path(path);
+    let written = std::fs::write(&partial, bytes).and_then(|()| std::fs::rename(&partial, path));
+    if written.is_err() {
+        // Best effort: the error returned says what failed.
+        let _ = std::fs::remove_file(&partial);
+    }
+    written
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_is_there_whole_or_not_at_all() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("table.csv");
+        write_file(&path, "a,b\n1,2\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "a,b\n1,2\n");
+        assert!(!partial_path(&path).exists());
+        assert_eq!(partial_path(&path), dir.path().join("table.csv.partial"));
+        // A write that fails (the folder is gone) leaves nothing behind.
+        let gone = dir.path().join("gone").join("x.md");
+        assert!(write_file(&gone, "x").is_err());
+        assert!(!gone.exists() && !partial_path(&gone).exists());
+        // A full disk: the old file stays as it was, no partial file is left.
+        let full = Path::new("/dev/full");
+        if full.exists() {
+            assert!(std::fs::write(full, "x").is_err());
+        }
+    }
+}

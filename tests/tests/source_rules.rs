@@ -1,0 +1,53 @@
+//! Rules of the host code that a compiler does not check, held by reading the sources: every
+//! output file goes through `dynotraj_formats::atomic` (written under a temporary name and
+//! renamed when complete), never a bare `std::fs::write`.
+
+use std::path::{Path, PathBuf};
+
+use dynotraj_tests::manifest_dir;
+
+/// The host crates that write files.
+const HOST_CRATES: [&str; 9] = ["cli", "eval", "formats", "sources", "link", "train", "frontend", "bag", "sim"];
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The file's code before its test module (tests write fixtures as they like).
+fn code_before_tests(text: &str) -> &str {
+    text.find("#[cfg(test)]").map_or(text, |at| &text[..at])
+}
+
+#[test]
+fn output_files_are_written_whole_or_not_at_all() {
+    let root = manifest_dir().join("..");
+    let mut files = Vec::new();
+    for krate in HOST_CRATES {
+        rust_files(&root.join(krate).join("src"), &mut files);
+    }
+    assert!(files.len() > 100, "{} files read", files.len());
+    let mut offenders = Vec::new();
+    for file in &files {
+        if file.ends_with("formats/src/atomic.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(file).unwrap();
+        for (i, line) in code_before_tests(&text).lines().enumerate() {
+            if line.contains("std::fs::write(") || line.contains("fs::write(&") {
+                offenders.push(format!("{}:{}: {}", file.display(), i + 1, line.trim()));
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "output written in place (use dynotraj_formats::atomic::write_file):\n{}",
+        offenders.join("\n")
+    );
+}
