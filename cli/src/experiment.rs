@@ -76,10 +76,11 @@ fn test_ids(args: &ExperimentArgs) -> anyhow::Result<Vec<String>> {
 pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
     let start = std::time::Instant::now();
     args.run.check(&args.data, &args.arms)?;
+    // Flags that need no data fail before the (possibly long) loading.
+    let test_sequences = test_ids(args)?;
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     // A bad --object fails before the folds are trained, not after.
     subjects(&args.objects, &sequences, &args.data.rule()?)?;
-    let test_sequences = test_ids(args)?;
     let mut config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);

@@ -155,4 +155,8 @@ fn training_flags_out_of_range_are_refused_before_any_sequence_is_loaded() {
             assert!(e.contains(named) && !e.contains("no-kitti"), "{command} {flags:?}: {e}");
         }
     }
+    // A test sequence given twice needs no data to be wrong either.
+    let args = ["dynotraj", "experiment", "--kitti", kitti, "--tests", "0003,0003"];
+    let e = format!("{:#}", dynotraj_cli::run(Cli::try_parse_from(args).unwrap()).unwrap_err());
+    assert!(e.contains("--tests: 0003 is given twice") && !e.contains("no-kitti"), "{e}");
 }
