@@ -74,29 +74,20 @@ enum Kind {
 fn image_message(path: &Path, header: Header, kind: Kind) -> anyhow::Result<Image> {
     let decoded = image::open(path).with_context(|| format!("reading {}", path.display()))?;
     let (width, height) = (decoded.width(), decoded.height());
+    // 16UC1: REP 118's depth in millimetres, or instance ids as they are.
+    let wide = |values: Vec<u16>| Image {
+        header: header.clone(),
+        height,
+        width,
+        encoding: "16UC1".into(),
+        is_bigendian: 0,
+        step: width * 2,
+        data: values.iter().flat_map(|p| p.to_le_bytes()).collect(),
+    };
     Ok(if kind == Kind::Depth {
-        let mm: Vec<u16> =
-            decoded.to_luma16().as_raw().iter().map(|&v| (f64::from(v) * 1000.0 / 256.0).round() as u16).collect();
-        Image {
-            header,
-            height,
-            width,
-            encoding: "16UC1".into(),
-            is_bigendian: 0,
-            step: width * 2,
-            data: mm.iter().flat_map(|p| p.to_le_bytes()).collect(),
-        }
+        wide(decoded.to_luma16().as_raw().iter().map(|&v| (f64::from(v) * 1000.0 / 256.0).round() as u16).collect())
     } else if kind == Kind::Mask {
-        let v = decoded.to_luma16();
-        Image {
-            header,
-            height,
-            width,
-            encoding: "16UC1".into(),
-            is_bigendian: 0,
-            step: width * 2,
-            data: v.as_raw().iter().flat_map(|p| p.to_le_bytes()).collect(),
-        }
+        wide(decoded.to_luma16().into_raw())
     } else {
         Image {
             header,

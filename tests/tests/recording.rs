@@ -30,6 +30,13 @@ fn fixture() -> PathBuf {
     manifest_dir().join("../sim/data/image_sim")
 }
 
+/// Runs `dynotraj COMMAND --kitti <fixture> --sequences 0000 ARGS`, which must succeed;
+/// returns its stderr.
+fn on_fixture(command: &str, args: &[&str]) -> String {
+    let kitti = fixture();
+    dynotraj(&[&[command, "--kitti", kitti.to_str().unwrap(), "--sequences", "0000"][..], args].concat())
+}
+
 /// Runs `dynotraj` with `args`, which must succeed; returns its stderr.
 fn dynotraj(args: &[&str]) -> String {
     let out = dynotraj_command().args(args).output().unwrap();
@@ -65,18 +72,7 @@ fn forecast_records_histories_and_forecasts() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("forecast");
     let rec = out.join("rec.mcap");
-    let kitti = fixture();
-    let stderr = dynotraj(&[
-        "forecast",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--out",
-        out.to_str().unwrap(),
-        "--record",
-        rec.to_str().unwrap(),
-    ]);
+    let stderr = on_fixture("forecast", &["--out", out.to_str().unwrap(), "--record", rec.to_str().unwrap()]);
     assert!(stderr.contains("recorded"), "{stderr}");
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "cv"]);
@@ -91,20 +87,10 @@ fn forecast_with_a_model_records_learned_and_constant_velocity_forecasts() {
     // edge. Its frame period is the fixture's 20 Hz.
     let model = dir.path().join("random.int8");
     std::fs::write(&model, random_blob(&Dims::DEFAULT, Precision::Int8, 0.05)).unwrap();
-    let kitti = fixture();
-    let stderr = dynotraj(&[
+    let stderr = on_fixture(
         "forecast",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--model",
-        model.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--record",
-        rec.to_str().unwrap(),
-    ]);
+        &["--model", model.to_str().unwrap(), "--out", out.to_str().unwrap(), "--record", rec.to_str().unwrap()],
+    );
     assert!(stderr.contains("recorded"), "{stderr}");
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "learned", "--predictor", "cv"]);
@@ -145,18 +131,7 @@ fn track_records_images_tracks_and_annotations() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("track");
     let rec = out.join("rec.mcap");
-    let kitti = fixture();
-    let stderr = dynotraj(&[
-        "track",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--out",
-        out.to_str().unwrap(),
-        "--record",
-        rec.to_str().unwrap(),
-    ]);
+    let stderr = on_fixture("track", &["--out", out.to_str().unwrap(), "--record", rec.to_str().unwrap()]);
     assert!(stderr.contains("recorded"), "{stderr}");
     assert!(out.join("0000.dtt").is_file(), "the tracks file is still written");
     let frames = FIXTURE_FRAMES.to_string();
@@ -166,23 +141,10 @@ fn track_records_images_tracks_and_annotations() {
 #[test]
 fn track_records_into_an_existing_folder_by_sequence() {
     let dir = tempfile::tempdir().unwrap();
-    let kitti = fixture();
     let out = dir.path().join("track");
     let folder = dir.path().join("recordings");
     std::fs::create_dir_all(&folder).unwrap();
-    dynotraj(&[
-        "track",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--frames",
-        "3",
-        "--out",
-        out.to_str().unwrap(),
-        "--record",
-        folder.to_str().unwrap(),
-    ]);
+    on_fixture("track", &["--frames", "3", "--out", out.to_str().unwrap(), "--record", folder.to_str().unwrap()]);
     let path = folder.join("0000.mcap");
     assert!(path.is_file(), "{} was not written", path.display());
     assert!(!partial_path(&path).exists());
@@ -193,20 +155,10 @@ fn estimate_records_camera_objects_truth_and_points() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("estimate");
     let rec = out.join("rec.mcap");
-    let kitti = fixture();
-    dynotraj(&[
+    on_fixture(
         "estimate",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--ours-input",
-        "tracks",
-        "--out",
-        out.to_str().unwrap(),
-        "--record",
-        rec.to_str().unwrap(),
-    ]);
+        &["--ours-input", "tracks", "--out", out.to_str().unwrap(), "--record", rec.to_str().unwrap()],
+    );
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "estimate", &["--frames", &frames]);
 }
@@ -215,20 +167,7 @@ fn estimate_records_camera_objects_truth_and_points() {
 fn estimate_with_several_profiles_records_a_folder() {
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("recordings");
-    let kitti = fixture();
-    dynotraj(&[
-        "estimate",
-        "--kitti",
-        kitti.to_str().unwrap(),
-        "--sequences",
-        "0000",
-        "--ours-input",
-        "tracks",
-        "--profile",
-        "host,edge",
-        "--record",
-        rec.to_str().unwrap(),
-    ]);
+    on_fixture("estimate", &["--ours-input", "tracks", "--profile", "host,edge", "--record", rec.to_str().unwrap()]);
     for profile in ["host", "edge"] {
         let path = rec.join(profile).join("0000.mcap");
         assert!(path.is_file(), "{} was not written", path.display());
