@@ -41,6 +41,11 @@ pub struct BenchmarkArgs {
     /// depend on it).
     #[arg(long, value_delimiter = ',', default_value = "1,2,3", value_name = "LIST")]
     pub seeds: Vec<u64>,
+    /// Only this part of the trainings, I of N (`0/4` .. `3/4`), for one machine of a cluster's
+    /// array job: its folds go into the fold cache of --out, and no report is written; the same
+    /// command without --shard, once every part has run, reads them all and writes the report.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<dynotraj_eval::experiment::benchmark::Shard>,
     /// Widths, training settings, report folder and format.
     #[command(flatten)]
     pub run: FoldRunArgs,
@@ -68,6 +73,18 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     let mut config = args.run.config(&args.data, &args.arms, folds)?;
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);
+    if let Some(shard) = args.shard {
+        let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len() / shard.count);
+        let done = dynotraj_eval::experiment::benchmark::train_shard(&sequences, &config, &args.seeds, shard, &bars);
+        bars.finish();
+        let (mine, all) = done?;
+        println!(
+            "shard {}/{}: {mine} of {all} trainings in the fold cache of --out; the same command without --shard, once \
+             every shard has run, writes the report",
+            shard.index, shard.count
+        );
+        return Ok(());
+    }
     let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
     let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
     bars.finish();

@@ -1,7 +1,8 @@
 //! `dynotraj benchmark --out DIR` end to end on a KITTI-layout folder written from the
 //! fixtures' synthetic drive: every sequence held out once, two seeds, the Estimated arm
 //! beside GT; the report holds the weighted, goal, deployment and per-sequence tables, and the
-//! result does not depend on the number of jobs.
+//! result does not depend on the number of jobs, nor on the trainings being run in shards and
+//! gathered.
 
 use std::fs;
 
@@ -50,6 +51,17 @@ fn the_benchmark_report_and_its_independence_of_the_jobs() {
     }
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
     benchmark::run(&args(root.to_str().unwrap(), one.to_str().unwrap(), "1")).unwrap();
+    // Two: three shards, as three machines of an array job would run them, then the gather.
+    for shard in ["0/3", "1/3", "2/3"] {
+        let mut a = args(root.to_str().unwrap(), two.to_str().unwrap(), "2");
+        a.shard = Some(shard.parse().unwrap());
+        benchmark::run(&a).unwrap();
+        assert!(!two.join("REPORT.md").exists(), "a shard writes no report");
+    }
+    let folds_kept = fs::read_dir(two.join("cache"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "fold"));
+    assert_eq!(folds_kept.count(), 8, "every training of the three shards is in the fold cache");
     benchmark::run(&args(root.to_str().unwrap(), two.to_str().unwrap(), "2")).unwrap();
 
     let md = fs::read_to_string(one.join("REPORT.md")).unwrap();
@@ -92,7 +104,7 @@ fn the_benchmark_report_and_its_independence_of_the_jobs() {
         assert_eq!(
             fs::read_to_string(one.join(format!("{stem}.csv"))).unwrap(),
             fs::read_to_string(two.join(format!("{stem}.csv"))).unwrap(),
-            "{stem}: one job and two differ"
+            "{stem}: one machine, and three shards gathered with two jobs, differ"
         );
     }
     for seed in ["1", "2"] {

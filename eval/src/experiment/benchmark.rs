@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use super::findings::total_of;
-use super::folds::{TrainProgress, train_folds};
+use super::folds::{FoldSpec, TrainProgress, train_folds};
 use super::{ExperimentConfig, ExperimentResult, FoldReport, check_inputs, fold_specs, score_seed};
 use crate::report::{ArmScores, Cell, ColumnKind, Data, Table, forecast_table};
 use dynotraj_sources::sequence::SequenceTracks;
@@ -83,6 +83,54 @@ pub fn run_benchmark(
     }
     let folds = trained.into_iter().map(|t| t.report).collect();
     Ok(BenchmarkResult { seeds: seeds.to_vec(), per_seed, folds, seconds: start.elapsed().as_secs_f64() })
+}
+
+/// One of `count` equal parts of a run's work, `index` from 0: the units whose number modulo
+/// `count` is `index` (a cluster's array job runs each part on its own machine).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// Which part, from 0.
+    pub index: usize,
+    /// How many parts.
+    pub count: usize,
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let expected = || format!("expected I/N with 0 <= I < N (e.g. 0/4), found `{text}`");
+        let (i, n) = text.split_once('/').ok_or_else(expected)?;
+        let (index, count) =
+            (i.trim().parse::<usize>().map_err(|_| expected())?, n.trim().parse::<usize>().map_err(|_| expected())?);
+        if index < count { Ok(Self { index, count }) } else { Err(expected()) }
+    }
+}
+
+/// Trains (or finds in the fold cache) this shard's part of the benchmark's folds: every fold,
+/// seed and arm in [`fold_specs`] order, those whose position modulo `shard.count` is
+/// `shard.index`. The fold cache is the store the shards share: a run without a shard then
+/// reads every fold from it and writes the report. Returns (folds of this shard, folds in all).
+///
+/// # Errors
+/// No fold cache (without one a shard's work would be lost); what [`train_folds`] returns.
+pub fn train_shard(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    seeds: &[u64],
+    shard: Shard,
+    progress: &dyn TrainProgress,
+) -> anyhow::Result<(usize, usize)> {
+    check_inputs(sequences, config)?;
+    anyhow::ensure!(
+        config.cache.is_some(),
+        "--shard: needs a fold cache (--out DIR, without --no-cache): it is where the shards' folds meet"
+    );
+    let specs = fold_specs(config, seeds);
+    let mine: Vec<FoldSpec> =
+        specs.iter().enumerate().filter(|(k, _)| k % shard.count == shard.index).map(|(_, s)| *s).collect();
+    train_folds(sequences, config, &mine, progress)?;
+    Ok((mine.len(), specs.len()))
 }
 
 /// The weighted (per forecast) ADE, FDE and ACE of the row labelled `label`.
@@ -243,6 +291,15 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn shards_parse_as_index_of_count() {
+        assert_eq!("1/4".parse::<Shard>(), Ok(Shard { index: 1, count: 4 }));
+        for bad in ["4/4", "1", "a/2", "1/0", "-1/2"] {
+            let e = bad.parse::<Shard>().unwrap_err();
+            assert!(e.starts_with("expected I/N with 0 <= I < N") && e.contains(bad), "{bad}: {e}");
+        }
+    }
+
     use super::*;
 
     fn ids(v: &[&str]) -> Vec<String> {
