@@ -41,9 +41,11 @@ pub struct BenchmarkArgs {
     /// depend on it).
     #[arg(long, value_delimiter = ',', default_value = "1,2,3", value_name = "LIST")]
     pub seeds: Vec<u64>,
-    /// Only this part of the trainings, I of N (`0/4` .. `3/4`), for one machine of a cluster's
-    /// array job: its folds go into the fold cache of --out, and no report is written; the same
-    /// command without --shard, once every part has run, reads them all and writes the report.
+    /// Only this part of the trainings, I of N (`0/4` .. `3/4`; or `N` alone, the index taken
+    /// from JOB_COMPLETION_INDEX (Kubernetes Indexed Jobs) or SLURM_ARRAY_TASK_ID (Slurm job
+    /// arrays)), for one machine of a cluster's array job: its folds go into the fold cache of
+    /// --out, and no report is written; the same command without --shard, once every part has
+    /// run, reads them all and writes the report.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<dynotraj_eval::experiment::benchmark::Shard>,
     /// Widths, training settings, report folder and format.

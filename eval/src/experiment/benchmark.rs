@@ -95,15 +95,54 @@ pub struct Shard {
     pub count: usize,
 }
 
+/// The environment variables a cluster's array job gives each task its index in: Kubernetes
+/// Indexed Jobs, then Slurm job arrays.
+pub const SHARD_INDEX_VARIABLES: [&str; 2] = ["JOB_COMPLETION_INDEX", "SLURM_ARRAY_TASK_ID"];
+
+impl Shard {
+    /// `I/N`, or `N` alone with the index taken from `index_of` (a variable's value by name:
+    /// the first of [`SHARD_INDEX_VARIABLES`] that is set).
+    ///
+    /// # Errors
+    /// Anything else, saying what was expected.
+    pub fn parse_with(text: &str, index_of: impl Fn(&str) -> Option<String>) -> Result<Self, String> {
+        let expected = || {
+            format!(
+                "expected I/N with 0 <= I < N (e.g. 0/4), or N with the index in {}, found `{text}`",
+                SHARD_INDEX_VARIABLES.join(" or ")
+            )
+        };
+        let number = |t: &str| t.trim().parse::<usize>().map_err(|_| expected());
+        let (index, count) = match text.split_once('/') {
+            Some((i, n)) => (number(i)?, number(n)?),
+            None => {
+                let count = number(text)?;
+                let (name, value) = SHARD_INDEX_VARIABLES
+                    .iter()
+                    .find_map(|v| index_of(v).map(|value| (*v, value)))
+                    .ok_or_else(|| {
+                        format!(
+                            "--shard {text}: neither {} is set, so the index is unknown",
+                            SHARD_INDEX_VARIABLES.join(" nor ")
+                        )
+                    })?;
+                let index =
+                    value.trim().parse::<usize>().map_err(|_| format!("{name}={value}: expected a whole number"))?;
+                if index >= count {
+                    return Err(format!("{name}={index} is not below the {count} shards of --shard {text}"));
+                }
+                (index, count)
+            }
+        };
+        if index < count { Ok(Self { index, count }) } else { Err(expected()) }
+    }
+}
+
 impl std::str::FromStr for Shard {
     type Err = String;
 
     fn from_str(text: &str) -> Result<Self, String> {
-        let expected = || format!("expected I/N with 0 <= I < N (e.g. 0/4), found `{text}`");
-        let (i, n) = text.split_once('/').ok_or_else(expected)?;
-        let (index, count) =
-            (i.trim().parse::<usize>().map_err(|_| expected())?, n.trim().parse::<usize>().map_err(|_| expected())?);
-        if index < count { Ok(Self { index, count }) } else { Err(expected()) }
+        Self::parse_with(text, |name| std::env::var(name).ok())
     }
 }
 
@@ -292,12 +331,21 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn shards_parse_as_index_of_count() {
-        assert_eq!("1/4".parse::<Shard>(), Ok(Shard { index: 1, count: 4 }));
-        for bad in ["4/4", "1", "a/2", "1/0", "-1/2"] {
-            let e = bad.parse::<Shard>().unwrap_err();
+    fn shards_parse_as_index_of_count_or_take_the_index_from_the_job() {
+        let none = |_: &str| None;
+        assert_eq!(Shard::parse_with("1/4", none), Ok(Shard { index: 1, count: 4 }));
+        for bad in ["4/4", "a/2", "1/0", "-1/2", "x"] {
+            let e = Shard::parse_with(bad, none).unwrap_err();
             assert!(e.starts_with("expected I/N with 0 <= I < N") && e.contains(bad), "{bad}: {e}");
         }
+        let e = Shard::parse_with("4", none).unwrap_err();
+        assert!(e.contains("neither JOB_COMPLETION_INDEX nor SLURM_ARRAY_TASK_ID is set"), "{e}");
+        let slurm = |name: &str| (name == "SLURM_ARRAY_TASK_ID").then(|| "3".to_string());
+        assert_eq!(Shard::parse_with("4", slurm), Ok(Shard { index: 3, count: 4 }));
+        let both = |name: &str| Some(if name == "JOB_COMPLETION_INDEX" { "0" } else { "3" }.to_string());
+        assert_eq!(Shard::parse_with("4", both), Ok(Shard { index: 0, count: 4 }), "Kubernetes first");
+        let e = Shard::parse_with("2", slurm).unwrap_err();
+        assert_eq!(e, "SLURM_ARRAY_TASK_ID=3 is not below the 2 shards of --shard 2");
     }
 
     use super::*;
