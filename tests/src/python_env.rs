@@ -1,7 +1,8 @@
-//! The Python environment of the tests that read files back with another ecosystem's own
-//! readers (Python's `mcap` and `mcap-ros2-support`): a virtual environment outside the
-//! repository (`$DYNOTRAJ_VENV`, else `$HOME/.cache/dynotraj-venv`), made once from
-//! tests/python/requirements.txt and made again when the pins change.
+//! The Python environments of the tests that use another ecosystem's own tools: the readers
+//! (Python's `mcap` and `mcap-ros2-support`, tests/python/requirements.txt) and Ray
+//! (fleet/requirements.txt). Each is a virtual environment outside the repository (under
+//! `$DYNOTRAJ_VENV`'s parent, else `$HOME/.cache`), made once and made again when the pins
+//! change.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -19,15 +20,28 @@ pub fn python() -> Result<PathBuf, String> {
     // the same time.
     static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
     let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(make_venv).clone()
+    made.get_or_insert_with(|| make_venv(&manifest_dir().join("python/requirements.txt"), "dynotraj-venv")).clone()
 }
 
-fn make_venv() -> Result<PathBuf, String> {
-    let requirements = manifest_dir().join("python/requirements.txt");
-    let wanted = std::fs::read_to_string(&requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
-    let venv = std::env::var_os("DYNOTRAJ_VENV")
+/// The Python of the Ray environment (fleet/requirements.txt), made on first use.
+///
+/// # Errors
+/// Why there is no environment, for the test to say it skipped.
+pub fn ray_python() -> Result<PathBuf, String> {
+    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(|| make_venv(&manifest_dir().join("../fleet/requirements.txt"), "dynotraj-ray-venv"))
+        .clone()
+}
+
+fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, String> {
+    let wanted = std::fs::read_to_string(requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
+    let home_cache = std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache"));
+    let parent = std::env::var_os("DYNOTRAJ_VENV")
         .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("dynotraj-venv")));
+        .and_then(|v| v.parent().map(std::path::Path::to_path_buf))
+        .or(home_cache);
+    let venv = parent.map(|p| p.join(name));
     let venv = venv.ok_or("neither DYNOTRAJ_VENV nor HOME is set")?;
     let python = venv.join("bin").join("python");
     // The requirements the environment was completed with: a change of pins installs again.
@@ -51,8 +65,8 @@ fn make_venv() -> Result<PathBuf, String> {
     run(
         Command::new(&python)
             .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "-r"])
-            .arg(&requirements),
-        "pip install -r tests/python/requirements.txt",
+            .arg(requirements),
+        &format!("pip install -r {}", requirements.display()),
     )?;
     std::fs::write(&stamp, wanted).map_err(|e| format!("{}: {e}", stamp.display()))?;
     Ok(python)

@@ -1,0 +1,105 @@
+"""Fans the dynotraj benchmark out over a Ray cluster and gathers the same report one machine
+would write.
+
+Stages, each a set of Ray tasks running the `dynotraj` binary (present at the same path on
+every node, with --kitti, --store and --out on a file system they all see):
+  1. per drive (sequence): `dynotraj dataset --sequences S --source gt,estimated
+     --estimate-cache STORE`: renders and tracks the drive (or simulates its tracks) into the
+     content-addressed estimate cache;
+  2. per training unit: `dynotraj benchmark --shard I/N --out OUT --estimate-cache STORE`: one
+     (arm, fold, seed) training into OUT's fold cache;
+  3. on the driver: `dynotraj benchmark --out OUT --estimate-cache STORE`, which reads every
+     drive and fold from the caches and writes the report.
+A task whose worker dies is retried (Ray's max_retries); a half-written unit is never read
+(dynotraj writes every cache entry under a temporary name, renamed when whole, and checks a
+checksum and its key when reading). At the end a table says where the time went.
+
+    python fleet/dynotraj_fleet.py --address auto --dynotraj BIN --kitti K --store STORE --out OUT \\
+        [--sequences 0000,0001] [--units 12] -- [benchmark flags, e.g. --arms gt --seeds 1,2]
+"""
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+import ray
+
+# One core a task: dynotraj's own parallelism is off, the cluster spreads the tasks.
+TASK_ENV = {"RAYON_NUM_THREADS": "1", "DYNOTRAJ_JOBS": "1"}
+
+
+def run(cmd):
+    env = dict(os.environ, **TASK_ENV)
+    start = time.monotonic()
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    seconds = time.monotonic() - start
+    if done.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)}: exit {done.returncode}\n{done.stderr[-2000:]}")
+    return seconds
+
+
+@ray.remote(num_cpus=1, memory=1 << 30, max_retries=3)
+def estimate_drive(binary, kitti, store, sequence, extra):
+    cmd = [binary, "dataset", "--kitti", kitti, "--sequences", sequence, "--source", "gt,estimated",
+           "--estimate-cache", store, "--quiet"] + extra
+    return ("drive", sequence, run(cmd), os.getpid())
+
+
+@ray.remote(num_cpus=1, memory=1 << 30, max_retries=3)
+def train_unit(binary, kitti, store, out, index, count, extra):
+    cmd = [binary, "benchmark", "--kitti", kitti, "--estimate-cache", store, "--out", out,
+           "--shard", f"{index}/{count}", "--quiet"] + extra
+    return ("unit", f"{index}/{count}", run(cmd), os.getpid())
+
+
+def wait_all(refs, what):
+    results = []
+    pending = list(refs)
+    while pending:
+        ready, pending = ray.wait(pending, num_returns=1)
+        results.extend(ray.get(ready))
+        print(f"{what}: {len(results)}/{len(refs)} done", flush=True)
+    return results
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--address", default="auto", help="Ray cluster address (auto: the local cluster)")
+    p.add_argument("--dynotraj", required=True, help="path of the dynotraj binary on every node")
+    p.add_argument("--kitti", required=True)
+    p.add_argument("--store", required=True, help="the shared estimate cache")
+    p.add_argument("--out", required=True, help="the report folder (its cache/ holds the folds)")
+    p.add_argument("--sequences", help="drives, comma-separated (default: every label_02 file)")
+    p.add_argument("--units", type=int, help="training units (default: arms x folds x seeds)")
+    p.add_argument("--drive-flags", default="", help="flags of the drive stage (e.g. --ours-input tracks)")
+    p.add_argument("benchmark", nargs=argparse.REMAINDER, help="flags after -- go to every benchmark")
+    a = p.parse_args()
+    extra = [f for f in a.benchmark if f != "--"]
+    drive_extra = a.drive_flags.split()
+    sequences = a.sequences.split(",") if a.sequences else sorted(
+        f[:-4] for f in os.listdir(os.path.join(a.kitti, "label_02")) if f.endswith(".txt"))
+    units = a.units or 12
+    ray.init(address=a.address, log_to_driver=False)
+    start = time.monotonic()
+    drives = wait_all([estimate_drive.remote(a.dynotraj, a.kitti, a.store, s, drive_extra) for s in sequences],
+                      "drives")
+    t_drives = time.monotonic() - start
+    trained = wait_all([train_unit.remote(a.dynotraj, a.kitti, a.store, a.out, i, units, extra + drive_extra)
+                        for i in range(units)], "training units")
+    t_units = time.monotonic() - start - t_drives
+    gather_start = time.monotonic()
+    run([a.dynotraj, "benchmark", "--kitti", a.kitti, "--estimate-cache", a.store, "--out", a.out, "--quiet"]
+        + extra + drive_extra)
+    t_gather = time.monotonic() - gather_start
+    print("stage | tasks | wall s | task s (sum) | task s (max)")
+    for name, rows, wall in [("drives", drives, t_drives), ("training units", trained, t_units)]:
+        costs = [r[2] for r in rows]
+        print(f"{name} | {len(rows)} | {wall:.1f} | {sum(costs):.1f} | {max(costs):.1f}")
+    print(f"gather | 1 | {t_gather:.1f} | {t_gather:.1f} | {t_gather:.1f}")
+    print(f"total {time.monotonic() - start:.1f} s; report in {a.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
