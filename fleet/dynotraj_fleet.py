@@ -46,8 +46,15 @@ def estimate_drive(binary, kitti, store, sequence, extra):
     return ("drive", sequence, run(cmd), os.getpid())
 
 
+def attempt(store, unit):
+    """Notes that this worker process starts `unit`: a unit noted twice was retried."""
+    with open(os.path.join(store, "attempts.log"), "a") as log:
+        log.write(f"{unit} {os.getpid()}\n")
+
+
 @ray.remote(num_cpus=1, memory=1 << 30, max_retries=3)
 def train_unit(binary, kitti, store, out, index, count, extra):
+    attempt(store, f"unit {index}/{count}")
     cmd = [binary, "benchmark", "--kitti", kitti, "--estimate-cache", store, "--out", out,
            "--shard", f"{index}/{count}", "--quiet"] + extra
     return ("unit", f"{index}/{count}", run(cmd), os.getpid())
@@ -80,6 +87,7 @@ def main():
     sequences = a.sequences.split(",") if a.sequences else sorted(
         f[:-4] for f in os.listdir(os.path.join(a.kitti, "label_02")) if f.endswith(".txt"))
     units = a.units or 12
+    os.makedirs(a.store, exist_ok=True)
     ray.init(address=a.address, log_to_driver=False)
     start = time.monotonic()
     drives = wait_all([estimate_drive.remote(a.dynotraj, a.kitti, a.store, s, drive_extra) for s in sequences],
@@ -97,6 +105,10 @@ def main():
         costs = [r[2] for r in rows]
         print(f"{name} | {len(rows)} | {wall:.1f} | {sum(costs):.1f} | {max(costs):.1f}")
     print(f"gather | 1 | {t_gather:.1f} | {t_gather:.1f} | {t_gather:.1f}")
+    with open(os.path.join(a.store, "attempts.log")) as log:
+        started = [line.split()[1] for line in log]
+    retried = len(started) - len(set(started))
+    print(f"retries: {retried} (a unit started again after its worker was lost)")
     print(f"total {time.monotonic() - start:.1f} s; report in {a.out}")
     return 0
 

@@ -13,6 +13,10 @@ use dynotraj_tests::manifest_dir;
 use dynotraj_tests::python_env::ray_python;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
+/// One cluster at a time: `ray stop` ends every Ray process of the machine, so the tests of
+/// this file take turns.
+static ONE_CLUSTER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// `ray stop` when the test ends, however it ends.
 struct Cluster {
     ray: std::path::PathBuf,
@@ -34,31 +38,17 @@ fn ok(cmd: &mut Command, what: &str) -> String {
 const BENCHMARK: [&str; 12] =
     ["--arms", "gt,estimated", "--folds", "2", "--seeds", "1,2", "--dims", "8,8,2,8", "--epochs", "1", "--rate", "10"];
 
-#[test]
-fn a_local_ray_cluster_gathers_the_one_machine_report() {
-    let python = match ray_python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("fleet_ray", &format!("no Python environment with Ray: {why}"));
-            return;
-        }
-    };
-    let dir = tempfile::tempdir().unwrap();
-    let kitti = dir.path().join("kitti");
+/// Four synthetic drives in `dir`/kitti.
+fn drives(dir: &Path) -> std::path::PathBuf {
+    let kitti = dir.join("kitti");
     for (id, seed) in [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)] {
         write_sequence(&kitti, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
     }
-    let k = kitti.to_str().unwrap();
-    let one = dir.path().join("one");
-    let drive = ["--ours-input", "tracks"];
-    ok(
-        dynotraj_command()
-            .args(["benchmark", "--kitti", k, "--out", one.to_str().unwrap()])
-            .args(BENCHMARK)
-            .args(drive),
-        "one machine",
-    );
-    // The cluster: a head and a second worker process joined to it, one CPU each.
+    kitti
+}
+
+/// A local cluster: a head and a second worker process joined to it, one CPU each; its address.
+fn start_cluster(python: &Path) -> (Cluster, String) {
     let ray = python.parent().unwrap().join("ray");
     let cluster = Cluster { ray: ray.clone() };
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port().to_string();
@@ -71,25 +61,111 @@ fn a_local_ray_cluster_gathers_the_one_machine_report() {
         Command::new(&ray).args(["start", "--address", &format!("127.0.0.1:{port}")]).args(common),
         "ray start (worker)",
     );
-    let out = dir.path().join("fleet");
-    let binary = dynotraj_command().get_program().to_owned();
-    let said = ok(
-        Command::new(&python)
-            .arg(manifest_dir().join("../fleet/dynotraj_fleet.py"))
-            .args(["--address", &format!("127.0.0.1:{port}"), "--dynotraj"])
-            .arg(&binary)
-            .args(["--kitti", k, "--store", dir.path().join("store").to_str().unwrap()])
-            .args(["--out", out.to_str().unwrap(), "--units", "8", "--drive-flags", "--ours-input tracks", "--"])
-            .args(BENCHMARK),
-        "the fleet driver",
+    (cluster, format!("127.0.0.1:{port}"))
+}
+
+/// The driver's command for the drives of `kitti`, report in `out`, benchmark flags `flags`.
+fn driver(python: &Path, address: &str, kitti: &Path, dir: &Path, out: &Path, flags: &[&str]) -> Command {
+    let mut cmd = Command::new(python);
+    cmd.arg(manifest_dir().join("../fleet/dynotraj_fleet.py"))
+        .args(["--address", address, "--dynotraj"])
+        .arg(dynotraj_command().get_program())
+        .args(["--kitti", kitti.to_str().unwrap(), "--store", dir.join("store").to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap(), "--units", "8", "--drive-flags", "--ours-input tracks", "--"])
+        .args(flags);
+    cmd
+}
+
+/// `dynotraj benchmark` on one machine with `flags`, report in `out`.
+fn one_machine(kitti: &Path, out: &Path, flags: &[&str]) {
+    let (k, o) = (kitti.to_str().unwrap(), out.to_str().unwrap());
+    ok(
+        dynotraj_command().args(["benchmark", "--kitti", k, "--out", o, "--ours-input", "tracks"]).args(flags),
+        "one machine",
     );
-    eprintln!("{said}");
-    assert!(said.contains("drives: 4/4 done") && said.contains("training units: 8/8 done"), "{said}");
-    drop(cluster);
-    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+}
+
+/// The report tables of `a` and `b` are the same bytes, and `b` read every fold from its cache.
+fn same_tables(a: &Path, b: &Path) {
+    let report = std::fs::read_to_string(b.join("REPORT.md")).unwrap();
     assert!(report.contains("8 of 8 folds were read from the fold cache"), "the gather trained again:\n{report}");
     for stem in ["weighted", "goal", "deployment_weighted", "per_sequence_seed1", "table_i"] {
         let read = |d: &Path| std::fs::read_to_string(d.join(format!("{stem}.csv"))).unwrap();
-        assert!(read(&one) == read(&out), "{stem}: the cluster's report differs from one machine's");
+        assert!(read(a) == read(b), "{stem}: the cluster's report differs from one machine's");
     }
+}
+
+fn ray_or_skip(test: &str) -> Option<std::path::PathBuf> {
+    match ray_python() {
+        Ok(p) => Some(p),
+        Err(why) => {
+            dynotraj_testkit::skipped(test, &format!("no Python environment with Ray: {why}"));
+            None
+        }
+    }
+}
+
+#[test]
+fn a_local_ray_cluster_gathers_the_one_machine_report() {
+    let _turn = ONE_CLUSTER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let Some(python) = ray_or_skip("fleet_ray") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let kitti = drives(dir.path());
+    let one = dir.path().join("one");
+    one_machine(&kitti, &one, &BENCHMARK);
+    let (cluster, address) = start_cluster(&python);
+    let out = dir.path().join("fleet");
+    let said = ok(&mut driver(&python, &address, &kitti, dir.path(), &out, &BENCHMARK), "the fleet driver");
+    eprintln!("{said}");
+    assert!(said.contains("drives: 4/4 done") && said.contains("training units: 8/8 done"), "{said}");
+    assert!(said.contains("retries: 0 "), "{said}");
+    drop(cluster);
+    same_tables(&one, &out);
+}
+
+/// A Ray worker killed by its PID while it trains a unit costs that unit a retry; the report is
+/// the same.
+#[test]
+fn a_worker_killed_mid_task_costs_a_retry_and_the_report_is_the_same() {
+    let _turn = ONE_CLUSTER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let Some(python) = ray_or_skip("fleet_ray_fault") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let kitti = drives(dir.path());
+    // Units long enough to be killed in the middle of.
+    let slow: Vec<&str> = BENCHMARK.iter().map(|f| if *f == "1" { "30" } else { f }).collect();
+    let slow: Vec<&str> = slow.iter().enumerate().map(|(i, f)| if i == 7 { "16,16,2,16" } else { f }).collect();
+    let one = dir.path().join("one");
+    one_machine(&kitti, &one, &slow);
+    let (cluster, address) = start_cluster(&python);
+    let out = dir.path().join("fleet");
+    let child = driver(&python, &address, &kitti, dir.path(), &out, &slow)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Kill the first worker seen running a training unit.
+    let waited = std::time::Instant::now();
+    let mut killed = None;
+    while killed.is_none() && waited.elapsed() < std::time::Duration::from_secs(120) {
+        let ps = Command::new("ps").args(["-eo", "pid=,args="]).output().unwrap();
+        killed = String::from_utf8_lossy(&ps.stdout)
+            .lines()
+            .find(|l| l.contains("ray::train_unit"))
+            .and_then(|l| l.split_whitespace().next().map(str::to_string));
+        if killed.is_none() {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+    }
+    let pid = killed.expect("no worker was seen training a unit");
+    assert!(Command::new("kill").args(["-9", &pid]).status().unwrap().success());
+    let done = child.wait_with_output().unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&done.stdout), String::from_utf8_lossy(&done.stderr));
+    eprintln!("killed worker {pid}\n{said}");
+    assert!(done.status.success(), "{said}");
+    assert!(said.contains("training units: 8/8 done"), "{said}");
+    assert!(said.contains("retries: 1 "), "the killed worker's unit ran again: {said}");
+    let attempts = std::fs::read_to_string(dir.path().join("store/attempts.log")).unwrap();
+    assert!(attempts.lines().any(|l| l.ends_with(&format!(" {pid}"))), "{pid} not in\n{attempts}");
+    drop(cluster);
+    same_tables(&one, &out);
 }
