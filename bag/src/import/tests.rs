@@ -1,0 +1,235 @@
+//! The import on bags of the committed fixture, whole and damaged.
+
+use std::collections::BTreeMap;
+use std::io::BufWriter;
+
+use super::pixels::depth_units;
+use super::*;
+use crate::from_layout::{DETECTIONS, LEFT, RIGHT, layout_to_bag};
+use crate::ros2::COMPRESSED_IMAGE;
+use image::RgbImage;
+use std::fs::File;
+
+fn fixture() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/data/image_sim")
+}
+
+fn options() -> ImportOptions {
+    ImportOptions { sync_tolerance_ns: 1_000_000, ..ImportOptions::default() }
+}
+
+/// The fixture as a bag in `dir`, each message passed through `edit` (topic, payload ->
+/// payload, or `None` to leave it out).
+fn bag(dir: &Path, mut edit: impl FnMut(&str, Vec<u8>) -> Option<Vec<u8>>) -> PathBuf {
+    bag_with(dir, |topic, schema, p| edit(topic, p).map(|p| (schema.to_string(), p)))
+}
+
+/// As [`bag`], `edit` also choosing each message's schema name.
+fn bag_with(dir: &Path, mut edit: impl FnMut(&str, &str, Vec<u8>) -> Option<(String, Vec<u8>)>) -> PathBuf {
+    let plain = dir.join("plain.mcap");
+    layout_to_bag(&fixture(), "0000", &plain, 10.0).unwrap();
+    let out = dir.join("edited.mcap");
+    let mut w = mcap::Writer::new(BufWriter::new(File::create(&out).unwrap())).unwrap();
+    let mut channels: BTreeMap<String, u16> = BTreeMap::new();
+    for_each_message(&[plain], |t, _, m| {
+        let Some((schema_name, payload)) = edit(&t.name, &t.schema, m.data.to_vec()) else { return Ok(()) };
+        let id = match channels.get(&t.name) {
+            Some(&id) => id,
+            None => {
+                let schema = w.add_schema(&schema_name, "ros2msg", b"")?;
+                let id = w.add_channel(schema, &t.name, &t.encoding, &BTreeMap::new())?;
+                channels.insert(t.name.clone(), id);
+                id
+            }
+        };
+        let header = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: m.sequence,
+            log_time: m.log_time,
+            publish_time: m.publish_time,
+        };
+        w.write_to_known_channel(&header, &payload)?;
+        Ok(())
+    })
+    .unwrap();
+    w.finish().unwrap();
+    out
+}
+
+/// The image `name` of the imported layout `out` has the fixture's pixels; depth beyond
+/// 16UC1's 65.535 m (the fixture's sky) comes back as that limit.
+fn same_pixels(name: &str, out: &Path) {
+    let (a, b) =
+        (image::open(fixture().join(name)).unwrap().to_rgb16(), image::open(out.join(name)).unwrap().to_rgb16());
+    assert_eq!(a.dimensions(), b.dimensions(), "{name}");
+    let limit = if name.starts_with("depth_02") { depth_units(65.535) } else { u16::MAX };
+    let differ = a.as_raw().iter().zip(b.as_raw()).filter(|(p, q)| (**p).min(limit) != **q).count();
+    assert_eq!(differ, 0, "{name}: {differ} values differ");
+}
+
+fn error(bag: &Path, opt: &ImportOptions) -> String {
+    let dir = bag.parent().unwrap().join("out");
+    let e = format!("{:#}", import(bag, "0000", &dir, opt).unwrap_err());
+    assert!(!dir.exists(), "a failed import leaves no folder: {e}");
+    e
+}
+
+#[test]
+fn the_fixture_round_trips_through_a_bag() {
+    let tmp = tempfile::tempdir().unwrap();
+    let b = bag(tmp.path(), |_, p| Some(p));
+    let out = tmp.path().join("layout");
+    let s = import(&b, "0000", &out, &options()).unwrap();
+    assert_eq!(s.frames, 24);
+    assert!((s.rate_hz - 10.0).abs() < 1e-6, "{}", s.rate_hz);
+    assert!(s.unmatched.iter().all(|(_, n)| *n == 0), "{:?}", s.unmatched);
+    for folder in ["image_02", "image_03", "instance_02", "depth_02"] {
+        for k in [0, 23] {
+            same_pixels(&format!("{folder}/0000/{k:06}.png"), &out);
+        }
+    }
+    let calib = |dir: &Path| read_calib(dir.join("calib/0000.txt")).unwrap().p;
+    assert_eq!(calib(&fixture()), calib(&out));
+    let times = std::fs::read_to_string(out.join("times/0000.txt")).unwrap();
+    assert_eq!(times.lines().nth(3), Some("0.300000000"));
+    let rows = dynotraj_formats::kitti::read_labels(out.join("label_02/0000.txt")).unwrap();
+    let truth = dynotraj_formats::kitti::read_labels(fixture().join("label_02/0000.txt")).unwrap();
+    assert_eq!(rows.len(), truth.len());
+    assert_eq!(s.boxes, rows.len());
+    for (r, t) in rows.iter().zip(&truth) {
+        assert!(r.is_box_only());
+        assert_eq!((r.frame, r.track_id, r.object_type.as_str()), (t.frame, t.track_id, t.object_type.as_str()));
+        assert_eq!(
+            (r.bbox_left, r.bbox_top, r.bbox_right, r.bbox_bottom),
+            (t.bbox_left, t.bbox_top, t.bbox_right, t.bbox_bottom)
+        );
+    }
+    // A ROS 2 bag folder of the same file imports the same way.
+    let folder = tmp.path().join("rosbag2");
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::copy(&b, folder.join("rosbag2_0.mcap")).unwrap();
+    assert_eq!(import(&folder, "0000", &tmp.path().join("again"), &options()).unwrap().frames, 24);
+}
+
+use dynotraj_formats::kitti::read_calib;
+
+#[test]
+fn an_rgbd_bag_with_compressed_images_imports_the_same_pixels_and_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let left = format!("{LEFT}/image_raw");
+    let b = bag_with(tmp.path(), |topic, schema, p| {
+        if topic.starts_with(RIGHT) {
+            return None;
+        }
+        if topic != left {
+            return Some((schema.to_string(), p));
+        }
+        // The left camera as image_transport's compressed PNG.
+        let m: Image = ros2::decode(&p).unwrap();
+        let rgb = RgbImage::from_raw(m.width, m.height, m.data).unwrap();
+        let mut png = Vec::new();
+        rgb.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+        let c = CompressedImage { header: m.header, format: "rgb8; png compressed rgb8".into(), data: png };
+        Some((COMPRESSED_IMAGE.to_string(), ros2::encode(&c).unwrap()))
+    });
+    let out = tmp.path().join("layout");
+    let s = import(&b, "0000", &out, &ImportOptions { rgbd: true, ..options() }).unwrap();
+    assert_eq!(s.frames, 24);
+    assert!(s.topics.iter().any(|(r, t)| r == "depth" && t == "/stereo/left/depth"), "{:?}", s.topics);
+    assert!(!out.join("image_03").exists(), "an RGB-D import has no right images");
+    for folder in ["image_02", "depth_02"] {
+        same_pixels(&format!("{folder}/0000/000011.png"), &out);
+    }
+    // Without the right camera and without --rgbd the depth topic makes it RGB-D all the same;
+    // without depth either, the import says what is missing.
+    let dir = tmp.path().join("mono");
+    std::fs::create_dir(&dir).unwrap();
+    let mono = bag(&dir, |t, p| (!t.starts_with(RIGHT) && !t.ends_with("/depth")).then_some(p));
+    let e = error(&mono, &options());
+    assert!(e.contains("no right image topic and no depth topic"), "{e}");
+}
+
+#[test]
+fn bad_bags_are_named_by_file_topic_message_and_field() {
+    let tmp = tempfile::tempdir().unwrap();
+    let good = bag(tmp.path(), |_, p| Some(p));
+    // Truncated.
+    let cut = tmp.path().join("cut.mcap");
+    let bytes = std::fs::read(&good).unwrap();
+    dynotraj_formats::atomic::write_file(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = error(&cut, &options());
+    assert!(e.contains("cut.mcap: not a readable MCAP file after") && e.contains("truncated"), "{e}");
+    // A topic that is not there, and one of the wrong type.
+    let e = error(&good, &ImportOptions { left: Some("/nope".into()), ..options() });
+    assert!(
+        e.contains("--left /nope: no such topic") && e.contains("/stereo/right/image_raw (sensor_msgs/msg/Image"),
+        "{e}"
+    );
+    let e = error(&good, &ImportOptions { left: Some(DETECTIONS.into()), ..options() });
+    assert!(e.contains("a vision_msgs/msg/Detection2DArray topic, expected sensor_msgs/msg/Image"), "{e}");
+    // No right camera info.
+    let dir = tmp.path().join("noinfo");
+    std::fs::create_dir(&dir).unwrap();
+    let right_info = format!("{RIGHT}/camera_info");
+    let b = bag(&dir, |t, p| (t != right_info).then_some(p));
+    let e = error(&b, &options());
+    assert!(e.contains("--right-info"), "{e}");
+    // Unsynchronised stereo: the right camera 50 ms late.
+    let dir = tmp.path().join("late");
+    std::fs::create_dir(&dir).unwrap();
+    let right = format!("{RIGHT}/image_raw");
+    let b = bag(&dir, |t, p| {
+        if t != right {
+            return Some(p);
+        }
+        let mut m: Image = ros2::decode(&p).unwrap();
+        m.header.stamp = ros2::Time::from_nanos(m.header.stamp.nanos() + 50_000_000);
+        Some(ros2::encode(&m).unwrap())
+    });
+    let e = error(&b, &options());
+    assert!(
+        e.contains("24 of 24 images of /stereo/left/image_raw have no /stereo/right/image_raw image within 1 ms"),
+        "{e}"
+    );
+    assert!(e.contains("not synchronised"), "{e}");
+    // With the tolerance widened it imports.
+    let ok = ImportOptions { sync_tolerance_ns: 60_000_000, ..options() };
+    assert_eq!(import(&b, "0000", &dir.join("ok"), &ok).unwrap().frames, 24);
+    // An encoding the import does not know, in message 5.
+    let dir = tmp.path().join("yuv");
+    std::fs::create_dir(&dir).unwrap();
+    let left = format!("{LEFT}/image_raw");
+    let mut n = 0;
+    let b = bag(&dir, |t, p| {
+        if t != left {
+            return Some(p);
+        }
+        n += 1;
+        if n != 6 {
+            return Some(p);
+        }
+        let mut m: Image = ros2::decode(&p).unwrap();
+        m.encoding = "yuv422".into();
+        Some(ros2::encode(&m).unwrap())
+    });
+    let e = error(&b, &options());
+    assert!(
+        e.contains(
+            "topic /stereo/left/image_raw (sensor_msgs/msg/Image), message 5: field `encoding`: `yuv422` is not one of"
+        ),
+        "{e}"
+    );
+    // Pixels that do not fill the image.
+    let dir = tmp.path().join("short");
+    std::fs::create_dir(&dir).unwrap();
+    let b = bag(&dir, |t, p| {
+        if t != left {
+            return Some(p);
+        }
+        let mut m: Image = ros2::decode(&p).unwrap();
+        m.data.truncate(100);
+        Some(ros2::encode(&m).unwrap())
+    });
+    let e = error(&b, &options());
+    assert!(e.contains("message 0: field `data`: 100 bytes, expected step 1491 x height 150"), "{e}");
+}
