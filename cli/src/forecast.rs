@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_bag::record::{Line, Pose, Recorder, RecordingSummary, Rgba, frame_time_ns};
+use dynotraj_bag::record::{Line, Pose, Recorder, RecordingSummary, Rgba, frame_time_ns, ground};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_HISTORY};
 use dynotraj_core::model::signed;
@@ -231,11 +231,6 @@ pub fn cv_forecasts(
         }
     }
     out
-}
-
-/// A bird's-eye position on the recording's ground plane.
-fn ground(x: f32, y: f32) -> [f64; 3] {
-    [f64::from(x), f64::from(y), 0.0]
 }
 
 /// The model blob of the file at `path`: a signed one verified against the provisioned key.

@@ -104,12 +104,8 @@ fn label_rows(f: &RenderedFrame, width: usize) -> Vec<LabelRow> {
 /// The calibration file of the rendered stereo camera.
 fn calib_text(sim: &ImageSim) -> String {
     let c = sim.camera;
-    let p = |tx: f64| format!("{:e} 0 {:e} {:e} 0 {:e} {:e} 0 0 0 1 0", c.fx, c.cx, tx, c.fy, c.cy);
-    let (left, right) = (p(0.0), p(-c.fb()));
-    format!(
-        "P0: {left}\nP1: {right}\nP2: {left}\nP3: {right}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 \
-            0 -1 0 1 0 0 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"
-    )
+    let p = |tx: f64| [c.fx, 0.0, c.cx, tx, 0.0, c.fy, c.cy, 0.0, 0.0, 0.0, 1.0, 0.0];
+    dynotraj_formats::kitti::stereo_calib_text(&p(0.0), &p(-c.fb()))
 }
 
 /// Renders and writes frames `0..frames` of `sim` as sequence `seq` under `dir`.

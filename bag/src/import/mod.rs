@@ -128,7 +128,6 @@ fn calib_text(
     baseline_m: Option<f64>,
     right_topic: &str,
 ) -> anyhow::Result<String> {
-    let fmt = |p: &[f64; 12]| p.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" ");
     ensure!(
         left.p[0] > 0.0 && left.p[5] > 0.0,
         "camera info of the left camera: field `p`: fx = {} and fy = {} must be positive (a calibrated camera)",
@@ -147,10 +146,7 @@ fn calib_text(
             ),
         }
     }
-    let (l, r) = (fmt(&left.p), fmt(&right_p));
-    Ok(format!(
-        "P0: {l}\nP1: {r}\nP2: {l}\nP3: {r}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 0\nTr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"
-    ))
+    Ok(dynotraj_formats::kitti::stereo_calib_text(&left.p, &right_p))
 }
 
 /// The KITTI type of a detector's class name.

@@ -179,6 +179,13 @@ pub struct RecordingSummary {
     pub messages: BTreeMap<String, u64>,
 }
 
+/// A bird's-eye position (the pipeline's world x, y) on the recording's ground plane (z = 0
+/// in [`WORLD_FRAME`]).
+#[must_use]
+pub fn ground(x: f32, y: f32) -> [f64; 3] {
+    [f64::from(x), f64::from(y), 0.0]
+}
+
 /// The log time, nanoseconds, of frame `frame` at `rate_hz` frames per second.
 ///
 /// # Errors

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use anyhow::Context as _;
-use dynotraj_bag::record::{Line, Recorder, RecordingSummary, Rgba, frame_time_ns};
+use dynotraj_bag::record::{Line, Recorder, RecordingSummary, Rgba, frame_time_ns, ground};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::{Baseline, Predictor};
 use dynotraj_sources::scene::{Scene, SourcedRun};
@@ -23,11 +23,6 @@ pub const TRAIL_STATES: usize = HORIZON;
 const TRACK_COLOR: Rgba = Rgba::opaque(0.2, 0.6, 1.0);
 const LEARNED_COLOR: Rgba = Rgba::opaque(1.0, 0.4, 0.1);
 const CV_COLOR: Rgba = Rgba::opaque(0.6, 0.6, 0.6);
-
-/// A bird's-eye position on the recording's ground plane.
-fn ground(x: f32, y: f32) -> [f64; 3] {
-    [f64::from(x), f64::from(y), 0.0]
-}
 
 /// One arm of a sequence: its scene and, per eligible run, the run's index in the scene and
 /// its test instances.

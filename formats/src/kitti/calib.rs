@@ -91,6 +91,19 @@ impl Key {
 
 const ALL_KEYS: [Key; 7] = [Key::P(0), Key::P(1), Key::P(2), Key::P(3), Key::RRect, Key::TrVeloCam, Key::TrImuVelo];
 
+/// The calibration text of a rectified stereo pair (`right` = `left` for one camera): P0 = P2
+/// = `left`, P1 = P3 = `right` (row-major 3 x 4 projections, the right one's `[3]` being
+/// `-fx * baseline`), identity rectification, and the tracking files' velodyne and IMU axes.
+#[must_use]
+pub fn stereo_calib_text(left: &[f64; 12], right: &[f64; 12]) -> String {
+    let row = |p: &[f64; 12]| p.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(" ");
+    let (l, r) = (row(left), row(right));
+    format!(
+        "P0: {l}\nP1: {r}\nP2: {l}\nP3: {r}\nR0_rect: 1 0 0 0 1 0 0 0 1\nTr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 0\n\
+         Tr_imu_to_velo: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+    )
+}
+
 /// Parses the text of a calibration file in either spelling; `path` is only used in messages.
 ///
 /// # Errors

@@ -32,7 +32,7 @@ mod text;
 #[cfg(test)]
 mod test_support;
 
-pub use calib::{Calib, parse_calib, read_calib};
+pub use calib::{Calib, parse_calib, read_calib, stereo_calib_text};
 pub use error::{KittiError, SequenceIdError, checked_sequence_id};
 pub use label::{LabelRow, format_label_row, label_frame_count, parse_labels, read_labels, write_labels};
 pub use layout::{PoseSource, SequenceData, TrackingDir};
