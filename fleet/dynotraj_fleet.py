@@ -2,10 +2,11 @@
 would write.
 
 Stages, each a set of Ray tasks running the `dynotraj` binary (present at the same path on
-every node, with --kitti, --store and --out on a file system they all see):
-  1. per drive (sequence): `dynotraj dataset --sequences S --source gt,estimated
-     --estimate-cache STORE`: renders and tracks the drive (or simulates its tracks) into the
-     content-addressed estimate cache;
+every node, with the data (--kitti or --drives), --store and --out on a file system they all
+see):
+  1. per drive: `dynotraj dataset --sequences S --source gt,estimated --estimate-cache STORE`:
+     imports the drive if it is a bag, then renders and tracks it, tracks its own images, or
+     simulates its tracks, into the content-addressed estimate cache;
   2. per training unit: `dynotraj benchmark --shard I/N --out OUT --estimate-cache STORE`: one
      (arm, fold, seed) training into OUT's fold cache;
   3. on the driver: `dynotraj benchmark --out OUT --estimate-cache STORE`, which reads every
@@ -14,8 +15,8 @@ A task whose worker dies is retried (Ray's max_retries); a half-written unit is 
 (dynotraj writes every cache entry under a temporary name, renamed when whole, and checks a
 checksum and its key when reading). At the end a table says where the time went.
 
-    python fleet/dynotraj_fleet.py --address auto --dynotraj BIN --kitti K --store STORE --out OUT \\
-        [--sequences 0000,0001] [--units 12] -- [benchmark flags, e.g. --arms gt --seeds 1,2]
+    python fleet/dynotraj_fleet.py --address auto --dynotraj BIN (--kitti K | --drives MANIFEST) \\
+        --store STORE --out OUT [--sequences 0000,0001] [--units 12] -- [benchmark flags, e.g. --arms gt]
 """
 import argparse
 import os
@@ -40,8 +41,8 @@ def run(cmd):
 
 
 @ray.remote(num_cpus=1, memory=1 << 30, max_retries=3)
-def estimate_drive(binary, kitti, store, sequence, extra):
-    cmd = [binary, "dataset", "--kitti", kitti, "--sequences", sequence, "--source", "gt,estimated",
+def estimate_drive(binary, data, store, sequence, extra):
+    cmd = [binary, "dataset"] + data + ["--sequences", sequence, "--source", "gt,estimated",
            "--estimate-cache", store, "--quiet"] + extra
     return ("drive", sequence, run(cmd), os.getpid())
 
@@ -53,11 +54,22 @@ def attempt(store, unit):
 
 
 @ray.remote(num_cpus=1, memory=1 << 30, max_retries=3)
-def train_unit(binary, kitti, store, out, index, count, extra):
+def train_unit(binary, data, store, out, index, count, extra):
     attempt(store, f"unit {index}/{count}")
-    cmd = [binary, "benchmark", "--kitti", kitti, "--estimate-cache", store, "--out", out,
+    cmd = [binary, "benchmark"] + data + ["--estimate-cache", store, "--out", out,
            "--shard", f"{index}/{count}", "--quiet"] + extra
     return ("unit", f"{index}/{count}", run(cmd), os.getpid())
+
+
+def drive_names(binary, data):
+    """The drives of --kitti or --drives, as `dynotraj` reads them."""
+    if data[0] == "--kitti":
+        labels = os.path.join(data[1], "label_02")
+        return sorted(f[:-4] for f in os.listdir(labels) if f.endswith(".txt") and f[:-4].isdigit())
+    listed = subprocess.run([binary, "drives", data[1]], capture_output=True, text=True)
+    if listed.returncode != 0:
+        raise SystemExit(f"dynotraj drives {data[1]}: {listed.stderr.strip()}")
+    return [line.split("\t")[0] for line in listed.stdout.splitlines()]
 
 
 def wait_all(refs, what):
@@ -74,30 +86,35 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--address", default="auto", help="Ray cluster address (auto: the local cluster)")
     p.add_argument("--dynotraj", required=True, help="path of the dynotraj binary on every node")
-    p.add_argument("--kitti", required=True)
+    data = p.add_mutually_exclusive_group(required=True)
+    data.add_argument("--kitti", help="a KITTI tracking folder: its sequences are the drives")
+    data.add_argument("--drives", help="a drive manifest, or a folder of layout folders and bags")
     p.add_argument("--store", required=True, help="the shared estimate cache")
     p.add_argument("--out", required=True, help="the report folder (its cache/ holds the folds)")
-    p.add_argument("--sequences", help="drives, comma-separated (default: every label_02 file)")
+    p.add_argument("--sequences", help="drives, comma-separated (default: every drive)")
     p.add_argument("--units", type=int, help="training units (default: arms x folds x seeds)")
-    p.add_argument("--drive-flags", default="", help="flags of the drive stage (e.g. --ours-input tracks)")
+    p.add_argument("--drive-flags", default="", help="data flags a drive's estimate depends on (--rate, --ours-input, --render-scale, --classes, "
+                   "--min-step): given to every stage, so the units find the drives' estimates")
     p.add_argument("benchmark", nargs=argparse.REMAINDER, help="flags after -- go to every benchmark")
     a = p.parse_args()
     extra = [f for f in a.benchmark if f != "--"]
     drive_extra = a.drive_flags.split()
-    sequences = a.sequences.split(",") if a.sequences else sorted(
-        f[:-4] for f in os.listdir(os.path.join(a.kitti, "label_02")) if f.endswith(".txt"))
+    data = ["--kitti", a.kitti] if a.kitti else ["--drives", a.drives]
+    sequences = a.sequences.split(",") if a.sequences else drive_names(a.dynotraj, data)
+    if a.sequences:
+        extra = ["--sequences", a.sequences] + extra
     units = a.units or 12
     os.makedirs(a.store, exist_ok=True)
     ray.init(address=a.address, log_to_driver=False)
     start = time.monotonic()
-    drives = wait_all([estimate_drive.remote(a.dynotraj, a.kitti, a.store, s, drive_extra) for s in sequences],
+    drives = wait_all([estimate_drive.remote(a.dynotraj, data, a.store, s, drive_extra) for s in sequences],
                       "drives")
     t_drives = time.monotonic() - start
-    trained = wait_all([train_unit.remote(a.dynotraj, a.kitti, a.store, a.out, i, units, extra + drive_extra)
+    trained = wait_all([train_unit.remote(a.dynotraj, data, a.store, a.out, i, units, extra + drive_extra)
                         for i in range(units)], "training units")
     t_units = time.monotonic() - start - t_drives
     gather_start = time.monotonic()
-    run([a.dynotraj, "benchmark", "--kitti", a.kitti, "--estimate-cache", a.store, "--out", a.out, "--quiet"]
+    run([a.dynotraj, "benchmark"] + data + ["--estimate-cache", a.store, "--out", a.out, "--quiet"]
         + extra + drive_extra)
     t_gather = time.monotonic() - gather_start
     print("stage | tasks | wall s | task s (sum) | task s (max)")

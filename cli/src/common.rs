@@ -9,9 +9,10 @@ use dynotraj_core::wire::ObjectClass;
 pub use super::progress::Progress;
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_sources::drives::{Drive, labelled_drives, load_drive, manifest_drives, select_drives};
 use dynotraj_sources::estimation::settings::{EstimateSettings, SimulatedInput};
 use dynotraj_sources::estimation::simulated::{EvalOptions, ObjectVariants};
-use dynotraj_sources::sequence::{SequenceTracks, load_sequence};
+use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, MovingRule, Source};
 
 /// The paper's test sequences (Table IV).
@@ -108,9 +109,18 @@ pub struct SceneClassesArg {
 #[derive(Debug, Args)]
 pub struct DataArgs {
     /// A KITTI tracking split folder holding label_02/, calib/ and ego poses (oxts/,
-    /// ego_poses_orbslam3/ or poses/), e.g. ../shared/kitti/tracking/training.
-    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
-    pub kitti: PathBuf,
+    /// ego_poses_orbslam3/ or poses/), e.g. ../shared/kitti/tracking/training (default:
+    /// $DYNOTRAJ_KITTI, unless --drives is given).
+    #[arg(long, value_name = "DIR")]
+    pub kitti: Option<PathBuf>,
+    /// Instead of --kitti, the drives of several places: a manifest file (a KITTI-layout
+    /// folder, optionally followed by sequence ids, or a ROS 2 bag, one per line; relative
+    /// paths from the manifest's folder) or a folder of layout folders and bags. A drive is
+    /// named by its sequence id or its bag's file name (--sequences chooses by that name);
+    /// sequences without ego poses and bags have no labels and feed the estimated sources
+    /// only; bags are imported into --estimate-cache. `dynotraj drives PATH` lists them.
+    #[arg(long, value_name = "PATH", conflicts_with = "kitti")]
+    pub drives: Option<PathBuf>,
     /// The frame rate.
     #[command(flatten)]
     pub rate: FrameRateArg,
@@ -322,8 +332,7 @@ impl DataArgs {
         sources: &[Source],
         cache: Option<std::path::PathBuf>,
     ) -> anyhow::Result<Vec<SequenceTracks>> {
-        let dir = TrackingDir::open(&self.kitti)?;
-        let ids = sequence_ids(&dir, sequences)?;
+        let drives = self.drives(sequences)?;
         let dt = self.dt()?;
         let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
             input: self.ours.ours_input,
@@ -334,15 +343,42 @@ impl DataArgs {
                 ..EvalOptions::kitti(dt)
             })
         });
-        let bar = progress(ids.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
-        let out = map_jobs(&ids, self.ours.jobs, |id| {
-            let s = load_sequence(&dir, id, dt, estimate.as_ref());
-            bar.set_message(format!("sequence {id} {}", if s.is_ok() { "loaded" } else { "failed" }));
+        let bar = progress(drives.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
+        let out = map_jobs(&drives, self.ours.jobs, |d| {
+            let s = load_drive(d, dt, estimate.as_ref(), cache.as_deref());
+            bar.set_message(format!("sequence {} {}", d.name, if s.is_ok() { "loaded" } else { "failed" }));
             bar.inc(1);
             s
         })?;
         bar.finish_and_clear();
+        let unlabelled: Vec<&str> = drives.iter().filter(|d| !d.is_labelled()).map(|d| d.name.as_str()).collect();
+        if !unlabelled.is_empty() && sources.iter().any(|s| !s.is_estimated()) {
+            log::warn!(
+                "{} drive(s) without labels ({}) add to the estimated sources only",
+                unlabelled.len(),
+                unlabelled.join(", ")
+            );
+        }
         out.into_iter().collect()
+    }
+
+    /// The drives `sequences` names (all when empty) of --kitti or --drives.
+    ///
+    /// # Errors
+    /// A folder or manifest that cannot be read, a name given twice or that no drive has.
+    pub fn drives(&self, sequences: &[String]) -> anyhow::Result<Vec<Drive>> {
+        if let Some(path) = &self.drives {
+            let names = distinct_ids("--sequences", sequences.to_vec())?;
+            return select_drives(manifest_drives(path)?, &names);
+        }
+        let Some(kitti) = kitti_or_env(self.kitti.as_deref()) else {
+            anyhow::bail!(
+                "--kitti or --drives: expected where the drives are (a KITTI tracking folder, also read from \
+                 ${KITTI_ENV}, or a drive manifest)"
+            )
+        };
+        let dir = TrackingDir::open(&kitti)?;
+        Ok(labelled_drives(&kitti, &sequence_ids(&dir, sequences)?))
     }
 }
 

@@ -53,7 +53,7 @@ pub struct ImportArgs {
     #[arg(long)]
     pub rgbd: bool,
     /// Largest header-stamp difference between the messages of one frame, milliseconds.
-    #[arg(long, default_value_t = 1.0, value_parser = positive, value_name = "MS")]
+    #[arg(long, default_value_t = dynotraj_bag::import::DEFAULT_SYNC_TOLERANCE_NS as f64 / 1e6, value_parser = positive, value_name = "MS")]
     pub sync_tolerance_ms: f64,
     /// Stereo baseline in metres, where the right CameraInfo's projection does not carry it.
     #[arg(long, value_parser = positive, value_name = "METRES")]

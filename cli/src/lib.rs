@@ -3,6 +3,7 @@
 pub mod benchmark;
 pub mod common;
 pub mod dataset;
+pub mod drives;
 pub mod estimate;
 pub mod eval;
 pub mod experiment;
@@ -67,6 +68,9 @@ impl Cli {
 pub enum Command {
     /// Eligible objects and test instances per sequence (the paper's Table I).
     Dataset(dataset::DatasetArgs),
+    /// The drives a manifest or a folder of layout folders and bags names, as `--drives` reads
+    /// them: name, kind, path.
+    Drives(drives::DrivesArgs),
     /// ADE, FDE and ACE of a predictor on a source, per sequence and weighted (Table IV).
     Eval(eval::EvalArgs),
     /// The estimator on the KITTI-driven simulator: camera and object RPE (Table III).
@@ -122,6 +126,7 @@ impl Command {
     pub fn name(&self) -> &'static str {
         match self {
             Self::Dataset(_) => "dataset",
+            Self::Drives(_) => "drives",
             Self::Eval(_) => "eval",
             Self::Estimate(_) => "estimate",
             Self::Train(_) => "train",
@@ -162,6 +167,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     progress::set_quiet(cli.quiet);
     match cli.command {
         Command::Dataset(a) => dataset::run(&a),
+        Command::Drives(a) => drives::run(&a),
         Command::Eval(a) => eval::run(&a),
         Command::Estimate(a) => estimate::run(&a),
         Command::Train(a) => train::run(&a),

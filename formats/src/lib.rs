@@ -3,6 +3,7 @@
 //!
 //! - [`atomic`]: output files written whole or not at all.
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
+//! - [`manifest`]: drive manifests, the list of a run's layout folders and bags.
 //! - [`tracks_file`]: recorded feature-track streams (`.dtt`), the link's bytes.
 //! - [`model_file`]: model blobs on disk; [`model_signing`]: their signing keys and signatures.
 //!
@@ -11,6 +12,7 @@
 
 pub mod atomic;
 pub mod kitti;
+pub mod manifest;
 pub mod model_file;
 pub mod model_signing;
 pub mod tracks_file;

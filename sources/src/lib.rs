@@ -1,8 +1,9 @@
 //! dynotraj-sources: where trajectories come from. The labels' tracks and the paper's sources
 //! (`trajectory`), the core estimator run on KITTI sequences and its estimated tracks
-//! (`estimation`), a sequence's tracks for each source (`sequence`) and the scenes forecasts
-//! are scored in (`scene`). Training and the experiments build on it.
+//! (`estimation`), a sequence's tracks for each source (`sequence`), the drives a run reads
+//! from layout folders and bags (`drives`) and the scenes forecasts are scored in (`scene`). Training and the experiments build on it.
 
+pub mod drives;
 pub mod estimation;
 pub mod on_step;
 pub mod scene;

@@ -1,6 +1,8 @@
 //! The fleet driver (fleet/dynotraj_fleet.py) on a local Ray cluster of a head and one joined
 //! worker, as on a real cluster: drives estimated and units trained as Ray tasks, then the
-//! gather; the report's tables are byte for byte those of `dynotraj benchmark` on one machine.
+//! gather; the report's tables are byte for byte those of `dynotraj benchmark` on one machine,
+//! with the drives listed by a manifest over two folders on the cluster and in one folder on
+//! the one machine.
 //! Ray is installed into a virtual environment by the test (fleet/requirements.txt); without
 //! Python or the network the test says it skipped.
 
@@ -35,13 +37,19 @@ fn ok(cmd: &mut Command, what: &str) -> String {
     text
 }
 
-const BENCHMARK: [&str; 12] =
-    ["--arms", "gt,estimated", "--folds", "2", "--seeds", "1,2", "--dims", "8,8,2,8", "--epochs", "1", "--rate", "10"];
+const BENCHMARK: [&str; 10] =
+    ["--arms", "gt,estimated", "--folds", "2", "--seeds", "1,2", "--dims", "8,8,2,8", "--epochs", "1"];
+
+/// The data flags: what a drive's estimate depends on, given to every stage.
+const DATA: [&str; 4] = ["--ours-input", "tracks", "--rate", "10"];
+
+/// The synthetic drives' sequence ids and seeds.
+const SEQUENCES: [(&str, u64); 4] = [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)];
 
 /// Four synthetic drives in `dir`/kitti.
 fn drives(dir: &Path) -> std::path::PathBuf {
     let kitti = dir.join("kitti");
-    for (id, seed) in [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)] {
+    for (id, seed) in SEQUENCES {
         write_sequence(&kitti, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
     }
     kitti
@@ -64,14 +72,16 @@ fn start_cluster(python: &Path) -> (Cluster, String) {
     (cluster, format!("127.0.0.1:{port}"))
 }
 
-/// The driver's command for the drives of `kitti`, report in `out`, benchmark flags `flags`.
-fn driver(python: &Path, address: &str, kitti: &Path, dir: &Path, out: &Path, flags: &[&str]) -> Command {
+/// The driver's command for the drives of `data` (`--kitti DIR` or `--drives MANIFEST`), report
+/// in `out`, benchmark flags `flags`.
+fn driver(python: &Path, address: &str, data: [&str; 2], dir: &Path, out: &Path, flags: &[&str]) -> Command {
     let mut cmd = Command::new(python);
     cmd.arg(manifest_dir().join("../fleet/dynotraj_fleet.py"))
         .args(["--address", address, "--dynotraj"])
         .arg(dynotraj_command().get_program())
-        .args(["--kitti", kitti.to_str().unwrap(), "--store", dir.join("store").to_str().unwrap()])
-        .args(["--out", out.to_str().unwrap(), "--units", "8", "--drive-flags", "--ours-input tracks", "--"])
+        .args(data)
+        .args(["--store", dir.join("store").to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap(), "--units", "8", "--drive-flags", &DATA.join(" "), "--"])
         .args(flags);
     cmd
 }
@@ -79,10 +89,7 @@ fn driver(python: &Path, address: &str, kitti: &Path, dir: &Path, out: &Path, fl
 /// `dynotraj benchmark` on one machine with `flags`, report in `out`.
 fn one_machine(kitti: &Path, out: &Path, flags: &[&str]) {
     let (k, o) = (kitti.to_str().unwrap(), out.to_str().unwrap());
-    ok(
-        dynotraj_command().args(["benchmark", "--kitti", k, "--out", o, "--ours-input", "tracks"]).args(flags),
-        "one machine",
-    );
+    ok(dynotraj_command().args(["benchmark", "--kitti", k, "--out", o]).args(DATA).args(flags), "one machine");
 }
 
 /// The report tables of `a` and `b` are the same bytes, and `b` read every fold from its cache.
@@ -111,11 +118,19 @@ fn a_local_ray_cluster_gathers_the_one_machine_report() {
     let Some(python) = ray_or_skip("fleet_ray") else { return };
     let dir = tempfile::tempdir().unwrap();
     let kitti = drives(dir.path());
+    // The same drives in two folders, listed by a manifest.
+    for (i, (id, seed)) in SEQUENCES.into_iter().enumerate() {
+        let part = dir.path().join(if i < 2 { "part-a" } else { "part-b" });
+        write_sequence(&part, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
+    }
+    let manifest = dir.path().join("drives.txt");
+    std::fs::write(&manifest, "part-a\npart-b 0002,0003\n").unwrap();
     let one = dir.path().join("one");
     one_machine(&kitti, &one, &BENCHMARK);
     let (cluster, address) = start_cluster(&python);
     let out = dir.path().join("fleet");
-    let said = ok(&mut driver(&python, &address, &kitti, dir.path(), &out, &BENCHMARK), "the fleet driver");
+    let data = ["--drives", manifest.to_str().unwrap()];
+    let said = ok(&mut driver(&python, &address, data, dir.path(), &out, &BENCHMARK), "the fleet driver");
     eprintln!("{said}");
     assert!(said.contains("drives: 4/4 done") && said.contains("training units: 8/8 done"), "{said}");
     assert!(said.contains("retries: 0 "), "{said}");
@@ -138,7 +153,7 @@ fn a_worker_killed_mid_task_costs_a_retry_and_the_report_is_the_same() {
     one_machine(&kitti, &one, &slow);
     let (cluster, address) = start_cluster(&python);
     let out = dir.path().join("fleet");
-    let child = driver(&python, &address, &kitti, dir.path(), &out, &slow)
+    let child = driver(&python, &address, ["--kitti", kitti.to_str().unwrap()], dir.path(), &out, &slow)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

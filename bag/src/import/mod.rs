@@ -52,6 +52,10 @@ impl Role {
     }
 }
 
+/// The stamp tolerance of an import unless told otherwise: 1 ms, so that a stereo pair's
+/// messages meet whatever the transport's delay.
+pub const DEFAULT_SYNC_TOLERANCE_NS: i64 = 1_000_000;
+
 /// Topics and settings of an import; a topic left `None` is found by its schema and name.
 #[derive(Debug, Clone, Default)]
 pub struct ImportOptions {

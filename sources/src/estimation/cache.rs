@@ -70,6 +70,22 @@ pub fn image_estimate_key(
     Ok(d.finalize())
 }
 
+/// The key of estimating drive `id` from its images where it has no labels or ego poses (an
+/// imported drive): the settings and the bytes of `files` (calibration, any detections and
+/// every image, in order).
+///
+/// # Errors
+/// A file that cannot be read, named.
+pub fn images_only_key(id: &str, settings: &EstimateSettings, files: &[PathBuf]) -> anyhow::Result<u64> {
+    let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
+    let mut d = crc.digest();
+    d.update(format!("v{ESTIMATE_CACHE_VERSION} {id} {:?} images only", settings.options).as_bytes());
+    for path in files {
+        d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);
+    }
+    Ok(d.finalize())
+}
+
 fn path(dir: &Path, id: &str, key: u64) -> PathBuf {
     dir.join(format!("estimated-{id}-{key:016x}.bin"))
 }
