@@ -3,6 +3,7 @@
 use clap::Args;
 
 use super::common::DataArgs;
+use dynotraj_eval::experiment::benchmark::Shard;
 use dynotraj_eval::experiment::budget::{budget_instances, budget_table};
 use dynotraj_eval::report::{Format, Table, instances_table};
 use dynotraj_sources::trajectory::Source;
@@ -27,6 +28,12 @@ pub struct DatasetArgs {
     /// class and run start. Needs `--source estimated` on rendered or simulated inputs.
     #[arg(long)]
     pub budget: bool,
+    /// Only this part of the drives, I of N (`0/4` .. `3/4`; or `N` alone, the index taken
+    /// from JOB_COMPLETION_INDEX (Kubernetes Indexed Jobs) or SLURM_ARRAY_TASK_ID (Slurm job
+    /// arrays)): the drives whose position modulo N is I, estimated into --estimate-cache, for
+    /// one task of a cluster's array job; the table lists those drives.
+    #[arg(long, value_name = "I/N", requires = "estimate_cache")]
+    pub shard: Option<Shard>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -67,7 +74,20 @@ pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
         anyhow::bail!("--budget measures the estimated source: add estimated to --source");
     }
     let rule = args.data.rule()?;
-    let seqs = args.data.load_for(&args.sequences, &args.source)?;
+    let names = match args.shard {
+        Some(shard) => {
+            let all = args.data.drives(&args.sequences)?;
+            let mine: Vec<String> =
+                all.iter().enumerate().filter(|(k, _)| shard.takes(*k)).map(|(_, d)| d.name.clone()).collect();
+            eprintln!("shard {}/{}: {} of {} drives", shard.index, shard.count, mine.len(), all.len());
+            if mine.is_empty() {
+                return Ok((instances_table(&[], &args.source, &rule), None));
+            }
+            mine
+        }
+        None => args.sequences.clone(),
+    };
+    let seqs = args.data.load_for(&names, &args.source)?;
     let budget = if args.budget {
         let instances = budget_instances(&seqs, &rule, args.data.dt()?);
         if instances.is_empty() {

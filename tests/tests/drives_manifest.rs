@@ -97,6 +97,38 @@ fn a_manifest_over_two_folders_reads_as_the_one_folder_holding_them() {
         assert!(read(&one) == read(&many), "{stem}: the manifest's report differs from the folder's");
     }
 
+    // The drives as an array job's tasks: --shard I/N, or N with the index from the environment.
+    let store = d.join("store");
+    let shard =
+        |shard: &str, index: Option<&str>| {
+            let mut cmd = dynotraj_command();
+            cmd.args(["dataset", "--drives", s(&manifest), "--source", "gt,estimated", "--ours-input", "tracks"])
+                .args(["--estimate-cache", s(&store), "--shard", shard, "--format", "csv"]);
+            if let Some(i) = index {
+                cmd.env("JOB_COMPLETION_INDEX", i);
+            }
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            (String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+        };
+    let (table, said) = shard("1/3", None);
+    assert!(said.contains("shard 1/3: 1 of 4 drives"), "{said}");
+    assert!(table.contains(",0001,") && !table.contains(",0000,"), "{table}");
+    let (table, said) = shard("3", Some("0"));
+    assert!(said.contains("shard 0/3: 2 of 4 drives"), "{said}");
+    assert!(table.contains(",0000,") && table.contains(",0003,") && !table.contains(",0001,"), "{table}");
+    shard("2/3", None);
+    let gathered = dynotraj_command()
+        .args(["dataset", "--drives", s(&manifest), "--source", "gt,estimated", "--ours-input", "tracks"])
+        .args(["--estimate-cache", s(&store), "--format", "csv", "-v"])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&gathered.stderr);
+    assert_eq!(said.matches("estimated tracks read from the cache").count(), 4, "{said}");
+    assert_eq!(String::from_utf8_lossy(&gathered.stdout), from_one);
+    let err = fails(2, &["dataset", "--drives", s(&manifest), "--shard", "0/2"]);
+    assert!(err.contains("--estimate-cache"), "{err}");
+
     // Two drives of one name, and a name no drive has, are refused before any work.
     std::fs::write(d.join("twice.txt"), "a\none 0001\n").unwrap();
     let err = fails(1, &["dataset", "--drives", s(&d.join("twice.txt"))]);

@@ -138,6 +138,14 @@ impl Shard {
     }
 }
 
+impl Shard {
+    /// Whether the unit at `position` (from 0, in the run's order) is this shard's.
+    #[must_use]
+    pub const fn takes(&self, position: usize) -> bool {
+        position % self.count == self.index
+    }
+}
+
 impl std::str::FromStr for Shard {
     type Err = String;
 
@@ -166,8 +174,7 @@ pub fn train_shard(
         "--shard: needs a fold cache (--out DIR, without --no-cache): it is where the shards' folds meet"
     );
     let specs = fold_specs(config, seeds);
-    let mine: Vec<FoldSpec> =
-        specs.iter().enumerate().filter(|(k, _)| k % shard.count == shard.index).map(|(_, s)| *s).collect();
+    let mine: Vec<FoldSpec> = specs.iter().enumerate().filter(|(k, _)| shard.takes(*k)).map(|(_, s)| *s).collect();
     train_folds(sequences, config, &mine, progress)?;
     Ok((mine.len(), specs.len()))
 }
