@@ -97,6 +97,12 @@ def main():
                    "--min-step): given to every stage, so the units find the drives' estimates")
     p.add_argument("benchmark", nargs=argparse.REMAINDER, help="flags after -- go to every benchmark")
     a = p.parse_args()
+    # Tasks run in Ray's own working folders: every path they are given is absolute.
+    for name in ("kitti", "drives", "store", "out"):
+        if getattr(a, name):
+            setattr(a, name, os.path.abspath(getattr(a, name)))
+    if os.sep in a.dynotraj:
+        a.dynotraj = os.path.abspath(a.dynotraj)
     extra = [f for f in a.benchmark if f != "--"]
     drive_extra = a.drive_flags.split()
     data = ["--kitti", a.kitti] if a.kitti else ["--drives", a.drives]
