@@ -1,13 +1,15 @@
 //! Property tests of two more input boundaries: the command line's number parsers (any text
 //! gives a value in the flag's documented range, or an error saying what was expected) and the
 //! KITTI layout loader as a whole (a tracking folder with any of its files damaged, removed or
-//! replaced by random bytes loads, or fails with an error naming a file, never panics).
+//! replaced by random bytes loads, or fails with an error naming a file, never panics), and
+//! drive manifests (any text gives entries from its lines, or names a line of it).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use dynotraj_cli::numbers::{self, FRAME_RATE_RANGE, MAX_SECONDS};
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_formats::manifest::parse_manifest;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 use proptest::prelude::*;
@@ -147,6 +149,41 @@ proptest! {
             let message = e.to_string();
             let root = dir.path().display().to_string();
             prop_assert!(message.contains(&root), "the error names a file of the folder: {message}");
+        }
+    }
+}
+
+/// Text shaped like a manifest: paths, sequence lists, comments, stray fields and bytes.
+fn manifest_text() -> impl Strategy<Value = String> {
+    let line = prop_oneof![
+        "[a-z/._]{1,12}",
+        "[a-z/]{1,8} [0-9,]{0,12}",
+        "[a-z]{1,4} [0-9a-z_,-]{1,8} [a-z]{1,3}",
+        "#.{0,10}",
+        "[ \t]{0,3}",
+        ".{0,16}",
+    ];
+    prop::collection::vec(line, 0..8).prop_map(|lines| lines.join("\n"))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn any_manifest_text_gives_entries_from_its_lines_or_names_one(text in manifest_text()) {
+        let lines = text.lines().count();
+        match parse_manifest(&text, Path::new("/base")) {
+            Ok(Some(entries)) => {
+                for e in entries {
+                    prop_assert!((1..=lines).contains(&e.line), "line {} of {lines}", e.line);
+                    prop_assert!(e.path.starts_with("/"), "{}", e.path.display());
+                }
+            }
+            Ok(None) => prop_assert!(text.lines().all(|l| l.split('#').next().unwrap_or("").trim().is_empty())),
+            Err((line, what)) => {
+                prop_assert!((1..=lines).contains(&line), "line {line} of {lines}: {what}");
+                prop_assert!(what.starts_with("expected") || what.starts_with("sequence"), "{what}");
+            }
         }
     }
 }
