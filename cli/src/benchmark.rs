@@ -114,7 +114,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
             command.push(' ');
             command.push_str(&a);
         }
-        let notes = vec![
+        let mut notes = vec![
             format!(
                 "Stages: loading and estimating the sequences {loaded_s:.0} s (rendering and tracking, or the \
                 estimate cache), training and scoring {:.0} s on {} job(s).",
@@ -129,6 +129,19 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
                 these held-out sequences."
                 .to_string(),
         ];
+        let untrue: Vec<&str> = sequences
+            .iter()
+            .filter(|s| s.estimated.as_ref().is_some_and(|e| e.truth.is_empty()))
+            .map(|s| s.id.as_str())
+            .collect();
+        if !untrue.is_empty() {
+            notes.push(format!(
+                "No deployment or truth-scored tables: {} drive(s) were estimated from their own images and have no \
+                 simulator's truth to score against ({}); every arm is scored against its own source's future.",
+                untrue.len(),
+                untrue.join(", ")
+            ));
+        }
         let figures = write_figures(&dir.join("figures"), &result, &config)?;
         let report = Report {
             title: "dynotraj generalisation benchmark".into(),
