@@ -117,7 +117,7 @@ fn a_local_ray_cluster_gathers_the_one_machine_report() {
     let _turn = ONE_CLUSTER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let Some(python) = ray_or_skip("fleet_ray") else { return };
     let dir = tempfile::tempdir().unwrap();
-    let kitti = drives(dir.path());
+    drives(dir.path());
     // The same drives in two folders, listed by a manifest.
     for (i, (id, seed)) in SEQUENCES.into_iter().enumerate() {
         let part = dir.path().join(if i < 2 { "part-a" } else { "part-b" });
