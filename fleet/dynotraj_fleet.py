@@ -63,12 +63,10 @@ def train_unit(binary, data, store, out, index, count, extra):
 
 def drive_names(binary, data):
     """The drives of --kitti or --drives, as `dynotraj` reads them."""
-    if data[0] == "--kitti":
-        labels = os.path.join(data[1], "label_02")
-        return sorted(f[:-4] for f in os.listdir(labels) if f.endswith(".txt") and f[:-4].isdigit())
-    listed = subprocess.run([binary, "drives", data[1]], capture_output=True, text=True)
+    cmd = [binary, "drives"] + (data if data[0] == "--kitti" else data[1:])
+    listed = subprocess.run(cmd, capture_output=True, text=True)
     if listed.returncode != 0:
-        raise SystemExit(f"dynotraj drives {data[1]}: {listed.stderr.strip()}")
+        raise SystemExit(f"{' '.join(cmd)}: {listed.stderr.strip()}")
     return [line.split("\t")[0] for line in listed.stdout.splitlines()]
 
 

@@ -129,11 +129,8 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
                 these held-out sequences."
                 .to_string(),
         ];
-        let untrue: Vec<&str> = sequences
-            .iter()
-            .filter(|s| s.estimated.as_ref().is_some_and(|e| e.truth.is_empty()))
-            .map(|s| s.id.as_str())
-            .collect();
+        let untrue: Vec<&str> =
+            sequences.iter().filter(|s| s.estimated.is_some() && s.truth().is_none()).map(|s| s.id.as_str()).collect();
         if !untrue.is_empty() {
             notes.push(format!(
                 "No deployment or truth-scored tables: {} drive(s) were estimated from their own images and have no \

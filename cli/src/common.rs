@@ -332,7 +332,19 @@ impl DataArgs {
         sources: &[Source],
         cache: Option<std::path::PathBuf>,
     ) -> anyhow::Result<Vec<SequenceTracks>> {
-        let drives = self.drives(sequences)?;
+        self.load_drives(&self.drives(sequences)?, sources, cache)
+    }
+
+    /// Loads `drives` for `sources`, as [`DataArgs::load_cached`] does the drives it names.
+    ///
+    /// # Errors
+    /// A missing or bad file, named.
+    pub fn load_drives(
+        &self,
+        drives: &[Drive],
+        sources: &[Source],
+        cache: Option<std::path::PathBuf>,
+    ) -> anyhow::Result<Vec<SequenceTracks>> {
         let dt = self.dt()?;
         let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
             input: self.ours.ours_input,
@@ -344,7 +356,7 @@ impl DataArgs {
             })
         });
         let bar = progress(drives.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
-        let out = map_jobs(&drives, self.ours.jobs, |d| {
+        let out = map_jobs(drives, self.ours.jobs, |d| {
             let s = load_drive(d, dt, estimate.as_ref(), cache.as_deref());
             bar.set_message(format!("sequence {} {}", d.name, if s.is_ok() { "loaded" } else { "failed" }));
             bar.inc(1);
@@ -377,9 +389,18 @@ impl DataArgs {
                  ${KITTI_ENV}, or a drive manifest)"
             )
         };
-        let dir = TrackingDir::open(&kitti)?;
-        Ok(labelled_drives(&kitti, &sequence_ids(&dir, sequences)?))
+        kitti_drives(&kitti, sequences)
     }
+}
+
+/// The drives `sequences` of the KITTI tracking folder `kitti` (every one when empty), all
+/// labelled: what `--kitti` names.
+///
+/// # Errors
+/// The folder cannot be opened or listed, holds no sequence, or a sequence is given twice.
+pub fn kitti_drives(kitti: &Path, sequences: &[String]) -> anyhow::Result<Vec<Drive>> {
+    let dir = TrackingDir::open(kitti)?;
+    Ok(labelled_drives(kitti, &sequence_ids(&dir, sequences)?))
 }
 
 /// Progress on stderr: a bar on a terminal, paced lines with the elapsed time elsewhere.

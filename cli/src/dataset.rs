@@ -74,20 +74,16 @@ pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
         anyhow::bail!("--budget measures the estimated source: add estimated to --source");
     }
     let rule = args.data.rule()?;
-    let names = match args.shard {
-        Some(shard) => {
-            let all = args.data.drives(&args.sequences)?;
-            let mine: Vec<String> =
-                all.iter().enumerate().filter(|(k, _)| shard.takes(*k)).map(|(_, d)| d.name.clone()).collect();
-            eprintln!("shard {}/{}: {} of {} drives", shard.index, shard.count, mine.len(), all.len());
-            if mine.is_empty() {
-                return Ok((instances_table(&[], &args.source, &rule), None));
-            }
-            mine
+    let mut drives = args.data.drives(&args.sequences)?;
+    if let Some(shard) = args.shard {
+        let all = drives.len();
+        drives = drives.into_iter().enumerate().filter(|(k, _)| shard.takes(*k)).map(|(_, d)| d).collect();
+        eprintln!("shard {}/{}: {} of {all} drives", shard.index, shard.count, drives.len());
+        if drives.is_empty() {
+            return Ok((instances_table(&[], &args.source, &rule), None));
         }
-        None => args.sequences.clone(),
-    };
-    let seqs = args.data.load_for(&names, &args.source)?;
+    }
+    let seqs = args.data.load_drives(&drives, &args.source, args.data.ours.estimate_cache.clone())?;
     let budget = if args.budget {
         let instances = budget_instances(&seqs, &rule, args.data.dt()?);
         if instances.is_empty() {

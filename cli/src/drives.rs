@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::common::{KITTI_ENV, kitti_drives, kitti_or_env};
 use clap::Args;
 use dynotraj_sources::drives::manifest_drives;
 
@@ -14,16 +15,24 @@ use dynotraj_sources::drives::manifest_drives;
     read from, and where it was listed.")]
 pub struct DrivesArgs {
     /// A drive manifest, or a layout folder, a bag, or a folder of them.
-    #[arg(value_name = "PATH")]
-    pub path: PathBuf,
+    #[arg(value_name = "PATH", conflicts_with = "kitti")]
+    pub path: Option<PathBuf>,
+    /// Instead, a KITTI tracking folder's drives as `--kitti` reads them (every one labelled;
+    /// default: $DYNOTRAJ_KITTI when no PATH is given).
+    #[arg(long, value_name = "DIR")]
+    pub kitti: Option<PathBuf>,
 }
 
 /// Lists the drives.
 ///
 /// # Errors
-/// As [`manifest_drives`].
+/// As [`manifest_drives`] or [`kitti_drives`].
 pub fn run(args: &DrivesArgs) -> anyhow::Result<()> {
-    let drives = manifest_drives(&args.path)?;
+    let drives = match (&args.path, kitti_or_env(args.kitti.as_deref())) {
+        (Some(path), _) => manifest_drives(path)?,
+        (None, Some(kitti)) => kitti_drives(&kitti, &[])?,
+        (None, None) => anyhow::bail!("expected a drive manifest PATH, or --kitti DIR (or ${KITTI_ENV})"),
+    };
     let mut text = String::new();
     for d in &drives {
         text.push_str(&format!("{}\t{}\t{}\t{}\n", d.name, d.kind(), d.path().display(), d.listed));

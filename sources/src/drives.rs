@@ -9,6 +9,8 @@
 //! alone, which is the paper's point: no labels are needed to train on it. A bag is imported
 //! into the estimate cache, keyed by its bytes, and is then such an images-only drive.
 
+use std::collections::BTreeMap;
+use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
@@ -113,11 +115,9 @@ pub fn manifest_drives(path: &Path) -> anyhow::Result<Vec<Drive>> {
             if e.line == 0 { e.path.display().to_string() } else { format!("{} line {}", path.display(), e.line) };
         drives.extend(entry_drives(e, &listed)?);
     }
-    if let Some((a, b)) = drives
-        .iter()
-        .enumerate()
-        .find_map(|(i, d)| drives.get(..i).and_then(|before| before.iter().find(|x| x.name == d.name)).map(|x| (x, d)))
-    {
+    let mut named: BTreeMap<&str, &Drive> = BTreeMap::new();
+    for b in &drives {
+        let Some(a) = named.insert(&b.name, b) else { continue };
         anyhow::bail!(
             "drive name {} is given twice: {} ({}) and {} ({}); drive names (a layout's sequence id, a bag's file name) \
              must be distinct",
@@ -248,7 +248,6 @@ fn is_bag(p: &Path) -> bool {
     let mcap = |q: &Path| q.is_file() && q.extension().is_some_and(|x| x == "mcap");
     mcap(p)
         || (p.join("metadata.yaml").is_file()
-            && !is_layout(p)
             && std::fs::read_dir(p).is_ok_and(|mut r| r.any(|c| c.is_ok_and(|c| mcap(&c.path())))))
 }
 
@@ -313,8 +312,14 @@ fn imported_bag(path: &Path, name: &str, store: &Path) -> anyhow::Result<PathBuf
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     d.update(format!("import v{IMPORT_VERSION} {name}").as_bytes());
+    let mut chunk = vec![0_u8; 1 << 20];
     for f in &files {
-        d.update(&std::fs::read(f).with_context(|| format!("reading {}", f.display()))?);
+        let mut file = std::fs::File::open(f).with_context(|| format!("reading {}", f.display()))?;
+        loop {
+            let n = file.read(&mut chunk).with_context(|| format!("reading {}", f.display()))?;
+            let Some(read) = chunk.get(..n).filter(|r| !r.is_empty()) else { break };
+            d.update(read);
+        }
     }
     let target = store.join(format!("imported-{name}-{:016x}", d.finalize()));
     if target.is_dir() {

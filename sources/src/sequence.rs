@@ -38,6 +38,13 @@ impl SequenceTracks {
         }
     }
 
+    /// The simulator's true paths behind the estimated tracks, when there are any: `None`
+    /// without estimated tracks or where they came from real images (no simulator).
+    #[must_use]
+    pub fn truth(&self) -> Option<&[ObjectTrack]> {
+        self.estimated.as_ref().map(|e| &e.truth[..]).filter(|t| !t.is_empty())
+    }
+
     /// Whether the tracks of `source` are loaded.
     #[must_use]
     pub fn has(&self, source: Source) -> bool {

@@ -8,8 +8,7 @@ use std::fs;
 
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, benchmark};
-use dynotraj_sim::drive::{DriveSpec, generate};
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 fn args(root: &str, out: &str, jobs: &str) -> benchmark::BenchmarkArgs {
     let args = [
@@ -46,9 +45,7 @@ fn args(root: &str, out: &str, jobs: &str) -> benchmark::BenchmarkArgs {
 fn the_benchmark_report_and_its_independence_of_the_jobs() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("kitti");
-    for (id, seed) in [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)] {
-        write_sequence(&root, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
-    }
+    write_drives(&root, &FOUR_DRIVES);
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
     benchmark::run(&args(root.to_str().unwrap(), one.to_str().unwrap(), "1")).unwrap();
     // Two: three shards, as three machines of an array job would run them, then the gather.

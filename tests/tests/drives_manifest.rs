@@ -5,11 +5,10 @@
 
 use std::path::Path;
 
-use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sources::estimation::EstimatedTracks;
 use dynotraj_sources::estimation::cache::decode;
 use dynotraj_tests::edge_fixture::dynotraj_command;
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 fn run(args: &[&str]) -> String {
     let out = dynotraj_command().args(args).output().unwrap();
@@ -41,8 +40,6 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-const SEQUENCES: [(&str, u64); 4] = [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)];
-
 const BENCHMARK: [&str; 14] = [
     "--arms",
     "gt,estimated",
@@ -64,11 +61,9 @@ const BENCHMARK: [&str; 14] = [
 fn a_manifest_over_two_folders_reads_as_the_one_folder_holding_them() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
-    for (i, (id, seed)) in SEQUENCES.into_iter().enumerate() {
-        let drive = generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() });
-        write_sequence(&d.join("one"), id, &drive);
-        write_sequence(&d.join(if i < 2 { "a" } else { "b" }), id, &drive);
-    }
+    write_drives(&d.join("one"), &FOUR_DRIVES);
+    write_drives(&d.join("a"), &FOUR_DRIVES[..2]);
+    write_drives(&d.join("b"), &FOUR_DRIVES[2..]);
     // Relative paths start at the manifest's folder.
     std::fs::write(d.join("drives.txt"), "# two places\na\nb 0002,0003  # both of b\n").unwrap();
     let manifest = d.join("drives.txt");

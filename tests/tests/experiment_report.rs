@@ -7,16 +7,13 @@ use std::fs;
 
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, experiment};
-use dynotraj_sim::drive::{DriveSpec, generate};
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 #[test]
 fn the_report_folder_and_a_cached_rerun() {
     let dir = tempfile::tempdir().unwrap();
     let root = dir.path().join("kitti");
-    for (id, seed) in [("0000", 1), ("0001", 8), ("0002", 9)] {
-        write_sequence(&root, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
-    }
+    write_drives(&root, &FOUR_DRIVES[..3]);
     let out = dir.path().join("report");
     let recordings = out.join("recordings");
     let args = [

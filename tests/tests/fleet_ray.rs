@@ -9,11 +9,10 @@
 use std::path::Path;
 use std::process::Command;
 
-use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::edge_fixture::dynotraj_command;
 use dynotraj_tests::manifest_dir;
 use dynotraj_tests::python_env::ray_python;
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 /// One cluster at a time: `ray stop` ends every Ray process of the machine, so the tests of
 /// this file take turns.
@@ -43,15 +42,10 @@ const BENCHMARK: [&str; 10] =
 /// The data flags: what a drive's estimate depends on, given to every stage.
 const DATA: [&str; 4] = ["--ours-input", "tracks", "--rate", "10"];
 
-/// The synthetic drives' sequence ids and seeds.
-const SEQUENCES: [(&str, u64); 4] = [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)];
-
 /// Four synthetic drives in `dir`/kitti.
 fn drives(dir: &Path) -> std::path::PathBuf {
     let kitti = dir.join("kitti");
-    for (id, seed) in SEQUENCES {
-        write_sequence(&kitti, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
-    }
+    write_drives(&kitti, &FOUR_DRIVES);
     kitti
 }
 
@@ -119,10 +113,8 @@ fn a_local_ray_cluster_gathers_the_one_machine_report() {
     let dir = tempfile::tempdir().unwrap();
     drives(dir.path());
     // The same drives in two folders, listed by a manifest.
-    for (i, (id, seed)) in SEQUENCES.into_iter().enumerate() {
-        let part = dir.path().join(if i < 2 { "part-a" } else { "part-b" });
-        write_sequence(&part, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
-    }
+    write_drives(&dir.path().join("part-a"), &FOUR_DRIVES[..2]);
+    write_drives(&dir.path().join("part-b"), &FOUR_DRIVES[2..]);
     // And a drive without labels: the committed rendering as a ROS 2 bag, which the cluster's
     // drive task imports into the store.
     let fixture = manifest_dir().join("../sim/data/image_sim");

@@ -4,17 +4,14 @@
 use std::io::{BufRead as _, BufReader};
 use std::process::Stdio;
 
-use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::edge_fixture::dynotraj_command;
-use dynotraj_tests::synthetic_kitti::write_sequence;
+use dynotraj_tests::synthetic_kitti::write_drives;
 
 #[test]
 fn a_benchmark_stopped_by_sigterm_keeps_its_folds_and_writes_no_report() {
     let dir = tempfile::tempdir().unwrap();
     let kitti = dir.path().join("kitti");
-    for (id, seed) in [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 10)] {
-        write_sequence(&kitti, id, &generate(&DriveSpec { seed, label_noise_m: 0.05, ..DriveSpec::default() }));
-    }
+    write_drives(&kitti, &[("0000", 1), ("0001", 8), ("0002", 9), ("0003", 10)]);
     let out = dir.path().join("report");
     let mut child = dynotraj_command()
         .args(["benchmark", "--kitti", kitti.to_str().unwrap(), "--arms", "gt", "--folds", "2"])

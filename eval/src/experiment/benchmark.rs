@@ -136,9 +136,7 @@ impl Shard {
         };
         if index < count { Ok(Self { index, count }) } else { Err(expected()) }
     }
-}
 
-impl Shard {
     /// Whether the unit at `position` (from 0, in the run's order) is this shard's.
     #[must_use]
     pub const fn takes(&self, position: usize) -> bool {

@@ -293,12 +293,8 @@ pub fn score_seed(
     let models = seed_models(config, specs, trained, seed)?;
     // The common reference: the simulator's truth of each test sequence, and the instances
     // that every arm has; only when every test sequence has a truth (none from real images).
-    let truths: Option<Vec<Scene>> = tests
-        .iter()
-        .map(|s| {
-            s.estimated.as_ref().filter(|e| !e.truth.is_empty()).map(|e| Scene::new(&e.truth, Source::Gt, config.dt))
-        })
-        .collect();
+    let truths: Option<Vec<Scene>> =
+        tests.iter().map(|s| s.truth().map(|t| Scene::new(t, Source::Gt, config.dt))).collect();
     // Per arm, per test sequence: the eligible runs of the arm's own tracks.
     let runs_by_arm: Vec<Vec<Vec<EligibleRun>>> = config
         .arms
