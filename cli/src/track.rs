@@ -13,10 +13,15 @@ use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary
 use dynotraj_core::wire::{CameraInfo, Track};
 
 use super::common::{FrameRateArg, progress, record_path};
+use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
+use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
+use dynotraj_sources::estimation::from_images::disparity_errors;
+use dynotraj_sources::estimation::simulated::EvalOptions;
 use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
 use dynotraj_eval::report::{Format, Table};
 use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
-use dynotraj_frontend::check::{odometry06, stereo2015_d1};
+use dynotraj_frontend::check::{CAR_BOX_000046, odometry06, stereo2015_d1, stereo2015_points};
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
 
@@ -32,7 +37,7 @@ pub struct TrackArgs {
     #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Folder for the tracks files, one per sequence: `<DIR>/<sequence>.dtt`.
-    #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check"])]
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check", "disparity_error"])]
     pub out: Option<PathBuf>,
     /// Depth from stereo matching or from the given depth maps (depth_02/).
     #[arg(long, value_enum, default_value_t = DepthMode::Stereo)]
@@ -69,6 +74,47 @@ pub struct TrackArgs {
     /// stereo2015/) instead, e.g. ../shared/kitti.
     #[arg(long, value_name = "DIR")]
     pub check: Option<PathBuf>,
+    /// Render the sequences of --kitti at KITTI's resolution (its labels on its ego poses),
+    /// track them and print the disparity error of every sent point against the rendering's
+    /// exact depth, by range band, sub-pixel fraction and distance to the mask edge; with
+    /// --out, also as disparity_error.{md,csv,json} there.
+    #[arg(long, conflicts_with_all = ["cost", "check", "record"])]
+    pub disparity_error: bool,
+    /// Depth of each sent point: the dense matcher's disparity at the rounded pixel, or that
+    /// value refined to sub-pixel over the point's own instance.
+    #[arg(long, value_enum, default_value_t = PointDepth::Subpixel)]
+    pub point_depth: PointDepth,
+    /// Least distance of a newly sampled object point from its mask's edge, pixels.
+    #[arg(long, default_value_t = TrackerParams::default().object_edge_margin_px, value_name = "PX")]
+    pub object_edge_margin: i32,
+    /// Sequences rendered at once with --disparity-error.
+    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
+    pub jobs: usize,
+}
+
+/// Where a sent point's depth comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PointDepth {
+    /// The dense matcher's disparity at the rounded pixel.
+    Dense,
+    /// Refined to sub-pixel at the point (the default).
+    Subpixel,
+}
+
+impl TrackArgs {
+    /// The tracker's settings these options give.
+    #[must_use]
+    pub fn tracker(&self) -> TrackerParams {
+        let d = TrackerParams::default();
+        TrackerParams {
+            object_edge_margin_px: self.object_edge_margin.max(0),
+            subpixel: match self.point_depth {
+                PointDepth::Dense => None,
+                PointDepth::Subpixel => d.subpixel,
+            },
+            ..d
+        }
+    }
 }
 
 /// Runs the command.
@@ -84,7 +130,11 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     );
     let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti() };
     if let Some(root) = &args.check {
-        return check(root, stereo);
+        return check(root, stereo, args.tracker());
+    }
+    if args.disparity_error {
+        let Some(dir) = &args.kitti else { anyhow::bail!("--disparity-error needs --kitti") };
+        return disparity_error(dir, args);
     }
     if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
@@ -166,7 +216,7 @@ pub fn track_sequence(
         height: u16::try_from(s.size.1).context("image height")?,
         frame_rate_hz: rate_hz,
     };
-    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), s.fb as f32)?;
+    let mut fe = FrontEnd::new(stereo, args.tracker(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
     let mut rec = record
         .map(|path| -> anyhow::Result<FrameRecorder> {
@@ -284,7 +334,83 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
     );
 }
 
-fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
+/// Renders, tracks and scores the sequences of `dir` ([`TrackArgs::disparity_error`]).
+fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
+    let drives = super::common::kitti_drives(dir, &args.sequences)?;
+    let tracking = TrackingDir::open(dir)?;
+    let opt = EvalOptions { max_frames: args.frames, ..EvalOptions::kitti(1.0 / args.rate.hz as f32) };
+    let tracker = args.tracker();
+    let bar = progress(drives.len() as u64, "sequences rendered and tracked");
+    let per_drive = map_jobs(&drives, args.jobs, |d| {
+        let data = tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
+        let out = disparity_errors(&d.name, &data, &opt, tracker);
+        bar.inc(1);
+        out
+    })?;
+    bar.finish_and_clear();
+    let mut errors = DisparityErrors::default();
+    let mut stats = FrontEndStats::default();
+    for r in per_drive {
+        let (e, s) = r?;
+        errors.merge(e);
+        stats = stats.plus(&s);
+    }
+    let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
+    println!(
+        "Disparity of the sent points against the rendering's exact depth: sequences {}, {} frames each at most, \
+         point depth {:?}, object points sampled {} px off the mask edge",
+        names.join(","),
+        args.frames.map_or_else(|| "all".to_string(), |n| n.to_string()),
+        args.point_depth,
+        tracker.object_edge_margin_px
+    );
+    println!(
+        "points without truth under them {}; not sent for want of depth: {} object, {} static; sub-pixel: {} refined, \
+         {} kept the dense value, {} refused\n",
+        errors.without_truth,
+        stats.object_points_no_depth,
+        stats.static_no_depth,
+        stats.subpixel_refined,
+        stats.subpixel_kept_dense,
+        stats.subpixel_refused
+    );
+    let table = disparity_table(&errors.rows());
+    println!("{}", table.render(Format::Md));
+    if let Some(out) = &args.out {
+        for (format, ext) in [(Format::Md, "md"), (Format::Csv, "csv"), (Format::Json, "json")] {
+            let path = out.join(format!("disparity_error.{ext}"));
+            dynotraj_formats::atomic::write_file(&path, table.render(format).as_bytes())
+                .with_context(|| format!("writing {}", path.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// The disparity-error rows as a table.
+fn disparity_table(rows: &[ErrorRow]) -> Table {
+    let mut data = Data::new([
+        ("points", ColumnKind::Text),
+        ("count", ColumnKind::Int),
+        ("bias (px)", ColumnKind::Num),
+        ("median abs error (px)", ColumnKind::Num),
+        ("outliers > 1 px", ColumnKind::Num),
+        ("median abs depth error (m)", ColumnKind::Num),
+    ]);
+    for r in rows {
+        data.push(vec![
+            Cell::text(&r.group),
+            Cell::int(r.points),
+            Cell::num(r.bias_px, 3),
+            Cell::num(r.median_abs_px, 3),
+            Cell::num(r.outlier_share, 3),
+            Cell::num(r.median_abs_depth_m, 2),
+        ]);
+    }
+    let headers: Vec<String> = data.names().into_iter().map(str::to_string).collect();
+    Table::of_data(headers, data)
+}
+
+fn check(root: &Path, stereo: StereoParams, tracker: TrackerParams) -> anyhow::Result<()> {
     let d1 = stereo2015_d1(root, "000046_10.png", stereo)?;
     println!(
         "stereo2015 000046_10: D1-all {:.2}% over {} ground-truth pixels ({:.1}% without a match, counted as bad)",
@@ -292,7 +418,38 @@ fn check(root: &Path, stereo: StereoParams) -> anyhow::Result<()> {
         d1.pixels,
         100.0 * (1.0 - d1.density())
     );
-    let c = odometry06(root, stereo, TrackerParams::default())?;
+    let pair = stereo2015_points(root, "000046_10.png", CAR_BOX_000046, stereo, &tracker)?;
+    println!("\nstereo2015 000046_10 against its ground-truth disparity (car: the hand-placed box {CAR_BOX_000046:?}):\n");
+    let mut data = Data::new([
+        ("where", ColumnKind::Text),
+        ("scored", ColumnKind::Int),
+        ("no estimate", ColumnKind::Int),
+        ("mean abs error (px)", ColumnKind::Num),
+        ("median abs error (px)", ColumnKind::Num),
+        ("bias (px)", ColumnKind::Num),
+        ("D1 of scored", ColumnKind::Num),
+    ]);
+    for (name, e) in [
+        ("dense map, all pixels", pair.dense_all),
+        ("dense map, car pixels", pair.dense_car),
+        ("corners, dense value", pair.corners_dense),
+        ("corners, sub-pixel", pair.corners_subpixel),
+        ("car points, dense value", pair.car_dense),
+        ("car points, sub-pixel", pair.car_subpixel),
+    ] {
+        data.push(vec![
+            Cell::text(name),
+            Cell::int(e.scored),
+            Cell::int(e.missing),
+            Cell::num(e.mean_abs_px, 3),
+            Cell::num(e.median_abs_px, 3),
+            Cell::num(e.bias_px, 3),
+            Cell::num(e.d1, 4),
+        ]);
+    }
+    let headers: Vec<String> = data.names().into_iter().map(str::to_string).collect();
+    println!("{}\n", Table::of_data(headers, data).render(Format::Md));
+    let c = odometry06(root, stereo, tracker)?;
     println!(
         "odometry 06: {} static tracks with depth at frame 12; KLT survival 12->13 {:.1}%, 13->14 {:.1}%",
         c.corners,

@@ -6,6 +6,7 @@ use opencv::prelude::*;
 
 use super::error::{FrontEndError, cv};
 use super::stereo::DisparityMap;
+use super::subpixel::{GreyView, Refused, SubpixelParams, refine_disparity};
 
 /// Where a frame's depth comes from.
 #[derive(Debug, Clone)]
@@ -16,6 +17,9 @@ pub enum DepthMap {
         disparity: DisparityMap,
         /// Baseline x focal length, pixel metres.
         fb: f32,
+        /// The rectified grey pair the map was computed from, for sub-pixel refinement at
+        /// points (`None`: the map alone).
+        pair: Option<(Mat, Mat)>,
     },
     /// A depth map in metres (`f32`; 0 = unknown).
     Given(Mat),
@@ -36,7 +40,7 @@ impl DepthMap {
     #[must_use]
     pub fn at(&self, u: f32, v: f32) -> Option<f32> {
         match self {
-            Self::Stereo { disparity, fb } => disparity.at(u, v).map(|d| fb / d),
+            Self::Stereo { disparity, fb, .. } => disparity.at(u, v).map(|d| fb / d),
             Self::Given(m) => {
                 let (x, y) = (u.round() as i32, v.round() as i32);
                 if x < 0 || y < 0 || x >= m.cols() || y >= m.rows() {
@@ -47,4 +51,33 @@ impl DepthMap {
             }
         }
     }
+
+    /// Depth at a tracked point `(u, v)`, metres: with stereo, the dense map's disparity refined
+    /// to sub-pixel by [`refine_disparity`] over the patch pixels that `same_instance` accepts
+    /// (`params` `None`: the map's value as it is); a given depth map as [`Self::at`].
+    ///
+    /// # Errors
+    /// `Ok(None)` where the map has no value; the refinement's refusal where it refused.
+    pub fn at_point(
+        &self,
+        u: f32,
+        v: f32,
+        same_instance: impl Fn(i64, i64) -> bool,
+        params: Option<&SubpixelParams>,
+    ) -> Result<Option<f32>, Refused> {
+        let Self::Stereo { disparity, fb, pair: Some((left, right)) } = self else { return Ok(self.at(u, v)) };
+        let (Some(p), Some(start)) = (params, disparity.at(u, v)) else { return Ok(self.at(u, v)) };
+        let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return Ok(self.at(u, v)) };
+        let d = refine_disparity(&l, &r, u, v, start, same_instance, p)?;
+        Ok((d > 0.0).then(|| fb / d))
+    }
+}
+
+/// A continuous 8-bit single-channel `Mat` as a [`GreyView`].
+fn grey_view(m: &Mat) -> Option<GreyView<'_>> {
+    if m.typ() != opencv::core::CV_8UC1 || !m.is_continuous() {
+        return None;
+    }
+    let (width, height) = (usize::try_from(m.cols()).ok()?, usize::try_from(m.rows()).ok()?);
+    Some(GreyView { data: m.data_bytes().ok()?, width, height })
 }

@@ -19,6 +19,7 @@
 pub mod check;
 pub mod cost;
 pub mod depth;
+pub mod disparity_error;
 pub mod error;
 pub mod features;
 pub mod image_io;
@@ -30,6 +31,7 @@ pub mod rendered;
 pub mod sequence;
 pub mod stats;
 pub mod stereo;
+pub mod subpixel;
 pub mod tracker;
 
 pub use depth::DepthMap;
@@ -38,4 +40,5 @@ pub use masks::{Detection, IdAssigner, Instance, Instances};
 pub use pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 pub use stats::FrontEndStats;
 pub use stereo::{D1, DisparityMap, Stereo, StereoParams, d1_error};
+pub use subpixel::SubpixelParams;
 pub use tracker::{Tracker, TrackerParams};

@@ -223,7 +223,7 @@ mod tests {
                 *disp.at_2d_mut::<f32>(v, u).unwrap() = 40.0;
             }
         }
-        let map = DepthMap::Stereo { disparity: DisparityMap { disparity: disp, downscale: 1 }, fb: 400.0 };
+        let map = DepthMap::Stereo { disparity: DisparityMap { disparity: disp, downscale: 1 }, fb: 400.0, pair: None };
         let d = Detection { bbox: [20.0, 20.0, 59.0, 59.0], class: ObjectClass::Car, object_id: Some(3) };
         let inst = from_boxes(100, 100, &[(3, d)], &map).unwrap();
         assert_eq!(inst.objects.len(), 1);

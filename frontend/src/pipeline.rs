@@ -117,7 +117,8 @@ impl FrontEnd {
         let c0 = process_cpu_seconds();
         let depth = match input.depth {
             DepthInput::Right(right) => {
-                DepthMap::Stereo { disparity: self.stereo.disparity(&input.left, &right)?, fb: self.fb }
+                let disparity = self.stereo.disparity(&input.left, &right)?;
+                DepthMap::Stereo { disparity, fb: self.fb, pair: Some((input.left.clone(), right)) }
             }
             DepthInput::Depth(d) => DepthMap::Given(d),
         };

@@ -5,6 +5,7 @@ use dynotraj_sim::image_sim::ImageSim;
 use dynotraj_sim::track_sim::SimFrame;
 
 use super::cost::input_of;
+use super::disparity_error::{DisparityErrors, FrameTruth, PointKind, SentPoint};
 use super::error::FrontEndError;
 use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;
@@ -41,12 +42,46 @@ pub fn track_with(
     stereo: StereoParams,
     on_frame: Option<&dyn Fn(u64)>,
 ) -> Result<Tracked, FrontEndError> {
+    track_measured(sim, frames, dt, (stereo, TrackerParams::default()), on_frame, None)
+}
+
+/// [`track_with`] with the tracker's parameters, adding each frame's sent points, scored against
+/// the rendering's exact depth, to `errors`.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn track_measured(
+    sim: &ImageSim,
+    frames: usize,
+    dt: f32,
+    (stereo, tracker): (StereoParams, TrackerParams),
+    on_frame: Option<&dyn Fn(u64)>,
+    mut errors: Option<&mut DisparityErrors>,
+) -> Result<Tracked, FrontEndError> {
     let cam = sim.camera;
-    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), cam.fb() as f32)?;
+    let mut fe = FrontEnd::new(stereo, tracker, cam.fb() as f32)?;
     let mut out = Vec::new();
     for k in 0..frames.min(sim.len()) {
         let Some(f) = sim.frame(k) else { break };
         let tracks = fe.process(input_of(&f, &cam)?)?;
+        if let Some(errors) = errors.as_deref_mut() {
+            let truth = FrameTruth { depth: &f.depth, ids: &f.ids, width: cam.width, height: cam.height };
+            let points: Vec<SentPoint> = tracks
+                .iter()
+                .map(|t| SentPoint {
+                    u: t.u,
+                    v: t.v,
+                    depth_m: t.depth,
+                    kind: if t.object_id == dynotraj_core::wire::STATIC_OBJECT_ID {
+                        PointKind::Static
+                    } else {
+                        PointKind::Object
+                    },
+                    object_id: t.object_id,
+                })
+                .collect();
+            errors.add_frame(&points, &truth, cam.fb() as f32);
+        }
         let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;
         out.push(SimFrame { frame: f.frame, timestamp_us, tracks, camera: f.camera, objects: f.objects });
         if let Some(hook) = on_frame {

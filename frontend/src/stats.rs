@@ -37,12 +37,19 @@ pub struct FrontEndStats {
     pub textureless_objects: u64,
     /// Detection grid cells without a single corner (sky, blank walls), summed over frames.
     pub textureless_cells: u64,
+    /// Points given a depth refined to sub-pixel (before the capacities drop any).
+    pub subpixel_refined: u64,
+    /// Points not sent because the sub-pixel refinement refused them (moved too far from the
+    /// dense matcher's value, or the aligned patches still differed).
+    pub subpixel_refused: u64,
+    /// Points that kept the dense matcher's disparity (patch too flat or too small to refine).
+    pub subpixel_kept_dense: u64,
 }
 
 impl FrontEndStats {
     /// Every counter with its name, in declaration order (for tables).
     #[must_use]
-    pub const fn named(&self) -> [(&'static str, u64); 17] {
+    pub const fn named(&self) -> [(&'static str, u64); 20] {
         [
             ("frames", self.frames),
             ("static_tracked", self.static_tracked),
@@ -61,7 +68,42 @@ impl FrontEndStats {
             ("empty_masks", self.empty_masks),
             ("textureless_objects", self.textureless_objects),
             ("textureless_cells", self.textureless_cells),
+            ("subpixel_refined", self.subpixel_refined),
+            ("subpixel_refused", self.subpixel_refused),
+            ("subpixel_kept_dense", self.subpixel_kept_dense),
         ]
+    }
+
+    /// The counters of `self` and `other` added.
+    #[must_use]
+    pub fn plus(&self, other: &Self) -> Self {
+        let mut out = *self;
+        let pairs: [(&mut u64, u64); 20] = [
+            (&mut out.frames, other.frames),
+            (&mut out.static_tracked, other.static_tracked),
+            (&mut out.static_lost, other.static_lost),
+            (&mut out.static_failed_check, other.static_failed_check),
+            (&mut out.static_detected, other.static_detected),
+            (&mut out.static_no_depth, other.static_no_depth),
+            (&mut out.static_dropped, other.static_dropped),
+            (&mut out.object_points_tracked, other.object_points_tracked),
+            (&mut out.object_points_lost, other.object_points_lost),
+            (&mut out.object_points_failed_check, other.object_points_failed_check),
+            (&mut out.object_points_sampled, other.object_points_sampled),
+            (&mut out.object_points_no_depth, other.object_points_no_depth),
+            (&mut out.object_points_dropped, other.object_points_dropped),
+            (&mut out.objects_dropped, other.objects_dropped),
+            (&mut out.empty_masks, other.empty_masks),
+            (&mut out.textureless_objects, other.textureless_objects),
+            (&mut out.textureless_cells, other.textureless_cells),
+            (&mut out.subpixel_refined, other.subpixel_refined),
+            (&mut out.subpixel_refused, other.subpixel_refused),
+            (&mut out.subpixel_kept_dense, other.subpixel_kept_dense),
+        ];
+        for (a, b) in pairs {
+            *a += b;
+        }
+        out
     }
 
     pub(crate) fn count_lost(&mut self, is_static: bool) {

@@ -10,7 +10,8 @@
 //!    `static_target`;
 //! 3. each object is topped up to `points_per_object` with textured pixels of its mask sampled
 //!    on a grid (dense: the grid step follows the mask's area), so points cover the whole body;
-//! 4. tracks get their depth (points without depth are kept for the next frame but not sent),
+//! 4. tracks get their depth, refined to sub-pixel at the point over the patch pixels of its own
+//!    instance ([`super::subpixel`]; points without depth are kept for the next frame but not sent),
 //!    and are emitted static first (oldest first), then objects nearest first, within
 //!    [`MAX_STATIC_TRACKS`], [`MAX_OBJECTS`] and [`MAX_POINTS_PER_OBJECT`]; the excess is
 //!    dropped and counted.
@@ -29,6 +30,7 @@ use super::features::{DetectParams, detect};
 use super::klt::{KltParams, Pyramid, Tracked, track};
 use super::masks::Instances;
 use super::stats::FrontEndStats;
+use super::subpixel::{Refused, SubpixelParams};
 
 /// Parameters of the tracking stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,6 +56,11 @@ pub struct TrackerParams {
     /// where such points were every static match of the first 20 frames (20-30 px off the true
     /// ego-motion, camera RPE_t 0.2 m).
     pub static_margin_px: i32,
+    /// Least distance of a newly sampled object point from its mask's edge, pixels: next to the
+    /// edge the matcher's window straddles the background.
+    pub object_edge_margin_px: i32,
+    /// Sub-pixel refinement of each sent point's disparity (`None`: the dense map's value).
+    pub subpixel: Option<SubpixelParams>,
 }
 
 impl Default for TrackerParams {
@@ -67,6 +74,8 @@ impl Default for TrackerParams {
             max_depth: 80.0,
             min_gradient: 12,
             static_margin_px: 6,
+            object_edge_margin_px: 2,
+            subpixel: Some(SubpixelParams::default()),
         }
     }
 }
@@ -232,7 +241,11 @@ impl Tracker {
             while v <= bbox[3].min(grey.rows() - 2) {
                 let mut u = bbox[0].max(1);
                 while u <= bbox[2].min(width - 2) {
-                    if label_at(labels, &Point2f::new(u as f32, v as f32)) == Some(o.object_id) {
+                    let m = p.object_edge_margin_px;
+                    let inside = [(0, 0), (-m, 0), (m, 0), (0, -m), (0, m)].iter().all(|(du, dv)| {
+                        label_at(labels, &Point2f::new((u + du) as f32, (v + dv) as f32)) == Some(o.object_id)
+                    });
+                    if inside {
                         let at = |x: i32, y: i32| i32::from(image[(y * width + x) as usize]);
                         let g = (at(u + 1, v) - at(u - 1, v)).abs() + (at(u, v + 1) - at(u, v - 1)).abs();
                         if g >= p.min_gradient && !occupied(u, v, have) {
@@ -276,12 +289,37 @@ impl Tracker {
         inst: &Instances,
     ) -> Vec<Track> {
         let p = self.params;
-        let depth_of = |f: &Feature| depth.at(f.at.x, f.at.y).filter(|z| (p.min_depth..=p.max_depth).contains(z));
+        let labels = &inst.labels;
+        // Refined, kept dense, refused: added to the counters once the closure is done.
+        let mut subpixel = [0u64; 3];
+        let mut depth_of = |f: &Feature, owner: u16| {
+            let same = |x: i64, y: i64| {
+                let (Ok(x), Ok(y)) = (i32::try_from(x), i32::try_from(y)) else { return false };
+                labels.at_2d::<u16>(y, x).ok().copied() == Some(owner)
+            };
+            let z = match depth.at_point(f.at.x, f.at.y, same, p.subpixel.as_ref()) {
+                Ok(z) => {
+                    if z.is_some() && p.subpixel.is_some() && matches!(depth, DepthMap::Stereo { pair: Some(_), .. }) {
+                        subpixel[0] += 1;
+                    }
+                    z
+                }
+                Err(Refused::Flat | Refused::SmallPatch) => {
+                    subpixel[1] += 1;
+                    depth.at(f.at.x, f.at.y)
+                }
+                Err(Refused::Diverged | Refused::Mismatch) => {
+                    subpixel[2] += 1;
+                    None
+                }
+            };
+            z.filter(|z| (p.min_depth..=p.max_depth).contains(z))
+        };
         let mut out = Vec::new();
         statics.sort_by(|a, b| b.age.cmp(&a.age).then(a.id.cmp(&b.id)));
         let mut sent = 0;
         for f in statics.iter() {
-            let Some(z) = depth_of(f) else {
+            let Some(z) = depth_of(f, STATIC_OBJECT_ID) else {
                 self.stats.static_no_depth += 1;
                 continue;
             };
@@ -304,7 +342,7 @@ impl Tracker {
             let class = inst.objects.iter().find(|o| o.object_id == *id).map_or(ObjectClass::Misc, |o| o.class);
             let mut tracks: Vec<Track> = Vec::new();
             for f in fs {
-                match depth_of(f) {
+                match depth_of(f, *id) {
                     Some(z) => {
                         tracks.push(Track { track_id: f.id, object_id: *id, class, u: f.at.x, v: f.at.y, depth: z })
                     }
@@ -332,6 +370,9 @@ impl Tracker {
             }
             out.extend(tracks);
         }
+        self.stats.subpixel_refined += subpixel[0];
+        self.stats.subpixel_kept_dense += subpixel[1];
+        self.stats.subpixel_refused += subpixel[2];
         out
     }
 }

@@ -30,7 +30,9 @@ use dynotraj_formats::tracks_file::TracksFrame;
 #[cfg(feature = "images")]
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 #[cfg(feature = "images")]
-use dynotraj_frontend::{FrontEnd, StereoParams, TrackerParams, rendered};
+use dynotraj_frontend::disparity_error::DisparityErrors;
+#[cfg(feature = "images")]
+use dynotraj_frontend::{FrontEnd, FrontEndStats, StereoParams, TrackerParams, rendered};
 
 /// What a build without the image front-end says where it would be needed.
 pub const WITHOUT_IMAGES: &str = "this dynotraj was built without the image front-end (the cargo \
@@ -151,6 +153,29 @@ fn track_rendering(sim: &ImageSim, n: usize, dt: f32, scale: f64) -> anyhow::Res
     let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
     Ok(rendered::track(sim, n, dt, stereo)?.frames)
+}
+
+/// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
+/// with `opt`'s classes, seed and frame period, tracks them with `tracker`'s settings and
+/// scores the disparity of every point the front-end sends against the rendering's exact depth.
+///
+/// # Errors
+/// A front-end failure.
+#[cfg(feature = "images")]
+pub fn disparity_errors(
+    id: &str,
+    data: &SequenceData,
+    opt: &EvalOptions,
+    tracker: TrackerParams,
+) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
+    let input = sim_input(data, &opt.classes);
+    let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
+    let sim = ImageSim::new(render_camera(1.0), &input.camera_poses[..n], &boxes, opt.seed);
+    let mut errors = DisparityErrors::default();
+    let tracked = rendered::track_measured(&sim, n, opt.dt, (StereoParams::kitti(), tracker), None, Some(&mut errors))
+        .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
+    Ok((errors, tracked.stats))
 }
 
 /// Without the front-end a rendering cannot be tracked.

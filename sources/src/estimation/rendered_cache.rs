@@ -25,8 +25,8 @@ use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
 /// clear of object masks; 3: a ground plane fitted under the ego path; 4: files end in a
-/// checksum).
-pub const RENDERED_CACHE_VERSION: u32 = 4;
+/// checksum; 5: sub-pixel disparity at the sent points, object points sampled off mask edges).
+pub const RENDERED_CACHE_VERSION: u32 = 5;
 
 /// What a rendering depends on besides the sequence's files.
 #[derive(Debug, Clone, PartialEq)]
