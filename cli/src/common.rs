@@ -1,5 +1,6 @@
 //! Options and loading shared by the commands.
 
+use dynotraj_sim::image_sim::Optics;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
@@ -228,6 +229,26 @@ pub fn kitti_or_env(given: Option<&Path>) -> Option<PathBuf> {
 /// The environment variable naming the KITTI tracking folder.
 pub const KITTI_ENV: &str = "DYNOTRAJ_KITTI";
 
+/// The camera model of renderings, as a command-line value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RenderOptics {
+    /// Pixel centres sampled: no blur, no vignetting, unit gain.
+    Ideal,
+    /// A camera's: pixel-area integration, lens blur, vignetting, a gain per exposure.
+    Camera,
+}
+
+impl RenderOptics {
+    /// The renderer's camera model.
+    #[must_use]
+    pub const fn optics(self) -> Optics {
+        match self {
+            Self::Ideal => Optics::IDEAL,
+            Self::Camera => Optics::CAMERA,
+        }
+    }
+}
+
 /// Where the estimated source (Ours) takes its feature tracks, where renderings are kept, and
 /// how many sequences are worked on at once: shared by every command that estimates.
 #[derive(Debug, Args)]
@@ -244,6 +265,10 @@ pub struct EstimatedSourceArgs {
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
     #[arg(long, value_parser = crate::numbers::positive, default_value_t = 1.0, value_name = "SCALE")]
     pub render_scale: f64,
+    /// Camera model of renderings: ideal (each pixel samples its centre; the reports' renderings)
+    /// or camera (pixel-area integration, lens blur, vignetting, a gain per exposure).
+    #[arg(long, value_enum, default_value_t = RenderOptics::Ideal, value_name = "MODEL")]
+    pub render_optics: RenderOptics,
     /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
     /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
     /// settings, estimator or renderer version): a rerun with the same inputs reads them back.
@@ -352,6 +377,7 @@ impl DataArgs {
             cache: cache.clone(),
             ..EstimateSettings::tracks(EvalOptions {
                 object_variants: self.ours.object_variants(),
+                render_optics: self.ours.render_optics.optics(),
                 ..EvalOptions::kitti(dt)
             })
         });

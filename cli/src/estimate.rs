@@ -211,6 +211,7 @@ impl EstimateArgs {
             camera_smoother: defaults.camera_smoother,
             max_frames: self.frames,
             object_variants: self.ours.object_variants(),
+            render_optics: self.ours.render_optics.optics(),
             ..EvalOptions::kitti(self.rate.period())
         }
         .with_profile(profile);

@@ -12,7 +12,7 @@ use clap::Args;
 use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary, Rgba};
 use dynotraj_core::wire::{CameraInfo, Track};
 
-use super::common::{FrameRateArg, progress, record_path};
+use super::common::{FrameRateArg, RenderOptics, progress, record_path};
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
@@ -87,6 +87,9 @@ pub struct TrackArgs {
     /// Least distance of a newly sampled object point from its mask's edge, pixels.
     #[arg(long, default_value_t = TrackerParams::default().object_edge_margin_px, value_name = "PX")]
     pub object_edge_margin: i32,
+    /// Camera model of the renderings of --disparity-error.
+    #[arg(long, value_enum, default_value_t = RenderOptics::Ideal, value_name = "MODEL")]
+    pub render_optics: RenderOptics,
     /// Sequences rendered at once with --disparity-error.
     #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
     pub jobs: usize,
@@ -338,7 +341,11 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
 fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let drives = super::common::kitti_drives(dir, &args.sequences)?;
     let tracking = TrackingDir::open(dir)?;
-    let opt = EvalOptions { max_frames: args.frames, ..EvalOptions::kitti(1.0 / args.rate.hz as f32) };
+    let opt = EvalOptions {
+        max_frames: args.frames,
+        render_optics: args.render_optics.optics(),
+        ..EvalOptions::kitti(1.0 / args.rate.hz as f32)
+    };
     let tracker = args.tracker();
     let bar = progress(drives.len() as u64, "sequences rendered and tracked");
     let per_drive = map_jobs(&drives, args.jobs, |d| {
@@ -358,11 +365,12 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
     println!(
         "Disparity of the sent points against the rendering's exact depth: sequences {}, {} frames each at most, \
-         point depth {:?}, object points sampled {} px off the mask edge",
+         point depth {:?}, object points sampled {} px off the mask edge, render optics {:?}",
         names.join(","),
         args.frames.map_or_else(|| "all".to_string(), |n| n.to_string()),
         args.point_depth,
-        tracker.object_edge_margin_px
+        tracker.object_edge_margin_px,
+        args.render_optics
     );
     println!(
         "points without truth under them {}; not sent for want of depth: {} object, {} static; sub-pixel: {} refined, \

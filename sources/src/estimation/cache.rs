@@ -1,7 +1,8 @@
 //! The estimated tracks of a sequence kept between runs of the experiment, so that a rerun
 //! does not simulate (or render, track) and estimate again.
 //!
-//! A sequence is found by a key: CRC-64 (ECMA-182) over [`ESTIMATE_CACHE_VERSION`], the
+//! A sequence is found by a key: CRC-64 (ECMA-182) over [`ESTIMATE_CACHE_VERSION`] and the
+//! rendered cache's version (what the front-end computes), the
 //! estimation settings, the sequence id and the bytes of its label, calibration and pose
 //! files. What the key cannot see is a change to the simulator, front-end or estimator code:
 //! bump the version with one, or run with `--no-cache`. Estimates from real images are not
@@ -40,7 +41,13 @@ pub fn estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings) 
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     let what =
-        format!("v{ESTIMATE_CACHE_VERSION} {id} {:?} {:?} {}", settings.options, settings.input, settings.render_scale);
+        format!(
+            "v{ESTIMATE_CACHE_VERSION} r{} {id} {:?} {:?} {}",
+            super::rendered_cache::RENDERED_CACHE_VERSION,
+            settings.options,
+            settings.input,
+            settings.render_scale
+        );
     d.update(what.as_bytes());
     for path in [&data.labels_path, &data.calib_path, &data.poses_path] {
         d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);

@@ -128,7 +128,8 @@ pub fn render_and_track(
     );
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-    let settings = RenderSettings { classes: opt.classes.clone(), seed: opt.seed, scale, dt: opt.dt, frames: n };
+    let settings =
+        RenderSettings { classes: opt.classes.clone(), seed: opt.seed, scale, dt: opt.dt, frames: n, optics: opt.render_optics };
     let key = match cache {
         Some(_) => Some(rendered_cache::rendered_key(id, data, &settings)?),
         None => None,
@@ -138,7 +139,8 @@ pub fn render_and_track(
         return Ok(frames);
     }
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-    let sim = ImageSim::new(render_camera(scale), &input.camera_poses[..n], &boxes, opt.seed);
+    let camera = Camera { optics: opt.render_optics, ..render_camera(scale) };
+    let sim = ImageSim::new(camera, &input.camera_poses[..n], &boxes, opt.seed);
     let frames = track_rendering(&sim, n, opt.dt, scale)?;
     if let (Some(dir), Some(key)) = (cache, key) {
         rendered_cache::store(dir, id, key, &frames)?;
@@ -171,7 +173,8 @@ pub fn disparity_errors(
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-    let sim = ImageSim::new(render_camera(1.0), &input.camera_poses[..n], &boxes, opt.seed);
+    let camera = Camera { optics: opt.render_optics, ..render_camera(1.0) };
+    let sim = ImageSim::new(camera, &input.camera_poses[..n], &boxes, opt.seed);
     let mut errors = DisparityErrors::default();
     let tracked = rendered::track_measured(&sim, n, opt.dt, (StereoParams::kitti(), tracker), None, Some(&mut errors))
         .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;

@@ -41,6 +41,8 @@ pub struct RenderSettings {
     pub dt: f32,
     /// Frames rendered.
     pub frames: usize,
+    /// The camera model.
+    pub optics: dynotraj_sim::image_sim::Optics,
 }
 
 /// A pose as translation then quaternion (i, j, k, w).

@@ -1,5 +1,6 @@
 //! One sequence end to end: simulate from its labels and ego poses, estimate, score.
 
+use dynotraj_sim::image_sim::Optics;
 use std::collections::BTreeSet;
 use std::time::Instant;
 
@@ -53,6 +54,8 @@ pub struct EvalOptions {
     pub profile: &'static str,
     /// How object runs follow their points (all off by default).
     pub object_variants: ObjectVariants,
+    /// The camera model of renderings ([`Optics::IDEAL`] by default).
+    pub render_optics: Optics,
 }
 
 /// Alternatives in how the estimator follows an object, each measured as an approach to the
@@ -116,6 +119,7 @@ impl EvalOptions {
             window: HOST_PROFILE.window,
             profile: HOST_PROFILE.name,
             object_variants: ObjectVariants::default(),
+            render_optics: Optics::IDEAL,
         }
     }
 
