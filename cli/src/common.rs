@@ -1,6 +1,7 @@
 //! Options and loading shared by the commands.
 
 use dynotraj_sim::image_sim::Optics;
+use dynotraj_sources::estimation::simulated::PointDepthOptions;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
@@ -229,6 +230,38 @@ pub fn kitti_or_env(given: Option<&Path>) -> Option<PathBuf> {
 /// The environment variable naming the KITTI tracking folder.
 pub const KITTI_ENV: &str = "DYNOTRAJ_KITTI";
 
+/// Where a sent point's depth comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum PointDepth {
+    /// The dense matcher's disparity at the rounded pixel.
+    Dense,
+    /// Refined to sub-pixel at the point over its own instance (the default).
+    Subpixel,
+}
+
+/// How the image front-end gives the points it sends their depth.
+#[derive(Debug, Clone, Copy, Args)]
+pub struct PointDepthArgs {
+    /// Depth of each point the front-end sends: the dense matcher's disparity at the rounded
+    /// pixel, or that value refined to sub-pixel over the point's own instance.
+    #[arg(long, value_enum, default_value_t = PointDepth::Subpixel)]
+    pub point_depth: PointDepth,
+    /// Least distance of a newly sampled object point from its mask's edge, pixels.
+    #[arg(long, default_value_t = PointDepthOptions::default().object_edge_margin_px, value_name = "PX")]
+    pub object_edge_margin: i32,
+}
+
+impl PointDepthArgs {
+    /// The front-end's point-depth options these give.
+    #[must_use]
+    pub fn options(&self) -> PointDepthOptions {
+        PointDepthOptions {
+            subpixel: self.point_depth == PointDepth::Subpixel,
+            object_edge_margin_px: self.object_edge_margin.max(0),
+        }
+    }
+}
+
 /// The camera model of renderings, as a command-line value.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RenderOptics {
@@ -269,6 +302,9 @@ pub struct EstimatedSourceArgs {
     /// or camera (pixel-area integration, lens blur, vignetting, a gain per exposure).
     #[arg(long, value_enum, default_value_t = RenderOptics::Ideal, value_name = "MODEL")]
     pub render_optics: RenderOptics,
+    /// How the front-end gives points their depth on renderings.
+    #[command(flatten)]
+    pub point_depth: PointDepthArgs,
     /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
     /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
     /// settings, estimator or renderer version): a rerun with the same inputs reads them back.
@@ -378,6 +414,7 @@ impl DataArgs {
             ..EstimateSettings::tracks(EvalOptions {
                 object_variants: self.ours.object_variants(),
                 render_optics: self.ours.render_optics.optics(),
+                point_depth: self.ours.point_depth.options(),
                 ..EvalOptions::kitti(dt)
             })
         });

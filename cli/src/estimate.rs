@@ -212,6 +212,7 @@ impl EstimateArgs {
             max_frames: self.frames,
             object_variants: self.ours.object_variants(),
             render_optics: self.ours.render_optics.optics(),
+            point_depth: self.ours.point_depth.options(),
             ..EvalOptions::kitti(self.rate.period())
         }
         .with_profile(profile);

@@ -12,11 +12,11 @@ use clap::Args;
 use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary, Rgba};
 use dynotraj_core::wire::{CameraInfo, Track};
 
-use super::common::{FrameRateArg, RenderOptics, progress, record_path};
+use super::common::{FrameRateArg, PointDepthArgs, RenderOptics, progress, record_path};
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
-use dynotraj_sources::estimation::from_images::disparity_errors;
+use dynotraj_sources::estimation::from_images::{disparity_errors, tracker_params};
 use dynotraj_sources::estimation::simulated::EvalOptions;
 use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
 use dynotraj_eval::report::{Format, Table};
@@ -80,13 +80,9 @@ pub struct TrackArgs {
     /// --out, also as disparity_error.{md,csv,json} there.
     #[arg(long, conflicts_with_all = ["cost", "check", "record"])]
     pub disparity_error: bool,
-    /// Depth of each sent point: the dense matcher's disparity at the rounded pixel, or that
-    /// value refined to sub-pixel over the point's own instance.
-    #[arg(long, value_enum, default_value_t = PointDepth::Subpixel)]
-    pub point_depth: PointDepth,
-    /// Least distance of a newly sampled object point from its mask's edge, pixels.
-    #[arg(long, default_value_t = TrackerParams::default().object_edge_margin_px, value_name = "PX")]
-    pub object_edge_margin: i32,
+    /// How sent points get their depth.
+    #[command(flatten)]
+    pub point_depth: PointDepthArgs,
     /// Camera model of the renderings of --disparity-error.
     #[arg(long, value_enum, default_value_t = RenderOptics::Ideal, value_name = "MODEL")]
     pub render_optics: RenderOptics,
@@ -95,28 +91,11 @@ pub struct TrackArgs {
     pub jobs: usize,
 }
 
-/// Where a sent point's depth comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum PointDepth {
-    /// The dense matcher's disparity at the rounded pixel.
-    Dense,
-    /// Refined to sub-pixel at the point (the default).
-    Subpixel,
-}
-
 impl TrackArgs {
     /// The tracker's settings these options give.
     #[must_use]
     pub fn tracker(&self) -> TrackerParams {
-        let d = TrackerParams::default();
-        TrackerParams {
-            object_edge_margin_px: self.object_edge_margin.max(0),
-            subpixel: match self.point_depth {
-                PointDepth::Dense => None,
-                PointDepth::Subpixel => d.subpixel,
-            },
-            ..d
-        }
+        tracker_params(&self.point_depth.options())
     }
 }
 
@@ -344,13 +323,14 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let opt = EvalOptions {
         max_frames: args.frames,
         render_optics: args.render_optics.optics(),
+        point_depth: args.point_depth.options(),
         ..EvalOptions::kitti(1.0 / args.rate.hz as f32)
     };
     let tracker = args.tracker();
     let bar = progress(drives.len() as u64, "sequences rendered and tracked");
     let per_drive = map_jobs(&drives, args.jobs, |d| {
         let data = tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
-        let out = disparity_errors(&d.name, &data, &opt, tracker);
+        let out = disparity_errors(&d.name, &data, &opt);
         bar.inc(1);
         out
     })?;
@@ -368,7 +348,7 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
          point depth {:?}, object points sampled {} px off the mask edge, render optics {:?}",
         names.join(","),
         args.frames.map_or_else(|| "all".to_string(), |n| n.to_string()),
-        args.point_depth,
+        args.point_depth.point_depth,
         tracker.object_edge_margin_px,
         args.render_optics
     );

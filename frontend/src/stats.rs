@@ -39,8 +39,9 @@ pub struct FrontEndStats {
     pub textureless_cells: u64,
     /// Points given a depth refined to sub-pixel (before the capacities drop any).
     pub subpixel_refined: u64,
-    /// Points not sent because the sub-pixel refinement refused them (moved too far from the
-    /// dense matcher's value, or the aligned patches still differed).
+    /// Points whose sub-pixel refinement was refused (it moved too far from the dense matcher's
+    /// value, or the aligned patches still differed): sent with the dense value, or not at all
+    /// with [`crate::SubpixelParams::drop_refused`].
     pub subpixel_refused: u64,
     /// Points that kept the dense matcher's disparity (patch too flat or too small to refine).
     pub subpixel_kept_dense: u64,

@@ -66,6 +66,9 @@ pub struct SubpixelParams {
     pub max_residual: f32,
     /// Fewest patch pixels of the point's own instance.
     pub min_pixels: usize,
+    /// What the tracker does with a point whose refinement diverged or mismatched: send nothing
+    /// (true) or the dense value (false).
+    pub drop_refused: bool,
 }
 
 impl Default for SubpixelParams {
@@ -78,6 +81,7 @@ impl Default for SubpixelParams {
             min_texture: 9.0,
             max_residual: 0.5,
             min_pixels: 24,
+            drop_refused: true,
         }
     }
 }

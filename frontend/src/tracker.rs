@@ -56,8 +56,9 @@ pub struct TrackerParams {
     /// where such points were every static match of the first 20 frames (20-30 px off the true
     /// ego-motion, camera RPE_t 0.2 m).
     pub static_margin_px: i32,
-    /// Least distance of a newly sampled object point from its mask's edge, pixels: next to the
-    /// edge the matcher's window straddles the background.
+    /// Least distance of a newly sampled object point from its mask's edge, pixels. 0 by
+    /// default: with sub-pixel depth over the point's own instance, a margin cost more runs
+    /// (fewer points on small objects) than it gained (docs/decisions.md).
     pub object_edge_margin_px: i32,
     /// Sub-pixel refinement of each sent point's disparity (`None`: the dense map's value).
     pub subpixel: Option<SubpixelParams>,
@@ -74,7 +75,7 @@ impl Default for TrackerParams {
             max_depth: 80.0,
             min_gradient: 12,
             static_margin_px: 6,
-            object_edge_margin_px: 2,
+            object_edge_margin_px: 0,
             subpixel: Some(SubpixelParams::default()),
         }
     }
@@ -310,7 +311,7 @@ impl Tracker {
                 }
                 Err(Refused::Diverged | Refused::Mismatch) => {
                     subpixel[2] += 1;
-                    None
+                    if p.subpixel.is_some_and(|s| s.drop_refused) { None } else { depth.at(f.at.x, f.at.y) }
                 }
             };
             z.filter(|z| (p.min_depth..=p.max_depth).contains(z))

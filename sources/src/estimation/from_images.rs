@@ -23,6 +23,8 @@ use super::runner::EstimatorRun;
 use super::score::{RunScores, moving_objects, score_run};
 use super::simulated::{EvalOptions, run_sim_with_window};
 #[cfg(feature = "images")]
+use super::simulated::PointDepthOptions;
+#[cfg(feature = "images")]
 use super::simulated::{params_for, run_with_window, sim_max_depth};
 use dynotraj_formats::kitti::SequenceData;
 #[cfg(feature = "images")]
@@ -129,7 +131,15 @@ pub fn render_and_track(
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let settings =
-        RenderSettings { classes: opt.classes.clone(), seed: opt.seed, scale, dt: opt.dt, frames: n, optics: opt.render_optics };
+        RenderSettings {
+        classes: opt.classes.clone(),
+        seed: opt.seed,
+        scale,
+        dt: opt.dt,
+        frames: n,
+        optics: opt.render_optics,
+        point_depth: opt.point_depth,
+    };
     let key = match cache {
         Some(_) => Some(rendered_cache::rendered_key(id, data, &settings)?),
         None => None,
@@ -141,24 +151,38 @@ pub fn render_and_track(
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
     let camera = Camera { optics: opt.render_optics, ..render_camera(scale) };
     let sim = ImageSim::new(camera, &input.camera_poses[..n], &boxes, opt.seed);
-    let frames = track_rendering(&sim, n, opt.dt, scale)?;
+    let frames = track_rendering(&sim, n, opt, scale)?;
     if let (Some(dir), Some(key)) = (cache, key) {
         rendered_cache::store(dir, id, key, &frames)?;
     }
     Ok(frames)
 }
 
-/// The front-end's tracks of the first `n` frames of the rendering `sim` made at `scale`.
+/// The front-end's tracks of the first `n` frames of the rendering `sim` made at `scale`, with
+/// `opt`'s frame period and point depth.
 #[cfg(feature = "images")]
-fn track_rendering(sim: &ImageSim, n: usize, dt: f32, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
+fn track_rendering(sim: &ImageSim, n: usize, opt: &EvalOptions, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
     // Disparities scale with the image: 128 at full resolution reaches 3 m.
     let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
     let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
-    Ok(rendered::track(sim, n, dt, stereo)?.frames)
+    let tracker = tracker_params(&opt.point_depth);
+    Ok(rendered::track_measured(sim, n, opt.dt, (stereo, tracker), None, None)?.frames)
+}
+
+/// The front-end's tracker settings with `point_depth`'s choices.
+#[cfg(feature = "images")]
+#[must_use]
+pub fn tracker_params(point_depth: &PointDepthOptions) -> TrackerParams {
+    let d = TrackerParams::default();
+    TrackerParams {
+        subpixel: if point_depth.subpixel { d.subpixel } else { None },
+        object_edge_margin_px: point_depth.object_edge_margin_px.max(0),
+        ..d
+    }
 }
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
-/// with `opt`'s classes, seed and frame period, tracks them with `tracker`'s settings and
+/// with `opt`'s classes, seed, frame period and point depth, tracks them and
 /// scores the disparity of every point the front-end sends against the rendering's exact depth.
 ///
 /// # Errors
@@ -168,8 +192,8 @@ pub fn disparity_errors(
     id: &str,
     data: &SequenceData,
     opt: &EvalOptions,
-    tracker: TrackerParams,
 ) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
+    let tracker = tracker_params(&opt.point_depth);
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
@@ -183,7 +207,7 @@ pub fn disparity_errors(
 
 /// Without the front-end a rendering cannot be tracked.
 #[cfg(not(feature = "images"))]
-fn track_rendering(_: &ImageSim, _: usize, _: f32, _: f64) -> anyhow::Result<Vec<SimFrame>> {
+fn track_rendering(_: &ImageSim, _: usize, _: &EvalOptions, _: f64) -> anyhow::Result<Vec<SimFrame>> {
     anyhow::bail!(WITHOUT_IMAGES)
 }
 
@@ -239,7 +263,7 @@ mod tests_without_images {
         assert!(format!("{err:#}").contains("feature `images`"), "{err:#}");
         let camera = render_camera(0.1);
         let sim = ImageSim::new(camera, &[], &[], 1);
-        let err = track_rendering(&sim, 0, 0.1, 0.1).unwrap_err();
+        let err = track_rendering(&sim, 0, &EvalOptions::kitti(0.1), 0.1).unwrap_err();
         assert!(format!("{err:#}").contains("feature `images`"), "{err:#}");
     }
 }

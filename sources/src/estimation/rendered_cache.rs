@@ -25,7 +25,7 @@ use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
 /// clear of object masks; 3: a ground plane fitted under the ego path; 4: files end in a
-/// checksum; 5: sub-pixel disparity at the sent points, object points sampled off mask edges).
+/// checksum; 5: sub-pixel disparity at the sent points).
 pub const RENDERED_CACHE_VERSION: u32 = 5;
 
 /// What a rendering depends on besides the sequence's files.
@@ -43,6 +43,8 @@ pub struct RenderSettings {
     pub frames: usize,
     /// The camera model.
     pub optics: dynotraj_sim::image_sim::Optics,
+    /// How the front-end gives points their depth.
+    pub point_depth: super::simulated::PointDepthOptions,
 }
 
 /// A pose as translation then quaternion (i, j, k, w).

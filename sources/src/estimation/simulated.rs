@@ -56,6 +56,24 @@ pub struct EvalOptions {
     pub object_variants: ObjectVariants,
     /// The camera model of renderings ([`Optics::IDEAL`] by default).
     pub render_optics: Optics,
+    /// How the front-end gives tracked points their depth on renderings.
+    pub point_depth: PointDepthOptions,
+}
+
+/// How the image front-end gives the points it sends their depth (the front-end's defaults
+/// unless chosen otherwise, as an approach is measured against them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PointDepthOptions {
+    /// The dense disparity refined to sub-pixel at each point (else the dense value).
+    pub subpixel: bool,
+    /// Least distance of a newly sampled object point from its mask's edge, pixels.
+    pub object_edge_margin_px: i32,
+}
+
+impl Default for PointDepthOptions {
+    fn default() -> Self {
+        Self { subpixel: true, object_edge_margin_px: 0 }
+    }
 }
 
 /// Alternatives in how the estimator follows an object, each measured as an approach to the
@@ -120,6 +138,7 @@ impl EvalOptions {
             profile: HOST_PROFILE.name,
             object_variants: ObjectVariants::default(),
             render_optics: Optics::IDEAL,
+            point_depth: PointDepthOptions::default(),
         }
     }
 
