@@ -14,16 +14,16 @@ use dynotraj_core::wire::{CameraInfo, Track};
 
 use super::common::{FrameRateArg, PointDepthArgs, RenderOptics, progress, record_path};
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
-use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
-use dynotraj_sources::estimation::from_images::{disparity_errors, tracker_params};
-use dynotraj_sources::estimation::simulated::EvalOptions;
 use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
 use dynotraj_eval::report::{Format, Table};
+use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::{TracksWriter, tracks_path};
 use dynotraj_frontend::check::{CAR_BOX_000046, odometry06, stereo2015_d1, stereo2015_points};
+use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
+use dynotraj_sources::estimation::from_images::{disparity_errors, tracker_params};
+use dynotraj_sources::estimation::simulated::EvalOptions;
 
 /// Options of `dynotraj track`.
 #[derive(Debug, Args)]
@@ -120,7 +120,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
-        let (times, stats) = dynotraj_frontend::cost::run(args.frames.unwrap_or(30), stereo, boxes)?;
+        let (times, stats) = dynotraj_frontend::cost::run(args.frames.unwrap_or(30), (stereo, args.tracker()), boxes)?;
         println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
         print_times(&times, &stereo);
         if args.counters {
@@ -304,7 +304,7 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
         ms(cs)
     );
     println!("| masks | {:.1} | {:.1} |", ms(t.masks), ms(cm));
-    println!("| KLT + detection + sampling | {:.1} | {:.1} |", ms(t.tracking), ms(ct));
+    println!("| KLT + detection + sampling + point depth | {:.1} | {:.1} |", ms(t.tracking), ms(ct));
     let cpu = ms(cs + cm + ct);
     println!(
         "| total ({} frames) | {:.1} = {:.1} frames/s | {:.1} = {:.1} frames/s per core |",
@@ -324,12 +324,13 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
         max_frames: args.frames,
         render_optics: args.render_optics.optics(),
         point_depth: args.point_depth.options(),
-        ..EvalOptions::kitti(1.0 / args.rate.hz as f32)
+        ..EvalOptions::kitti(args.rate.period())
     };
     let tracker = args.tracker();
     let bar = progress(drives.len() as u64, "sequences rendered and tracked");
     let per_drive = map_jobs(&drives, args.jobs, |d| {
-        let data = tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
+        let data =
+            tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
         let out = disparity_errors(&d.name, &data, &opt);
         bar.inc(1);
         out
@@ -407,7 +408,9 @@ fn check(root: &Path, stereo: StereoParams, tracker: TrackerParams) -> anyhow::R
         100.0 * (1.0 - d1.density())
     );
     let pair = stereo2015_points(root, "000046_10.png", CAR_BOX_000046, stereo, &tracker)?;
-    println!("\nstereo2015 000046_10 against its ground-truth disparity (car: the hand-placed box {CAR_BOX_000046:?}):\n");
+    println!(
+        "\nstereo2015 000046_10 against its ground-truth disparity (car: the hand-placed box {CAR_BOX_000046:?}):\n"
+    );
     let mut data = Data::new([
         ("where", ColumnKind::Text),
         ("scored", ColumnKind::Int),

@@ -21,8 +21,8 @@ use opencv::prelude::*;
 
 use super::depth::DepthMap;
 use super::error::{FrontEndError, cv};
-use super::image_io::{read_grey, read_u16, same_size};
 use super::features::detect;
+use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::{Detection, Instances, from_boxes};
 use super::stereo::{D1, Stereo, StereoParams, d1_error};
 use super::tracker::{Tracker, TrackerParams};

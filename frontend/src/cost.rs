@@ -60,15 +60,20 @@ pub fn boxes_of(f: &RenderedFrame, cam: &Camera) -> Vec<Detection> {
         .collect()
 }
 
-/// Times `frames` frames of the synthetic drive at KITTI resolution; masks from the rendered
-/// instance ids, or (`boxes`) from the objects' 2D boxes refined by depth with IoU ids.
+/// Times `frames` frames of the synthetic drive at KITTI resolution with `tracker`'s settings;
+/// masks from the rendered instance ids, or (`boxes`) from the objects' 2D boxes refined by
+/// depth with IoU ids.
 ///
 /// # Errors
 /// An OpenCV failure.
-pub fn run(frames: usize, stereo: StereoParams, boxes: bool) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
+pub fn run(
+    frames: usize,
+    (stereo, tracker): (StereoParams, TrackerParams),
+    boxes: bool,
+) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
     let drive = generate(&DriveSpec { frames: frames.max(2), ..DriveSpec::default() });
     let sim = ImageSim::new(Camera::kitti(1.0), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
-    let mut fe = FrontEnd::new(stereo, TrackerParams::default(), sim.camera.fb() as f32)?;
+    let mut fe = FrontEnd::new(stereo, tracker, sim.camera.fb() as f32)?;
     for k in 0..sim.len() {
         let Some(f) = sim.frame(k) else { break };
         let mut input = input_of(&f, &sim.camera)?;

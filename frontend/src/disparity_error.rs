@@ -74,10 +74,8 @@ impl FrameTruth<'_> {
         let (fx, fy) = (u - u.floor(), v - v.floor());
         let corners = [(x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)];
         let id = self.id_at(x0, y0);
-        let zs: Option<Vec<f32>> = corners
-            .iter()
-            .map(|&(x, y)| self.depth_at(x, y).filter(|_| self.id_at(x, y) == id))
-            .collect();
+        let zs: Option<Vec<f32>> =
+            corners.iter().map(|&(x, y)| self.depth_at(x, y).filter(|_| self.id_at(x, y) == id)).collect();
         if let Some(zs) = zs {
             let (lo, hi) = zs.iter().fold((f32::MAX, 0.0f32), |(lo, hi), z| (lo.min(*z), hi.max(*z)));
             if hi <= 1.05 * lo {
@@ -260,7 +258,8 @@ impl DisparityErrors {
     /// median absolute error of the means, the share of means off by more than a quarter pixel.
     #[must_use]
     pub fn object_mean_row(&self, (lo, hi): (f32, f32)) -> ErrorRow {
-        let chosen: Vec<&ObjectMean> = self.object_means.iter().filter(|m| (lo..hi).contains(&m.true_depth_m)).collect();
+        let chosen: Vec<&ObjectMean> =
+            self.object_means.iter().filter(|m| (lo..hi).contains(&m.true_depth_m)).collect();
         let n = chosen.len();
         let mut abs: Vec<f64> = chosen.iter().map(|m| f64::from(m.error_px.abs())).collect();
         abs.sort_by(f64::total_cmp);
@@ -276,7 +275,11 @@ impl DisparityErrors {
         ErrorRow {
             group: format!("object means per frame, {lo}-{hi} m"),
             points: n,
-            bias_px: if n == 0 { f64::NAN } else { chosen.iter().map(|m| f64::from(m.error_px)).sum::<f64>() / n as f64 },
+            bias_px: if n == 0 {
+                f64::NAN
+            } else {
+                chosen.iter().map(|m| f64::from(m.error_px)).sum::<f64>() / n as f64
+            },
             median_abs_px: abs.get(n / 2).copied().unwrap_or(f64::NAN),
             outlier_share: if n == 0 { f64::NAN } else { abs.iter().filter(|e| **e > 0.25).count() as f64 / n as f64 },
             median_abs_depth_m: depth.get(n / 2).copied().unwrap_or(f64::NAN),
@@ -291,9 +294,9 @@ impl DisparityErrors {
         let mut out = Vec::new();
         for (kind, name) in [(PointKind::Object, "object"), (PointKind::Static, "static")] {
             for band in BANDS {
-                out.push(self.row(format!("{name} points, {}-{} m", band.0, band.1), |s| {
-                    s.kind == kind && band_of(s, band)
-                }));
+                out.push(
+                    self.row(format!("{name} points, {}-{} m", band.0, band.1), |s| s.kind == kind && band_of(s, band)),
+                );
             }
         }
         for band in BANDS {

@@ -3,6 +3,8 @@
 //! and the host reaches it only through its `images` feature.
 //!
 //! Stages, each in its own module:
+//! - [`subpixel`]: each sent point's disparity refined from the dense value over its own
+//!   instance; [`disparity_error`]: sent points scored against a rendering's exact depth;
 //! - [`stereo`]: dense disparity by semi-global matching (parameters documented there), and
 //!   KITTI's D1 error against ground-truth disparity; [`depth`]: depth per pixel from it or from
 //!   a given depth map;

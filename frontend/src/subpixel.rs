@@ -203,8 +203,8 @@ mod tests {
             let left = GreyView { data: &l, width: 80, height: 30 };
             let right = GreyView { data: &r, width: 80, height: 30 };
             let start = shift.round() + 0.4 * (shift - shift.round()).signum();
-            let d = refine_disparity(&left, &right, 40.0, 15.0, start, |_, _| true, &SubpixelParams::default())
-                .unwrap();
+            let d =
+                refine_disparity(&left, &right, 40.0, 15.0, start, |_, _| true, &SubpixelParams::default()).unwrap();
             assert!((d - shift).abs() < 0.03, "shift {shift}: {d}");
         }
     }

@@ -40,14 +40,13 @@ const FILE_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 pub fn estimate_key(id: &str, data: &SequenceData, settings: &EstimateSettings) -> anyhow::Result<u64> {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
-    let what =
-        format!(
-            "v{ESTIMATE_CACHE_VERSION} r{} {id} {:?} {:?} {}",
-            super::rendered_cache::RENDERED_CACHE_VERSION,
-            settings.options,
-            settings.input,
-            settings.render_scale
-        );
+    let what = format!(
+        "v{ESTIMATE_CACHE_VERSION} r{} {id} {:?} {:?} {}",
+        super::rendered_cache::RENDERED_CACHE_VERSION,
+        settings.options,
+        settings.input,
+        settings.render_scale
+    );
     d.update(what.as_bytes());
     for path in [&data.labels_path, &data.calib_path, &data.poses_path] {
         d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);

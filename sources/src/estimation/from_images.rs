@@ -21,18 +21,18 @@ use super::input::sim_input;
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::EstimatorRun;
 use super::score::{RunScores, moving_objects, score_run};
-use super::simulated::{EvalOptions, run_sim_with_window};
 #[cfg(feature = "images")]
 use super::simulated::PointDepthOptions;
+use super::simulated::{EvalOptions, run_sim_with_window};
 #[cfg(feature = "images")]
 use super::simulated::{params_for, run_with_window, sim_max_depth};
 use dynotraj_formats::kitti::SequenceData;
 #[cfg(feature = "images")]
 use dynotraj_formats::tracks_file::TracksFrame;
 #[cfg(feature = "images")]
-use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
-#[cfg(feature = "images")]
 use dynotraj_frontend::disparity_error::DisparityErrors;
+#[cfg(feature = "images")]
+use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 #[cfg(feature = "images")]
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StereoParams, TrackerParams, rendered};
 
@@ -130,8 +130,7 @@ pub fn render_and_track(
     );
     let input = sim_input(data, &opt.classes);
     let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-    let settings =
-        RenderSettings {
+    let settings = RenderSettings {
         classes: opt.classes.clone(),
         seed: opt.seed,
         scale,
