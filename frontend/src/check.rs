@@ -27,11 +27,12 @@ use super::masks::{Detection, Instances, from_boxes};
 use super::stereo::{D1, Stereo, StereoParams, d1_error};
 use super::tracker::{Tracker, TrackerParams};
 
-/// D1 of the stereo stage on `<root>/stereo2015/training/{image_2,image_3,disp_occ_0}/<name>`.
+/// The left and right images (grey) and ground-truth disparity of KITTI stereo 2015 training
+/// pair `name` under `root`.
 ///
 /// # Errors
-/// Missing or unreadable images, named.
-pub fn stereo2015_d1(root: &Path, name: &str, params: StereoParams) -> Result<D1, FrontEndError> {
+/// Missing or unreadable images, or images of different sizes, named.
+fn read_stereo2015(root: &Path, name: &str) -> Result<(Mat, Mat, Mat), FrontEndError> {
     let dir = root.join("stereo2015/training");
     let (lp, rp, gp) =
         (dir.join("image_2").join(name), dir.join("image_3").join(name), dir.join("disp_occ_0").join(name));
@@ -40,6 +41,15 @@ pub fn stereo2015_d1(root: &Path, name: &str, params: StereoParams) -> Result<D1
     same_size(&right, &rp, &left, &lp)?;
     let truth = read_u16(&gp, "ground-truth disparity")?;
     same_size(&truth, &gp, &left, &lp)?;
+    Ok((left, right, truth))
+}
+
+/// D1 of the stereo stage on `<root>/stereo2015/training/{image_2,image_3,disp_occ_0}/<name>`.
+///
+/// # Errors
+/// Missing or unreadable images, named.
+pub fn stereo2015_d1(root: &Path, name: &str, params: StereoParams) -> Result<D1, FrontEndError> {
+    let (left, right, truth) = read_stereo2015(root, name)?;
     let map = Stereo::new(params)?.disparity(&left, &right)?;
     d1_error(&map, &truth)
 }
@@ -117,14 +127,7 @@ pub fn stereo2015_points(
     params: StereoParams,
     tracker: &TrackerParams,
 ) -> Result<RealPairCheck, FrontEndError> {
-    let dir = root.join("stereo2015/training");
-    let (lp, rp, gp) =
-        (dir.join("image_2").join(name), dir.join("image_3").join(name), dir.join("disp_occ_0").join(name));
-    let left = read_grey(&lp, "left image")?;
-    let right = read_grey(&rp, "right image")?;
-    same_size(&right, &rp, &left, &lp)?;
-    let truth = read_u16(&gp, "ground-truth disparity")?;
-    same_size(&truth, &gp, &left, &lp)?;
+    let (left, right, truth) = read_stereo2015(root, name)?;
     let disparity = Stereo::new(params)?.disparity(&left, &right)?;
     let gt_at = |u: i32, v: i32| -> Option<f32> {
         truth.at_2d::<u16>(v, u).ok().copied().filter(|g| *g > 0).map(|g| f32::from(g) / 256.0)
