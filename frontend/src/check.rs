@@ -192,7 +192,7 @@ pub fn stereo2015_points(
             let Some(g) = gt_at(q.x.round() as i32, q.y.round() as i32) else { continue };
             let own = label(q.x.round() as i64, q.y.round() as i64);
             let z = if refine {
-                depth.at_point(q.x, q.y, |x, y| label(x, y) == own, Some(&subpixel)).ok().flatten()
+                depth.at_point(q.x, q.y, |x, y| label(x, y) == own, Some(&subpixel)).0
             } else {
                 depth.at(q.x, q.y)
             };

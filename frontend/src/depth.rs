@@ -52,25 +52,44 @@ impl DepthMap {
         }
     }
 
-    /// Depth at a tracked point `(u, v)`, metres: with stereo, the dense map's disparity refined
-    /// to sub-pixel by [`refine_disparity`] over the patch pixels that `same_instance` accepts
-    /// (`params` `None`: the map's value as it is); a given depth map as [`Self::at`].
-    ///
-    /// # Errors
-    /// `Ok(None)` where the map has no value; the refinement's refusal where it refused.
+    /// Depth at a tracked point `(u, v)`, metres, and how it was found: with stereo and
+    /// `params`, the dense map's disparity refined to sub-pixel by [`refine_disparity`] over the
+    /// patch pixels that `same_instance` accepts; the dense value where the patch is too flat or
+    /// small to refine; nothing, or the dense value without
+    /// [`SubpixelParams::drop_refused`], where the refinement was refused. Otherwise (a given
+    /// depth map, no parameters, no dense value) as [`Self::at`].
     pub fn at_point(
         &self,
         u: f32,
         v: f32,
         same_instance: impl Fn(i64, i64) -> bool,
         params: Option<&SubpixelParams>,
-    ) -> Result<Option<f32>, Refused> {
-        let Self::Stereo { disparity, fb, pair: Some((left, right)) } = self else { return Ok(self.at(u, v)) };
-        let (Some(p), Some(start)) = (params, disparity.at(u, v)) else { return Ok(self.at(u, v)) };
-        let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return Ok(self.at(u, v)) };
-        let d = refine_disparity(&l, &r, u, v, start, same_instance, p)?;
-        Ok((d > 0.0).then(|| fb / d))
+    ) -> (Option<f32>, PointDepthOutcome) {
+        let dense = || (self.at(u, v), PointDepthOutcome::Dense);
+        let Self::Stereo { disparity, fb, pair: Some((left, right)) } = self else { return dense() };
+        let (Some(p), Some(start)) = (params, disparity.at(u, v)) else { return dense() };
+        let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return dense() };
+        match refine_disparity(&l, &r, u, v, start, same_instance, p) {
+            Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
+            Err(Refused::Flat | Refused::SmallPatch) => (self.at(u, v), PointDepthOutcome::KeptDense),
+            Err(Refused::Diverged | Refused::Mismatch) => {
+                ((!p.drop_refused).then(|| self.at(u, v)).flatten(), PointDepthOutcome::Refused)
+            }
+        }
     }
+}
+
+/// How [`DepthMap::at_point`] found a point's depth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointDepthOutcome {
+    /// The map's value, no refinement asked for or possible.
+    Dense,
+    /// Refined to sub-pixel.
+    Refined,
+    /// The dense value: the patch was too flat or small to refine.
+    KeptDense,
+    /// The refinement was refused (diverged or mismatched).
+    Refused,
 }
 
 /// A continuous 8-bit single-channel `Mat` as a [`GreyView`].

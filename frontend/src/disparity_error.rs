@@ -8,6 +8,8 @@
 //! four disagree (an edge), the nearest pixel's depth is used and the point is counted at edge
 //! distance 0.
 
+use dynotraj_core::wire::STATIC_OBJECT_ID;
+
 /// What kind of point a sample is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum PointKind {
@@ -120,7 +122,7 @@ pub struct ObjectMean {
     pub points: u32,
 }
 
-/// One tracked point as sent: pixel, depth and what it belongs to.
+/// One tracked point as sent: pixel, depth and the object it belongs to.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SentPoint {
     /// Pixel column.
@@ -129,9 +131,7 @@ pub struct SentPoint {
     pub v: f32,
     /// Depth sent, metres.
     pub depth_m: f32,
-    /// Object or static.
-    pub kind: PointKind,
-    /// The wire object id (0 for static points).
+    /// The wire object id ([`STATIC_OBJECT_ID`] for static points).
     pub object_id: u16,
 }
 
@@ -170,6 +170,35 @@ pub struct ErrorRow {
     pub median_abs_depth_m: f64,
 }
 
+impl ErrorRow {
+    /// The row of `errors` (disparity error, true disparity, true depth), counting errors
+    /// larger than `outlier_px` as outliers.
+    fn of(group: String, errors: &[[f32; 3]], outlier_px: f32) -> Self {
+        let n = errors.len();
+        let median = |mut xs: Vec<f64>| -> f64 {
+            xs.sort_by(f64::total_cmp);
+            xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        let share = |count: usize| if n == 0 { f64::NAN } else { count as f64 / n as f64 };
+        let depth_errors = errors
+            .iter()
+            .map(|[e, d, z]| {
+                let sent = f64::from(d + e);
+                let (d, z) = (f64::from(*d), f64::from(*z));
+                if sent > 0.0 { (d * z / sent - z).abs() } else { f64::INFINITY }
+            })
+            .collect();
+        Self {
+            group,
+            points: n,
+            bias_px: if n == 0 { f64::NAN } else { errors.iter().map(|[e, ..]| f64::from(*e)).sum::<f64>() / n as f64 },
+            median_abs_px: median(errors.iter().map(|[e, ..]| f64::from(e.abs())).collect()),
+            outlier_share: share(errors.iter().filter(|[e, ..]| e.abs() > outlier_px).count()),
+            median_abs_depth_m: median(depth_errors),
+        }
+    }
+}
+
 impl DisparityErrors {
     /// Adds one frame's sent points, scored against `truth`, for a camera of stereo `fb`.
     pub fn add_frame(&mut self, points: &[SentPoint], truth: &FrameTruth<'_>, fb: f32) {
@@ -185,7 +214,7 @@ impl DisparityErrors {
             }
             let true_disparity = fb / z;
             self.samples.push(DisparitySample {
-                kind: p.kind,
+                kind: if p.object_id == STATIC_OBJECT_ID { PointKind::Static } else { PointKind::Object },
                 true_depth_m: z,
                 true_disparity,
                 error_px: fb / p.depth_m - true_disparity,
@@ -194,7 +223,7 @@ impl DisparityErrors {
             owners.push(p.object_id);
         }
         let scored = self.samples.get(first..).unwrap_or_default();
-        let mut ids: Vec<u16> = owners.iter().copied().filter(|id| *id != 0).collect();
+        let mut ids: Vec<u16> = owners.iter().copied().filter(|id| *id != STATIC_OBJECT_ID).collect();
         ids.sort_unstable();
         ids.dedup();
         for id in ids {
@@ -225,65 +254,22 @@ impl DisparityErrors {
     /// The row of the samples `keep` selects.
     #[must_use]
     pub fn row(&self, group: impl Into<String>, keep: impl Fn(&DisparitySample) -> bool) -> ErrorRow {
-        let chosen: Vec<&DisparitySample> = self.samples.iter().filter(|s| keep(s)).collect();
-        let n = chosen.len();
-        let median = |mut xs: Vec<f64>| -> f64 {
-            if xs.is_empty() {
-                return f64::NAN;
-            }
-            xs.sort_by(f64::total_cmp);
-            xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
-        };
-        let bias = if n == 0 { f64::NAN } else { chosen.iter().map(|s| f64::from(s.error_px)).sum::<f64>() / n as f64 };
-        let outliers = chosen.iter().filter(|s| s.error_px.abs() > OUTLIER_PX).count();
-        let depth_errors = chosen
-            .iter()
-            .map(|s| {
-                let sent = s.true_disparity + s.error_px;
-                let fb = s.true_disparity * s.true_depth_m;
-                if sent > 0.0 { f64::from((fb / sent - s.true_depth_m).abs()) } else { f64::INFINITY }
-            })
-            .collect();
-        ErrorRow {
-            group: group.into(),
-            points: n,
-            bias_px: bias,
-            median_abs_px: median(chosen.iter().map(|s| f64::from(s.error_px.abs())).collect()),
-            outlier_share: if n == 0 { f64::NAN } else { outliers as f64 / n as f64 },
-            median_abs_depth_m: median(depth_errors),
-        }
+        let errors: Vec<[f32; 3]> =
+            self.samples.iter().filter(|s| keep(s)).map(|s| [s.error_px, s.true_disparity, s.true_depth_m]).collect();
+        ErrorRow::of(group.into(), &errors, OUTLIER_PX)
     }
 
     /// The row of the objects' per-frame mean errors in range band `(lo, hi)`: the bias and
     /// median absolute error of the means, the share of means off by more than a quarter pixel.
     #[must_use]
     pub fn object_mean_row(&self, (lo, hi): (f32, f32)) -> ErrorRow {
-        let chosen: Vec<&ObjectMean> =
-            self.object_means.iter().filter(|m| (lo..hi).contains(&m.true_depth_m)).collect();
-        let n = chosen.len();
-        let mut abs: Vec<f64> = chosen.iter().map(|m| f64::from(m.error_px.abs())).collect();
-        abs.sort_by(f64::total_cmp);
-        let mut depth: Vec<f64> = chosen
+        let errors: Vec<[f32; 3]> = self
+            .object_means
             .iter()
-            .map(|m| {
-                let (d, z) = (f64::from(m.true_disparity), f64::from(m.true_depth_m));
-                let sent = d + f64::from(m.error_px);
-                if sent > 0.0 { (d * z / sent - z).abs() } else { f64::INFINITY }
-            })
+            .filter(|m| (lo..hi).contains(&m.true_depth_m))
+            .map(|m| [m.error_px, m.true_disparity, m.true_depth_m])
             .collect();
-        depth.sort_by(f64::total_cmp);
-        ErrorRow {
-            group: format!("object means per frame, {lo}-{hi} m"),
-            points: n,
-            bias_px: if n == 0 {
-                f64::NAN
-            } else {
-                chosen.iter().map(|m| f64::from(m.error_px)).sum::<f64>() / n as f64
-            },
-            median_abs_px: abs.get(n / 2).copied().unwrap_or(f64::NAN),
-            outlier_share: if n == 0 { f64::NAN } else { abs.iter().filter(|e| **e > 0.25).count() as f64 / n as f64 },
-            median_abs_depth_m: depth.get(n / 2).copied().unwrap_or(f64::NAN),
-        }
+        ErrorRow::of(format!("object means per frame, {lo}-{hi} m"), &errors, 0.25)
     }
 
     /// The table's rows: each kind by range band; object points at 40-80 m by the sub-pixel
@@ -361,7 +347,7 @@ mod tests {
                 let (z, _) = truth.depth_at_point(u as f32, 7.0).unwrap();
                 // 0.2 px too much disparity everywhere, 2 px on one point.
                 let extra = if u == 20 { 2.0 } else { 0.2 };
-                SentPoint { u: u as f32, v: 7.0, depth_m: fb / (fb / z + extra), kind: PointKind::Object, object_id: 3 }
+                SentPoint { u: u as f32, v: 7.0, depth_m: fb / (fb / z + extra), object_id: 3 }
             })
             .collect();
         let mut e = DisparityErrors::default();

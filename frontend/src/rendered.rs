@@ -5,7 +5,7 @@ use dynotraj_sim::image_sim::ImageSim;
 use dynotraj_sim::track_sim::SimFrame;
 
 use super::cost::input_of;
-use super::disparity_error::{DisparityErrors, FrameTruth, PointKind, SentPoint};
+use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
 use super::error::FrontEndError;
 use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;
@@ -66,20 +66,8 @@ pub fn track_measured(
         let tracks = fe.process(input_of(&f, &cam)?)?;
         if let Some(errors) = errors.as_deref_mut() {
             let truth = FrameTruth { depth: &f.depth, ids: &f.ids, width: cam.width, height: cam.height };
-            let points: Vec<SentPoint> = tracks
-                .iter()
-                .map(|t| SentPoint {
-                    u: t.u,
-                    v: t.v,
-                    depth_m: t.depth,
-                    kind: if t.object_id == dynotraj_core::wire::STATIC_OBJECT_ID {
-                        PointKind::Static
-                    } else {
-                        PointKind::Object
-                    },
-                    object_id: t.object_id,
-                })
-                .collect();
+            let points: Vec<SentPoint> =
+                tracks.iter().map(|t| SentPoint { u: t.u, v: t.v, depth_m: t.depth, object_id: t.object_id }).collect();
             errors.add_frame(&points, &truth, cam.fb() as f32);
         }
         let timestamp_us = (k as f64 * f64::from(dt) * 1e6).round() as u64;

@@ -25,12 +25,13 @@ use opencv::imgproc::{MORPH_RECT, erode, get_structuring_element, morphology_def
 use opencv::prelude::*;
 
 use super::depth::DepthMap;
+use super::depth::PointDepthOutcome;
 use super::error::{FrontEndError, cv};
 use super::features::{DetectParams, detect};
 use super::klt::{KltParams, Pyramid, Tracked, track};
 use super::masks::Instances;
 use super::stats::FrontEndStats;
-use super::subpixel::{Refused, SubpixelParams};
+use super::subpixel::SubpixelParams;
 
 /// Parameters of the tracking stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -298,22 +299,13 @@ impl Tracker {
                 let (Ok(x), Ok(y)) = (i32::try_from(x), i32::try_from(y)) else { return false };
                 labels.at_2d::<u16>(y, x).ok().copied() == Some(owner)
             };
-            let z = match depth.at_point(f.at.x, f.at.y, same, p.subpixel.as_ref()) {
-                Ok(z) => {
-                    if z.is_some() && p.subpixel.is_some() && matches!(depth, DepthMap::Stereo { pair: Some(_), .. }) {
-                        subpixel[0] += 1;
-                    }
-                    z
-                }
-                Err(Refused::Flat | Refused::SmallPatch) => {
-                    subpixel[1] += 1;
-                    depth.at(f.at.x, f.at.y)
-                }
-                Err(Refused::Diverged | Refused::Mismatch) => {
-                    subpixel[2] += 1;
-                    if p.subpixel.is_some_and(|s| s.drop_refused) { None } else { depth.at(f.at.x, f.at.y) }
-                }
-            };
+            let (z, outcome) = depth.at_point(f.at.x, f.at.y, same, p.subpixel.as_ref());
+            match outcome {
+                PointDepthOutcome::Dense => {}
+                PointDepthOutcome::Refined => subpixel[0] += 1,
+                PointDepthOutcome::KeptDense => subpixel[1] += 1,
+                PointDepthOutcome::Refused => subpixel[2] += 1,
+            }
             z.filter(|z| (p.min_depth..=p.max_depth).contains(z))
         };
         let mut out = Vec::new();

@@ -17,7 +17,7 @@ use dynotraj_sim::image_sim::{Camera, ImageSim};
 
 use dynotraj_sim::track_sim::SimFrame;
 
-use super::input::sim_input;
+use super::input::{SimInput, sim_input};
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::EstimatorRun;
 use super::score::{RunScores, moving_objects, score_run};
@@ -129,7 +129,7 @@ pub fn render_and_track(
         "--render-scale: expected 0.05..=2, found {scale}"
     );
     let input = sim_input(data, &opt.classes);
-    let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let n = frames_rendered(&input, opt);
     let settings = RenderSettings {
         classes: opt.classes.clone(),
         seed: opt.seed,
@@ -147,14 +147,25 @@ pub fn render_and_track(
         log::info!("sequence {id}: rendered front-end tracks read from the cache");
         return Ok(frames);
     }
-    let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-    let camera = Camera { optics: opt.render_optics, ..render_camera(scale) };
-    let sim = ImageSim::new(camera, &input.camera_poses[..n], &boxes, opt.seed);
+    let sim = image_sim(input, opt, scale, n);
     let frames = track_rendering(&sim, n, opt, scale)?;
     if let (Some(dir), Some(key)) = (cache, key) {
         rendered_cache::store(dir, id, key, &frames)?;
     }
     Ok(frames)
+}
+
+/// Frames of `input` rendered under `opt`'s frame limit.
+fn frames_rendered(input: &SimInput, opt: &EvalOptions) -> usize {
+    opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()))
+}
+
+/// The image simulator of the first `n` frames of `input` at `scale`, with `opt`'s camera model
+/// and seed.
+fn image_sim(input: SimInput, opt: &EvalOptions, scale: f64, n: usize) -> ImageSim {
+    let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
+    let camera = Camera { optics: opt.render_optics, ..render_camera(scale) };
+    ImageSim::new(camera, input.camera_poses.get(..n).unwrap_or(&input.camera_poses), &boxes, opt.seed)
 }
 
 /// The front-end's tracks of the first `n` frames of the rendering `sim` made at `scale`, with
@@ -194,10 +205,8 @@ pub fn disparity_errors(
 ) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
     let tracker = tracker_params(&opt.point_depth);
     let input = sim_input(data, &opt.classes);
-    let n = opt.max_frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-    let boxes: Vec<_> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-    let camera = Camera { optics: opt.render_optics, ..render_camera(1.0) };
-    let sim = ImageSim::new(camera, &input.camera_poses[..n], &boxes, opt.seed);
+    let n = frames_rendered(&input, opt);
+    let sim = image_sim(input, opt, 1.0, n);
     let mut errors = DisparityErrors::default();
     let tracked = rendered::track_measured(&sim, n, opt.dt, (StereoParams::kitti(), tracker), None, Some(&mut errors))
         .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
