@@ -9,12 +9,14 @@
 //!   median, since a few lost objects dominate the mean. The two worlds differ by the camera's
 //!   drift, so absolute positions are not comparable; the vehicle needs the relative one anyway.
 //! - velocity as constant velocity reads it (the last position difference, over `dt`): the
-//!   error of its speed and of its direction (turned into the truth's world by the frame's
+//!   error of its speed (absolute, and signed: a lasting bias survives the mean, noise does
+//!   not) and of its direction (turned into the truth's world by the frame's
 //!   world yaw). Direction errors count only where the truth moves faster than
 //!   [`MOVING_MPS`]: at a standstill a direction means nothing.
-//! - the estimator's own velocity (the speed of its SE(3) motion and its pose's heading), which
-//!   no forecaster reads yet: the same errors and the constant-velocity ADE from it, to show
-//!   whether it is the better input.
+//! - the estimate's own speed and heading (the bird's-eye track's velocity; with
+//!   `--no-bev-track` the SE(3) motion's speed and the pose's heading), which constant velocity
+//!   does not read: the same errors and the constant-velocity ADE from it, to show whether it
+//!   is the better input.
 //! - turn rate as the motion prior reads it ([`PriorSettings::DEFAULT`]'s trend), estimated
 //!   history against true history, where both give a plan.
 //! - what the errors cost: the ADE against the true future of constant velocity started from
@@ -56,10 +58,14 @@ pub struct InstanceErrors {
     pub position_m: f32,
     /// Speed of the constant-velocity estimate minus the true one, absolute, m/s.
     pub speed_mps: f32,
+    /// The same, signed: a lasting bias shows here, noise averages out.
+    pub speed_bias_mps: f32,
     /// Direction of the velocity, absolute, radians; `None` when the truth is nearly still.
     pub direction_rad: Option<f32>,
     /// The estimator's own speed (from its SE(3) motion, not from positions), absolute error, m/s.
     pub own_speed_mps: f32,
+    /// The same, signed.
+    pub own_speed_bias_mps: f32,
     /// The estimator's own heading against the truth's direction of travel, absolute, radians;
     /// `None` when the truth is nearly still.
     pub own_direction_rad: Option<f32>,
@@ -157,8 +163,10 @@ fn instance_errors(
     let errors = InstanceErrors {
         position_m: position,
         speed_mps: (speed_est - speed_true).abs(),
+        speed_bias_mps: speed_est - speed_true,
         direction_rad: (speed_true >= MOVING_MPS).then(|| angle_diff(dir_est, dir_true).abs()),
         own_speed_mps: (cur.speed - speed_true).abs(),
+        own_speed_bias_mps: cur.speed - speed_true,
         own_direction_rad: (speed_true >= MOVING_MPS).then(|| angle_diff(own_dir, dir_true).abs()),
         turn_rate_rps: turn_rate,
         ade_truth: ade_of_velocity(v_true, &displacements, dt),
@@ -213,7 +221,7 @@ pub fn distance_band(d: f32) -> String {
 }
 
 /// Means of a group's instances, in the order of [`COLUMNS`] after the instance count.
-fn means(group: &[&Tagged]) -> [f64; 12] {
+fn means(group: &[&Tagged]) -> [f64; 14] {
     let mean = |f: &dyn Fn(&InstanceErrors) -> Option<f32>| {
         let v: Vec<f64> = group.iter().filter_map(|t| f(&t.errors)).map(f64::from).collect();
         if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
@@ -226,8 +234,10 @@ fn means(group: &[&Tagged]) -> [f64; 12] {
         mean(&|e| Some(e.position_m)),
         median,
         mean(&|e| Some(e.speed_mps)),
+        mean(&|e| Some(e.speed_bias_mps)),
         mean(&|e| e.direction_rad).to_degrees(),
         mean(&|e| Some(e.own_speed_mps)),
+        mean(&|e| Some(e.own_speed_bias_mps)),
         mean(&|e| e.own_direction_rad).to_degrees(),
         mean(&|e| e.turn_rate_rps).to_degrees(),
         floor,
@@ -239,12 +249,14 @@ fn means(group: &[&Tagged]) -> [f64; 12] {
 }
 
 /// The budget's columns after the instance count: Markdown header, data name, decimals.
-const COLUMNS: [(&str, &str, usize); 12] = [
+const COLUMNS: [(&str, &str, usize); 14] = [
     ("position (m)", "position_m", 3),
     ("position, median (m)", "position_median_m", 3),
     ("speed, cv (m/s)", "speed_mps", 3),
+    ("speed bias, cv (m/s)", "speed_bias_mps", 3),
     ("direction, cv (deg)", "direction_deg", 1),
     ("speed, estimator (m/s)", "own_speed_mps", 3),
+    ("speed bias, estimator (m/s)", "own_speed_bias_mps", 3),
     ("heading, estimator (deg)", "own_heading_deg", 1),
     ("turn rate, prior (deg/s)", "turn_rate_deg_s", 1),
     ("cv ADE from truth (m)", "cv_ade_truth_m", 3),
@@ -316,6 +328,7 @@ mod tests {
         let slow = straight(0, 21, 8.0, dt);
         let e = instance_errors(&slow.states, 20, &truth, &pair, dt).unwrap().0;
         assert!((e.speed_mps - 2.0).abs() < 1e-2 && (e.own_speed_mps - 2.0).abs() < 1e-4, "{e:?}");
+        assert!((e.speed_bias_mps + 2.0).abs() < 1e-2 && (e.own_speed_bias_mps + 2.0).abs() < 1e-4, "slow: {e:?}");
         assert!((e.ade_own - e.ade_speed_only).abs() < 1e-3, "the estimator's own speed says the same: {e:?}");
         let expected = 2.0 * dt * (1..=HORIZON).map(|k| k as f32).sum::<f32>() / HORIZON as f32;
         assert!((e.ade_estimate - expected).abs() < 1e-2 && (e.ade_speed_only - expected).abs() < 1e-2, "{e:?}");
