@@ -48,9 +48,12 @@
 //! # Outputs ([`PoseEstimate`], labelled as the wire's [`crate::wire::EstimateKind`])
 //!
 //! - frame-to-frame ([`Estimator::frame_to_frame`]): DynoSAM's front-end estimate, causal;
-//! - causal ([`Estimator::causal`]): the filtered trajectory, each frame extended by the newest
-//!   motion as the smoother sees it then, from frames up to it only and never revised
-//!   ([`crate::wire::EstimateKind::Causal`]);
+//! - causal ([`Estimator::causal`]): from frames up to the newest only
+//!   ([`crate::wire::EstimateKind::Causal`]); each object's pose is its filtered trajectory,
+//!   extended by the newest motion as the smoother sees it then and never revised, and the
+//!   camera is its current estimate, the pose the objects were placed against (a chain of the
+//!   camera's newest motions drifts away from that world and would misplace every object
+//!   relative to the vehicle);
 //! - smoothed ([`Estimator::smoothed`]): a frame as it leaves the window, having seen `W - 1`
 //!   later frames ([`crate::wire::EstimateKind::Smoothed`]); never a forecast input.
 //!
