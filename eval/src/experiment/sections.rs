@@ -68,12 +68,13 @@ pub fn experiment_report(
                 caption: format!(
                     "At every test instance of the estimator's causal tracks (every sequence) whose object the \
                         simulator holds over the horizon: mean absolute errors against the simulator's truth of the \
-                        position relative to the camera, the speed and direction constant velocity reads (direction \
+                        position relative to the camera, the speed (also signed: a bias survives the mean, noise \
+                        does not) and direction constant velocity reads (direction \
                         where the truth moves at {} m/s or more) and the motion prior's turn rate; then the ADE of \
                         constant velocity from the true velocity (what no state estimate can beat) and from Ours', \
                         the ADE added by Ours' speed alone and by its direction alone, and the errors and ADE of the \
-                        estimator's own velocity (its motion's speed, its pose's heading), which no forecaster reads \
-                        yet. Distance: the truth's \
+                        state's own speed and heading (the bird's-eye track's velocity), which constant velocity does \
+                        not read. Distance: the truth's \
                         from the camera. Run start: fewer than {} frames after the run's first state.",
                     super::budget::MOVING_MPS,
                     super::budget::START_FRAMES
