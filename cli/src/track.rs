@@ -116,7 +116,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     }
     if args.disparity_error {
         let Some(dir) = &args.kitti else { anyhow::bail!("--disparity-error needs --kitti") };
-        return disparity_error(dir, args);
+        return disparity_error(dir, args, stereo);
     }
     if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
@@ -317,7 +317,7 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
 }
 
 /// Renders, tracks and scores the sequences of `dir` ([`TrackArgs::disparity_error`]).
-fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
+fn disparity_error(dir: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow::Result<()> {
     let drives = super::common::kitti_drives(dir, &args.sequences)?;
     let tracking = TrackingDir::open(dir)?;
     let opt = EvalOptions {
@@ -331,7 +331,7 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let per_drive = map_jobs(&drives, args.jobs, |d| {
         let data =
             tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
-        let out = disparity_errors(&d.name, &data, &opt);
+        let out = disparity_errors(&d.name, &data, &opt, stereo);
         bar.inc(1);
         out
     })?;
@@ -346,12 +346,13 @@ fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
     println!(
         "Disparity of the sent points against the rendering's exact depth: sequences {}, {} frames each at most, \
-         point depth {:?}, object points sampled {} px off the mask edge, render optics {:?}",
+         point depth {:?}, object points sampled {} px off the mask edge, render optics {:?}, stereo downscale {}",
         names.join(","),
         args.frames.map_or_else(|| "all".to_string(), |n| n.to_string()),
         args.point_depth.point_depth,
         tracker.object_edge_margin_px,
-        args.render_optics
+        args.render_optics,
+        stereo.downscale
     );
     println!(
         "points without truth under them {}; not sent for want of depth: {} object, {} static; sub-pixel: {} refined, \

@@ -192,7 +192,7 @@ pub fn tracker_params(point_depth: &PointDepthOptions) -> TrackerParams {
 }
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
-/// with `opt`'s classes, seed, frame period and point depth, tracks them and
+/// with `opt`'s classes, seed, frame period and point depth, tracks them with `stereo` and
 /// scores the disparity of every point the front-end sends against the rendering's exact depth.
 ///
 /// # Errors
@@ -202,13 +202,14 @@ pub fn disparity_errors(
     id: &str,
     data: &SequenceData,
     opt: &EvalOptions,
+    stereo: StereoParams,
 ) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
     let tracker = tracker_params(&opt.point_depth);
     let input = sim_input(data, &opt.classes);
     let n = frames_rendered(&input, opt);
     let sim = image_sim(input, opt, 1.0, n);
     let mut errors = DisparityErrors::default();
-    let tracked = rendered::track_measured(&sim, n, opt.dt, (StereoParams::kitti(), tracker), None, Some(&mut errors))
+    let tracked = rendered::track_measured(&sim, n, opt.dt, (stereo, tracker), None, Some(&mut errors))
         .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
     Ok((errors, tracked.stats))
 }
