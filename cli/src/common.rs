@@ -249,6 +249,10 @@ pub struct PointDepthArgs {
     /// Least distance of a newly sampled object point from its mask's edge, pixels.
     #[arg(long, default_value_t = PointDepthOptions::default().object_edge_margin_px, value_name = "PX")]
     pub object_edge_margin: i32,
+    /// Dense stereo matching on images shrunk by this factor (1 or 2: about 4x less matching);
+    /// each point's sub-pixel depth is still refined at full resolution.
+    #[arg(long, default_value_t = PointDepthOptions::default().stereo_downscale, value_parser = clap::value_parser!(i32).range(1..=2), value_name = "N")]
+    pub stereo_downscale: i32,
 }
 
 impl PointDepthArgs {
@@ -258,6 +262,7 @@ impl PointDepthArgs {
         PointDepthOptions {
             subpixel: self.point_depth == PointDepth::Subpixel,
             object_edge_margin_px: self.object_edge_margin.max(0),
+            stereo_downscale: self.stereo_downscale,
         }
     }
 }

@@ -52,9 +52,6 @@ pub struct TrackArgs {
     /// The frame rate.
     #[command(flatten)]
     pub rate: FrameRateArg,
-    /// Stereo matching on images shrunk by this factor (1 or 2).
-    #[arg(long, default_value_t = 1)]
-    pub stereo_downscale: i32,
     /// Print the front-end's counters.
     #[arg(long)]
     pub counters: bool,
@@ -110,13 +107,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         "--rate: expected a positive frame rate, found {}",
         args.rate.hz
     );
-    let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti() };
+    let stereo = args.point_depth.options().stereo(StereoParams::kitti().num_disparities);
     if let Some(root) = &args.check {
         return check(root, stereo, args.tracker());
     }
     if args.disparity_error {
         let Some(dir) = &args.kitti else { anyhow::bail!("--disparity-error needs --kitti") };
-        return disparity_error(dir, args, stereo);
+        return disparity_error(dir, args);
     }
     if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
@@ -317,7 +314,7 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
 }
 
 /// Renders, tracks and scores the sequences of `dir` ([`TrackArgs::disparity_error`]).
-fn disparity_error(dir: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow::Result<()> {
+fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
     let drives = super::common::kitti_drives(dir, &args.sequences)?;
     let tracking = TrackingDir::open(dir)?;
     let opt = EvalOptions {
@@ -331,7 +328,7 @@ fn disparity_error(dir: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow
     let per_drive = map_jobs(&drives, args.jobs, |d| {
         let data =
             tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
-        let out = disparity_errors(&d.name, &data, &opt, stereo);
+        let out = disparity_errors(&d.name, &data, &opt);
         bar.inc(1);
         out
     })?;
@@ -352,7 +349,7 @@ fn disparity_error(dir: &Path, args: &TrackArgs, stereo: StereoParams) -> anyhow
         args.point_depth.point_depth,
         tracker.object_edge_margin_px,
         args.render_optics,
-        stereo.downscale
+        opt.point_depth.stereo_downscale
     );
     println!(
         "points without truth under them {}; not sent for want of depth: {} object, {} static; sub-pixel: {} refined, \

@@ -87,7 +87,8 @@ fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<Esti
     let s = ImageSequence::open(dir, seq, DepthMode::Stereo, MaskMode::Auto)?;
     let [fx, fy, cx, cy] = s.intrinsics;
     let intrinsics = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: s.fb as f32 };
-    let mut fe = FrontEnd::new(StereoParams::kitti(), TrackerParams::default(), s.fb as f32)?;
+    let stereo = opt.point_depth.stereo(StereoParams::kitti().num_disparities);
+    let mut fe = FrontEnd::new(stereo, tracker_params(&opt.point_depth), s.fb as f32)?;
     let mut frames = Vec::new();
     s.track(&mut fe, opt.max_frames.unwrap_or(usize::MAX), 1.0 / f64::from(opt.dt), |frame, timestamp_us, tracks| {
         frames.push(
@@ -174,8 +175,7 @@ fn image_sim(input: SimInput, opt: &EvalOptions, scale: f64, n: usize) -> ImageS
 fn track_rendering(sim: &ImageSim, n: usize, opt: &EvalOptions, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
     // Disparities scale with the image: 128 at full resolution reaches 3 m.
     let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
-    let stereo = StereoParams { num_disparities, ..StereoParams::kitti() };
-    let tracker = tracker_params(&opt.point_depth);
+    let (stereo, tracker) = (opt.point_depth.stereo(num_disparities), tracker_params(&opt.point_depth));
     Ok(rendered::track_measured(sim, n, opt.dt, (stereo, tracker), None, None)?.frames)
 }
 
@@ -192,7 +192,7 @@ pub fn tracker_params(point_depth: &PointDepthOptions) -> TrackerParams {
 }
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
-/// with `opt`'s classes, seed, frame period and point depth, tracks them with `stereo` and
+/// with `opt`'s classes, seed, frame period and point depth, tracks them and
 /// scores the disparity of every point the front-end sends against the rendering's exact depth.
 ///
 /// # Errors
@@ -202,8 +202,8 @@ pub fn disparity_errors(
     id: &str,
     data: &SequenceData,
     opt: &EvalOptions,
-    stereo: StereoParams,
 ) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
+    let stereo = opt.point_depth.stereo(StereoParams::kitti().num_disparities);
     let tracker = tracker_params(&opt.point_depth);
     let input = sim_input(data, &opt.classes);
     let n = frames_rendered(&input, opt);

@@ -25,8 +25,9 @@ use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
 /// clear of object masks; 3: a ground plane fitted under the ego path; 4: files end in a
-/// checksum; 5: sub-pixel disparity at the sent points).
-pub const RENDERED_CACHE_VERSION: u32 = 5;
+/// checksum; 5: sub-pixel disparity at the sent points; 6: the point depth options name the
+/// dense matcher's downscale, so every key changed).
+pub const RENDERED_CACHE_VERSION: u32 = 6;
 
 /// What a rendering depends on besides the sequence's files.
 #[derive(Debug, Clone, PartialEq)]

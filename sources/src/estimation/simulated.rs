@@ -68,11 +68,28 @@ pub struct PointDepthOptions {
     pub subpixel: bool,
     /// Least distance of a newly sampled object point from its mask's edge, pixels.
     pub object_edge_margin_px: i32,
+    /// The dense matcher runs on images shrunk by this factor (1 or 2); the points' sub-pixel
+    /// refinement starts from its values at full resolution.
+    pub stereo_downscale: i32,
 }
 
 impl Default for PointDepthOptions {
     fn default() -> Self {
-        Self { subpixel: true, object_edge_margin_px: 0 }
+        Self { subpixel: true, object_edge_margin_px: 0, stereo_downscale: 1 }
+    }
+}
+
+impl PointDepthOptions {
+    /// The dense matcher's settings at KITTI's geometry with `num_disparities` at full
+    /// resolution.
+    #[cfg(feature = "images")]
+    #[must_use]
+    pub fn stereo(&self, num_disparities: i32) -> dynotraj_frontend::StereoParams {
+        dynotraj_frontend::StereoParams {
+            num_disparities,
+            downscale: self.stereo_downscale,
+            ..dynotraj_frontend::StereoParams::kitti()
+        }
     }
 }
 
