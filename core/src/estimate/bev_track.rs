@@ -32,11 +32,9 @@ pub struct BevTrackParams {
 
 impl BevTrackParams {
     /// Defaults for road scenes at KITTI's geometry, chosen on the renderings of the sequences
-    /// outside the paper's test split (docs/decisions.md "Following the object"); the centroid's
-    /// disparity error is the one measured at the source since points are refined to sub-pixel
-    /// (docs/decisions.md "Run starts and the velocity at range").
+    /// outside the paper's test split (docs/decisions.md "Following the object").
     pub const ROAD: Self =
-        Self { accel_sigma: 2.0, centroid_sigma_m: 0.3, centroid_disparity_px: 0.10, motion_sigma_mps: 0.7 };
+        Self { accel_sigma: 2.0, centroid_sigma_m: 0.3, centroid_disparity_px: 0.15, motion_sigma_mps: 0.7 };
 }
 
 /// A constant-velocity Kalman filter on one object's bird's-eye position; see the module docs.
