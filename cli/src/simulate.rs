@@ -138,9 +138,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
 
 /// `--e2e`: front-end and estimator on the rendered frames, scored against the truth.
 fn end_to_end(args: &SimulateArgs, id: &str, sim: &ImageSim, n: usize) -> anyhow::Result<()> {
-    // Disparities scale with the image: 128 at full resolution reaches 3 m.
-    let nd = ((128.0 * args.scale / 16.0).ceil() as i32 * 16).max(16);
-    let stereo = StereoParams { num_disparities: nd, downscale: args.stereo_downscale, ..StereoParams::kitti() };
+    let stereo = StereoParams { downscale: args.stereo_downscale, ..StereoParams::kitti_at_scale(args.scale) };
     // The paper's 20 Hz for timestamps; RPE does not depend on it.
     let bar = Arc::new(progress(n as u64, &format!("sequence {id}: frames rendered and tracked")));
     let r = end_to_end::run_with(sim, n, (0.05, stereo), 0.1, Some(&bar.hook()))?;

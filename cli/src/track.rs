@@ -22,7 +22,7 @@ use dynotraj_frontend::check::{CAR_BOX_000046, odometry06, stereo2015_d1, stereo
 use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{FrontEnd, FrontEndStats, StageTimes, StereoParams, TrackerParams};
-use dynotraj_sources::estimation::from_images::{disparity_errors, tracker_params};
+use dynotraj_sources::estimation::from_images::disparity_errors;
 use dynotraj_sources::estimation::simulated::EvalOptions;
 
 /// Options of `dynotraj track`.
@@ -92,7 +92,7 @@ impl TrackArgs {
     /// The tracker's settings these options give.
     #[must_use]
     pub fn tracker(&self) -> TrackerParams {
-        tracker_params(&self.point_depth.options())
+        self.point_depth.options().tracker()
     }
 }
 
@@ -107,7 +107,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         "--rate: expected a positive frame rate, found {}",
         args.rate.hz
     );
-    let stereo = args.point_depth.options().stereo(StereoParams::kitti().num_disparities);
+    let stereo = args.point_depth.options().stereo(1.0);
     if let Some(root) = &args.check {
         return check(root, stereo, args.tracker());
     }

@@ -71,9 +71,9 @@ impl DepthMap {
         let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return dense() };
         match refine_disparity(&l, &r, u, v, start, same_instance, p) {
             Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
-            Err(Refused::Flat | Refused::SmallPatch) => (self.at(u, v), PointDepthOutcome::KeptDense),
+            Err(Refused::Flat | Refused::SmallPatch) => (Some(fb / start), PointDepthOutcome::KeptDense),
             Err(Refused::Diverged | Refused::Mismatch) => {
-                ((!p.drop_refused).then(|| self.at(u, v)).flatten(), PointDepthOutcome::Refused)
+                ((!p.drop_refused).then(|| fb / start), PointDepthOutcome::Refused)
             }
         }
     }

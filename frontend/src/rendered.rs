@@ -23,15 +23,8 @@ pub struct Tracked {
     pub stats: FrontEndStats,
 }
 
-/// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame.
-///
-/// # Errors
-/// An OpenCV failure.
-pub fn track(sim: &ImageSim, frames: usize, dt: f32, stereo: StereoParams) -> Result<Tracked, FrontEndError> {
-    track_with(sim, frames, dt, stereo, None)
-}
-
-/// [`track`], telling `on_frame` the frames done after each.
+/// Runs the front-end over the first `frames` frames of `sim` at `dt` seconds a frame with the
+/// tracker's defaults, telling `on_frame` the frames done after each.
 ///
 /// # Errors
 /// An OpenCV failure.

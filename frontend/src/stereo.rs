@@ -42,6 +42,13 @@ impl StereoParams {
     pub const fn kitti() -> Self {
         Self { num_disparities: 128, block_size: 5, uniqueness: 10, downscale: 1 }
     }
+
+    /// [`StereoParams::kitti`] for images scaled by `scale`: the disparity range scales with
+    /// the image (128 at full resolution reaches 3 m), in multiples of 16.
+    #[must_use]
+    pub fn kitti_at_scale(scale: f64) -> Self {
+        Self { num_disparities: ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16), ..Self::kitti() }
+    }
 }
 
 /// A dense disparity map (full-resolution pixels; 0 or less: no match).

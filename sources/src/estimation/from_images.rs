@@ -21,8 +21,6 @@ use super::input::{SimInput, sim_input};
 use super::rendered_cache::{self, RenderSettings};
 use super::runner::EstimatorRun;
 use super::score::{RunScores, moving_objects, score_run};
-#[cfg(feature = "images")]
-use super::simulated::PointDepthOptions;
 use super::simulated::{EvalOptions, run_sim_with_window};
 #[cfg(feature = "images")]
 use super::simulated::{params_for, run_with_window, sim_max_depth};
@@ -34,7 +32,7 @@ use dynotraj_frontend::disparity_error::DisparityErrors;
 #[cfg(feature = "images")]
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 #[cfg(feature = "images")]
-use dynotraj_frontend::{FrontEnd, FrontEndStats, StereoParams, TrackerParams, rendered};
+use dynotraj_frontend::{FrontEnd, FrontEndStats, rendered};
 
 /// What a build without the image front-end says where it would be needed.
 pub const WITHOUT_IMAGES: &str = "this dynotraj was built without the image front-end (the cargo \
@@ -87,8 +85,7 @@ fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<Esti
     let s = ImageSequence::open(dir, seq, DepthMode::Stereo, MaskMode::Auto)?;
     let [fx, fy, cx, cy] = s.intrinsics;
     let intrinsics = Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: s.fb as f32 };
-    let stereo = opt.point_depth.stereo(StereoParams::kitti().num_disparities);
-    let mut fe = FrontEnd::new(stereo, tracker_params(&opt.point_depth), s.fb as f32)?;
+    let mut fe = FrontEnd::new(opt.point_depth.stereo(1.0), opt.point_depth.tracker(), s.fb as f32)?;
     let mut frames = Vec::new();
     s.track(&mut fe, opt.max_frames.unwrap_or(usize::MAX), 1.0 / f64::from(opt.dt), |frame, timestamp_us, tracks| {
         frames.push(
@@ -173,22 +170,8 @@ fn image_sim(input: SimInput, opt: &EvalOptions, scale: f64, n: usize) -> ImageS
 /// `opt`'s frame period and point depth.
 #[cfg(feature = "images")]
 fn track_rendering(sim: &ImageSim, n: usize, opt: &EvalOptions, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
-    // Disparities scale with the image: 128 at full resolution reaches 3 m.
-    let num_disparities = ((128.0 * scale / 16.0).ceil() as i32 * 16).max(16);
-    let (stereo, tracker) = (opt.point_depth.stereo(num_disparities), tracker_params(&opt.point_depth));
+    let (stereo, tracker) = (opt.point_depth.stereo(scale), opt.point_depth.tracker());
     Ok(rendered::track_measured(sim, n, opt.dt, (stereo, tracker), None, None)?.frames)
-}
-
-/// The front-end's tracker settings with `point_depth`'s choices.
-#[cfg(feature = "images")]
-#[must_use]
-pub fn tracker_params(point_depth: &PointDepthOptions) -> TrackerParams {
-    let d = TrackerParams::default();
-    TrackerParams {
-        subpixel: if point_depth.subpixel { d.subpixel } else { None },
-        object_edge_margin_px: point_depth.object_edge_margin_px.max(0),
-        ..d
-    }
 }
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
@@ -203,8 +186,7 @@ pub fn disparity_errors(
     data: &SequenceData,
     opt: &EvalOptions,
 ) -> anyhow::Result<(DisparityErrors, FrontEndStats)> {
-    let stereo = opt.point_depth.stereo(StereoParams::kitti().num_disparities);
-    let tracker = tracker_params(&opt.point_depth);
+    let (stereo, tracker) = (opt.point_depth.stereo(1.0), opt.point_depth.tracker());
     let input = sim_input(data, &opt.classes);
     let n = frames_rendered(&input, opt);
     let sim = image_sim(input, opt, 1.0, n);

@@ -79,16 +79,25 @@ impl Default for PointDepthOptions {
     }
 }
 
+#[cfg(feature = "images")]
 impl PointDepthOptions {
-    /// The dense matcher's settings at KITTI's geometry with `num_disparities` at full
-    /// resolution.
-    #[cfg(feature = "images")]
+    /// The dense matcher's settings at KITTI's geometry for images scaled by `scale`.
     #[must_use]
-    pub fn stereo(&self, num_disparities: i32) -> dynotraj_frontend::StereoParams {
+    pub fn stereo(&self, scale: f64) -> dynotraj_frontend::StereoParams {
         dynotraj_frontend::StereoParams {
-            num_disparities,
             downscale: self.stereo_downscale,
-            ..dynotraj_frontend::StereoParams::kitti()
+            ..dynotraj_frontend::StereoParams::kitti_at_scale(scale)
+        }
+    }
+
+    /// The front-end's tracker settings with these choices.
+    #[must_use]
+    pub fn tracker(&self) -> dynotraj_frontend::TrackerParams {
+        let d = dynotraj_frontend::TrackerParams::default();
+        dynotraj_frontend::TrackerParams {
+            subpixel: if self.subpixel { d.subpixel } else { None },
+            object_edge_margin_px: self.object_edge_margin_px.max(0),
+            ..d
         }
     }
 }
