@@ -13,7 +13,7 @@ use dynotraj_core::estimate::{
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
-use dynotraj_core::predict::Forecast;
+use dynotraj_core::predict::{Context, Forecast};
 use dynotraj_core::wire::FrameDecoder;
 use dynotraj_core::{BevState, Point2};
 
@@ -76,11 +76,11 @@ fn forecasts(c: &mut Criterion) {
         let mut p = LearnedPredictor::new(blob);
         let mut out: Forecast = [Point2::default(); HORIZON];
         // A forecast that fails early (a period mismatch, a short history) would time nothing.
-        let first = p.predict_with_neighbours(&history, &neighbours, DT, &mut out);
+        let first = p.predict_in_context(&history, &Context::with_neighbours(&neighbours), DT, &mut out);
         assert!(first.is_ok(), "{name}: {first:?}");
         g.bench_function(name, |b| {
             b.iter(|| {
-                let r = p.predict_with_neighbours(black_box(&history), &neighbours, DT, &mut out);
+                let r = p.predict_in_context(black_box(&history), &Context::with_neighbours(&neighbours), DT, &mut out);
                 black_box(r.is_ok());
                 black_box(&out);
             });

@@ -68,7 +68,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let bar = progress((args.source.len() * args.predictor.len()) as u64, "scoring");
     for &source in &args.source {
         let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &rule)).collect();
-        let scenes: Vec<Scene> = seqs.iter().map(|s| Scene::new(s.tracks_for(source), source, dt)).collect();
+        let scenes: Vec<Scene> = seqs.iter().map(|s| s.scene(source, dt)).collect();
         for spec in &args.predictor {
             let loaded = LoadedPredictor::load(spec, dt)?;
             let mut forecaster = loaded.forecaster();

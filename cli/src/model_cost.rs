@@ -10,7 +10,7 @@ use clap::Args;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
 use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
-use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, PriorSettings};
+use dynotraj_core::predict::{Baseline, Context, Forecast, MotionPrior, PriorSettings};
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
@@ -63,10 +63,10 @@ fn time_per_forecast(f: &mut dyn Predictor, dt: f32, iterations: u32) -> f64 {
     let (history, other) = dynotraj_sim::cost_inputs::forecast_histories();
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out: Forecast = [Point2::default(); HORIZON];
-    let _ = f.predict_with_neighbours(&history, &neighbours, dt, &mut out);
+    let _ = f.predict_in_context(&history, &Context::with_neighbours(&neighbours), dt, &mut out);
     let start = Instant::now();
     for _ in 0..iterations {
-        let _ = f.predict_with_neighbours(black_box(&history), &neighbours, dt, &mut out);
+        let _ = f.predict_in_context(black_box(&history), &Context::with_neighbours(&neighbours), dt, &mut out);
         black_box(&out);
     }
     start.elapsed().as_secs_f64() * 1e6 / f64::from(iterations)

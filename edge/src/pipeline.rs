@@ -3,12 +3,12 @@
 use dynotraj_core::estimate::{
     EDGE_PROFILE, Estimator, EstimatorParams, EstimatorStats, Intrinsics, PoseEstimate, Pushed,
 };
-use dynotraj_core::geometry::{BevState, Point2};
+use dynotraj_core::geometry::{BevState, Point2, bev_point};
 use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ, PRIOR_STATES};
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::model::kernel::Kernel;
 use dynotraj_core::model::{Scratch, forecast};
-use dynotraj_core::predict::{Forecast, constant_velocity};
+use dynotraj_core::predict::{Context, Forecast, constant_velocity};
 use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
 use dynotraj_dsp::DspDot;
 use heapless::Vec;
@@ -326,8 +326,10 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         let mut points: Forecast = [Point2::new(0.0, 0.0); HORIZON];
         let mut long = [BevState { x: 0.0, y: 0.0, heading: 0.0, speed: 0.0 }; PRIOR_STATES];
         let long = own.long_states(&mut long);
-        let learned =
-            self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &neighbours, self.dt, &mut points));
+        // Seen from the camera the objects were placed against: the range the model reads.
+        let observer = Some(bev_point(&self.estimate.camera.translation.vector.into()));
+        let context = Context { neighbours: &neighbours, observer };
+        let learned = self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &context, self.dt, &mut points));
         let ok = match learned {
             Some(Ok(())) => true,
             Some(Err(e)) => {

@@ -165,7 +165,7 @@ impl Reference<'_> {
 
 /// The forecast of `forecaster` at instance `s` (an index into `run.states`) as scoring makes
 /// it: the history is `run.states[..=s]` (the predictor keeps the newest frames it uses), the
-/// neighbours the other runs of `scene` present at that frame.
+/// neighbours the other runs of `scene` present at that frame, the observer `scene`'s.
 ///
 /// # Errors
 /// See [`PredictError`].
@@ -177,9 +177,10 @@ pub fn forecast_at(
     dt: f32,
 ) -> Result<Forecast, PredictError> {
     let history = run.states.get(..=s).ok_or(PredictError::HistoryTooShort)?;
-    let neighbours = scene.neighbours_at(run.track_id, run.first_frame + s as u32);
+    let frame = run.first_frame + s as u32;
+    let neighbours = scene.neighbours_at(run.track_id, frame);
     let mut forecast = [Point2::default(); HORIZON];
-    forecaster.predict_with_neighbours(history, &neighbours, dt, &mut forecast)?;
+    forecaster.predict_in_context(history, &scene.context_at(&neighbours, frame), dt, &mut forecast)?;
     Ok(forecast)
 }
 

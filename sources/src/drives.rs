@@ -384,7 +384,13 @@ fn load_images_only(root: &Path, id: &str, estimate: Option<&EstimateSettings>) 
         }
         None => None,
     };
-    Ok(SequenceTracks { id: id.to_string(), frame_count: frames, tracks: Vec::new(), estimated })
+    Ok(SequenceTracks {
+        id: id.to_string(),
+        frame_count: frames,
+        tracks: Vec::new(),
+        estimated,
+        camera_path: Vec::new(),
+    })
 }
 
 #[cfg(test)]

@@ -1,8 +1,11 @@
 //! A sequence's tracks as one source sees them, indexed by frame: what a forecast at frame s
 //! may use of its own history and of its neighbours'.
 
-use dynotraj_core::BevState;
+use std::collections::BTreeMap;
+
 use dynotraj_core::limits::MAX_HISTORY;
+use dynotraj_core::predict::Context;
+use dynotraj_core::{BevState, Point2};
 
 use crate::trajectory::{ObjectTrack, Source};
 
@@ -36,6 +39,8 @@ impl SourcedRun {
 pub struct Scene {
     /// The runs, in track order then frame order.
     pub runs: Vec<SourcedRun>,
+    /// Where the observing camera is per frame, in the runs' world; empty when unknown.
+    pub observer: BTreeMap<u32, Point2>,
 }
 
 impl Scene {
@@ -52,7 +57,20 @@ impl Scene {
                 })
             })
             .collect();
-        Self { runs }
+        Self { runs, observer: BTreeMap::new() }
+    }
+
+    /// The same scene seen from `observer` (the camera's position per frame).
+    #[must_use]
+    pub fn seen_from(self, observer: BTreeMap<u32, Point2>) -> Self {
+        Self { observer, ..self }
+    }
+
+    /// What a forecast of `track_id` at `frame` knows beyond its own history: `neighbours`
+    /// ([`Scene::neighbours_at`]) and the observer at that frame.
+    #[must_use]
+    pub fn context_at<'a>(&self, neighbours: &'a [&'a [BevState]], frame: u32) -> Context<'a> {
+        Context { neighbours, observer: self.observer.get(&frame).copied() }
     }
 
     /// The run of `track_id` that holds `frame`.

@@ -7,8 +7,12 @@ use crate::estimation::cache;
 use crate::estimation::from_images::{estimate_from_images, estimate_rendered, has_images, image_files};
 use crate::estimation::settings::{EstimateSettings, SimulatedInput};
 use crate::estimation::{EstimatedTracks, estimated_tracks, image_estimated_tracks, rendered_estimated_tracks};
+use crate::scene::Scene;
 use crate::trajectory::{ObjectTrack, Source, label_tracks};
+use dynotraj_core::Point2;
+use dynotraj_core::geometry::bev_point;
 use dynotraj_formats::kitti::{SequenceData, TrackingDir};
+use std::collections::BTreeMap;
 
 /// The objects of one sequence as world-frame bird's-eye tracks.
 #[derive(Debug, Clone)]
@@ -22,6 +26,9 @@ pub struct SequenceTracks {
     /// The estimator's tracks of the same sequence, when they were asked for
     /// ([`load_sequence`] with `estimate`).
     pub estimated: Option<EstimatedTracks>,
+    /// The camera's position on the bird's-eye plane per frame (index = frame) in the labels'
+    /// world, from the ego poses; empty where there are none.
+    pub camera_path: Vec<Point2>,
 }
 
 impl SequenceTracks {
@@ -36,6 +43,24 @@ impl SequenceTracks {
             (Source::Estimated | Source::EstimatedEkf | Source::EstimatedSmoothed, None) => &[],
             _ => &self.tracks,
         }
+    }
+
+    /// Where the observing camera is at each frame in `source`'s world: the ego poses for the
+    /// label sources, the estimator's causal camera for the estimated ones; empty when unknown.
+    #[must_use]
+    pub fn observer_for(&self, source: Source) -> BTreeMap<u32, Point2> {
+        match (source, &self.estimated) {
+            (Source::Estimated | Source::EstimatedEkf | Source::EstimatedSmoothed, e) => {
+                e.as_ref().map(|e| e.observer.clone()).unwrap_or_default()
+            }
+            _ => (0u32..).zip(self.camera_path.iter().copied()).collect(),
+        }
+    }
+
+    /// The tracks of `source` at frame period `dt` as a scene, seen from [`Self::observer_for`].
+    #[must_use]
+    pub fn scene(&self, source: Source, dt: f32) -> Scene {
+        Scene::new(self.tracks_for(source), source, dt).seen_from(self.observer_for(source))
     }
 
     /// The simulator's true paths behind the estimated tracks, when there are any: `None`
@@ -133,5 +158,6 @@ pub fn ground_truth_of(id: &str, data: &SequenceData, dt: f32) -> SequenceTracks
         frame_count: data.frame_count,
         tracks: label_tracks(data, dt),
         estimated: None,
+        camera_path: data.poses.iter().map(|p| bev_point(&p.translation.vector.cast::<f32>().into())).collect(),
     }
 }

@@ -9,7 +9,6 @@ use dynotraj_core::model::blob::Precision;
 use dynotraj_core::{BevState, Point2};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::model_file::ModelFile;
-use dynotraj_sources::scene::Scene;
 use dynotraj_sources::sequence::load_ground_truth;
 use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 use dynotraj_tests::kitti_training_dir;
@@ -38,7 +37,7 @@ fn int8_forecasts_stay_within_two_centimetres_of_float() {
 
     let (mut sum_diff, mut n, mut worst_step) = (0.0f64, 0usize, 0.0f32);
     for seq in seqs.iter().filter(|s| s.id == "0000" || s.id == "0003") {
-        let scene = Scene::new(&seq.tracks, Source::Gt, dt);
+        let scene = seq.scene(Source::Gt, dt);
         for run in eligible_runs(&seq.tracks, &EligibilityRule::default()) {
             let sourced = scene.run_at(run.track_id, run.first_frame).unwrap();
             for s in run.instances() {
@@ -46,8 +45,9 @@ fn int8_forecasts_stay_within_two_centimetres_of_float() {
                 let history = &sourced.states[..=s];
                 let truth: Vec<Point2> = sourced.states[s + 1..=s + HORIZON].iter().map(BevState::position).collect();
                 let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
-                pf.predict_with_neighbours(history, &neighbours, dt, &mut a).unwrap();
-                pq.predict_with_neighbours(history, &neighbours, dt, &mut b).unwrap();
+                let context = scene.context_at(&neighbours, run.first_frame + s as u32);
+                pf.predict_in_context(history, &context, dt, &mut a).unwrap();
+                pq.predict_in_context(history, &context, dt, &mut b).unwrap();
                 sum_diff += f64::from((ade(&a, &truth).unwrap() - ade(&b, &truth).unwrap()).abs());
                 worst_step = a.iter().zip(&b).map(|(p, q)| p.distance(q)).fold(worst_step, f32::max);
                 n += 1;

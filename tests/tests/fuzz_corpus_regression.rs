@@ -201,6 +201,7 @@ fn write_seeds(root: &Path) {
         rpe: None,
         truth: vec![track],
         cameras: std::collections::BTreeMap::new(),
+        observer: std::collections::BTreeMap::new(),
         rpe_frames: [vec![], vec![], vec![]],
         frames: 3,
     };

@@ -10,6 +10,7 @@ use dynotraj_core::Point2;
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
+use dynotraj_core::predict::Context;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 use dynotraj_train::export::load_checkpoint;
@@ -58,7 +59,7 @@ fn train_writes_blobs_and_a_checkpoint_that_core_runs() {
     let history: Vec<_> =
         (0..7).map(|k| dynotraj_core::BevState { x: k as f32, y: 0.0, heading: 0.0, speed: 10.0 }).collect();
     let mut forecast = [Point2::default(); HORIZON];
-    LearnedPredictor::new(blob).predict_with_neighbours(&history, &[], 0.1, &mut forecast).unwrap();
+    LearnedPredictor::new(blob).predict_in_context(&history, &Context::NONE, 0.1, &mut forecast).unwrap();
     assert!(forecast.iter().all(|p| p.x.is_finite() && p.y.is_finite()));
     // The unicycle rollout starts at the current 10 m/s and brakes at 4 m/s^2 at most: even a
     // barely trained model goes on for at least 12.5 m in 3 s.

@@ -3,7 +3,7 @@
 
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, RpeAccumulator, ace, ade, fde};
-use dynotraj_core::predict::{Baseline, Predictor};
+use dynotraj_core::predict::{Baseline, Context, Predictor};
 use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_core::{BevState, Point2};
@@ -130,7 +130,8 @@ fn learned_inference_does_not_allocate() {
             let neighbours: [&[BevState]; 1] = [&other];
             let mut out = [Point2::default(); HORIZON];
             for _ in 0..10 {
-                p.predict_with_neighbours(&history, &neighbours, 0.05, &mut out).expect("forecast");
+                p.predict_in_context(&history, &Context::with_neighbours(&neighbours), 0.05, &mut out)
+                    .expect("forecast");
             }
             assert!(out.iter().all(|q| q.x.is_finite()));
         });

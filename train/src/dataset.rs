@@ -14,15 +14,14 @@
 
 use dynotraj_core::limits::{HORIZON, MAX_PRIOR_HISTORY, MIN_HISTORY};
 use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
-use dynotraj_core::model::features::{StepFeatures, initial_control, neighbour_sum, state_features};
+use dynotraj_core::model::features::{OwnContext, StepFeatures, initial_control, neighbour_sum, state_features};
 use dynotraj_core::predict::prior::{Controls, plan};
-use dynotraj_core::predict::{PriorSettings, unicycle_step};
+use dynotraj_core::predict::{Context, PriorSettings, unicycle_step};
 use dynotraj_core::{BevState, Point2};
 use rand::SeedableRng as _;
 use rand::seq::SliceRandom as _;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-use dynotraj_sources::scene::Scene;
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 
@@ -117,14 +116,15 @@ impl Sample {
 /// relative heading, heading rate and the prior's turn rate (see `state_features`).
 const MIRRORED_FEATURES: [usize; 6] = [1, 3, 5, 6, 7, 10];
 
-/// The sample of instance `s` of `states` (one source's consecutive states), with neighbour
-/// histories `neighbours` ending at the same frame, over motion prior `prior`. `None` when s has
-/// no earlier frame or fewer than [`HORIZON`] later ones, or a state is not finite.
+/// The sample of instance `s` of `states` (one source's consecutive states, from its run's
+/// start), in `context` (neighbour histories ending at the same frame, the observer), over
+/// motion prior `prior`. `None` when s has no earlier frame or fewer than [`HORIZON`] later
+/// ones, or a state is not finite.
 #[must_use]
 pub fn sample_at(
     states: &[BevState],
     s: usize,
-    neighbours: &[&[BevState]],
+    context: &Context<'_>,
     dt: f32,
     group: usize,
     prior: &PriorSettings,
@@ -140,9 +140,11 @@ pub fn sample_at(
     let plan = plan(history, prior, dt)?;
     let frame = plan.frame;
     let mut own = [[0.0; FEATURES]; MAX_STEPS];
-    let steps = state_features(history, &frame, dt, Some(&plan.trend), &mut own);
+    let steps =
+        state_features(history, &frame, dt, Some(&OwnContext::of(history, context.observer, plan.trend)), &mut own);
     let mut summed = [[0.0; FEATURES]; MAX_STEPS];
-    let finite: Vec<&[BevState]> = neighbours.iter().copied().filter(|h| h.iter().all(BevState::is_finite)).collect();
+    let finite: Vec<&[BevState]> =
+        context.neighbours.iter().copied().filter(|h| h.iter().all(BevState::is_finite)).collect();
     neighbour_sum(&finite, &frame, steps, dt, &mut summed);
     let mut future = [Point2::default(); HORIZON];
     for (f, st) in future.iter_mut().zip(future_states) {
@@ -174,7 +176,7 @@ pub fn sequence_samples(
     prior: &PriorSettings,
 ) -> (Vec<Sample>, usize) {
     let tracks = seq.tracks_for(source);
-    let scene = Scene::new(tracks, source, dt);
+    let scene = seq.scene(source, dt);
     let runs = eligible_runs(tracks, rule);
     let mut out = Vec::new();
     for (k, run) in runs.iter().enumerate() {
@@ -182,7 +184,7 @@ pub fn sequence_samples(
         for s in run.instances() {
             let frame = run.first_frame + s as u32;
             let neighbours = scene.neighbours_at(run.track_id, frame);
-            out.extend(sample_at(&states, s, &neighbours, dt, first_group + k, prior));
+            out.extend(sample_at(&states, s, &scene.context_at(&neighbours, frame), dt, first_group + k, prior));
         }
     }
     (out, runs.len())
@@ -252,16 +254,16 @@ mod tests {
     fn samples_follow_the_instance_rules() {
         let dt = 0.05;
         let states = line(40, 10.0, dt);
-        assert!(sample_at(&states, 0, &[], dt, 0, &PriorSettings::DEFAULT).is_none(), "no history frame");
-        assert!(sample_at(&states, 10, &[], dt, 0, &PriorSettings::DEFAULT).is_none(), "no full horizon");
-        let s = sample_at(&states, 3, &[], dt, 7, &PriorSettings::DEFAULT).unwrap();
+        assert!(sample_at(&states, 0, &Context::NONE, dt, 0, &PriorSettings::DEFAULT).is_none(), "no history frame");
+        assert!(sample_at(&states, 10, &Context::NONE, dt, 0, &PriorSettings::DEFAULT).is_none(), "no full horizon");
+        let s = sample_at(&states, 3, &Context::NONE, dt, 7, &PriorSettings::DEFAULT).unwrap();
         assert_eq!((s.steps, s.group), (4, 7));
         assert_eq!(s.own[4], [0.0; FEATURES]);
         // One frame ahead along the heading: 0.5 m.
         assert!((s.future[0].x - 0.5).abs() < 1e-4 && s.future[0].y.abs() < 1e-5);
         assert!((s.future[HORIZON - 1].x - 15.0).abs() < 1e-3);
         assert!((s.speed - 10.0).abs() < 1e-3);
-        assert_eq!(sample_at(&states, 9, &[], dt, 0, &PriorSettings::DEFAULT).unwrap().steps, MAX_STEPS);
+        assert_eq!(sample_at(&states, 9, &Context::NONE, dt, 0, &PriorSettings::DEFAULT).unwrap().steps, MAX_STEPS);
         assert!(s.constant_velocity_ade() < 1e-3);
     }
 
@@ -270,11 +272,14 @@ mod tests {
         let dt = 0.05;
         let states = line(40, 10.0, dt);
         let other: Vec<BevState> = line(40, 10.0, dt).iter().map(|s| BevState { y: s.y + 3.0, ..*s }).collect();
-        let s = sample_at(&states, 8, &[&other[2..=8]], dt, 0, &PriorSettings::DEFAULT).unwrap();
+        let s =
+            sample_at(&states, 8, &Context::with_neighbours(&[&other[2..=8]]), dt, 0, &PriorSettings::DEFAULT).unwrap();
         assert!((s.neighbours[6][1] - 0.3).abs() < 1e-5, "{:?}", s.neighbours[6]);
         let samples: Vec<Sample> = (0..10)
             .flat_map(|g| {
-                (1..5).map(move |k| sample_at(&line(40, 1.0 + k as f32, dt), k, &[], dt, g, &PriorSettings::DEFAULT))
+                (1..5).map(move |k| {
+                    sample_at(&line(40, 1.0 + k as f32, dt), k, &Context::NONE, dt, g, &PriorSettings::DEFAULT)
+                })
             })
             .flatten()
             .collect();
@@ -289,7 +294,9 @@ mod tests {
         let dt = 0.05;
         let seq = |g: usize, n: usize| {
             (0..n)
-                .filter_map(|k| sample_at(&line(40, 5.0, dt), 1 + k % 8, &[], dt, g, &PriorSettings::DEFAULT))
+                .filter_map(|k| {
+                    sample_at(&line(40, 5.0, dt), 1 + k % 8, &Context::NONE, dt, g, &PriorSettings::DEFAULT)
+                })
                 .collect::<Vec<_>>()
         };
         let split = split_by_sequence(vec![seq(0, 10), seq(1, 10), seq(2, 10), seq(3, 10)], 0.3, 2);
@@ -313,8 +320,11 @@ mod tests {
         let reflected: Vec<BevState> = turn.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
         let other: Vec<BevState> = turn.iter().map(|s| BevState { x: s.x + 4.0, y: s.y + 3.0, ..*s }).collect();
         let other_r: Vec<BevState> = other.iter().map(|s| BevState { y: -s.y, heading: -s.heading, ..*s }).collect();
-        let a = sample_at(&turn, 6, &[&other[..=6]], dt, 0, &PriorSettings::DEFAULT).unwrap().mirrored();
-        let b = sample_at(&reflected, 6, &[&other_r[..=6]], dt, 0, &PriorSettings::DEFAULT).unwrap();
+        let a = sample_at(&turn, 6, &Context::with_neighbours(&[&other[..=6]]), dt, 0, &PriorSettings::DEFAULT)
+            .unwrap()
+            .mirrored();
+        let b = sample_at(&reflected, 6, &Context::with_neighbours(&[&other_r[..=6]]), dt, 0, &PriorSettings::DEFAULT)
+            .unwrap();
         let close = |x: f32, y: f32| (x - y).abs() < 1e-3;
         assert!(
             a.own.iter().flatten().zip(b.own.iter().flatten()).all(|(x, y)| close(*x, *y)),

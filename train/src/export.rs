@@ -160,6 +160,7 @@ mod tests {
     use dynotraj_core::model::LearnedPredictor;
     use dynotraj_core::model::arch::FEATURES;
     use dynotraj_core::model::blob::ModelBlob;
+    use dynotraj_core::predict::Context;
     use dynotraj_core::predict::prior::plan;
 
     use super::*;
@@ -274,11 +275,13 @@ mod tests {
             let beside: Vec<BevState> = states.iter().map(|s| BevState { x: s.x + 5.0, y: s.y - 3.0, ..*s }).collect();
             for s in [1usize, 3, 6, 8] {
                 let neighbour = &beside[s.saturating_sub(4)..=s];
-                let sample = sample_at(states, s, &[neighbour], dt, 0, &prior).unwrap();
+                let neighbours = [neighbour];
+                let context = Context { neighbours: &neighbours, observer: Some(Point2::new(-12.0, 7.0)) };
+                let sample = sample_at(states, s, &context, dt, 0, &prior).unwrap();
                 let b = Batch::new(&[&sample], &Device::Cpu).unwrap();
                 let ours = net.forecast(&b, dt).unwrap().to_vec3::<f32>().unwrap().remove(0);
                 let mut core = [Point2::default(); HORIZON];
-                predictor.predict_with_neighbours(&states[..=s], &[neighbour], dt, &mut core).unwrap();
+                predictor.predict_in_context(&states[..=s], &context, dt, &mut core).unwrap();
                 let frame = plan(&states[..=s], &prior, dt).unwrap().frame;
                 for (a, w) in ours.iter().zip(&core) {
                     let q = frame.to_agent(w);

@@ -3,7 +3,7 @@
 //! starts.
 
 use dynotraj_core::BevState;
-use dynotraj_core::predict::PriorSettings;
+use dynotraj_core::predict::{Context, PriorSettings};
 pub use dynotraj_sim::unicycle_runs::constant_control_runs;
 
 use super::dataset::{Sample, sample_at};
@@ -15,7 +15,7 @@ pub fn samples(runs: &[Vec<BevState>], dt: f32) -> Vec<Sample> {
     runs.iter()
         .enumerate()
         .flat_map(|(g, states)| {
-            (1..states.len()).filter_map(move |s| sample_at(states, s, &[], dt, g, &PriorSettings::OFF))
+            (1..states.len()).filter_map(move |s| sample_at(states, s, &Context::NONE, dt, g, &PriorSettings::OFF))
         })
         .collect()
 }

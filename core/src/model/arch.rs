@@ -46,9 +46,14 @@
 //! rate r_i = wrap(h_i - h_(i-1)) / dt (r_0 = r_1). The feature vector is
 //! [p.x / POS_SCALE, p.y / POS_SCALE, v.x / VEL_SCALE, v.y / VEL_SCALE, a.x / ACC_SCALE,
 //! a.y / ACC_SCALE, dh / PI, rate / HEADING_RATE_SCALE, trend speed / VEL_SCALE, trend
-//! acceleration / ACC_SCALE, trend turn rate / HEADING_RATE_SCALE], each clamped to
-//! +-FEATURE_CLAMP; the last three are the prior's long-window estimates (`prior::Trend`, the
-//! same in every row; zero for neighbours).
+//! acceleration / ACC_SCALE, trend turn rate / HEADING_RATE_SCALE, age / AGE_SCALE_FRAMES,
+//! range / RANGE_SCALE], each clamped to +-FEATURE_CLAMP. The last five are the same in every
+//! row and zero for neighbours: the prior's long-window estimates (`prior::Trend`); the track's
+//! age, the states of history before the current one, counted up to `MAX_PRIOR_HISTORY`
+//! (a history is clipped at its run's start, so a young track has a short one); and the current
+//! distance from the observing camera (`predict::Context::observer`, 0 when unknown). Age and
+//! range are what the input's quality depends on: a run's first velocities and a far object's
+//! depth are the estimator's largest errors.
 //! Neighbour features use the same formulas with the neighbour's states, still in the *own*
 //! agent frame (so a neighbour's position says where it is relative to the agent); the edge
 //! LSTM's input at step i is [own features_i, sum over neighbours within NEIGHBOUR_RADIUS_M at
@@ -69,11 +74,11 @@
 //! Concatenation orders are exactly as written above: x = [h_edge, h_hist]; decoder initial
 //! input [z, x]; GRU input [u_prev, z, x].
 
-use crate::limits::{HORIZON, MAX_ACCEL, MAX_HISTORY, MAX_TURN_RATE};
+use crate::limits::{HORIZON, MAX_ACCEL, MAX_HISTORY, MAX_PRIOR_HISTORY, MAX_TURN_RATE};
 
 /// Features per history state: eight of the state itself, three of the motion prior's
-/// long-window estimates.
-pub const FEATURES: usize = 11;
+/// long-window estimates, the track's age and its range from the observer.
+pub const FEATURES: usize = 13;
 /// Most states in a history: MAX_HISTORY past frames and the current one.
 pub const MAX_STEPS: usize = MAX_HISTORY + 1;
 /// Hidden width of p(z|x).
@@ -90,6 +95,11 @@ pub const VEL_SCALE: f32 = 15.0;
 pub const ACC_SCALE: f32 = 4.0;
 /// Heading-rate standardisation, rad/s.
 pub const HEADING_RATE_SCALE: f32 = 1.0;
+/// Track-age standardisation, frames: the longest history a forecast reads, so the feature
+/// runs from 0 (a run's second frame has one past state: 1 / AGE_SCALE_FRAMES) to 1.
+pub const AGE_SCALE_FRAMES: f32 = MAX_PRIOR_HISTORY as f32;
+/// Range standardisation, metres.
+pub const RANGE_SCALE: f32 = 50.0;
 /// Standardised features are clamped to this magnitude (guards against wild inputs).
 pub const FEATURE_CLAMP: f32 = 5.0;
 /// Standardised turn-rate output times this is rad/s.

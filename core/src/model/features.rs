@@ -2,14 +2,49 @@
 //! implementation, used by host training and by ECU inference alike.
 
 use super::arch::{
-    ACC_SCALE, ACCEL_SCALE, FEATURE_CLAMP, FEATURES, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS, NEIGHBOUR_RADIUS_M,
-    POS_SCALE, TURN_RATE_SCALE, VEL_SCALE,
+    ACC_SCALE, ACCEL_SCALE, AGE_SCALE_FRAMES, FEATURE_CLAMP, FEATURES, HEADING_RATE_SCALE, MAX_NEIGHBOURS, MAX_STEPS,
+    NEIGHBOUR_RADIUS_M, POS_SCALE, RANGE_SCALE, TURN_RATE_SCALE, VEL_SCALE,
 };
 use crate::geometry::{AgentFrame, BevState, Point2, angle_diff};
+use crate::limits::MAX_PRIOR_HISTORY;
 use crate::predict::prior::Trend;
 
 /// Standardised features of up to [`MAX_STEPS`] states, oldest first.
 pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
+
+/// What only the agent's own feature rows carry; a neighbour's rows hold zeros there.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OwnContext {
+    /// The motion prior's long-window estimates of the agent.
+    pub trend: Trend,
+    /// States of history before the current one: the track's age in frames, counted up to
+    /// [`MAX_PRIOR_HISTORY`] (a forecast reads no more).
+    pub age: usize,
+    /// Distance from the observing camera at the current frame, metres; `None` when unknown.
+    pub range_m: Option<f32>,
+}
+
+impl OwnContext {
+    /// The context of `history` (oldest first, clipped at its run's start, current last) seen
+    /// from `observer`, with the prior's `trend`.
+    #[must_use]
+    pub fn of(history: &[BevState], observer: Option<Point2>, trend: Trend) -> Self {
+        let range_m = history.last().zip(observer).map(|(s, o)| s.position().distance(&o));
+        Self { trend, age: history.len().saturating_sub(1).min(MAX_PRIOR_HISTORY), range_m }
+    }
+
+    /// The standardised columns, in feature order.
+    fn columns(&self) -> [f32; 5] {
+        let t = &self.trend;
+        [
+            clamp(t.speed / VEL_SCALE),
+            clamp(t.accel / ACC_SCALE),
+            clamp(t.turn_rate / HEADING_RATE_SCALE),
+            clamp(self.age.min(MAX_PRIOR_HISTORY) as f32 / AGE_SCALE_FRAMES),
+            clamp(self.range_m.map_or(0.0, |r| r / RANGE_SCALE)),
+        ]
+    }
+}
 
 fn clamp(v: f32) -> f32 {
     if v.is_nan() { 0.0 } else { v.clamp(-FEATURE_CLAMP, FEATURE_CLAMP) }
@@ -21,14 +56,13 @@ fn newest(states: &[BevState]) -> &[BevState] {
 }
 
 /// Features of `states` (oldest first; the newest [`MAX_STEPS`] are used) in `frame`, written to
-/// `out[..n]`; returns n. Rows past n are zeroed. `trend` (the motion prior's long-window
-/// estimates of the agent) fills the last three columns of every row; neighbours have none
-/// (zeros).
+/// `out[..n]`; returns n. Rows past n are zeroed. `own` (the agent's trend, age and range) fills
+/// the last five columns of every row; neighbours have none (zeros).
 pub fn state_features(
     states: &[BevState],
     frame: &AgentFrame,
     dt: f32,
-    trend: Option<&Trend>,
+    own: Option<&OwnContext>,
     out: &mut StepFeatures,
 ) -> usize {
     let states = newest(states);
@@ -56,9 +90,7 @@ pub fn state_features(
         *v0 = *v1;
         *r0 = *r1;
     }
-    let long = trend.map_or([0.0; 3], |t| {
-        [clamp(t.speed / VEL_SCALE), clamp(t.accel / ACC_SCALE), clamp(t.turn_rate / HEADING_RATE_SCALE)]
-    });
+    let long = own.map_or([0.0; 5], OwnContext::columns);
     let mut prev_v: Option<Point2> = None;
     for (((row, s), (p, v)), r) in out.iter_mut().zip(states).zip(pos.iter().zip(&vel)).zip(&turn) {
         let a = prev_v.map_or(Point2::default(), |pv| rate(*v, pv));
@@ -74,6 +106,8 @@ pub fn state_features(
             long[0],
             long[1],
             long[2],
+            long[3],
+            long[4],
         ];
         prev_v = Some(*v);
     }
@@ -173,6 +207,28 @@ mod tests {
         assert!(a[3][0].abs() < 1e-6 && a[3][1].abs() < 1e-6 && a[3][6].abs() < 1e-6);
         // Constant 1 m per frame along the heading frame's x: vx = 10 m/s.
         assert!(a[2][2] > 0.0 && a[4] == [0.0; FEATURES]);
+    }
+
+    #[test]
+    fn age_and_range_fill_every_own_row_and_no_neighbour_row() {
+        let run: [BevState; 30] = core::array::from_fn(|i| st(i as f32, 0.0, 0.0));
+        let observer = Point2::new(-20.0, 0.0);
+        let young = OwnContext::of(&run[..3], Some(observer), Trend::default());
+        let old = OwnContext::of(&run, Some(observer), Trend::default());
+        assert_eq!((young.age, old.age), (2, MAX_PRIOR_HISTORY), "age counts past states, up to the cap");
+        assert!((young.range_m.unwrap() - 22.0).abs() < 1e-5);
+        let mut out = [[0.0; FEATURES]; MAX_STEPS];
+        let n = state_features(&run[..3], &AgentFrame::of(&run[2]), 0.1, Some(&young), &mut out);
+        for row in &out[..n] {
+            assert!((row[11] - 2.0 / AGE_SCALE_FRAMES).abs() < 1e-6 && (row[12] - 22.0 / RANGE_SCALE).abs() < 1e-6);
+        }
+        let unknown = OwnContext::of(&run, None, Trend::default());
+        state_features(&run, &AgentFrame::of(&run[29]), 0.1, Some(&unknown), &mut out);
+        assert_eq!((out[0][11], out[0][12]), (1.0, 0.0), "an unknown observer reads as range 0");
+        let mut summed = [[0.0; FEATURES]; MAX_STEPS];
+        let near: [&[BevState]; 1] = [&run[..3]];
+        neighbour_sum(&near, &AgentFrame::of(&run[2]), 3, 0.1, &mut summed);
+        assert!(summed[..3].iter().all(|r| r[8..] == [0.0; 5]), "neighbours carry no trend, age or range");
     }
 
     #[test]

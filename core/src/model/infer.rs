@@ -7,12 +7,12 @@ use super::arch::{
 use super::blob::ModelBlob;
 use super::blob::Precision;
 use super::dot::{Int8Dot, PortableDot};
-use super::features::{StepFeatures, initial_control, neighbour_sum, state_features};
+use super::features::{OwnContext, StepFeatures, initial_control, neighbour_sum, state_features};
 use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
 use crate::geometry::BevState;
 use crate::limits::HORIZON;
 use crate::predict::prior::{Rollout, plan};
-use crate::predict::{Forecast, PredictError, Predictor, checked_history_of};
+use crate::predict::{Context, Forecast, PredictError, Predictor, checked_history_of};
 
 /// Largest gate vector: four LSTM gates of the widest encoder, or three GRU gates.
 const MAX_GATES: usize = if 4 * MAX_ENC > 3 * MAX_DEC { 4 * MAX_ENC } else { 3 * MAX_DEC };
@@ -92,46 +92,48 @@ impl<'a, D: Int8Dot> LearnedPredictor<'a, D> {
         self.kernel.blob()
     }
 
-    /// Forecasts from `history` (oldest first, current last) with `neighbours` (each a history
-    /// of another object ending at the same current frame). `dt` must be the frame period the
-    /// model was trained at.
+    /// Forecasts from `history` (oldest first, current last, clipped at its run's start: its
+    /// length is the track's age) in `context` (the other objects, each a history ending at the
+    /// same current frame; the observer). `dt` must be the frame period the model was trained at.
     ///
     /// # Errors
     /// See [`PredictError`]; a frame period that differs from the model's is `BadFramePeriod`.
-    pub fn predict_with_neighbours(
+    pub fn predict_in_context(
         &mut self,
         history: &[BevState],
-        neighbours: &[&[BevState]],
+        context: &Context<'_>,
         dt: f32,
         out: &mut Forecast,
     ) -> Result<(), PredictError> {
-        forecast(&self.kernel, &mut self.scratch, history, neighbours, dt, out)
+        forecast(&self.kernel, &mut self.scratch, history, context, dt, out)
     }
 }
 
-/// [`LearnedPredictor::predict_with_neighbours`] over a kernel and working memory held apart:
-/// an edge keeps its [`Scratch`] in its static state and only the small kernel changes with the
+/// [`LearnedPredictor::predict_in_context`] over a kernel and working memory held apart: an
+/// edge keeps its [`Scratch`] in its static state and only the small kernel changes with the
 /// model.
 ///
 /// # Errors
-/// See [`LearnedPredictor::predict_with_neighbours`].
+/// See [`LearnedPredictor::predict_in_context`].
 pub fn forecast<D: Int8Dot>(
     kernel: &Kernel<'_, D>,
     s: &mut Scratch,
     history: &[BevState],
-    neighbours: &[&[BevState]],
+    context: &Context<'_>,
     dt: f32,
     out: &mut Forecast,
 ) -> Result<(), PredictError> {
     let prior = kernel.blob().prior();
+    let full = history;
     let history = checked_history_of(history, dt, prior.states())?;
     let trained = kernel.blob().frame_period_s();
     if (dt - trained).abs() > 1e-4 * trained {
         return Err(PredictError::BadFramePeriod);
     }
     let Some(plan) = plan(history, prior, dt) else { return Err(PredictError::HistoryTooShort) };
-    let n = state_features(history, &plan.frame, dt, Some(&plan.trend), &mut s.own);
-    neighbour_sum(neighbours, &plan.frame, n, dt, &mut s.neighbours);
+    let own = OwnContext::of(full, context.observer, plan.trend);
+    let n = state_features(history, &plan.frame, dt, Some(&own), &mut s.own);
+    neighbour_sum(context.neighbours, &plan.frame, n, dt, &mut s.neighbours);
     let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
     let mut rollout = Rollout::new(&plan, dt);
     forward(kernel, s, n, u0, |t, residual| {
@@ -145,17 +147,17 @@ pub fn forecast<D: Int8Dot>(
 
 impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
-        LearnedPredictor::predict_with_neighbours(self, history, &[], dt, out)
+        LearnedPredictor::predict_in_context(self, history, &Context::NONE, dt, out)
     }
 
-    fn predict_with_neighbours(
+    fn predict_in_context(
         &mut self,
         history: &[BevState],
-        neighbours: &[&[BevState]],
+        context: &Context<'_>,
         dt: f32,
         out: &mut Forecast,
     ) -> Result<(), PredictError> {
-        LearnedPredictor::predict_with_neighbours(self, history, neighbours, dt, out)
+        LearnedPredictor::predict_in_context(self, history, context, dt, out)
     }
 }
 
@@ -370,8 +372,9 @@ mod tests {
             let other = [BevState { x: 10.0, y: 3.0, heading: 0.0, speed: 5.0 }; 4];
             let nb: [&[BevState]; 1] = [&other];
             let (mut a, mut b) = ([Point2::default(); HORIZON], [Point2::default(); HORIZON]);
-            pf.predict_with_neighbours(&h, &nb, 0.05, &mut a).unwrap();
-            pq.predict_with_neighbours(&h, &nb, 0.05, &mut b).unwrap();
+            let context = Context { neighbours: &nb, observer: Some(Point2::new(-30.0, 4.0)) };
+            pf.predict_in_context(&h, &context, 0.05, &mut a).unwrap();
+            pq.predict_in_context(&h, &context, 0.05, &mut b).unwrap();
             let mean: f32 = a.iter().zip(&b).map(|(p, q)| p.distance(q)).sum::<f32>() / HORIZON as f32;
             assert!(mean < 0.1, "{dims:?}: int8 strays {mean} m from float");
             // The forecast starts near the current position and moves.

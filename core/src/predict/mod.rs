@@ -42,21 +42,42 @@ pub trait Predictor {
     /// See [`PredictError`].
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError>;
 
-    /// [`Self::predict`] knowing the other objects: `neighbours` are their histories, each
-    /// ending at the same current frame. A predictor that reads only its own object's history
-    /// (the baselines, the motion prior) ignores them.
+    /// [`Self::predict`] knowing what else the scene holds (`context`: the other objects, the
+    /// observer). A predictor that reads only its own object's history (the baselines, the
+    /// motion prior) ignores it.
     ///
     /// # Errors
     /// See [`PredictError`].
-    fn predict_with_neighbours(
+    fn predict_in_context(
         &mut self,
         history: &[BevState],
-        neighbours: &[&[BevState]],
+        context: &Context<'_>,
         dt: f32,
         out: &mut Forecast,
     ) -> Result<(), PredictError> {
-        let _ = neighbours;
+        let _ = context;
         self.predict(history, dt, out)
+    }
+}
+
+/// What a forecast may know beyond its object's own history.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Context<'a> {
+    /// The other objects' histories, each ending at the same current frame.
+    pub neighbours: &'a [&'a [BevState]],
+    /// Where the observing camera is at the current frame, in the histories' world, when known:
+    /// the object's range from it says how far its depth can be trusted.
+    pub observer: Option<Point2>,
+}
+
+impl<'a> Context<'a> {
+    /// Nothing beyond the object's own history.
+    pub const NONE: Context<'static> = Context { neighbours: &[], observer: None };
+
+    /// The other objects' histories, the observer unknown.
+    #[must_use]
+    pub const fn with_neighbours(neighbours: &'a [&'a [BevState]]) -> Self {
+        Self { neighbours, observer: None }
     }
 }
 

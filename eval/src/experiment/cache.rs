@@ -189,7 +189,7 @@ mod tests {
             frames: vec![0, 1],
             states: vec![BevState::default(), BevState { x, ..BevState::default() }],
         };
-        SequenceTracks { id: id.into(), frame_count: 2, tracks: vec![track], estimated: None }
+        SequenceTracks { id: id.into(), frame_count: 2, tracks: vec![track], estimated: None, camera_path: Vec::new() }
     }
 
     #[test]

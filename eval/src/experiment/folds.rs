@@ -176,7 +176,7 @@ mod tests {
                 states,
             })
             .collect();
-        SequenceTracks { id: id.into(), frame_count: 50, tracks, estimated: None }
+        SequenceTracks { id: id.into(), frame_count: 50, tracks, estimated: None, camera_path: Vec::new() }
     }
 
     fn config(jobs: usize) -> ExperimentConfig {

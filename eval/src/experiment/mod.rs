@@ -308,11 +308,8 @@ pub fn score_seed(
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
         })
         .collect();
-    let scenes_by_arm: Vec<Vec<Scene>> = config
-        .arms
-        .iter()
-        .map(|&a| tests.iter().map(|s| Scene::new(s.tracks_for(a), a, config.dt)).collect())
-        .collect();
+    let scenes_by_arm: Vec<Vec<Scene>> =
+        config.arms.iter().map(|&a| tests.iter().map(|s| s.scene(a, config.dt)).collect()).collect();
     let world_yaws: Vec<Option<std::collections::BTreeMap<u32, f32>>> = tests
         .iter()
         .map(|t| t.estimated.as_ref().map(dynotraj_sources::estimation::EstimatedTracks::world_yaw))

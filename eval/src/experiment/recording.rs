@@ -69,7 +69,7 @@ pub fn write_recordings(
         let prepared: Vec<ArmRuns> = arms
             .iter()
             .map(|&arm| {
-                let scene = Scene::new(seq.tracks_for(arm), arm, dt);
+                let scene = seq.scene(arm, dt);
                 // Each eligible run's index in the scene and its test instances.
                 let runs = eligible_runs(seq.tracks_for(arm), rule)
                     .iter()

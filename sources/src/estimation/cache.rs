@@ -28,8 +28,8 @@ use dynotraj_formats::kitti::SequenceData;
 /// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame; 6: and the
 /// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept;
 /// 8: files end in a checksum; 9: the causal camera is its current estimate, the pose the
-/// objects are placed against).
-pub const ESTIMATE_CACHE_VERSION: u32 = 9;
+/// objects are placed against; 10: the causal camera's position on every input).
+pub const ESTIMATE_CACHE_VERSION: u32 = 10;
 
 /// The checksum every cache file ends in.
 const FILE_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
@@ -188,6 +188,7 @@ mod tests {
                 },
             )]
             .into(),
+            observer: [(4, dynotraj_core::Point2::new(1.1, 2.0))].into(),
             rpe_frames: [
                 vec![],
                 vec![crate::estimation::score::FrameRpe {
@@ -223,6 +224,7 @@ mod tests {
             rpe: None,
             truth: vec![track],
             cameras: std::collections::BTreeMap::new(),
+            observer: std::collections::BTreeMap::new(),
             rpe_frames: [vec![], vec![], vec![]],
             frames: 3,
         };

@@ -82,6 +82,10 @@ pub struct EstimatedTracks {
     /// world into the truth's ([`EstimatedTracks::world_yaw`]) and places an object relative to
     /// the vehicle in both (the experiment's error budget). Empty on real images.
     pub cameras: std::collections::BTreeMap<u32, CameraPair>,
+    /// Per frame: the causal estimate of the camera's position on the bird's-eye plane, in the
+    /// estimator's world, on every input (real images too): where its tracks are seen from,
+    /// which the forecaster's range feature reads.
+    pub observer: std::collections::BTreeMap<u32, dynotraj_core::Point2>,
     /// Per output kind, in [`Kind::ALL`] order: the translational RPE of each frame against the
     /// simulator's truth (the pairs behind `rpe`, over time); empty on real images.
     pub rpe_frames: [Vec<FrameRpe>; 3],
@@ -142,6 +146,7 @@ impl EstimatedTracks {
                 Some((f.frame, CameraPair { truth: bev(&f.camera.cast::<f32>()), estimate: bev(&e.camera) }))
             })
             .collect();
+        let observer = run.of(Kind::Causal).iter().flatten().map(|e| (e.frame, bev(&e.camera).position())).collect();
         let moving = moving_objects(sim, min_step_m);
         let rpe_frames =
             Kind::ALL.map(|k| if sim.is_empty() { Vec::new() } else { rpe_over_time(sim, run.of(k), &moving) });
@@ -152,6 +157,7 @@ impl EstimatedTracks {
             rpe,
             truth: truth_tracks(sim),
             cameras,
+            observer,
             rpe_frames,
             frames: run.causal.len(),
         }

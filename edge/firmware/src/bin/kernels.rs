@@ -14,7 +14,7 @@ use dynotraj_core::model::arch::TENSORS;
 use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
 use dynotraj_core::model::kernel::MAX_AFFINE_IN;
 use dynotraj_core::model::{Dims, Int8Dot, LearnedPredictor, PortableDot};
-use dynotraj_core::predict::PriorSettings;
+use dynotraj_core::predict::{Context, PriorSettings};
 use dynotraj_dsp::DspDot;
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
 use dynotraj_firmware::{clock, logger};
@@ -154,12 +154,12 @@ fn forecast_cost<D: Int8Dot>(mut p: LearnedPredictor<'_, D>) -> (u64, [Point2; H
         core::array::from_fn(|i| BevState { x: 0.4 * i as f32, y: 4.0, heading: 0.0, speed: 8.0 });
     let neighbours: [&[BevState]; 1] = [&other];
     let mut out = [Point2::default(); HORIZON];
-    if p.predict_with_neighbours(&history, &neighbours, DT, &mut out).is_err() {
+    if p.predict_in_context(&history, &Context::with_neighbours(&neighbours), DT, &mut out).is_err() {
         fail("a random-weight forecast was refused");
     }
     let start = clock::ticks();
     for _ in 0..REPEATS {
-        let _ = p.predict_with_neighbours(&history, &neighbours, DT, &mut out);
+        let _ = p.predict_in_context(&history, &Context::with_neighbours(&neighbours), DT, &mut out);
     }
     ((clock::ticks() - start) * clock::INSTRUCTIONS_PER_TICK / REPEATS, out)
 }

@@ -76,7 +76,7 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
     let (seq, track) = (subject.seq, subject.track);
     let mut paths = Vec::new();
     for (i, source) in sources(seq, inputs.arms).into_iter().enumerate() {
-        let scene = Scene::new(seq.tracks_for(source), source, inputs.dt);
+        let scene = seq.scene(source, inputs.dt);
         let segments = segments_of(&scene, track);
         if !segments.is_empty() {
             let style = Style { colour: Colour::Palette(i), dashed: false };

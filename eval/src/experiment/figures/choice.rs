@@ -192,7 +192,7 @@ mod tests {
                 states: (0..frames).map(|k| BevState { x: k as f32, ..BevState::default() }).collect(),
             })
             .collect();
-        SequenceTracks { id: id.into(), frame_count: 100, tracks, estimated: None }
+        SequenceTracks { id: id.into(), frame_count: 100, tracks, estimated: None, camera_path: Vec::new() }
     }
 
     #[test]

@@ -105,8 +105,8 @@ pub fn write(dir: &Path, subject: &Subject<'_>, inputs: &FigureInputs<'_>) -> an
         dashed: true,
         forecaster: Box::new(Baseline::ConstantVelocity),
     });
-    let labels = Scene::new(&seq.tracks, Source::Gt, dt);
-    let scenes: Vec<Scene> = arms.iter().map(|a| Scene::new(seq.tracks_for(a.source), a.source, dt)).collect();
+    let labels = seq.scene(Source::Gt, dt);
+    let scenes: Vec<Scene> = arms.iter().map(|a| seq.scene(a.source, dt)).collect();
     let world_yaw = seq.estimated.as_ref().map(dynotraj_sources::estimation::EstimatedTracks::world_yaw);
     let mut panels = Vec::new();
     for &frame in &chosen {

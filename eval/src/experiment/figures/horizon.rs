@@ -12,7 +12,6 @@ use super::time_axis::horizon_label;
 use super::{Figure, FigureInputs};
 use crate::forecast_eval::{HorizonErrors, score_sequence};
 use crate::report::chart::{Chart, Colour, Series, Style, write_chart};
-use dynotraj_sources::scene::Scene;
 use dynotraj_sources::trajectory::{Source, eligible_runs};
 
 /// One arm's pooled errors: its int8 model's, its prior's, constant velocity's, the sequences
@@ -40,7 +39,7 @@ fn arm_errors(inputs: &FigureInputs<'_>) -> Vec<ArmErrors> {
             let Some(model) = inputs.models.get(arm, &seq.id) else { continue };
             let tracks = seq.tracks_for(arm);
             let runs = eligible_runs(tracks, inputs.rule);
-            let scene = Scene::new(tracks, arm, inputs.dt);
+            let scene = seq.scene(arm, inputs.dt);
             e.learned.merge(&score_sequence(&runs, &scene, &mut model.predictor(), inputs.dt).horizon);
             let mut prior = MotionPrior(*model.blob().prior());
             e.prior.merge(&score_sequence(&runs, &scene, &mut prior, inputs.dt).horizon);

@@ -12,13 +12,12 @@ use super::time_axis::{seconds, time_label};
 use super::{Figure, FigureInputs};
 use crate::forecast_eval::score_sequence;
 use crate::report::chart::{Chart, Series, write_chart};
-use dynotraj_sources::scene::Scene;
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{Source, eligible_runs};
 
 /// The states of `track_id` through `source`, as (frame, state) in frame order.
 fn states_of(seq: &SequenceTracks, source: Source, track_id: i32, dt: f32) -> Vec<(u32, BevState)> {
-    let scene = Scene::new(seq.tracks_for(source), source, dt);
+    let scene = seq.scene(source, dt);
     scene
         .runs
         .iter()
@@ -152,7 +151,7 @@ fn ace_figure(
         let tracks = seq.tracks_for(arm);
         let runs: Vec<_> =
             eligible_runs(tracks, inputs.rule).into_iter().filter(|r| r.track_id == subject.track).collect();
-        let scene = Scene::new(tracks, arm, dt);
+        let scene = seq.scene(arm, dt);
         let scores = score_sequence(&runs, &scene, &mut predictor, dt);
         series.push(Series::new(
             format!("learned int8 on {arm}"),
