@@ -17,13 +17,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
+use dynotraj_core::model::arch::FEATURES;
 use dynotraj_core::predict::PriorSettings;
 
 use super::FoldReport;
 use dynotraj_train::TrainConfig;
 
-/// Version of what training computes; part of every key.
-pub const CACHE_VERSION: u32 = 4;
+/// Version of what training computes; part of every key (5: the camera's path is a training
+/// input).
+pub const CACHE_VERSION: u32 = 5;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,7 +50,7 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
     let settings = format!(
-        "v{CACHE_VERSION} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {} {:?}",
+        "v{CACHE_VERSION} f{FEATURES} {:?} {:?} {} {:?} {:?} {:?} {} {} {} {} {:?}",
         train.source,
         train.exclude,
         train.dt,
@@ -72,6 +74,12 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
                 for v in [s.x, s.y, s.heading, s.speed] {
                     d.update(&v.to_bits().to_le_bytes());
                 }
+            }
+        }
+        for (f, p) in seq.observer_for(train.source) {
+            d.update(&f.to_le_bytes());
+            for v in [p.x, p.y] {
+                d.update(&v.to_bits().to_le_bytes());
             }
         }
     }
@@ -102,7 +110,10 @@ impl FoldCache {
             match dynotraj_core::model::blob::ModelBlob::parse_exact(&bytes) {
                 Ok(_) => Some(bytes),
                 Err(e) => {
-                    log::warn!("{}: a damaged fold cache file ({e}); the fold is trained again", path.display());
+                    log::warn!(
+                        "{}: a fold cache file this build cannot read ({e}); the fold is trained again",
+                        path.display()
+                    );
                     None
                 }
             }
@@ -177,8 +188,8 @@ impl FoldCache {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dynotraj_core::BevState;
     use dynotraj_core::wire::ObjectClass;
+    use dynotraj_core::{BevState, Point2};
     use dynotraj_sources::sequence::SequenceTracks;
     use dynotraj_sources::trajectory::{ObjectTrack, Source};
 
@@ -202,6 +213,10 @@ mod tests {
         assert_eq!(key, fold_key(&TrainConfig::new(&b, vec!["0000".into()], Source::Gt)));
         let c = [seq("0000", 1.0), seq("0001", 2.5)];
         assert_ne!(key, fold_key(&TrainConfig::new(&c, vec!["0000".into()], Source::Gt)));
+        // So does where the training sequence's camera was (the range feature).
+        let mut seen = [seq("0000", 1.0), seq("0001", 2.0)];
+        seen[1].camera_path = vec![Point2::new(0.0, 0.0), Point2::new(0.0, 1.0)];
+        assert_ne!(key, fold_key(&TrainConfig::new(&seen, vec!["0000".into()], Source::Gt)));
         assert_ne!(key, fold_key(&TrainConfig::new(&a, vec!["0000".into()], Source::GtEkf)));
         let mut other = TrainConfig::new(&a, vec!["0000".into()], Source::Gt);
         other.hyper.seed += 1;
