@@ -76,9 +76,9 @@ impl DepthMap {
             return match refine_from_coarse_start(&l, &r, u, v, start, same_instance, p) {
                 Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
                 Err(Refused::Flat) => (Some(fb / start), PointDepthOutcome::KeptDense),
-                // Too few of the patch's pixels are the point's own: a sliver of the instance,
-                // narrower than what a downscaled map resolves, so its value is the neighbour's
-                // as often as not.
+                // A patch too small is mostly a sliver of the instance (too few of its pixels the
+                // point's own), narrower than what a downscaled map resolves, so the map's value
+                // there is the neighbouring surface's as often as not.
                 Err(Refused::SmallPatch | Refused::Diverged | Refused::Mismatch) => {
                     ((!p.drop_refused).then(|| fb / start), PointDepthOutcome::Refused)
                 }

@@ -91,7 +91,7 @@ pub struct CoarseStart {
     pub search_px: f32,
     /// Spacing of the scored disparities, pixels.
     pub step_px: f32,
-    /// The best score must be at most this fraction of the best score a pixel or more away from
+    /// The best score must be below this fraction of the best score a pixel or more away from
     /// it, else the search gives nothing (repeated or ambiguous texture).
     pub uniqueness: f32,
 }
