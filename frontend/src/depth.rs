@@ -6,7 +6,7 @@ use opencv::prelude::*;
 
 use super::error::{FrontEndError, cv};
 use super::stereo::DisparityMap;
-use super::subpixel::{GreyView, Refused, SubpixelParams, refine_disparity};
+use super::subpixel::{GreyView, Refused, SubpixelParams, refine_disparity, refine_from_coarse_start};
 
 /// Where a frame's depth comes from.
 #[derive(Debug, Clone)]
@@ -56,8 +56,10 @@ impl DepthMap {
     /// `params`, the dense map's disparity refined to sub-pixel by [`refine_disparity`] over the
     /// patch pixels that `same_instance` accepts; the dense value where the patch is too flat or
     /// small to refine; nothing, or the dense value without
-    /// [`SubpixelParams::drop_refused`], where the refinement was refused. Otherwise (a given
-    /// depth map, no parameters, no dense value) as [`Self::at`].
+    /// [`SubpixelParams::drop_refused`], where the refinement was refused. From a downscaled
+    /// map, the start is the median over the instance ([`DisparityMap::median_within`]), the
+    /// refinement is [`refine_from_coarse_start`] and a patch too small to refine counts as
+    /// refused. Otherwise (a given depth map, no parameters, no dense value) as [`Self::at`].
     pub fn at_point(
         &self,
         u: f32,
@@ -69,6 +71,19 @@ impl DepthMap {
         let Self::Stereo { disparity, fb, pair: Some((left, right)) } = self else { return dense() };
         let (Some(p), Some(start)) = (params, disparity.at(u, v)) else { return dense() };
         let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return dense() };
+        if disparity.downscale > 1 {
+            let start = disparity.median_within(u, v, p.coarse.radius_px, &same_instance).unwrap_or(start);
+            return match refine_from_coarse_start(&l, &r, u, v, start, same_instance, p) {
+                Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
+                Err(Refused::Flat) => (Some(fb / start), PointDepthOutcome::KeptDense),
+                // A patch too small is mostly a sliver of the instance (too few of its pixels the
+                // point's own), narrower than what a downscaled map resolves, so the map's value
+                // there is the neighbouring surface's as often as not.
+                Err(Refused::SmallPatch | Refused::Diverged | Refused::Mismatch) => {
+                    ((!p.drop_refused).then(|| fb / start), PointDepthOutcome::Refused)
+                }
+            };
+        }
         match refine_disparity(&l, &r, u, v, start, same_instance, p) {
             Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
             Err(Refused::Flat | Refused::SmallPatch) => (Some(fb / start), PointDepthOutcome::KeptDense),
@@ -86,9 +101,11 @@ pub enum PointDepthOutcome {
     Dense,
     /// Refined to sub-pixel.
     Refined,
-    /// The dense value: the patch was too flat or small to refine.
+    /// The dense value: the patch was too flat or small to refine (from a downscaled map: too
+    /// flat).
     KeptDense,
-    /// The refinement was refused (diverged or mismatched).
+    /// The refinement was refused (diverged or mismatched; from a downscaled map also a patch
+    /// too small).
     Refused,
 }
 

@@ -73,6 +73,45 @@ impl DisparityMap {
         let d = *self.disparity.at_2d::<f32>(y, x).ok()?;
         (d.is_finite() && d > 0.0).then_some(d)
     }
+
+    /// The median disparity of the map's pixels whose centres lie within `radius` full-resolution
+    /// pixels of `(u, v)` (per axis) and whose whole footprint at full resolution `keep` accepts;
+    /// `None` without such a pixel. Near a mask's edge the nearest pixel of a downscaled map often
+    /// straddles the edge and carries the other surface's disparity.
+    #[must_use]
+    pub fn median_within(&self, u: f32, v: f32, radius: f32, keep: impl Fn(i64, i64) -> bool) -> Option<f32> {
+        let s = self.downscale.max(1);
+        let sf = s as f32;
+        // Map pixel x covers full-resolution pixels s x .. s x + s - 1, centre s x + (s - 1) / 2.
+        let c = (sf - 1.0) / 2.0;
+        let range = |p: f32, len: i32| {
+            let lo = ((p - radius - c) / sf).ceil().max(0.0) as i32;
+            let hi = ((p + radius - c) / sf).floor().min(len as f32 - 1.0) as i32;
+            lo..=hi
+        };
+        let mut found = Vec::new();
+        for y in range(v, self.disparity.rows()) {
+            let Ok(row) = self.disparity.at_row::<f32>(y) else { continue };
+            for x in range(u, self.disparity.cols()) {
+                let Some(&d) = row.get(x as usize) else { continue };
+                if !(d.is_finite() && d > 0.0) {
+                    continue;
+                }
+                let (x0, y0) = (i64::from(x * s), i64::from(y * s));
+                let s = i64::from(s);
+                if (0..s).all(|dy| (0..s).all(|dx| keep(x0 + dx, y0 + dy))) {
+                    found.push(d);
+                }
+            }
+        }
+        found.sort_by(f32::total_cmp);
+        let m = found.len() / 2;
+        match found.len() {
+            0 => None,
+            n if n % 2 == 1 => found.get(m).copied(),
+            _ => Some(0.5 * (found.get(m - 1)? + found.get(m)?)),
+        }
+    }
 }
 
 /// The semi-global matcher of [`StereoParams`].
@@ -204,4 +243,29 @@ pub fn d1_error(est: &DisparityMap, truth: &Mat) -> Result<D1, FrontEndError> {
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use opencv::core::Scalar;
+
+    #[test]
+    fn the_median_over_the_instance_leaves_out_map_pixels_straddling_its_edge() {
+        // A half-size map, 10 x 6: the other surface's 30 px up to map column 4 (image columns
+        // 0-9), the instance's 8 px beyond; the instance starts at image column 9.
+        let mut m = Mat::new_rows_cols_with_default(6, 10, CV_32F, Scalar::all(8.0)).unwrap();
+        for y in 0..6 {
+            for x in 0..5 {
+                *m.at_2d_mut::<f32>(y, x).unwrap() = 30.0;
+            }
+        }
+        let map = DisparityMap { disparity: m, downscale: 2 };
+        let own = |x: i64, _: i64| x >= 9;
+        assert_eq!(map.at(8.6, 5.0), Some(30.0));
+        assert_eq!(map.median_within(8.6, 5.0, 3.0, own), Some(8.0));
+        assert_eq!(map.median_within(8.6, 5.0, 3.0, |_, _| false), None);
+        // Without the instance, the median over the window: columns 3-5 of three rows, 30 twice.
+        assert_eq!(map.median_within(8.6, 5.0, 3.0, |_, _| true), Some(30.0));
+    }
 }

@@ -13,6 +13,11 @@
 //! - The result is refused (the caller keeps nothing) when the patch has too little texture
 //!   along the row, when the fit moves further than `max_shift_px` from the start (it left the
 //!   start's basin) or when the aligned patches still differ by more than `max_residual`.
+//! - A start from a downscaled matcher ([`refine_from_coarse_start`]) can lie a pixel or more
+//!   off, outside the true match's basin. Where the fit from it is refused, the disparities
+//!   around it are scored by the same normalised patch difference and the fit is run again from
+//!   the best, if that one is unambiguous. The search is kept for refused fits only: run on
+//!   every point it also moves starts that were good onto neighbouring texture edges.
 
 /// A grey image borrowed as rows of bytes.
 #[derive(Debug, Clone, Copy)]
@@ -69,6 +74,32 @@ pub struct SubpixelParams {
     /// What the tracker does with a point whose refinement diverged or mismatched: send nothing
     /// (true) or the dense value (false).
     pub drop_refused: bool,
+    /// How a start from a downscaled dense matcher is used.
+    pub coarse: CoarseStart,
+}
+
+/// How the refinement treats a start from a dense matcher run on downscaled images: one map pixel
+/// spans several image pixels, so its value is off by up to a couple of pixels and, near a mask's
+/// edge, often belongs to the other surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoarseStart {
+    /// The start is the median of the map's pixels within this many image pixels of the point
+    /// (per axis) that lie wholly on the point's instance, pixels.
+    pub radius_px: f32,
+    /// Where the fit from the start is refused, disparities up to this far from it are scored,
+    /// pixels.
+    pub search_px: f32,
+    /// Spacing of the scored disparities, pixels.
+    pub step_px: f32,
+    /// The best score must be below this fraction of the best score a pixel or more away from
+    /// it, else the search gives nothing (repeated or ambiguous texture).
+    pub uniqueness: f32,
+}
+
+impl Default for CoarseStart {
+    fn default() -> Self {
+        Self { radius_px: 3.0, search_px: 1.0, step_px: 0.5, uniqueness: 0.5 }
+    }
 }
 
 impl Default for SubpixelParams {
@@ -82,6 +113,7 @@ impl Default for SubpixelParams {
             max_residual: 0.5,
             min_pixels: 24,
             drop_refused: true,
+            coarse: CoarseStart::default(),
         }
     }
 }
@@ -113,6 +145,86 @@ pub fn refine_disparity(
     same_instance: impl Fn(i64, i64) -> bool,
     p: &SubpixelParams,
 ) -> Result<f32, Refused> {
+    let offsets = patch(u, v, same_instance, p)?;
+    align(left, right, &offsets, start, p)
+}
+
+/// As [`refine_disparity`] from a downscaled matcher's `start`: where the fit from it diverges or
+/// mismatches, it is run again from the best-scoring disparity within
+/// [`CoarseStart::search_px`] of the start (module docs).
+///
+/// # Errors
+/// Why no disparity was found ([`Refused`]); [`Refused::Mismatch`] also when the search's best
+/// is not unique.
+pub fn refine_from_coarse_start(
+    left: &GreyView<'_>,
+    right: &GreyView<'_>,
+    u: f32,
+    v: f32,
+    start: f32,
+    same_instance: impl Fn(i64, i64) -> bool,
+    p: &SubpixelParams,
+) -> Result<f32, Refused> {
+    let offsets = patch(u, v, same_instance, p)?;
+    match align(left, right, &offsets, start, p) {
+        Err(Refused::Diverged | Refused::Mismatch) => {
+            let best = search(left, right, &offsets, start, &p.coarse)?;
+            align(left, right, &offsets, best, p)
+        }
+        done => done,
+    }
+}
+
+/// The disparity `start + k step` within `search_px` of `start` whose normalised patch
+/// difference is least, if it is unique ([`CoarseStart::uniqueness`]).
+fn search(
+    left: &GreyView<'_>,
+    right: &GreyView<'_>,
+    offsets: &[(f32, f32)],
+    start: f32,
+    c: &CoarseStart,
+) -> Result<f32, Refused> {
+    let n = offsets.len() as f32;
+    let steps = if c.step_px > 0.0 { (c.search_px / c.step_px).floor() as i32 } else { 0 };
+    let left_s: Vec<f32> = offsets
+        .iter()
+        .map(|(x, y)| left.sample(*x, *y).map(|s| s.0))
+        .collect::<Option<_>>()
+        .ok_or(Refused::SmallPatch)?;
+    let (ml, sl) = mean_spread(&left_s, n);
+    let mut right_s = vec![0.0f32; offsets.len()];
+    let mut scored = Vec::with_capacity((2 * steps + 1) as usize);
+    'candidates: for k in -steps..=steps {
+        let d = start + k as f32 * c.step_px;
+        for ((x, y), r) in offsets.iter().zip(right_s.iter_mut()) {
+            let Some((i, _)) = right.sample(x - d, *y) else { continue 'candidates };
+            *r = i;
+        }
+        let (mr, sr) = mean_spread(&right_s, n);
+        let cost: f32 = left_s.iter().zip(&right_s).map(|(l, r)| ((r - mr) / sr - (l - ml) / sl).powi(2)).sum();
+        scored.push((cost, d));
+    }
+    // The least cost; of equal costs, the disparity nearest the start.
+    let best = scored
+        .iter()
+        .copied()
+        .min_by(|a, b| a.0.total_cmp(&b.0).then((a.1 - start).abs().total_cmp(&(b.1 - start).abs())))
+        .ok_or(Refused::SmallPatch)?;
+    let rival =
+        scored.iter().filter(|(_, d)| (d - best.1).abs() >= 0.99).map(|(cost, _)| *cost).fold(f32::INFINITY, f32::min);
+    if best.0 >= c.uniqueness * rival {
+        return Err(Refused::Mismatch);
+    }
+    Ok(best.1)
+}
+
+/// The patch's pixel positions around `(u, v)` that `same_instance` accepts.
+fn patch(
+    u: f32,
+    v: f32,
+    same_instance: impl Fn(i64, i64) -> bool,
+    p: &SubpixelParams,
+) -> Result<Vec<(f32, f32)>, Refused> {
     let mut offsets = Vec::with_capacity(((2 * p.half_width + 1) * (2 * p.half_height + 1)) as usize);
     for dy in -p.half_height..=p.half_height {
         for dx in -p.half_width..=p.half_width {
@@ -125,6 +237,24 @@ pub fn refine_disparity(
     if offsets.len() < p.min_pixels.max(2) {
         return Err(Refused::SmallPatch);
     }
+    Ok(offsets)
+}
+
+/// Mean and spread (standard deviation, at least 1e-3) of intensities.
+fn mean_spread(s: &[f32], n: f32) -> (f32, f32) {
+    let mean = s.iter().sum::<f32>() / n;
+    let var = s.iter().map(|i| (i - mean).powi(2)).sum::<f32>() / n;
+    (mean, var.max(1e-6).sqrt())
+}
+
+/// Gauss-Newton on the disparity of the patch `offsets` from `start` (module docs).
+fn align(
+    left: &GreyView<'_>,
+    right: &GreyView<'_>,
+    offsets: &[(f32, f32)],
+    start: f32,
+    p: &SubpixelParams,
+) -> Result<f32, Refused> {
     let n = offsets.len() as f32;
     let mut d = start;
     let mut residual = f32::INFINITY;
@@ -222,5 +352,38 @@ mod tests {
         let flat = GreyView { data: &flat, width: 80, height: 30 };
         assert_eq!(refine_disparity(&flat, &flat, 40.0, 15.0, 5.0, |_, _| true, &p), Err(Refused::Flat));
         assert_eq!(refine_disparity(&left, &right, 78.0, 15.0, 5.0, |_, _| true, &p), Err(Refused::SmallPatch));
+    }
+
+    #[test]
+    fn a_start_two_pixels_off_is_refused_alone_and_found_by_the_search() {
+        let p = SubpixelParams::default();
+        for shift in [5.0f32, 5.25, 5.5, 5.8, 6.1, 7.3] {
+            let (l, r) = pair(80, 30, shift);
+            let left = GreyView { data: &l, width: 80, height: 30 };
+            let right = GreyView { data: &r, width: 80, height: 30 };
+            for off in [-2.0f32, -1.75, 1.75, 2.0] {
+                let start = shift + off;
+                let alone = refine_disparity(&left, &right, 40.0, 15.0, start, |_, _| true, &p);
+                assert!(alone.is_err(), "shift {shift}, start {start}: {alone:?}");
+                let d = refine_from_coarse_start(&left, &right, 40.0, 15.0, start, |_, _| true, &p).unwrap();
+                assert!((d - shift).abs() < 0.03, "shift {shift}, start {start}: {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_search_gives_nothing_where_two_disparities_match_alike() {
+        let c = CoarseStart::default();
+        let offsets: Vec<(f32, f32)> =
+            (-5..=5).flat_map(|dx| (-3..=3).map(move |dy| (40.0 + dx as f32, 15.0 + dy as f32))).collect();
+        // Columns alternating bright and dark, the same in both images: from a start of 5, the
+        // disparities 4 and 6 match alike.
+        let stripes: Vec<u8> = (0..80 * 30).map(|i| if i % 2 == 0 { 190 } else { 60 }).collect();
+        let view = GreyView { data: &stripes, width: 80, height: 30 };
+        assert_eq!(search(&view, &view, &offsets, 5.0, &c), Err(Refused::Mismatch));
+        let (l, r) = pair(80, 30, 5.0);
+        let left = GreyView { data: &l, width: 80, height: 30 };
+        let right = GreyView { data: &r, width: 80, height: 30 };
+        assert_eq!(search(&left, &right, &offsets, 6.0, &c), Ok(5.0));
     }
 }

@@ -6,7 +6,8 @@
 //! rendering depends on (sequence id, classes, seed, render scale, frame period, frame limit)
 //! and the bytes of the sequence's label, calibration and pose files. The estimator's settings
 //! are not part of it. What the key cannot see is a change to the image simulator or the
-//! front-end: bump the version with one. File: `rendered-<seq>-<key>.bin`, the key, postcard
+//! front-end: bump the version with one (or, for a change to the downscaled matcher's path
+//! alone, [`DOWNSCALED_REFINE_VERSION`]). File: `rendered-<seq>-<key>.bin`, the key, postcard
 //! bytes and their CRC-32, written as the estimate cache writes its files
 //! ([`super::cache::decode`]); a file whose checksum does not match, that holds another key's
 //! entry or that does not decode is a miss, never an error.
@@ -28,6 +29,11 @@ use dynotraj_formats::kitti::SequenceData;
 /// checksum; 5: sub-pixel disparity at the sent points; 6: the point depth options name the
 /// dense matcher's downscale, so every key changed).
 pub const RENDERED_CACHE_VERSION: u32 = 6;
+
+/// Version of how points are refined from a downscaled dense matcher's start, part of the keys
+/// of renderings tracked with one only, so that the default keys stay as they are (1: the start
+/// taken over the instance, slivers refused, a search where the fit is refused).
+pub const DOWNSCALED_REFINE_VERSION: u32 = 1;
 
 /// What a rendering depends on besides the sequence's files.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,7 +120,11 @@ fn restored(f: StoredFrame) -> SimFrame {
 pub fn rendered_key(id: &str, data: &SequenceData, settings: &RenderSettings) -> anyhow::Result<u64> {
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
-    let what = format!("r{RENDERED_CACHE_VERSION} {id} {settings:?}");
+    let what = if settings.point_depth.stereo_downscale > 1 {
+        format!("r{RENDERED_CACHE_VERSION} d{DOWNSCALED_REFINE_VERSION} {id} {settings:?}")
+    } else {
+        format!("r{RENDERED_CACHE_VERSION} {id} {settings:?}")
+    };
     d.update(what.as_bytes());
     for path in [&data.labels_path, &data.calib_path, &data.poses_path] {
         d.update(&std::fs::read(path).with_context(|| format!("reading {}", path.display()))?);
