@@ -22,7 +22,7 @@ use super::common::{
 };
 use dynotraj_eval::jobs::map_jobs;
 use dynotraj_eval::report::estimator_tables::{
-    cost_table, counters_table, data_tables, per_object_table, replay_tables, tables,
+    cost_table, counters_table, data_tables, per_object_table, replay_tables, rpe_sources_table, tables,
 };
 use dynotraj_eval::report::{Format, Table, check_table, render_tables};
 use dynotraj_formats::kitti::TrackingDir;
@@ -144,13 +144,18 @@ pub struct EstimateArgs {
     /// Also print the RPE of every moving object (smoothed estimate).
     #[arg(long)]
     pub per_object: bool,
+    /// Also print where the object RPE_t comes from: the pairs of every sequence pooled, by the
+    /// object's true range, by the pair's place in its run, and the worst 1 % of pairs.
+    #[arg(long)]
+    pub rpe_sources: bool,
     /// Output format of the tables: md (for people), csv or json (one observation per row,
     /// every profile in one table with a `profile` column; JSON of several tables is one object
     /// keyed by table name).
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
     /// With --format csv or json, print only this table: table_iii, restarts, smoothness,
-    /// counters (with --counters), per_object (with --per-object); replay (and counters) on a
+    /// counters (with --counters), per_object (with --per-object), rpe_sources (with
+    /// --rpe-sources); replay (and counters) on a
     /// tracks file; cost with --cost. CSV holds one table, so it needs this flag whenever
     /// several tables are printed.
     #[arg(long, value_name = "NAME")]
@@ -269,6 +274,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     if args.per_object && !args.cost && args.tracks.is_none() {
         names.push("per_object");
     }
+    if args.rpe_sources && !args.cost && args.tracks.is_none() {
+        names.push("rpe_sources");
+    }
     check_table(args.format, args.table.as_deref(), &names)?;
     if args.cost {
         let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
@@ -319,6 +327,9 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     }
     if args.per_object {
         named.push(("per_object", per_object_table(&results)));
+    }
+    if args.rpe_sources {
+        named.push(("rpe_sources", rpe_sources_table(&results)));
     }
     print_tables(args, named)?;
     if let Some(out) = &args.out {

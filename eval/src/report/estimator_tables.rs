@@ -10,7 +10,7 @@ use dynotraj_core::estimate::EstimatorStats;
 
 use super::{Cell, ColumnKind, Data, Table};
 use dynotraj_sources::estimation::cost::CostResult;
-use dynotraj_sources::estimation::score::{moving_objects, object_rpe};
+use dynotraj_sources::estimation::score::{ObjectPair, moving_objects, object_pairs, object_rpe};
 use dynotraj_sources::estimation::simulated::SequenceResult;
 use dynotraj_sources::estimation::{EstimatorRun, Kind, RunScores};
 
@@ -353,6 +353,96 @@ pub fn per_object_table(results: &[SequenceResult]) -> Table {
         }
     }
     Table::of_data(columns.map(|(h, _, _)| h), d)
+}
+
+/// Pairs at the start of an object's run that [`rpe_sources_table`] counts as its start.
+const RUN_START_PAIRS: usize = 10;
+
+use std::f64::consts::FRAC_PI_2;
+
+/// Where the object RPE_t comes from, per profile, over the pairs of every sequence pooled (root
+/// mean square over pairs, not Table III's mean over sequences): by the object's true range at
+/// the pair's later frame, by the pair's place in its run, by whether the object's frame points
+/// the truth's way (within 90 degrees of its heading), and the worst 1 % of pairs; for the
+/// causal and the smoothed estimate, each on its own pairs, with each group's share of the
+/// kind's summed squared error.
+#[must_use]
+pub fn rpe_sources_table(results: &[SequenceResult]) -> Table {
+    use ColumnKind::{Int, Num, Text};
+    let columns = [
+        ("profile", "profile", Text),
+        ("pairs", "group", Text),
+        ("causal pairs", "causal_pairs", Int),
+        ("causal RPE_t (m)", "causal_rpe_t_m", Num),
+        ("causal share of squared error", "causal_share", Num),
+        ("smoothed pairs", "smoothed_pairs", Int),
+        ("smoothed RPE_t (m)", "smoothed_rpe_t_m", Num),
+        ("smoothed share of squared error", "smoothed_share", Num),
+    ];
+    type Filter = fn(&ObjectPair) -> bool;
+    let groups: [(&str, Filter); 9] = [
+        ("all", |_| true),
+        ("0-20 m", |p| p.range_m < 20.0),
+        ("20-40 m", |p| (20.0..40.0).contains(&p.range_m)),
+        ("40-80 m", |p| (40.0..80.0).contains(&p.range_m)),
+        ("80 m and more", |p| p.range_m >= 80.0),
+        ("run start (first 10 pairs)", |p| p.place < RUN_START_PAIRS),
+        ("later in a run", |p| p.place >= RUN_START_PAIRS),
+        ("object frame within 90 deg of the truth's", |p| p.heading_error_rad <= FRAC_PI_2),
+        ("object frame turned by more than 90 deg", |p| p.heading_error_rad > FRAC_PI_2),
+    ];
+    let mut d = Data::new(columns.map(|(_, n, k)| (n, k)));
+    let mut profiles: Vec<&str> = results.iter().map(|r| r.profile).collect();
+    profiles.dedup();
+    for profile in profiles {
+        let pairs_of = |kind| -> Vec<ObjectPair> {
+            results
+                .iter()
+                .filter(|r| r.profile == profile)
+                .flat_map(|r| object_pairs(&r.sim, r.run.of(kind), &moving_objects(&r.sim, r.min_step_m)))
+                .collect()
+        };
+        let (causal, smoothed) = (pairs_of(Kind::Causal), pairs_of(Kind::Smoothed));
+        let sq = |p: &ObjectPair| p.error.translation * p.error.translation;
+        let summary = |all: &[ObjectPair], chosen: &[&ObjectPair]| {
+            let (total, part): (f64, f64) = (all.iter().map(sq).sum(), chosen.iter().map(|p| sq(p)).sum());
+            let rms = (!chosen.is_empty()).then(|| (part / chosen.len() as f64).sqrt());
+            (chosen.len(), rms, (total > 0.0).then(|| part / total))
+        };
+        let rows = groups
+            .iter()
+            .map(|(name, keep)| {
+                let (c, s): (Vec<&ObjectPair>, Vec<&ObjectPair>) =
+                    (causal.iter().filter(|p| keep(p)).collect(), smoothed.iter().filter(|p| keep(p)).collect());
+                ((*name).to_string(), summary(&causal, &c), summary(&smoothed, &s))
+            })
+            .chain(std::iter::once((
+                "worst 1 % of pairs".to_string(),
+                summary(&causal, &worst_pairs(&causal)),
+                summary(&smoothed, &worst_pairs(&smoothed)),
+            )));
+        for (name, (cn, crms, cshare), (sn, srms, sshare)) in rows {
+            d.push(vec![
+                Cell::text(profile),
+                Cell::text(name),
+                Cell::int(cn),
+                Cell::opt(crms, 3),
+                Cell::opt(cshare, 3),
+                Cell::int(sn),
+                Cell::opt(srms, 3),
+                Cell::opt(sshare, 3),
+            ]);
+        }
+    }
+    Table::of_data(columns.map(|(h, _, _)| h), d)
+}
+
+/// The largest 1 % of `all` by translational error (at least one pair when there are any).
+fn worst_pairs(all: &[ObjectPair]) -> Vec<&ObjectPair> {
+    let mut sorted: Vec<&ObjectPair> = all.iter().collect();
+    sorted.sort_by(|a, b| b.error.translation.total_cmp(&a.error.translation));
+    sorted.truncate(all.len().div_ceil(100));
+    sorted
 }
 
 /// The objects (distinct ids) present in any of `estimates`.

@@ -103,7 +103,7 @@ fn score_kind(
     let mut all = RpeAccumulator::new();
     let mut objects = 0;
     for &id in moving {
-        let acc = object_rpe_with(frames, est, id, &mut |k, pair| on_pair(k, Entity::Object, pair));
+        let acc = object_rpe_with(frames, est, id, &mut |k, _, pair| on_pair(k, Entity::Object, pair));
         if acc.result().is_some() {
             objects += 1;
             all.merge(&acc);
@@ -160,30 +160,75 @@ pub fn rpe_over_time(frames: &[SimFrame], est: &[Option<PoseEstimate>], moving: 
 /// [`object_runs`], with the truth of `frames`.
 #[must_use]
 pub fn object_rpe(frames: &[SimFrame], est: &[Option<PoseEstimate>], id: u16) -> RpeAccumulator {
-    object_rpe_with(frames, est, id, &mut |_, _| {})
+    object_rpe_with(frames, est, id, &mut |_, _, _| {})
 }
 
 /// [`object_rpe`], telling `on_pair` each pair it counts: (index into `frames` of the pair's
-/// later frame, its error).
+/// later frame, the pair's place in its run (0: the run's first pair), its error).
 fn object_rpe_with(
     frames: &[SimFrame],
     est: &[Option<PoseEstimate>],
     id: u16,
-    on_pair: &mut dyn FnMut(usize, PairError),
+    on_pair: &mut dyn FnMut(usize, usize, PairError),
 ) -> RpeAccumulator {
     let mut acc = RpeAccumulator::new();
     let truth = |k: usize| frames.get(k).and_then(|f| f.objects.iter().find(|o| o.object_id == id));
     for run in object_runs(est, id, |k| truth(k).is_some()) {
         acc.break_segment();
+        let mut place = 0;
         for (k, _, o) in run {
             if let Some(t) = truth(k)
                 && let Some(pair) = acc.push(&t.pose.cast::<f32>(), &o.pose)
             {
-                on_pair(k, pair);
+                on_pair(k, place, pair);
+                place += 1;
             }
         }
     }
     acc
+}
+
+/// One object pair of frames that RPE counts, with where it was seen from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObjectPair {
+    /// The pair's place in its run of consecutive estimates (0: the run's first pair).
+    pub place: usize,
+    /// The true distance from the camera to the object at the pair's later frame, metres.
+    pub range_m: f64,
+    /// The estimated object frame's bird's-eye heading against the true one at the later frame,
+    /// radians in [0, pi]: RPE compares motions in each object's own frame, so a frame turned
+    /// by a constant angle turns every motion by it (half a turn doubles a motion's error).
+    pub heading_error_rad: f64,
+    /// Its error.
+    pub error: PairError,
+}
+
+/// Every pair of frames [`object_rpe`] counts for the objects `moving` in `est`, with its place
+/// in its run, its true range and its heading error: what a table of where RPE comes from groups.
+#[must_use]
+pub fn object_pairs(frames: &[SimFrame], est: &[Option<PoseEstimate>], moving: &BTreeSet<u16>) -> Vec<ObjectPair> {
+    let heading = |pose: &nalgebra::Isometry3<f64>| {
+        let x_axis = pose.rotation * nalgebra::Vector3::x();
+        x_axis.z.atan2(x_axis.x)
+    };
+    let mut out = Vec::new();
+    for &id in moving {
+        object_rpe_with(frames, est, id, &mut |k, place, error| {
+            let estimate =
+                est.get(k).and_then(Option::as_ref).and_then(|e| e.objects.iter().find(|o| o.object_id == id));
+            let seen = frames.get(k).and_then(|f| Some((f, f.objects.iter().find(|o| o.object_id == id)?)));
+            if let (Some(e), Some((f, truth))) = (estimate, seen) {
+                let turned = heading(&e.pose.cast::<f64>()) - heading(&truth.pose);
+                out.push(ObjectPair {
+                    place,
+                    range_m: (truth.pose.translation.vector - f.camera.translation.vector).norm(),
+                    heading_error_rad: turned.sin().atan2(turned.cos()).abs(),
+                    error,
+                });
+            }
+        });
+    }
+    out
 }
 
 /// The runs of object `id` in `est` whose consecutive frames RPE pairs: maximal stretches of
@@ -319,5 +364,44 @@ mod tests {
             assert!(((sum2 / f64::from(pairs)).sqrt() - want.translation).abs() < 1e-9, "{}", kind.name());
             assert!(frames.windows(2).all(|w| w[0].frame < w[1].frame), "in frame order");
         }
+    }
+
+    #[test]
+    fn object_pairs_are_table_iii_s_pairs_and_see_a_frame_turned_half_a_turn() {
+        let dir = tempfile::tempdir().unwrap();
+        write_sequence(dir.path(), "0000", &generate(&DriveSpec::default())).unwrap();
+        let data = TrackingDir::open(dir.path()).unwrap().load_sequence("0000").unwrap();
+        let r = evaluate_sequence("0000", &data, &EvalOptions::kitti(0.1));
+        let moving = moving_objects(&r.sim, r.min_step_m);
+        let causal = r.run.of(Kind::Causal);
+        let pairs = object_pairs(&r.sim, causal, &moving);
+        let want = r.scores.kinds[1].object.unwrap();
+        assert_eq!(pairs.len(), want.pairs as usize);
+        let rms =
+            |p: &[ObjectPair]| (p.iter().map(|p| p.error.translation.powi(2)).sum::<f64>() / p.len() as f64).sqrt();
+        assert!((rms(&pairs) - want.translation).abs() < 1e-9);
+        assert!(pairs.iter().all(|p| p.range_m > 0.0 && p.range_m < 200.0));
+        assert!(pairs.iter().filter(|p| p.heading_error_rad < 0.5).count() > pairs.len() * 9 / 10);
+        // Every object frame turned half a turn about the vertical: the same positions, the
+        // motions read backwards in the object's frame.
+        let half_turn = dynotraj_core::geometry::Pose3::from_parts(
+            nalgebra::Translation3::identity(),
+            nalgebra::UnitQuaternion::from_axis_angle(&nalgebra::Vector3::y_axis(), std::f32::consts::PI),
+        );
+        let turned: Vec<Option<PoseEstimate>> = causal
+            .iter()
+            .map(|e| {
+                e.clone().map(|mut e| {
+                    for o in &mut e.objects {
+                        o.pose *= half_turn;
+                    }
+                    e
+                })
+            })
+            .collect();
+        let flipped = object_pairs(&r.sim, &turned, &moving);
+        assert_eq!(flipped.len(), pairs.len());
+        assert!(flipped.iter().filter(|p| p.heading_error_rad > 2.5).count() > pairs.len() * 9 / 10);
+        assert!(rms(&flipped) > 1.5 * rms(&pairs), "{} vs {}", rms(&flipped), rms(&pairs));
     }
 }
