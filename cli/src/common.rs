@@ -324,10 +324,11 @@ pub struct EstimatedSourceArgs {
     /// rather than at the smoother's (off by default; docs/decisions.md "Following the object").
     #[arg(long)]
     pub fuse_at_fit: bool,
-    /// Estimator variant: turn a vehicle's frame onto its measured direction of travel whenever
-    /// the two differ by more than this many degrees (off by default).
-    #[arg(long, value_parser = crate::numbers::positive_f32, value_name = "DEG")]
-    pub realign_heading: Option<f32>,
+    /// Turn a vehicle's frame onto its measured direction of travel whenever the two differ by
+    /// more than this many degrees, or `off` to keep its first heading (default 90: only a frame
+    /// pointing backwards is turned; docs/decisions.md "Reversed object frames").
+    #[arg(long, value_parser = realign_degrees, default_value = "90", value_name = "DEG|off")]
+    pub realign_heading: Realign,
     /// Estimator variant: a disparity error shared by all points of an object fit, pixels,
     /// which puts a floor under its depth uncertainty along the viewing ray (0: off, the
     /// default).
@@ -339,13 +340,28 @@ pub struct EstimatedSourceArgs {
     pub no_bev_track: bool,
 }
 
+/// `--realign-heading`: a bound in degrees, or none (`off`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Realign(pub Option<f32>);
+
+/// Parses `--realign-heading`: `off`, or a positive number of degrees.
+///
+/// # Errors
+/// Anything else, with what was expected.
+pub fn realign_degrees(text: &str) -> Result<Realign, String> {
+    if text.eq_ignore_ascii_case("off") {
+        return Ok(Realign(None));
+    }
+    crate::numbers::positive_f32(text).map(|d| Realign(Some(d))).map_err(|e| format!("{e}, or `off`"))
+}
+
 impl EstimatedSourceArgs {
     /// The estimator's object variants these options choose.
     #[must_use]
     pub fn object_variants(&self) -> ObjectVariants {
         ObjectVariants {
             fuse_at_fit: self.fuse_at_fit,
-            heading_realign_rad: self.realign_heading.map(f32::to_radians),
+            heading_realign_rad: self.realign_heading.0.map(f32::to_radians),
             shared_disparity_px: self.shared_disparity,
             bev_track: !self.no_bev_track,
         }
@@ -489,6 +505,16 @@ pub fn track_point(k: &dynotraj_core::wire::Track, f: [f32; 2], c: [f32; 2]) -> 
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn realign_heading_takes_degrees_or_off() {
+        assert_eq!(realign_degrees("90"), Ok(Realign(Some(90.0))));
+        assert_eq!(realign_degrees("OFF"), Ok(Realign(None)));
+        for bad in ["0", "-5", "sideways", ""] {
+            let e = realign_degrees(bad).unwrap_err();
+            assert!(e.contains("`off`"), "{bad}: {e}");
+        }
+    }
+
     use super::*;
     use dynotraj_core::model::arch::Dims;
 

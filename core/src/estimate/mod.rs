@@ -121,7 +121,7 @@ pub use frame::{FrameAssembler, FrameBuffer, MAX_PIXEL, ObjectPoints, Obs};
 pub use landmarks::Landmarks;
 pub use object_run::{MAX_HELD_FRAMES, ObjectRun};
 pub use output::{ObjectEstimate, PoseEstimate, bev_heading};
-pub use params::{EstimatorParams, FitParams, Intrinsics, KinematicPrior, SmootherParams};
+pub use params::{EstimatorParams, FitParams, Intrinsics, KinematicPrior, REALIGN_REVERSED_RAD, SmootherParams};
 pub use point_model::{Correspondence, PointModel};
 pub use profile::{DEFAULT_WINDOW, EDGE_PROFILE, EDGE_WINDOW, EstimatorProfile, HOST_PROFILE, PROFILES};
 pub use rng::Pcg32;

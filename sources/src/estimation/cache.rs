@@ -28,8 +28,9 @@ use dynotraj_formats::kitti::SequenceData;
 /// is not evaluated, 2026-12-01; 5: the cached tracks also hold the RPE per frame; 6: and the
 /// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept;
 /// 8: files end in a checksum; 9: the causal camera is its current estimate, the pose the
-/// objects are placed against; 10: the causal camera's position on every input).
-pub const ESTIMATE_CACHE_VERSION: u32 = 10;
+/// objects are placed against; 10: the causal camera's position on every input; 11: a
+/// vehicle's frame pointing backwards is turned onto its travel).
+pub const ESTIMATE_CACHE_VERSION: u32 = 11;
 
 /// The checksum every cache file ends in.
 const FILE_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);

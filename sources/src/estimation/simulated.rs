@@ -120,7 +120,12 @@ pub struct ObjectVariants {
 
 impl Default for ObjectVariants {
     fn default() -> Self {
-        Self { fuse_at_fit: false, heading_realign_rad: None, shared_disparity_px: 0.0, bev_track: true }
+        Self {
+            fuse_at_fit: false,
+            heading_realign_rad: Some(dynotraj_core::estimate::REALIGN_REVERSED_RAD),
+            shared_disparity_px: 0.0,
+            bev_track: true,
+        }
     }
 }
 
