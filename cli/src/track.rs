@@ -291,22 +291,28 @@ fn image_groups(statics: &[&Track], objects: &[&Track]) -> Vec<ImagePoints> {
 
 fn print_times(t: &StageTimes, stereo: &StereoParams) {
     let ms = |s: f64| 1e3 * s / t.frames.max(1) as f64;
-    let [cs, cm, ct] = t.cpu;
+    let [cs, cm, cp, ce] = t.cpu;
+    let beside = t.concurrent_frames > 0;
     println!("| stage | wall ms/frame | CPU ms/frame (all threads) |\n|---|---|---|");
-    println!(
-        "| stereo (SGBM 3-way, {} disparities, downscale {}) | {:.1} | {:.1} |",
-        stereo.num_disparities,
-        stereo.downscale,
-        ms(t.stereo),
-        ms(cs)
-    );
+    let sgbm = format!("stereo (SGBM 3-way, {} disparities, downscale {})", stereo.num_disparities, stereo.downscale);
+    if beside {
+        println!("| {sgbm}, beside KLT | {:.1} | {:.1} with KLT |", ms(t.stereo), ms(cs));
+    } else {
+        println!("| {sgbm} | {:.1} | {:.1} |", ms(t.stereo), ms(cs));
+    }
     println!("| masks | {:.1} | {:.1} |", ms(t.masks), ms(cm));
-    println!("| KLT + detection + sampling + point depth | {:.1} | {:.1} |", ms(t.tracking), ms(ct));
-    let cpu = ms(cs + cm + ct);
+    if beside {
+        println!("| KLT + detection + sampling, beside stereo | {:.1} | with stereo |", ms(t.points));
+    } else {
+        println!("| KLT + detection + sampling | {:.1} | {:.1} |", ms(t.points), ms(cp));
+    }
+    println!("| point depth + emission | {:.1} | {:.1} |", ms(t.emission), ms(ce));
+    let cpu = ms(cs + cm + cp + ce);
     println!(
-        "| total ({} frames) | {:.1} = {:.1} frames/s | {:.1} = {:.1} frames/s per core |",
+        "| total ({} frames{}) | {:.1} = {:.1} frames/s | {:.1} = {:.1} frames/s per core |",
         t.frames,
-        ms(t.stereo + t.masks + t.tracking),
+        if beside { format!(", {} with stereo beside KLT", t.concurrent_frames) } else { String::new() },
+        ms(t.wall),
         t.fps(),
         cpu,
         if cpu > 0.0 { 1e3 / cpu } else { 0.0 }

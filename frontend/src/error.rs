@@ -53,6 +53,9 @@ pub enum FrontEndError {
         /// The cause.
         source: opencv::Error,
     },
+    /// A stage failed outside OpenCV: its thread panicked, or it lacked an input it needs.
+    #[error("front-end: {0}")]
+    Stage(&'static str),
 }
 
 /// Wraps an OpenCV error with context.

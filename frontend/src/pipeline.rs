@@ -47,19 +47,28 @@ pub struct FrameInput {
 
 /// Seconds spent per stage, summed over frames: wall time, and the CPU time of the whole
 /// process (all of OpenCV's threads), which is what the work costs when other jobs share the
-/// cores.
+/// cores. Where the dense matcher runs beside the tracker ([`FrontEnd::process`]) their walls
+/// overlap and their CPU time is one figure.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimes {
     /// Frames timed.
     pub frames: usize,
+    /// Frames whose dense matcher ran beside the tracker's KLT.
+    pub concurrent_frames: usize,
     /// Stereo matching (or depth conversion), wall.
     pub stereo: f64,
     /// Instance masks, wall.
     pub masks: f64,
-    /// KLT, detection, sampling and emission, wall.
-    pub tracking: f64,
-    /// CPU seconds of the same stages (process, all threads).
-    pub cpu: [f64; 3],
+    /// KLT, detection and sampling (what needs no depth), wall.
+    pub points: f64,
+    /// Point depth and emission, wall.
+    pub emission: f64,
+    /// Whole frames, wall.
+    pub wall: f64,
+    /// CPU seconds (process, all threads) of stereo, masks, KLT with detection and sampling,
+    /// point depth with emission; stereo and KLT as one figure, in the first slot, where they
+    /// ran side by side.
+    pub cpu: [f64; 4],
 }
 
 /// CPU time of this process (all threads), seconds.
@@ -73,11 +82,10 @@ pub fn process_cpu_seconds() -> f64 {
 }
 
 impl StageTimes {
-    /// Frames per second over all stages.
+    /// Frames per second, wall.
     #[must_use]
     pub fn fps(&self) -> f64 {
-        let t = self.stereo + self.masks + self.tracking;
-        if t > 0.0 { self.frames as f64 / t } else { 0.0 }
+        if self.wall > 0.0 { self.frames as f64 / self.wall } else { 0.0 }
     }
 }
 
@@ -108,49 +116,140 @@ impl FrontEnd {
         })
     }
 
-    /// Processes one frame; returns its tracks (wire order, within the capacities).
+    /// Processes one frame; returns its tracks (wire order, within the capacities). With a
+    /// right image and masks that need no depth, the dense matcher runs on a second thread while
+    /// this one follows the points (KLT, detection, sampling need no depth); the tracks are the
+    /// same as one after the other.
     ///
     /// # Errors
     /// An OpenCV failure.
     pub fn process(&mut self, input: FrameInput) -> Result<Vec<Track>, FrontEndError> {
-        let t0 = Instant::now();
-        let c0 = process_cpu_seconds();
-        let depth = match input.depth {
-            DepthInput::Right(right) => {
-                let disparity = self.stereo.disparity(&input.left, &right)?;
-                DepthMap::Stereo { disparity, fb: self.fb, pair: Some((input.left.clone(), right)) }
+        let (t0, c0) = (Instant::now(), process_cpu_seconds());
+        let FrameInput { left, depth, masks } = input;
+        let (w, h) = (left.cols(), left.rows());
+        let Self { stereo, tracker, ids, fb, times } = self;
+        let fb = *fb;
+        let masks_need_depth = matches!(masks, MaskInput::Boxes(_));
+        let (tracks, cpu) = match depth {
+            DepthInput::Right(right) if !masks_need_depth => {
+                let instances = instances_of(masks, ids, w, h, None)?;
+                let (t1, c1) = (Instant::now(), process_cpu_seconds());
+                let (disparity, points) = std::thread::scope(|s| {
+                    let matcher = s.spawn(|| {
+                        let start = Instant::now();
+                        stereo.disparity(&left, &right).map(|d| (d, start.elapsed().as_secs_f64()))
+                    });
+                    let start = Instant::now();
+                    let points = tracker.follow(&left, &instances).map(|p| (p, start.elapsed().as_secs_f64()));
+                    (matcher.join(), points)
+                });
+                let (disparity, stereo_wall) =
+                    disparity.map_err(|_| FrontEndError::Stage("the dense matcher's thread panicked"))??;
+                let (points, points_wall) = points?;
+                let (t2, c2) = (Instant::now(), process_cpu_seconds());
+                let depth = DepthMap::Stereo { disparity, fb, pair: Some((left, right)) };
+                let tracks = tracker.finish(points, &depth, &instances);
+                let (t3, c3) = (Instant::now(), process_cpu_seconds());
+                times.concurrent_frames += 1;
+                times.masks += (t1 - t0).as_secs_f64();
+                times.stereo += stereo_wall;
+                times.points += points_wall;
+                times.emission += (t3 - t2).as_secs_f64();
+                (tracks, [c2 - c1, c1 - c0, 0.0, c3 - c2])
             }
-            DepthInput::Depth(d) => DepthMap::Given(d),
+            depth => {
+                let depth = match depth {
+                    DepthInput::Right(right) => {
+                        let disparity = stereo.disparity(&left, &right)?;
+                        DepthMap::Stereo { disparity, fb, pair: Some((left.clone(), right)) }
+                    }
+                    DepthInput::Depth(d) => DepthMap::Given(d),
+                };
+                let (t1, c1) = (Instant::now(), process_cpu_seconds());
+                let instances = instances_of(masks, ids, w, h, Some(&depth))?;
+                let (t2, c2) = (Instant::now(), process_cpu_seconds());
+                let points = tracker.follow(&left, &instances)?;
+                let (t3, c3) = (Instant::now(), process_cpu_seconds());
+                let tracks = tracker.finish(points, &depth, &instances);
+                let (t4, c4) = (Instant::now(), process_cpu_seconds());
+                times.stereo += (t1 - t0).as_secs_f64();
+                times.masks += (t2 - t1).as_secs_f64();
+                times.points += (t3 - t2).as_secs_f64();
+                times.emission += (t4 - t3).as_secs_f64();
+                (tracks, [c1 - c0, c2 - c1, c3 - c2, c4 - c3])
+            }
         };
-        let t1 = Instant::now();
-        let c1 = process_cpu_seconds();
-        let (w, h) = (input.left.cols(), input.left.rows());
-        let instances = match input.masks {
-            MaskInput::Labels(labels, classes) => {
-                from_label_image(labels, |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc))?
-            }
-            MaskInput::Boxes(dets) => {
-                let with_ids = self.ids.assign(&dets);
-                from_boxes(w, h, &with_ids, &depth)?
-            }
-            MaskInput::None => Instances {
-                labels: Mat::new_rows_cols_with_default(h, w, CV_16UC1, Scalar::all(0.0)).map_err(cv("label image"))?,
-                objects: Vec::new(),
-                empty: 0,
-            },
-        };
-        let t2 = Instant::now();
-        let c2 = process_cpu_seconds();
-        let tracks = self.tracker.process(&input.left, &depth, &instances)?;
-        let t3 = Instant::now();
-        let c3 = process_cpu_seconds();
-        for (slot, dt) in self.times.cpu.iter_mut().zip([c1 - c0, c2 - c1, c3 - c2]) {
+        for (slot, dt) in times.cpu.iter_mut().zip(cpu) {
             *slot += dt;
         }
-        self.times.frames += 1;
-        self.times.stereo += (t1 - t0).as_secs_f64();
-        self.times.masks += (t2 - t1).as_secs_f64();
-        self.times.tracking += (t3 - t2).as_secs_f64();
+        times.frames += 1;
+        times.wall += t0.elapsed().as_secs_f64();
         Ok(tracks)
+    }
+}
+
+/// The instance masks of `masks` for an image of `w` x `h`: boxes are refined by `depth` (which
+/// they need), labels and none are not.
+fn instances_of(
+    masks: MaskInput,
+    ids: &mut IdAssigner,
+    w: i32,
+    h: i32,
+    depth: Option<&DepthMap>,
+) -> Result<Instances, FrontEndError> {
+    match masks {
+        MaskInput::Labels(labels, classes) => {
+            from_label_image(labels, |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc))
+        }
+        MaskInput::Boxes(dets) => {
+            let depth = depth.ok_or(FrontEndError::Stage("masks from boxes need the depth map"))?;
+            from_boxes(w, h, &ids.assign(&dets), depth)
+        }
+        MaskInput::None => Ok(Instances {
+            labels: Mat::new_rows_cols_with_default(h, w, CV_16UC1, Scalar::all(0.0)).map_err(cv("label image"))?,
+            objects: Vec::new(),
+            empty: 0,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cost::input_of;
+    use dynotraj_sim::drive::{DriveSpec, generate};
+    use dynotraj_sim::image_sim::{Camera, ImageSim};
+    use dynotraj_sim::track_sim::LabelBox;
+
+    #[test]
+    fn the_matcher_beside_the_tracker_gives_the_tracks_of_one_after_the_other() {
+        let drive = generate(&DriveSpec { frames: 4, ..DriveSpec::default() });
+        let sim = ImageSim::new(Camera::kitti(0.5), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
+        let fb = sim.camera.fb() as f32;
+        let (stereo_params, tracker_params) = (StereoParams::kitti_at_scale(0.5), TrackerParams::default());
+        let mut beside = FrontEnd::new(stereo_params, tracker_params, fb).unwrap();
+        let (mut stereo, mut tracker) = (Stereo::new(stereo_params).unwrap(), Tracker::new(tracker_params));
+        let mut sent = 0;
+        for k in 0..sim.len() {
+            let f = sim.frame(k).unwrap();
+            let input = input_of(&f, &sim.camera).unwrap();
+            let (DepthInput::Right(right), MaskInput::Labels(labels, classes)) = (&input.depth, &input.masks) else {
+                panic!("a rendered frame has a right image and labels")
+            };
+            let depth = DepthMap::Stereo {
+                disparity: stereo.disparity(&input.left, right).unwrap(),
+                fb,
+                pair: Some((input.left.clone(), right.clone())),
+            };
+            let inst =
+                from_label_image(labels.clone(), |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc)).unwrap();
+            let serial = tracker.process(&input.left, &depth, &inst).unwrap();
+            let concurrent = beside.process(input).unwrap();
+            assert_eq!(concurrent, serial, "frame {k}");
+            sent += serial.len();
+        }
+        assert!(sent > 100, "{sent} tracks");
+        assert_eq!(beside.times.concurrent_frames, sim.len());
+        assert!(beside.times.wall > 0.0 && beside.times.fps() > 0.0);
     }
 }

@@ -91,9 +91,10 @@ struct Feature {
     age: u32,
 }
 
-/// Frame k-1, kept for tracking into frame k.
+/// One frame's points: frame k followed from frame k-1 and topped up, before its depth is read
+/// ([`Tracker::follow`]); kept as frame k-1 for the next frame once emitted.
 #[derive(Debug)]
-struct Previous {
+pub struct FramePoints {
     pyramid: Pyramid,
     statics: Vec<Feature>,
     objects: BTreeMap<u16, Vec<Feature>>,
@@ -103,7 +104,7 @@ struct Previous {
 #[derive(Debug)]
 pub struct Tracker {
     params: TrackerParams,
-    previous: Option<Previous>,
+    previous: Option<FramePoints>,
     next_id: u32,
     /// Counters since the start.
     pub stats: FrontEndStats,
@@ -165,6 +166,17 @@ impl Tracker {
     /// # Errors
     /// An OpenCV failure.
     pub fn process(&mut self, grey: &Mat, depth: &DepthMap, inst: &Instances) -> Result<Vec<Track>, FrontEndError> {
+        let points = self.follow(grey, inst)?;
+        Ok(self.finish(points, depth, inst))
+    }
+
+    /// What needs no depth: frame k-1's points followed into `grey` (KLT), static corners and
+    /// object points topped up within `inst`'s masks. [`Tracker::finish`] reads their depth; the
+    /// dense matcher can run meanwhile.
+    ///
+    /// # Errors
+    /// An OpenCV failure.
+    pub fn follow(&mut self, grey: &Mat, inst: &Instances) -> Result<FramePoints, FrontEndError> {
         let p = self.params;
         self.stats.frames += 1;
         self.stats.empty_masks += inst.empty as u64;
@@ -270,11 +282,15 @@ impl Tracker {
         }
         // Objects no longer in the instance image are forgotten.
         objects.retain(|id, _| inst.objects.iter().any(|o| o.object_id == *id));
+        Ok(FramePoints { pyramid, statics, objects })
+    }
 
-        // 4. Emission within the capacities.
-        let out = self.emit(&mut statics, &objects, depth, inst);
-        self.previous = Some(Previous { pyramid, statics, objects });
-        Ok(out)
+    /// Emits `points` ([`Tracker::follow`] of this frame) with their depth, within the
+    /// capacities, and keeps them for the next frame.
+    pub fn finish(&mut self, mut points: FramePoints, depth: &DepthMap, inst: &Instances) -> Vec<Track> {
+        let out = self.emit(&mut points.statics, &points.objects, depth, inst);
+        self.previous = Some(points);
+        out
     }
 
     /// The newest frame's static points `(track id, u, v)`, sent or not.
