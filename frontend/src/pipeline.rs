@@ -117,9 +117,11 @@ impl FrontEnd {
     }
 
     /// Processes one frame; returns its tracks (wire order, within the capacities). With a
-    /// right image and masks that need no depth, the dense matcher runs on a second thread while
-    /// this one follows the points (KLT, detection, sampling need no depth); the tracks are the
-    /// same as one after the other.
+    /// right image, masks that need no depth and a downscaled matcher, the dense matcher runs on
+    /// a second thread while this one follows the points (KLT, detection, sampling need no
+    /// depth); the tracks are the same as one after the other. At full size the matcher is
+    /// itself spread over the cores by OpenCV and beside the tracker it took twice as long
+    /// (docs/results.md "The front-end's stages side by side"), so it runs first.
     ///
     /// # Errors
     /// An OpenCV failure.
@@ -129,9 +131,9 @@ impl FrontEnd {
         let (w, h) = (left.cols(), left.rows());
         let Self { stereo, tracker, ids, fb, times } = self;
         let fb = *fb;
-        let masks_need_depth = matches!(masks, MaskInput::Boxes(_));
+        let beside = !matches!(masks, MaskInput::Boxes(_)) && stereo.downscale() > 1;
         let (tracks, cpu) = match depth {
-            DepthInput::Right(right) if !masks_need_depth => {
+            DepthInput::Right(right) if beside => {
                 let instances = instances_of(masks, ids, w, h, None)?;
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
                 let (disparity, points) = std::thread::scope(|s| {
@@ -226,7 +228,8 @@ mod tests {
         let drive = generate(&DriveSpec { frames: 4, ..DriveSpec::default() });
         let sim = ImageSim::new(Camera::kitti(0.5), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
         let fb = sim.camera.fb() as f32;
-        let (stereo_params, tracker_params) = (StereoParams::kitti_at_scale(0.5), TrackerParams::default());
+        let stereo_params = StereoParams { downscale: 2, ..StereoParams::kitti_at_scale(0.5) };
+        let tracker_params = TrackerParams::default();
         let mut beside = FrontEnd::new(stereo_params, tracker_params, fb).unwrap();
         let (mut stereo, mut tracker) = (Stereo::new(stereo_params).unwrap(), Tracker::new(tracker_params));
         let mut sent = 0;

@@ -153,6 +153,12 @@ impl Stereo {
         Ok(Self { matcher, params: StereoParams { downscale: s, ..params } })
     }
 
+    /// The shrink factor it matches at (1 or 2).
+    #[must_use]
+    pub const fn downscale(&self) -> i32 {
+        self.params.downscale
+    }
+
     /// The disparity map of a rectified grey pair of equal size.
     ///
     /// # Errors
