@@ -148,6 +148,14 @@ pub struct EstimateArgs {
     /// object's true range, by the pair's place in its run, and the worst 1 % of pairs.
     #[arg(long)]
     pub rpe_sources: bool,
+    /// Measurement: score the object poses of DynoSAM's hybrid smoother (each fit an absolute
+    /// measurement of the object's pose, a constant-motion residual over three poses), run
+    /// offline over the estimator's own fits in the same window, instead of the estimator's
+    /// chain smoother, each fit's information multiplied by WEIGHT (default 1); prints the
+    /// estimator's RPE on the same pairs beside it (docs/decisions.md "The fit as a pose
+    /// measurement"). Table III's object RPE changes; the bird's-eye states forecasts read do not.
+    #[arg(long, num_args = 0..=1, default_missing_value = "1", value_parser = crate::numbers::positive, value_name = "WEIGHT")]
+    pub hybrid_object_smoother: Option<f64>,
     /// Output format of the tables: md (for people), csv or json (one observation per row,
     /// every profile in one table with a `profile` column; JSON of several tables is one object
     /// keyed by table name).
@@ -218,6 +226,7 @@ impl EstimateArgs {
             object_variants: self.ours.object_variants(),
             render_optics: self.ours.render_optics.optics(),
             point_depth: self.ours.point_depth.options(),
+            hybrid_object_smoother: self.hybrid_object_smoother,
             ..EvalOptions::kitti(self.rate.period())
         }
         .with_profile(profile);
@@ -303,6 +312,27 @@ pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
     for r in &results {
         if let Some(w) = numerical_warning(&r.id, r.profile, r.stats.numerical_failures, r.frames) {
             eprintln!("{w}");
+        }
+        if let Some((h, own)) = &r.hybrid {
+            let rpe = |scores: &dynotraj_sources::estimation::RunScores, kind: usize| {
+                scores.kinds.get(kind).and_then(|k| k.object).map_or(f64::NAN, |o| o.translation)
+            };
+            eprintln!(
+                "sequence {} ({} profile): hybrid smoother object RPE_t causal {:.3} m, smoothed {:.3} m; the \
+                 estimator's on the same pairs {:.3} m, {:.3} m ({} causal and {} smoothed poses; left out {} and {} \
+                 estimates the hybrid smoother has no pose for; {} solves failed)",
+                r.id,
+                r.profile,
+                rpe(&r.scores, 1),
+                rpe(&r.scores, 2),
+                rpe(own, 1),
+                rpe(own, 2),
+                h.causal,
+                h.smoothed,
+                h.causal_left_out,
+                h.smoothed_left_out,
+                h.failed_solves
+            );
         }
     }
     if let (true, Some(dir)) = (args.write_tracks, &args.out) {

@@ -11,7 +11,7 @@ use heapless::Vec;
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};
 use super::joint::{JointScratch, JointSettings, solve_joint};
 use super::measure::{Correspondences, Measuring};
-use super::object_run::{ObjectRun, PairContext, RunState, StepOutcome, WindowExit};
+use super::object_run::{NewestFit, ObjectRun, PairContext, RunState, StepOutcome, WindowExit};
 use super::output::ObjectEstimate;
 use super::output::PoseEstimate;
 use super::params::EstimatorParams;
@@ -215,6 +215,12 @@ impl<const W: usize> Estimator<W> {
                 let _ = out.objects.push(e);
             }
         }
+    }
+
+    /// The fits of the newest frame's measured object runs (see [`NewestFit`]), each against
+    /// the camera of [`Estimator::causal`].
+    pub fn newest_fits(&self) -> impl Iterator<Item = NewestFit> + '_ {
+        self.runs.iter().filter_map(ObjectRun::newest_fit)
     }
 
     /// The newest frame's static points in the world frame (the bounded map: at most

@@ -119,7 +119,7 @@ pub use estimator::{Estimator, Pushed};
 pub use fit::fit_pose;
 pub use frame::{FrameAssembler, FrameBuffer, MAX_PIXEL, ObjectPoints, Obs};
 pub use landmarks::Landmarks;
-pub use object_run::{MAX_HELD_FRAMES, ObjectRun};
+pub use object_run::{MAX_HELD_FRAMES, NewestFit, ObjectRun};
 pub use output::{ObjectEstimate, PoseEstimate, bev_heading};
 pub use params::{EstimatorParams, FitParams, Intrinsics, KinematicPrior, REALIGN_REVERSED_RAD, SmootherParams};
 pub use point_model::{Correspondence, PointModel};

@@ -14,7 +14,7 @@ use super::frame::{ObjectPoints, Obs};
 use super::landmarks::{
     self, Landmarks, fuse, initial_landmarks, landmark_correspondences, nearest_landmark_correspondences,
 };
-use super::lie::{Vec6, normalised, pose_to_lin};
+use super::lie::{Vec6, lin_to_pose, normalised, pose_to_lin};
 use super::measure::{Correspondences, Measuring, MotionMeasurement, measure_motion, robust_centroid};
 use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
@@ -102,6 +102,30 @@ pub struct PairContext<'a> {
     pub beyond_range: bool,
     /// Seconds since the previous frame.
     pub dt: f32,
+}
+
+/// A run's fit of its newest frame: the object's pose measured absolutely, against its own
+/// landmarks, before the smoother turns it into a motion. What a smoother that takes fits as
+/// pose measurements reads (DynoSAM's hybrid formulation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewestFit {
+    /// Object id.
+    pub object_id: u16,
+    /// Class (of its first frame).
+    pub class: ObjectClass,
+    /// The run's orientation count ([`ObjectEstimate::orientation`]): fits of different counts
+    /// are in differently turned object frames.
+    pub orientation: u16,
+    /// Whether the object frame's heading comes from its motion.
+    pub heading_known: bool,
+    /// The fitted pose of the object in the camera it was measured from (camera from object).
+    pub camera_from_object: Pose3,
+    /// The previous frame's fitted pose, when it had one, in the object frame as it now is: a
+    /// frame turned in between shows in it (the estimator turns its whole window).
+    pub previous_camera_from_object: Option<Pose3>,
+    /// Information of a right perturbation of that pose, `[rho; omega]` (the measured twist's,
+    /// which for one frame's motion is the same to first order).
+    pub information: [[f32; 6]; 6],
 }
 
 /// One object's run; see the module docs.
@@ -534,6 +558,27 @@ impl<const W: usize> ObjectRun<W> {
         let pose = self.path.causal();
         let t = pose.rotation * se3_exp(self.path.causal_xi()).translation.vector / dt;
         self.bev.update_velocity(&Vector2::new(t.x, t.z), p);
+    }
+
+    /// The fit of the newest frame, when this tracking run's motion was measured in it.
+    #[must_use]
+    pub fn newest_fit(&self) -> Option<NewestFit> {
+        if self.state != RunState::Tracking || self.last_measured_step != self.newest_step {
+            return None;
+        }
+        let chain = self.path.chain();
+        let newest = chain.len().checked_sub(1)?;
+        let slot = chain.slot(newest)?;
+        let previous = newest.checked_sub(1).and_then(|i| chain.slot(i)).filter(|s| s.measured);
+        slot.measured.then(|| NewestFit {
+            object_id: self.object_id,
+            class: self.class,
+            orientation: self.orientation,
+            heading_known: self.heading_known,
+            camera_from_object: lin_to_pose(&slot.lin),
+            previous_camera_from_object: previous.map(|s| lin_to_pose(&s.lin)),
+            information: slot.info.into(),
+        })
     }
 
     /// The causal estimate of the newest frame (tracking runs only).

@@ -4,6 +4,8 @@
 //! - [`input`]: a loaded KITTI sequence as simulator input (label boxes, ego poses, calibration).
 //! - [`runner`]: simulate, stream every frame through the wire (frame parts, encode, decode) into
 //!   the estimator, and collect its three outputs per frame with the truth.
+//! - [`hybrid`]: DynoSAM's hybrid object smoother (fits as pose measurements) run offline over a
+//!   run's fits, to score it against the estimator's chain smoother.
 //! - [`score`]: RPE (Sturm et al., delta = 1 frame) of the camera and of every moving object, and
 //!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
 //! - [`cache`]: estimated tracks kept between runs of the experiment.
@@ -23,6 +25,7 @@ pub mod cost;
 pub mod end_to_end;
 pub mod files;
 pub mod from_images;
+pub mod hybrid;
 pub mod input;
 pub mod rendered_cache;
 pub mod runner;

@@ -1,6 +1,6 @@
 //! Streams simulated frames through the wire into the core estimator and collects its outputs.
 
-use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, PoseEstimate, Pushed};
+use dynotraj_core::estimate::{Estimator, EstimatorParams, EstimatorStats, NewestFit, PoseEstimate, Pushed};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode};
 use dynotraj_formats::tracks_file::TracksFrame;
 use dynotraj_sim::track_sim::SimFrame;
@@ -40,6 +40,9 @@ pub struct EstimatorRun {
     pub causal: Vec<Option<PoseEstimate>>,
     /// Smoothed estimate per frame.
     pub smoothed: Vec<Option<PoseEstimate>>,
+    /// The object fits of each frame, against its causal camera (what
+    /// [`super::hybrid::rewrite`] smooths).
+    pub fits: Vec<Vec<NewestFit>>,
     /// The estimator's counters at the end.
     pub stats: EstimatorStats,
     /// Bytes sent over the (simulated) link.
@@ -99,6 +102,7 @@ pub fn run_parts<const W: usize>(frames: &[TracksFrame], params: EstimatorParams
         frame_to_frame: vec![None; n],
         causal: vec![None; n],
         smoothed: vec![None; n],
+        fits: vec![Vec::new(); n],
         stats: EstimatorStats::default(),
         wire_bytes: 0,
     };
@@ -111,6 +115,7 @@ pub fn run_parts<const W: usize>(frames: &[TracksFrame], params: EstimatorParams
                 run.frame_to_frame[i] = Some(e.clone());
                 est.causal(&mut e);
                 run.causal[i] = Some(e);
+                run.fits[i] = est.newest_fits().collect();
                 if smoothed {
                     let s = est.smoothed();
                     if let Some(j) = index_of(s.frame) {

@@ -10,6 +10,7 @@ use dynotraj_core::estimate::{
 use dynotraj_core::wire::{CameraInfo, ObjectClass};
 use dynotraj_sim::track_sim::{SimFrame, SimSpec, simulate};
 
+use super::hybrid::{HybridCounts, HybridParams, restrict_to, rewrite};
 use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, run_estimator, run_parts};
 use super::score::{RunScores, SmoothnessSum, TrajectorySmoothness, moving_objects, score_run, smoothness};
@@ -58,6 +59,10 @@ pub struct EvalOptions {
     pub render_optics: Optics,
     /// How the front-end gives tracked points their depth on renderings.
     pub point_depth: PointDepthOptions,
+    /// Score the object poses of DynoSAM's hybrid smoother run over the estimator's fits
+    /// ([`super::hybrid`]) instead of the estimator's own, the fits' information multiplied by
+    /// this weight (a measurement; off by default).
+    pub hybrid_object_smoother: Option<f64>,
 }
 
 /// How the image front-end gives the points it sends their depth (the front-end's defaults
@@ -170,6 +175,7 @@ impl EvalOptions {
             object_variants: ObjectVariants::default(),
             render_optics: Optics::IDEAL,
             point_depth: PointDepthOptions::default(),
+            hybrid_object_smoother: None,
         }
     }
 
@@ -231,6 +237,9 @@ pub struct SequenceResult {
     pub run: EstimatorRun,
     /// The sequence's camera (what a tracks file of it carries).
     pub intrinsics: Intrinsics,
+    /// With [`EvalOptions::hybrid_object_smoother`] (whose poses `scores` and `run` then
+    /// hold), what the hybrid smoother replaced, and the estimator's own RPE on the same pairs.
+    pub hybrid: Option<(HybridCounts, RunScores)>,
 }
 
 /// The estimator parameters for a sequence with `spec`'s camera and `opt`'s priors.
@@ -334,9 +343,15 @@ pub fn score_sequence(
     intrinsics: Intrinsics,
 ) -> SequenceResult {
     let t0 = Instant::now();
-    let run = run_sim_with_window(&sim, params, opt);
+    let mut run = run_sim_with_window(&sim, params, opt);
     let estimate_seconds = t0.elapsed().as_secs_f64();
+    let own = opt.hybrid_object_smoother.map(|weight| (weight, run.clone()));
     let moving = moving_objects(&sim, opt.min_step_m);
+    let hybrid = own.map(|(fit_weight, mut own)| {
+        let counts = rewrite(&mut run, &HybridParams { fit_weight, ..HybridParams::of(&params, opt.window) });
+        restrict_to(&mut own, &run);
+        (counts, score_run(&sim, &own, &moving))
+    });
     let scores = score_run(&sim, &run, &moving);
     let smoothness = smoothness_table(data, opt, &sim, &run, &moving);
     SequenceResult {
@@ -351,6 +366,7 @@ pub fn score_sequence(
         sim,
         run,
         intrinsics,
+        hybrid,
     }
 }
 
