@@ -152,8 +152,8 @@ pub struct EstimateArgs {
     /// measurement of the object's pose, a constant-motion residual over three poses), run
     /// offline over the estimator's own fits in the same window, instead of the estimator's
     /// chain smoother, each fit's information multiplied by WEIGHT (default 1); prints the
-    /// estimator's RPE on the same pairs beside it (docs/decisions.md "The fit as a pose
-    /// measurement"). Table III's object RPE changes; the bird's-eye states forecasts read do not.
+    /// estimator's RPE on the same pairs beside it (docs/decisions.md "Item 4's first
+    /// option"). Table III's object RPE changes; the bird's-eye states forecasts read do not.
     #[arg(long, num_args = 0..=1, default_missing_value = "1", value_parser = crate::numbers::positive, value_name = "WEIGHT")]
     pub hybrid_object_smoother: Option<f64>,
     /// Output format of the tables: md (for people), csv or json (one observation per row,
