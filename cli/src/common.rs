@@ -237,6 +237,9 @@ pub enum PointDepth {
     Dense,
     /// Refined to sub-pixel at the point over its own instance (the default).
     Subpixel,
+    /// No dense matcher where the masks need no depth (renderings, given masks): each point is
+    /// matched along its row over the dense matcher's range, then refined to sub-pixel.
+    RowMatch,
 }
 
 /// How the image front-end gives the points it sends their depth.
@@ -260,9 +263,10 @@ impl PointDepthArgs {
     #[must_use]
     pub fn options(&self) -> PointDepthOptions {
         PointDepthOptions {
-            subpixel: self.point_depth == PointDepth::Subpixel,
+            subpixel: self.point_depth != PointDepth::Dense,
             object_edge_margin_px: self.object_edge_margin.max(0),
             stereo_downscale: self.stereo_downscale,
+            row_match: self.point_depth == PointDepth::RowMatch,
         }
     }
 }

@@ -6,7 +6,9 @@ use opencv::prelude::*;
 
 use super::error::{FrontEndError, cv};
 use super::stereo::DisparityMap;
-use super::subpixel::{GreyView, Refused, SubpixelParams, refine_disparity, refine_from_coarse_start};
+use super::subpixel::{
+    GreyView, Refused, RowSearch, SubpixelParams, match_along_row, refine_disparity, refine_from_coarse_start,
+};
 
 /// Where a frame's depth comes from.
 #[derive(Debug, Clone)]
@@ -20,6 +22,16 @@ pub enum DepthMap {
         /// The rectified grey pair the map was computed from, for sub-pixel refinement at
         /// points (`None`: the map alone).
         pair: Option<(Mat, Mat)>,
+    },
+    /// Stereo without a dense map: each point's disparity is searched for along its row
+    /// ([`match_along_row`]); no depth at other pixels.
+    Rows {
+        /// Baseline x focal length, pixel metres.
+        fb: f32,
+        /// The rectified grey pair.
+        pair: (Mat, Mat),
+        /// The disparities searched.
+        search: RowSearch,
     },
     /// A depth map in metres (`f32`; 0 = unknown).
     Given(Mat),
@@ -41,6 +53,7 @@ impl DepthMap {
     pub fn at(&self, u: f32, v: f32) -> Option<f32> {
         match self {
             Self::Stereo { disparity, fb, .. } => disparity.at(u, v).map(|d| fb / d),
+            Self::Rows { .. } => None,
             Self::Given(m) => {
                 let (x, y) = (u.round() as i32, v.round() as i32);
                 if x < 0 || y < 0 || x >= m.cols() || y >= m.rows() {
@@ -59,7 +72,8 @@ impl DepthMap {
     /// [`SubpixelParams::drop_refused`], where the refinement was refused. From a downscaled
     /// map, the start is the median over the instance ([`DisparityMap::median_within`]), the
     /// refinement is [`refine_from_coarse_start`] and a patch too small to refine counts as
-    /// refused. Otherwise (a given depth map, no parameters, no dense value) as [`Self::at`].
+    /// refused. Without a dense map ([`Self::Rows`]), [`match_along_row`] (with `params`, or
+    /// the defaults), and nothing where it finds nothing. Otherwise (a given depth map, no parameters, no dense value) as [`Self::at`].
     pub fn at_point(
         &self,
         u: f32,
@@ -68,6 +82,16 @@ impl DepthMap {
         params: Option<&SubpixelParams>,
     ) -> (Option<f32>, PointDepthOutcome) {
         let dense = || (self.at(u, v), PointDepthOutcome::Dense);
+        if let Self::Rows { fb, pair: (left, right), search } = self {
+            let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else {
+                return (None, PointDepthOutcome::Refused);
+            };
+            let defaults = SubpixelParams::default();
+            return match match_along_row(&l, &r, u, v, same_instance, params.unwrap_or(&defaults), search) {
+                Ok(d) => ((d > 0.0).then(|| fb / d), PointDepthOutcome::Refined),
+                Err(_) => (None, PointDepthOutcome::Refused),
+            };
+        }
         let Self::Stereo { disparity, fb, pair: Some((left, right)) } = self else { return dense() };
         let (Some(p), Some(start)) = (params, disparity.at(u, v)) else { return dense() };
         let (Some(l), Some(r)) = (grey_view(left), grey_view(right)) else { return dense() };

@@ -42,5 +42,5 @@ pub use masks::{Detection, IdAssigner, Instance, Instances};
 pub use pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 pub use stats::FrontEndStats;
 pub use stereo::{D1, DisparityMap, Stereo, StereoParams, d1_error};
-pub use subpixel::{CoarseStart, SubpixelParams};
+pub use subpixel::{CoarseStart, RowSearch, SubpixelParams};
 pub use tracker::{Tracker, TrackerParams};

@@ -116,7 +116,9 @@ impl FrontEnd {
         })
     }
 
-    /// Processes one frame; returns its tracks (wire order, within the capacities). With a
+    /// Processes one frame; returns its tracks (wire order, within the capacities). With
+    /// [`StereoParams::row_match`] and masks that need no depth, no dense map is computed: each
+    /// point is matched along its row when its depth is needed. Otherwise, with a
     /// right image, masks that need no depth and a downscaled matcher, the dense matcher runs on
     /// a second thread while this one follows the points (KLT, detection, sampling need no
     /// depth); the tracks are the same as one after the other. At full size the matcher is
@@ -131,7 +133,8 @@ impl FrontEnd {
         let (w, h) = (left.cols(), left.rows());
         let Self { stereo, tracker, ids, fb, times } = self;
         let fb = *fb;
-        let beside = !matches!(masks, MaskInput::Boxes(_)) && stereo.downscale() > 1;
+        let rows = stereo.row_search().filter(|_| !matches!(masks, MaskInput::Boxes(_)));
+        let beside = rows.is_none() && !matches!(masks, MaskInput::Boxes(_)) && stereo.downscale() > 1;
         let (tracks, cpu) = match depth {
             DepthInput::Right(right) if beside => {
                 let instances = instances_of(masks, ids, w, h, None)?;
@@ -160,12 +163,15 @@ impl FrontEnd {
                 (tracks, [c2 - c1, c1 - c0, 0.0, c3 - c2])
             }
             depth => {
-                let depth = match depth {
-                    DepthInput::Right(right) => {
+                let depth = match (depth, rows) {
+                    (DepthInput::Right(right), Some(search)) => {
+                        DepthMap::Rows { fb, pair: (left.clone(), right), search }
+                    }
+                    (DepthInput::Right(right), None) => {
                         let disparity = stereo.disparity(&left, &right)?;
                         DepthMap::Stereo { disparity, fb, pair: Some((left.clone(), right)) }
                     }
-                    DepthInput::Depth(d) => DepthMap::Given(d),
+                    (DepthInput::Depth(d), _) => DepthMap::Given(d),
                 };
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
                 let instances = instances_of(masks, ids, w, h, Some(&depth))?;
@@ -254,5 +260,41 @@ mod tests {
         assert!(sent > 100, "{sent} tracks");
         assert_eq!(beside.times.concurrent_frames, sim.len());
         assert!(beside.times.wall > 0.0 && beside.times.fps() > 0.0);
+    }
+
+    #[test]
+    fn points_matched_along_their_rows_get_the_dense_path_s_depths_without_a_dense_map() {
+        let drive = generate(&DriveSpec { frames: 4, ..DriveSpec::default() });
+        let sim = ImageSim::new(Camera::kitti(0.5), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
+        let fb = sim.camera.fb() as f32;
+        let dense_params = StereoParams::kitti_at_scale(0.5);
+        let mut dense = FrontEnd::new(dense_params, TrackerParams::default(), fb).unwrap();
+        let mut rows =
+            FrontEnd::new(StereoParams { row_match: true, ..dense_params }, TrackerParams::default(), fb).unwrap();
+        let (mut both, mut dense_only, mut errors) = (0, 0, Vec::new());
+        for k in 0..sim.len() {
+            let f = sim.frame(k).unwrap();
+            let a = dense.process(input_of(&f, &sim.camera).unwrap()).unwrap();
+            let b = rows.process(input_of(&f, &sim.camera).unwrap()).unwrap();
+            for t in &a {
+                match b.iter().find(|o| o.track_id == t.track_id && o.object_id == t.object_id) {
+                    Some(o) => {
+                        both += 1;
+                        errors.push((fb / o.depth - fb / t.depth).abs());
+                    }
+                    None => dense_only += 1,
+                }
+            }
+        }
+        errors.sort_by(f32::total_cmp);
+        let median = errors.get(errors.len() / 2).copied().unwrap_or(f32::NAN);
+        assert!(both > 100 && both >= 2 * dense_only, "{both} tracks in both, {dense_only} in the dense path's only");
+        assert!(median < 0.1, "median disparity difference {median} px over {both} tracks");
+        assert!(
+            rows.times.stereo < 0.1 * dense.times.stereo,
+            "{} s against {} s",
+            rows.times.stereo,
+            dense.times.stereo
+        );
     }
 }

@@ -34,13 +34,16 @@ pub struct StereoParams {
     pub uniqueness: i32,
     /// Images are shrunk by this factor (1 or 2) before matching.
     pub downscale: i32,
+    /// Where the masks need no depth, no dense map at all: each sent point is matched along its
+    /// row over the same range ([`crate::subpixel::match_along_row`]).
+    pub row_match: bool,
 }
 
 impl StereoParams {
     /// The values of the table above, at full resolution.
     #[must_use]
     pub const fn kitti() -> Self {
-        Self { num_disparities: 128, block_size: 5, uniqueness: 10, downscale: 1 }
+        Self { num_disparities: 128, block_size: 5, uniqueness: 10, downscale: 1, row_match: false }
     }
 
     /// [`StereoParams::kitti`] for images scaled by `scale`: the disparity range scales with
@@ -157,6 +160,12 @@ impl Stereo {
     #[must_use]
     pub const fn downscale(&self) -> i32 {
         self.params.downscale
+    }
+
+    /// The row search that replaces the dense map where the masks need no depth, if asked for.
+    #[must_use]
+    pub const fn row_search(&self) -> Option<crate::subpixel::RowSearch> {
+        if self.params.row_match { Some(crate::subpixel::RowSearch::up_to(self.params.num_disparities)) } else { None }
     }
 
     /// The disparity map of a rectified grey pair of equal size.

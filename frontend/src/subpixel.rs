@@ -175,6 +175,87 @@ pub fn refine_from_coarse_start(
     }
 }
 
+/// How a point's disparity is searched for without a dense matcher ([`match_along_row`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowSearch {
+    /// Smallest whole disparity tried, pixels.
+    pub min_disparity: i32,
+    /// Largest whole disparity tried, pixels (the dense matcher's range: 128 at KITTI's full
+    /// size reaches 3 m).
+    pub max_disparity: i32,
+    /// The best score must be below this fraction of the best score two or more pixels away
+    /// from it, else the point gets no depth (repeated or ambiguous texture).
+    pub uniqueness: f32,
+}
+
+impl RowSearch {
+    /// The search over the disparities a dense matcher with `num_disparities` would try.
+    #[must_use]
+    pub const fn up_to(num_disparities: i32) -> Self {
+        Self { min_disparity: 1, max_disparity: num_disparities - 1, uniqueness: 0.4 }
+    }
+}
+
+/// The sub-pixel disparity of left pixel `(u, v)` without a dense map: every whole disparity of
+/// `search` is scored by the zero-mean normalised correlation of the point's patch (pixels
+/// whose `same_instance(x, y)` is true, at whole pixels) with the right image, and the best, if
+/// unique, is refined as [`refine_disparity`] refines a dense matcher's value.
+///
+/// # Errors
+/// Why no disparity was found ([`Refused`]; [`Refused::Mismatch`] also when the best score is
+/// not unique or no disparity fits in the image).
+pub fn match_along_row(
+    left: &GreyView<'_>,
+    right: &GreyView<'_>,
+    u: f32,
+    v: f32,
+    same_instance: impl Fn(i64, i64) -> bool,
+    p: &SubpixelParams,
+    search: &RowSearch,
+) -> Result<f32, Refused> {
+    let offsets = patch(u, v, same_instance, p)?;
+    let pixels: Vec<(usize, usize)> = offsets
+        .iter()
+        .map(|(x, y)| {
+            let (x, y) = (x.round(), y.round());
+            (x >= 0.0 && y >= 0.0 && (x as usize) < left.width && (y as usize) < left.height)
+                .then_some((x as usize, y as usize))
+        })
+        .collect::<Option<_>>()
+        .ok_or(Refused::SmallPatch)?;
+    let n = pixels.len() as f32;
+    let a: Vec<f32> = pixels.iter().map(|(x, y)| left.at(*x, *y)).collect();
+    let (ma, sa) = mean_spread(&a, n);
+    if sa * sa < p.min_texture {
+        return Err(Refused::Flat);
+    }
+    let a: Vec<f32> = a.iter().map(|i| (i - ma) / sa).collect();
+    let min_x = pixels.iter().map(|(x, _)| *x).min().unwrap_or(0);
+    let mut scores: Vec<(i32, f32)> = Vec::with_capacity(search.max_disparity.max(0) as usize);
+    for d in search.min_disparity.max(0)..=search.max_disparity {
+        let Some(shift) = usize::try_from(d).ok().filter(|d| *d <= min_x) else { break };
+        let (mut sb, mut sbb, mut sab) = (0.0f32, 0.0f32, 0.0f32);
+        for ((x, y), ai) in pixels.iter().zip(&a) {
+            let b = right.at(x - shift, *y);
+            sb += b;
+            sbb += b * b;
+            sab += ai * b;
+        }
+        let var = (sbb / n - (sb / n).powi(2)).max(1e-6);
+        // Mean squared difference of the normalised patches, 2 (1 - correlation): the score the
+        // refinement's residual is measured in.
+        scores.push((d, 2.0 * (1.0 - sab / (n * var.sqrt()))));
+    }
+    let &(best, score) = scores.iter().min_by(|a, b| a.1.total_cmp(&b.1)).ok_or(Refused::Mismatch)?;
+    let rival = scores.iter().filter(|(d, _)| (d - best).abs() >= 2).map(|s| s.1).fold(f32::INFINITY, f32::min);
+    // A NaN score is no match either.
+    if score.partial_cmp(&(search.uniqueness * rival)) != Some(std::cmp::Ordering::Less) {
+        return Err(Refused::Mismatch);
+    }
+    // The patch was scored at whole pixels; the refinement samples at the point's own offsets.
+    align(left, right, &offsets, best as f32, p)
+}
+
 /// The disparity `start + k step` within `search_px` of `start` whose normalised patch
 /// difference is least, if it is unique ([`CoarseStart::uniqueness`]).
 fn search(
@@ -385,5 +466,68 @@ mod tests {
         let left = GreyView { data: &l, width: 80, height: 30 };
         let right = GreyView { data: &r, width: 80, height: 30 };
         assert_eq!(search(&left, &right, &offsets, 6.0, &c), Ok(5.0));
+    }
+
+    /// A smooth texture without repeats over a wide image: noise on a 3-pixel grid, bilinear
+    /// in between; the right image is the left moved by `shift`, under a gain and an offset.
+    fn wide_pair(width: usize, height: usize, shift: f32) -> (Vec<u8>, Vec<u8>) {
+        let grid =
+            |i: i64, j: i64| ((i.wrapping_mul(73_856_093) ^ j.wrapping_mul(19_349_663)).rem_euclid(9973) % 200) as f32;
+        let tex = |x: f32, y: f32| {
+            let (gx, gy) = (x / 3.0, y / 3.0);
+            let (i, j) = (gx.floor() as i64, gy.floor() as i64);
+            let (fx, fy) = (gx - gx.floor(), gy - gy.floor());
+            let top = grid(i, j) + fx * (grid(i + 1, j) - grid(i, j));
+            let bottom = grid(i, j + 1) + fx * (grid(i + 1, j + 1) - grid(i, j + 1));
+            28.0 + top + fy * (bottom - top)
+        };
+        let mut l = vec![0u8; width * height];
+        let mut r = vec![0u8; width * height];
+        for y in 0..height {
+            for x in 0..width {
+                l[y * width + x] = tex(x as f32, y as f32).round().clamp(0.0, 255.0) as u8;
+                r[y * width + x] = (0.8 * tex(x as f32 + shift, y as f32) + 10.0).round().clamp(0.0, 255.0) as u8;
+            }
+        }
+        (l, r)
+    }
+
+    #[test]
+    fn a_disparity_is_found_along_the_row_without_a_start() {
+        let p = SubpixelParams::default();
+        let search = RowSearch::up_to(128);
+        for shift in [3.4f32, 20.3, 47.5, 90.8, 120.2] {
+            let (l, r) = wide_pair(260, 30, shift);
+            let left = GreyView { data: &l, width: 260, height: 30 };
+            let right = GreyView { data: &r, width: 260, height: 30 };
+            let d = match_along_row(&left, &right, 200.0, 15.0, |_, _| true, &p, &search).unwrap();
+            assert!((d - shift).abs() < 0.1, "shift {shift}: {d}");
+        }
+    }
+
+    #[test]
+    fn a_row_match_refuses_flat_repeated_and_out_of_range_patches() {
+        let p = SubpixelParams::default();
+        let flat = vec![100u8; 260 * 30];
+        let flat = GreyView { data: &flat, width: 260, height: 30 };
+        assert_eq!(
+            match_along_row(&flat, &flat, 200.0, 15.0, |_, _| true, &p, &RowSearch::up_to(128)),
+            Err(Refused::Flat)
+        );
+        // A texture that repeats every 8 pixels matches at every eighth disparity alike.
+        let stripes: Vec<u8> = (0..260 * 30)
+            .map(|i| (128.0 + 60.0 * ((i % 260) as f32 * std::f32::consts::TAU / 8.0).sin()) as u8)
+            .collect();
+        let stripes = GreyView { data: &stripes, width: 260, height: 30 };
+        assert_eq!(
+            match_along_row(&stripes, &stripes, 200.0, 15.0, |_, _| true, &p, &RowSearch::up_to(128)),
+            Err(Refused::Mismatch)
+        );
+        // A true disparity beyond the range searched is not taken for another.
+        let (l, r) = wide_pair(260, 30, 60.0);
+        let left = GreyView { data: &l, width: 260, height: 30 };
+        let right = GreyView { data: &r, width: 260, height: 30 };
+        let near = RowSearch { max_disparity: 30, ..RowSearch::up_to(128) };
+        assert!(match_along_row(&left, &right, 200.0, 15.0, |_, _| true, &p, &near).is_err());
     }
 }

@@ -67,7 +67,7 @@ pub struct EvalOptions {
 
 /// How the image front-end gives the points it sends their depth (the front-end's defaults
 /// unless chosen otherwise, as an approach is measured against them).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq)]
 pub struct PointDepthOptions {
     /// The dense disparity refined to sub-pixel at each point (else the dense value).
     pub subpixel: bool,
@@ -76,11 +76,29 @@ pub struct PointDepthOptions {
     /// The dense matcher runs on images shrunk by this factor (1 or 2); the points' sub-pixel
     /// refinement starts from its values at full resolution.
     pub stereo_downscale: i32,
+    /// No dense matcher where the masks need no depth: each point matched along its row
+    /// ([`dynotraj_frontend::StereoParams::row_match`]).
+    pub row_match: bool,
 }
 
 impl Default for PointDepthOptions {
     fn default() -> Self {
-        Self { subpixel: true, object_edge_margin_px: 0, stereo_downscale: 1 }
+        Self { subpixel: true, object_edge_margin_px: 0, stereo_downscale: 1, row_match: false }
+    }
+}
+
+/// The renderings' cache keys are made from this text, so a choice added later is written only
+/// when it is made: the keys of renderings tracked without it stay as they were.
+impl std::fmt::Debug for PointDepthOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut s = f.debug_struct("PointDepthOptions");
+        s.field("subpixel", &self.subpixel)
+            .field("object_edge_margin_px", &self.object_edge_margin_px)
+            .field("stereo_downscale", &self.stereo_downscale);
+        if self.row_match {
+            s.field("row_match", &self.row_match);
+        }
+        s.finish()
     }
 }
 
@@ -91,6 +109,7 @@ impl PointDepthOptions {
     pub fn stereo(&self, scale: f64) -> dynotraj_frontend::StereoParams {
         dynotraj_frontend::StereoParams {
             downscale: self.stereo_downscale,
+            row_match: self.row_match,
             ..dynotraj_frontend::StereoParams::kitti_at_scale(scale)
         }
     }
