@@ -389,13 +389,8 @@ mod tests {
     use super::*;
 
     /// A smooth random texture shifted by `shift` pixels (right = left moved left by `shift`).
-    fn pair(width: usize, height: usize, shift: f32) -> (Vec<u8>, Vec<u8>) {
-        let tex = |x: f32, y: f32| {
-            128.0
-                + 50.0 * (0.7 * x + 0.3 * y).sin()
-                + 30.0 * (0.23 * x - 0.5 * y + 1.0).sin()
-                + 20.0 * (1.3 * x + 0.1).cos()
-        };
+    /// The images of texture `tex`, the right one moved by `shift` under a gain and an offset.
+    fn shifted(width: usize, height: usize, shift: f32, tex: impl Fn(f32, f32) -> f32) -> (Vec<u8>, Vec<u8>) {
         let mut l = vec![0u8; width * height];
         let mut r = vec![0u8; width * height];
         for y in 0..height {
@@ -405,6 +400,16 @@ mod tests {
             }
         }
         (l, r)
+    }
+
+    fn pair(width: usize, height: usize, shift: f32) -> (Vec<u8>, Vec<u8>) {
+        let tex = |x: f32, y: f32| {
+            128.0
+                + 50.0 * (0.7 * x + 0.3 * y).sin()
+                + 30.0 * (0.23 * x - 0.5 * y + 1.0).sin()
+                + 20.0 * (1.3 * x + 0.1).cos()
+        };
+        shifted(width, height, shift, tex)
     }
 
     #[test]
@@ -481,15 +486,7 @@ mod tests {
             let bottom = grid(i, j + 1) + fx * (grid(i + 1, j + 1) - grid(i, j + 1));
             28.0 + top + fy * (bottom - top)
         };
-        let mut l = vec![0u8; width * height];
-        let mut r = vec![0u8; width * height];
-        for y in 0..height {
-            for x in 0..width {
-                l[y * width + x] = tex(x as f32, y as f32).round().clamp(0.0, 255.0) as u8;
-                r[y * width + x] = (0.8 * tex(x as f32 + shift, y as f32) + 10.0).round().clamp(0.0, 255.0) as u8;
-            }
-        }
-        (l, r)
+        shifted(width, height, shift, tex)
     }
 
     #[test]
