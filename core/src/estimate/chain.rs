@@ -74,6 +74,12 @@ impl Smoothness {
     pub(crate) fn matrix(&self) -> Mat6 {
         Mat6::from_diagonal(&self.diag)
     }
+
+    /// The diagonal information on the change of a body twist `[rho; omega]` per frame.
+    #[must_use]
+    pub fn information(&self) -> [f32; 6] {
+        self.diag.into()
+    }
 }
 
 /// Scratch of one solve: per slot the inverse of the eliminated diagonal block (symmetric, so

@@ -187,7 +187,9 @@ impl<const W: usize> Default for ObjectRun<W> {
 }
 
 /// Whether objects of `class` move as road vehicles do (not sideways): everything but people.
-fn moves_like_a_vehicle(class: ObjectClass) -> bool {
+/// Their motions get the vehicle kinematic prior once their heading is known.
+#[must_use]
+pub fn moves_like_a_vehicle(class: ObjectClass) -> bool {
     !matches!(class, ObjectClass::Pedestrian | ObjectClass::PersonSitting | ObjectClass::Background)
 }
 

@@ -15,10 +15,11 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use dynotraj_core::estimate::{EstimatorParams, NewestFit, PoseEstimate};
+use dynotraj_core::estimate::{
+    EstimatorParams, NewestFit, PoseEstimate, Smoothness, ad_matrix, adjoint as core_adjoint, moves_like_a_vehicle,
+};
 use dynotraj_core::geometry::{se3_exp, se3_log};
-use dynotraj_core::wire::ObjectClass;
-use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix6, Vector6};
 
 use super::runner::EstimatorRun;
 
@@ -53,10 +54,9 @@ impl HybridParams {
     /// The settings the estimator's chain smoother runs with under `params` and `window`.
     #[must_use]
     pub fn of(params: &EstimatorParams, window: usize) -> Self {
-        let info = |s: f32| if s.is_finite() && s > 0.0 { 1.0 / f64::from(s * s) } else { 0.0 };
-        let (t, r) = (info(params.object_smoother.sigma_translation), info(params.object_smoother.sigma_rotation));
+        let smoothness = Smoothness::new(&params.object_smoother).information().map(f64::from);
         let kinematic = params.vehicle_kinematics.map_or([0.0; 6], |k| k.information().map(f64::from));
-        Self { window: window.max(2), smoothness: [t, t, t, r, r, r], kinematic, fit_weight: 1.0 }
+        Self { window: window.max(2), smoothness, kinematic, fit_weight: 1.0 }
     }
 }
 
@@ -118,35 +118,16 @@ fn exp(xi: &Vec6) -> Pose {
     se3_exp(&xi.cast::<f32>()).cast::<f64>()
 }
 
-fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
 /// The adjoint of `t` on twists `[rho; omega]`: `t exp(xi) = exp(Ad(t) xi) t`.
 fn adjoint(t: &Pose) -> Mat6 {
-    let r = t.rotation.to_rotation_matrix().into_inner();
-    let mut a = Mat6::zeros();
-    a.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
-    a.fixed_view_mut::<3, 3>(0, 3).copy_from(&(skew(&t.translation.vector) * r));
-    a.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
-    a
-}
-
-/// The matrix of `ad(xi)` on twists `[rho; omega]`.
-fn ad(xi: &Vec6) -> Mat6 {
-    let (rho, omega) = (Vector3::new(xi[0], xi[1], xi[2]), Vector3::new(xi[3], xi[4], xi[5]));
-    let mut a = Mat6::zeros();
-    a.fixed_view_mut::<3, 3>(0, 0).copy_from(&skew(&omega));
-    a.fixed_view_mut::<3, 3>(0, 3).copy_from(&skew(&rho));
-    a.fixed_view_mut::<3, 3>(3, 3).copy_from(&skew(&omega));
-    a
+    core_adjoint(&t.cast::<f32>()).cast::<f64>()
 }
 
 /// The inverse right Jacobian of SE(3) at `xi` to second order: `log(exp(xi) exp(d)) = xi +
 /// Jr^-1(xi) d`. A frame's motion is a metre or more, so its first-order term couples a
 /// rotation perturbation into the translation by half a metre per radian: not negligible.
 fn inverse_right_jacobian(xi: &Vec6) -> Mat6 {
-    let a = ad(xi);
+    let a = ad_matrix(&xi.cast::<f32>()).cast::<f64>();
     Mat6::identity() + a * 0.5 + a * a / 12.0
 }
 
@@ -336,12 +317,6 @@ impl Window {
     }
 }
 
-/// Whether objects of `class` get the vehicle kinematic prior (everything but people, as in the
-/// estimator).
-fn moves_like_a_vehicle(class: ObjectClass) -> bool {
-    !matches!(class, ObjectClass::Pedestrian | ObjectClass::PersonSitting | ObjectClass::Background)
-}
-
 /// Replaces `run`'s causal and smoothed object poses by the hybrid smoother's over the same
 /// fits (see the module docs). An object estimate the hybrid smoother has no pose for (its run
 /// not yet fitted since a turn) is left out, and counted: a pose of the other smoother beside
@@ -416,14 +391,13 @@ pub fn rewrite(run: &mut EstimatorRun, p: &HybridParams) -> HybridCounts {
                     Window::new(object.orientation, kinematic, Node { index: i, pose: z, measured, fitted }),
                 );
             } else if let Some(w) = windows.get_mut(&id) {
-                let predicted = match (w.nodes.len(), w.nodes.back()) {
-                    (len, Some(last)) if len >= 2 => {
-                        let before = w.nodes.get(len - 2).map_or(last.pose, |b| b.pose);
-                        last.pose * (before.inverse() * last.pose)
-                    }
-                    (_, Some(last)) => last.pose * w.motion_before.as_ref().map_or(Pose::identity(), exp),
-                    (_, None) => camera,
+                // A continuing window is never empty.
+                let Some(last) = w.nodes.back() else { continue };
+                let motion = match w.nodes.len().checked_sub(2).and_then(|j| w.nodes.get(j)) {
+                    Some(before) => before.pose.inverse() * last.pose,
+                    None => w.motion_before.as_ref().map_or(Pose::identity(), exp),
                 };
+                let predicted = last.pose * motion;
                 w.nodes.push_back(Node { index: i, pose: measured.map_or(predicted, |m| m.0), measured, fitted });
             }
             let Some(w) = windows.get_mut(&id) else { continue };
@@ -489,9 +463,10 @@ pub fn restrict_to(run: &mut EstimatorRun, hybrid: &EstimatorRun) {
 #[cfg(test)]
 #[allow(clippy::unwrap_used, clippy::indexing_slicing)]
 mod tests {
-    use dynotraj_core::estimate::{EstimatorStats, ObjectEstimate, PoseEstimate};
+    use dynotraj_core::estimate::ObjectEstimate;
     use dynotraj_core::geometry::Pose3;
     use dynotraj_core::metrics::RpeAccumulator;
+    use dynotraj_core::wire::ObjectClass;
     use nalgebra::{Translation3, UnitQuaternion};
 
     use super::*;
@@ -518,14 +493,7 @@ mod tests {
     /// A run whose causal estimates hold the object at its fits, each fit the truth moved by
     /// `sigma` times the noise along every axis (and a tenth of it in radians).
     fn run_with_fits(sigma: f32) -> EstimatorRun {
-        let mut run = EstimatorRun {
-            frame_to_frame: vec![None; FRAMES],
-            causal: vec![None; FRAMES],
-            smoothed: vec![None; FRAMES],
-            fits: vec![Vec::new(); FRAMES],
-            stats: EstimatorStats::default(),
-            wire_bytes: 0,
-        };
+        let mut run = EstimatorRun::empty(FRAMES);
         let info_t = 1.0 / (sigma * sigma).max(1e-6);
         let info = Mat6::from_diagonal(&Vec6::new(
             f64::from(info_t),

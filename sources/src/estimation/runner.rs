@@ -50,6 +50,19 @@ pub struct EstimatorRun {
 }
 
 impl EstimatorRun {
+    /// A run of `n` frames without any estimate yet.
+    #[must_use]
+    pub fn empty(n: usize) -> Self {
+        Self {
+            frame_to_frame: vec![None; n],
+            causal: vec![None; n],
+            smoothed: vec![None; n],
+            fits: vec![Vec::new(); n],
+            stats: EstimatorStats::default(),
+            wire_bytes: 0,
+        }
+    }
+
     /// The estimates of one kind.
     #[must_use]
     pub fn of(&self, kind: Kind) -> &[Option<PoseEstimate>] {
@@ -98,14 +111,7 @@ pub fn run_estimator<const W: usize>(frames: &[SimFrame], params: EstimatorParam
 pub fn run_parts<const W: usize>(frames: &[TracksFrame], params: EstimatorParams, seed: u64) -> EstimatorRun {
     let mut est: Box<Estimator<W>> = Box::new(Estimator::new(params, seed));
     let n = frames.len();
-    let mut run = EstimatorRun {
-        frame_to_frame: vec![None; n],
-        causal: vec![None; n],
-        smoothed: vec![None; n],
-        fits: vec![Vec::new(); n],
-        stats: EstimatorStats::default(),
-        wire_bytes: 0,
-    };
+    let mut run = EstimatorRun::empty(n);
     let index_of = |frame: u32| frames.iter().position(|f| f.frame == frame);
     for (i, f) in frames.iter().enumerate() {
         for part in &f.parts {
