@@ -2,6 +2,7 @@
 //! naming the file, line (or byte offset) and field.
 //!
 //! - [`atomic`]: output files written whole or not at all.
+//! - [`eth_ucy`]: the ETH/UCY pedestrian recordings (the field's forecasting benchmark).
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
 //! - [`manifest`]: drive manifests, the list of a run's layout folders and bags.
 //! - [`tracks_file`]: recorded feature-track streams (`.dtt`), the link's bytes.
@@ -11,6 +12,7 @@
 //! these parsers build without the image and learning stacks.
 
 pub mod atomic;
+pub mod eth_ucy;
 pub mod kitti;
 pub mod manifest;
 pub mod model_file;
