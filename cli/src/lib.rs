@@ -13,6 +13,7 @@ pub mod import;
 pub mod interrupt;
 pub mod model_cost;
 pub mod numbers;
+pub mod pedestrians;
 pub mod progress;
 pub mod sign;
 #[cfg(feature = "images")]
@@ -85,6 +86,9 @@ pub enum Command {
     /// Generalisation benchmark: every sequence held out once in folds of whole sequences,
     /// several seeds, all arms; weighted and per-sequence tables, the deployment comparison.
     Benchmark(benchmark::BenchmarkArgs),
+    /// The pedestrian benchmark: ETH/UCY, each scene held out once, constant velocity, the
+    /// motion prior and the learned model (f32, int8) beside Trajectron++'s published figures.
+    Pedestrians(pedestrians::PedestriansArgs),
     /// Renders an image sequence (stereo, depth, masks, truth) from KITTI labels and ego poses.
     #[cfg(feature = "images")]
     Simulate(simulate::SimulateArgs),
@@ -133,6 +137,7 @@ impl Command {
             Self::ModelCost(_) => "model-cost",
             Self::Experiment(_) => "experiment",
             Self::Benchmark(_) => "benchmark",
+            Self::Pedestrians(_) => "pedestrians",
             #[cfg(feature = "images")]
             Self::Simulate(_) => "simulate",
             #[cfg(feature = "images")]
@@ -174,6 +179,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::ModelCost(a) => model_cost::run(&a),
         Command::Experiment(a) => experiment::run(&a),
         Command::Benchmark(a) => benchmark::run(&a),
+        Command::Pedestrians(a) => pedestrians::run_command(&a),
         #[cfg(feature = "images")]
         Command::Simulate(a) => simulate::run(&a),
         #[cfg(feature = "images")]

@@ -6,5 +6,6 @@
 pub mod experiment;
 pub mod forecast_eval;
 pub mod jobs;
+pub mod pedestrian_benchmark;
 pub mod predictors;
 pub mod report;

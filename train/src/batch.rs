@@ -24,11 +24,12 @@ pub struct Batch {
     pub initial_control: Tensor,
     /// Current speed [B, 1].
     pub speed: Tensor,
-    /// The motion prior's controls [B, HORIZON, 2] (turn rate, acceleration; physical units).
+    /// The motion prior's controls [B, H, 2] (turn rate, acceleration; physical units) over the
+    /// samples' horizon H.
     pub prior: Tensor,
-    /// Future positions [B, HORIZON, 2], metres, agent frame.
+    /// Future positions [B, H, 2], metres, agent frame.
     pub future: Tensor,
-    /// Future positions / POS_SCALE [B, HORIZON, 2]: the future encoder's input.
+    /// Future positions / POS_SCALE [B, H, 2]: the future encoder's input.
     pub future_std: Tensor,
 }
 
@@ -36,19 +37,20 @@ impl Batch {
     /// Builds the tensors of `samples` (at least one).
     ///
     /// # Errors
-    /// An empty slice.
+    /// An empty slice; samples of different horizons.
     pub fn new(samples: &[&Sample], device: &Device) -> Result<Self> {
         let b = samples.len();
-        if b == 0 {
-            candle_core::bail!("empty batch");
+        let Some(h) = samples.first().map(|s| s.horizon) else { candle_core::bail!("empty batch") };
+        if h == 0 || h > HORIZON || samples.iter().any(|s| s.horizon != h) {
+            candle_core::bail!("a batch's samples share one horizon of 1..={HORIZON} steps");
         }
         let mut own = Vec::with_capacity(b * MAX_STEPS * FEATURES);
         let mut edge = Vec::with_capacity(b * MAX_STEPS * 2 * FEATURES);
         let mut mask = Vec::with_capacity(b * MAX_STEPS);
         let mut current = Vec::with_capacity(b * FEATURES);
         let (mut u0, mut speed, mut future) =
-            (Vec::with_capacity(2 * b), Vec::with_capacity(b), Vec::with_capacity(2 * b * HORIZON));
-        let mut prior: Vec<f32> = Vec::with_capacity(2 * b * HORIZON);
+            (Vec::with_capacity(2 * b), Vec::with_capacity(b), Vec::with_capacity(2 * b * h));
+        let mut prior: Vec<f32> = Vec::with_capacity(2 * b * h);
         for s in samples {
             for (t, (o, n)) in s.own.iter().zip(&s.neighbours).enumerate() {
                 own.extend_from_slice(o);
@@ -59,10 +61,10 @@ impl Batch {
             current.extend_from_slice(&s.current_row());
             u0.extend_from_slice(&s.initial_control);
             speed.push(s.speed);
-            prior.extend(s.prior.iter().flatten());
-            future.extend(s.future.iter().flat_map(|p| [p.x, p.y]));
+            prior.extend(s.prior.iter().take(h).flatten());
+            future.extend(s.scored_future().iter().flat_map(|p| [p.x, p.y]));
         }
-        let future = Tensor::from_vec(future, (b, HORIZON, 2), device)?;
+        let future = Tensor::from_vec(future, (b, h, 2), device)?;
         Ok(Self {
             own: Tensor::from_vec(own, (b, MAX_STEPS, FEATURES), device)?,
             edge_input: Tensor::from_vec(edge, (b, MAX_STEPS, 2 * FEATURES), device)?,
@@ -71,7 +73,7 @@ impl Batch {
             current: Tensor::from_vec(current, (b, FEATURES), device)?,
             initial_control: Tensor::from_vec(u0, (b, 2), device)?,
             speed: Tensor::from_vec(speed, (b, 1), device)?,
-            prior: Tensor::from_vec(prior, (b, HORIZON, 2), device)?,
+            prior: Tensor::from_vec(prior, (b, h, 2), device)?,
             future_std: (&future / f64::from(POS_SCALE))?,
             future,
         })

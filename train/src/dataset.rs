@@ -44,8 +44,11 @@ pub struct Sample {
     /// The motion prior's controls (turn rate, acceleration) per step: the network's output
     /// is added to them.
     pub prior: Controls,
-    /// Future positions, frames s+1 ..= s+HORIZON, agent frame, metres.
+    /// Future positions, frames s+1 ..= s+horizon, agent frame, metres (zero after them).
     pub future: [Point2; HORIZON],
+    /// Future steps trained on and scored (at most [`HORIZON`]: a benchmark whose horizon is
+    /// shorter trains the decoder's first steps only).
+    pub horizon: usize,
 }
 
 impl Sample {
@@ -71,24 +74,30 @@ impl Sample {
         let sum: f32 = self
             .prior
             .iter()
-            .zip(&self.future)
+            .zip(self.scored_future())
             .map(|([w, a], p)| {
                 state = unicycle_step(&state, *w, *a, dt);
                 (state.x - p.x).hypot(state.y - p.y)
             })
             .sum();
-        sum / HORIZON as f32
+        sum / self.horizon as f32
+    }
+
+    /// The future positions trained on and scored.
+    #[must_use]
+    pub fn scored_future(&self) -> &[Point2] {
+        self.future.get(..self.horizon).unwrap_or(&self.future)
     }
 
     /// ADE (metres) of the forecast that moves by `step` (agent frame) every frame.
     fn straight_line_ade(&self, step: Point2) -> f32 {
         let sum: f32 = self
-            .future
+            .scored_future()
             .iter()
             .enumerate()
             .map(|(k, p)| ((k + 1) as f32 * step.x - p.x).hypot((k + 1) as f32 * step.y - p.y))
             .sum();
-        sum / HORIZON as f32
+        sum / self.horizon as f32
     }
 
     /// The same instance reflected across the agent's heading axis (y -> -y): a car turning
@@ -129,11 +138,25 @@ pub fn sample_at(
     group: usize,
     prior: &PriorSettings,
 ) -> Option<Sample> {
-    if s < MIN_HISTORY {
+    sample_over(states, s, HORIZON, context, dt, group, prior)
+}
+
+/// [`sample_at`] with `horizon` future steps (at most [`HORIZON`]).
+#[must_use]
+pub fn sample_over(
+    states: &[BevState],
+    s: usize,
+    horizon: usize,
+    context: &Context<'_>,
+    dt: f32,
+    group: usize,
+    prior: &PriorSettings,
+) -> Option<Sample> {
+    if s < MIN_HISTORY || horizon == 0 || horizon > HORIZON {
         return None;
     }
     let history = states.get(s.saturating_sub(MAX_PRIOR_HISTORY)..=s)?;
-    let future_states = states.get(s + 1..=s + HORIZON)?;
+    let future_states = states.get(s + 1..=s + horizon)?;
     if !history.iter().chain(future_states).all(BevState::is_finite) {
         return None;
     }
@@ -160,6 +183,7 @@ pub fn sample_at(
         speed: plan.speed,
         prior: plan.controls,
         future,
+        horizon,
     })
 }
 

@@ -45,7 +45,7 @@ use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::predict::PriorSettings;
 
-pub use dataset::{Sample, Split, sample_at, sequence_samples, split_by_run, split_by_sequence};
+pub use dataset::{Sample, Split, sample_at, sample_over, sequence_samples, split_by_run, split_by_sequence};
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, Source};
 pub use fit::{DEFAULT_SHRINK, EpochReport, Event, Hyper};
@@ -322,16 +322,31 @@ pub fn train_fold_with(config: &TrainConfig<'_>, observer: &mut dyn FnMut(Event)
     let start = Instant::now();
     anyhow::ensure!(config.dt.is_finite() && config.dt > 0.0, "frame period must be positive, found {}", config.dt);
     let prior = config.prior_settings();
-    let (mut split, sequences) = config.samples(&prior);
+    let (split, sequences) = config.samples(&prior);
+    train_split(split, sequences, prior, config, start, observer)
+}
+
+/// Trains on samples built elsewhere (over motion prior `prior`, named by the data sets in
+/// `sequences`): `config`'s widths, optimisation, frame period and mirroring; its sequences,
+/// source, rule and split are not read. `start` is when the fold's work began (its report's
+/// seconds).
+///
+/// # Errors
+/// See [`train_fold`].
+pub fn train_split(
+    mut split: Split,
+    sequences: Vec<String>,
+    prior: PriorSettings,
+    config: &TrainConfig<'_>,
+    start: Instant,
+    observer: &mut dyn FnMut(Event),
+) -> anyhow::Result<TrainedModel> {
+    anyhow::ensure!(config.dt.is_finite() && config.dt > 0.0, "frame period must be positive, found {}", config.dt);
     if config.mirror {
         let reflected: Vec<Sample> = split.train.iter().map(Sample::mirrored).collect();
         split.train.extend(reflected);
     }
-    anyhow::ensure!(
-        !split.train.is_empty(),
-        "no training instances in sequences {sequences:?} (source {})",
-        config.source
-    );
+    anyhow::ensure!(!split.train.is_empty(), "no training instances in {sequences:?} (source {})", config.source);
     // Restarts: independent trainings from other seeds, the one with the best validation ADE
     // kept (restart 0 is the seed itself, so one restart is plain training).
     let mut best: Option<(Network, VarMap, fit::FitOutcome, u64)> = None;

@@ -11,7 +11,6 @@
 
 use candle_core::{D, DType, Device, Result, Tensor};
 use candle_nn::{Linear, Module as _, VarMap};
-use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::arch::{Dims, FEATURES, FUTURE_ENC, OUTPUTS, PZ_HIDDEN};
 
 use super::batch::Batch;
@@ -63,9 +62,9 @@ pub enum Modes {
 /// A decoder rollout.
 #[derive(Debug, Clone)]
 pub struct Rollout {
-    /// Positions of the mean controls [R, HORIZON, 2], metres, agent frame.
+    /// Positions of the mean controls [R, H, 2] over the batch's horizon H, metres, agent frame.
     pub positions: Tensor,
-    /// Position covariances [R, HORIZON, 2, 2] (when asked for).
+    /// Position covariances [R, H, 2, 2] (when asked for).
     pub covariances: Option<Tensor>,
 }
 
@@ -130,11 +129,12 @@ impl Network {
         let n = b.size()?;
         let h0 = self.future_h0.forward(&b.current)?;
         let c0 = self.future_c0.forward(&b.current)?;
-        let all = Tensor::ones((n, HORIZON), DType::F32, x.device())?;
-        let (h_fwd, _) = self.future_fwd.run_masked(&b.future_std, &all, HORIZON, &h0, &c0)?;
+        let horizon = b.future_std.dim(1)?;
+        let all = Tensor::ones((n, horizon), DType::F32, x.device())?;
+        let (h_fwd, _) = self.future_fwd.run_masked(&b.future_std, &all, horizon, &h0, &c0)?;
         let zero = Tensor::zeros((n, FUTURE_ENC), DType::F32, x.device())?;
         let reversed = b.future_std.flip(&[1])?;
-        let (h_bwd, _) = self.future_bwd.run_masked(&reversed, &all, HORIZON, &zero, &zero)?;
+        let (h_bwd, _) = self.future_bwd.run_masked(&reversed, &all, horizon, &zero, &zero)?;
         self.qz.forward(&Tensor::cat(&[x, &h_fwd, &h_bwd], 1)?)
     }
 
@@ -148,6 +148,7 @@ impl Network {
     /// Shape errors.
     pub fn decode(&self, x: &Tensor, modes: &Modes, bt: &Batch, dt: f32, covariance: bool) -> Result<Rollout> {
         let (u0, speed, prior) = (&bt.initial_control, &bt.speed, &bt.prior);
+        let horizon = prior.dim(1)?;
         let Dims { k, dec, .. } = self.dims;
         let cond = self.dims.cond();
         let b = x.dim(0)?;
@@ -169,7 +170,7 @@ impl Network {
                     per_mode(&x_gru, &z_gru, 3 * dec)?,
                     repeat(u0, 2)?,
                     repeat(speed, 1)?,
-                    repeat(&prior.reshape((b, 2 * HORIZON))?, 2 * HORIZON)?.reshape((b * k, HORIZON, 2))?,
+                    repeat(&prior.reshape((b, 2 * horizon))?, 2 * horizon)?.reshape((b * k, horizon, 2))?,
                 )
             }
             Modes::OneHot(z) => {
@@ -188,20 +189,20 @@ impl Network {
         // Biases broadcast once: their gradients are then reduced once per batch, not per step.
         let b_hh = self.gru.b_hh.broadcast_as((rows, 3 * dec))?;
         let w_hh = self.gru.w_hh.t()?;
-        let mut hs = Vec::with_capacity(HORIZON);
-        for _ in 0..HORIZON {
+        let mut hs = Vec::with_capacity(horizon);
+        for _ in 0..horizon {
             let gx = (u.matmul(&w_u)? + &constant)?;
             let gh = (h.matmul(&w_hh)? + &b_hh)?;
             h = gru_gates(&gx, &gh, &h)?;
             u = (h.matmul(&w_mu)? + &b_mu)?;
             hs.push(h.clone());
         }
-        let hs = Tensor::stack(&hs, 1)?; // [R, HORIZON, dec]
+        let hs = Tensor::stack(&hs, 1)?; // [R, horizon, dec]
         let out = hs
-            .reshape((rows * HORIZON, dec))?
+            .reshape((rows * horizon, dec))?
             .matmul(&self.out.weight().t()?)?
             .broadcast_add(bias(&self.out)?)?
-            .reshape((rows, HORIZON, OUTPUTS))?;
+            .reshape((rows, horizon, OUTPUTS))?;
         let (w, a) = controls(&out.narrow(D::Minus1, 0, 2)?, &prior)?;
         let dt = f64::from(dt);
         let (positions, mid) = integrate(&w, &a, &speed, dt)?;
@@ -214,7 +215,7 @@ impl Network {
         Ok(Rollout { positions, covariances })
     }
 
-    /// The unimodal forecast [B, HORIZON, 2] (agent frame, metres): the most likely mode of
+    /// The unimodal forecast [B, H, 2] (agent frame, metres): the most likely mode of
     /// p(z|x) and the mean controls, as inference forecasts.
     ///
     /// # Errors
@@ -237,7 +238,7 @@ pub fn one_hot_argmax(logits: &Tensor) -> Result<Tensor> {
     best.broadcast_eq(&ids)?.to_dtype(DType::F32)
 }
 
-/// Mean ADE (metres) of forecasts [B, HORIZON, 2] against `future` [B, HORIZON, 2], and the
+/// Mean ADE (metres) of forecasts [B, H, 2] against `future` [B, H, 2], and the
 /// per-sample values.
 ///
 /// # Errors

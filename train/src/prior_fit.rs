@@ -51,10 +51,22 @@ pub enum PriorObjective {
 #[derive(Debug, Clone)]
 pub struct PriorInstance {
     history: Vec<BevState>,
-    future: [Point2; HORIZON],
+    /// The positions scored: the next [`HORIZON`] or fewer.
+    future: Vec<Point2>,
     /// The instance before it in the list is the same run one frame earlier (the pair an ACE
     /// is measured on).
     follows: bool,
+}
+
+impl PriorInstance {
+    /// An instance of `history` (oldest first) whose next positions are `future` (1 to
+    /// [`HORIZON`] of them, the forecast's first steps scored); `follows` when the instance
+    /// before it in its list is the same agent one step earlier. `None` for an empty history or
+    /// a future of another length.
+    #[must_use]
+    pub fn new(history: Vec<BevState>, future: Vec<Point2>, follows: bool) -> Option<Self> {
+        (!history.is_empty() && (1..=HORIZON).contains(&future.len())).then_some(Self { history, future, follows })
+    }
 }
 
 /// Every test instance of every eligible run of `sequences` through `source`.
@@ -82,11 +94,11 @@ pub fn prior_instances(
                 if !history.iter().chain(future).all(BevState::is_finite) {
                     continue;
                 }
-                let mut f = [Point2::default(); HORIZON];
-                for (p, st) in f.iter_mut().zip(future) {
-                    *p = st.position();
-                }
-                out.push(PriorInstance { history: history.to_vec(), future: f, follows: previous == Some(s - 1) });
+                out.push(PriorInstance {
+                    history: history.to_vec(),
+                    future: future.iter().map(BevState::position).collect(),
+                    follows: previous == Some(s - 1),
+                });
                 previous = Some(s);
             }
         }
@@ -122,7 +134,8 @@ pub fn score(predictor: &mut impl Predictor, instances: &[PriorInstance], dt: f3
         if predictor.predict(&inst.history, dt, &mut out).is_err() {
             return PriorScore::FAILED;
         }
-        let ade: f32 = out.iter().zip(&inst.future).map(|(p, q)| p.distance(q)).sum::<f32>() / HORIZON as f32;
+        let ade: f32 =
+            out.iter().zip(&inst.future).map(|(p, q)| p.distance(q)).sum::<f32>() / inst.future.len().max(1) as f32;
         ade_sum += f64::from(ade);
         if let (true, Some(a)) = (inst.follows, ace(&before, &out)) {
             ace_sum += f64::from(a);
@@ -223,7 +236,7 @@ mod tests {
                 for (f, st) in future.iter_mut().zip(&states[PRIOR_STATES..]) {
                     *f = st.position();
                 }
-                PriorInstance { history: states[..PRIOR_STATES].to_vec(), future, follows: false }
+                PriorInstance { history: states[..PRIOR_STATES].to_vec(), future: future.to_vec(), follows: false }
             })
             .collect()
     }
@@ -248,7 +261,7 @@ mod tests {
                 for (f, st) in future.iter_mut().zip(&states[now + 1..]) {
                     *f = st.position();
                 }
-                PriorInstance { history: states[i..=now].to_vec(), future, follows: i > 0 }
+                PriorInstance { history: states[i..=now].to_vec(), future: future.to_vec(), follows: i > 0 }
             })
             .collect()
     }
