@@ -6,6 +6,7 @@ use clap::Args;
 
 use super::train_progress::TrainBars;
 use dynotraj_core::model::arch::Dims;
+use dynotraj_core::predict::Dynamics;
 use dynotraj_eval::experiment::report::write_report;
 use dynotraj_eval::pedestrian_benchmark::{BenchmarkOptions, SCENES, ratio_table, report, run, scene_table};
 use dynotraj_eval::report::Format;
@@ -27,6 +28,10 @@ pub struct PedestriansArgs {
     /// Most epochs per scene (early stopping may end sooner).
     #[arg(long, default_value_t = Hyper::default().epochs)]
     pub epochs: usize,
+    /// The learned model's dynamics: Trajectron++'s single integrator for pedestrians (a
+    /// velocity residual), or the vehicles' unicycle.
+    #[arg(long, value_enum, default_value_t = DynamicsArg::SingleIntegrator)]
+    pub dynamics: DynamicsArg,
     /// Score constant velocity and the motion prior only (no training).
     #[arg(long)]
     pub no_train: bool,
@@ -36,6 +41,24 @@ pub struct PedestriansArgs {
     /// Report folder (REPORT.md, each table as Markdown, CSV and JSON).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+}
+
+/// `--dynamics` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DynamicsArg {
+    /// Turn rate and acceleration.
+    Unicycle,
+    /// Velocity.
+    SingleIntegrator,
+}
+
+impl From<DynamicsArg> for Dynamics {
+    fn from(d: DynamicsArg) -> Self {
+        match d {
+            DynamicsArg::Unicycle => Self::Unicycle,
+            DynamicsArg::SingleIntegrator => Self::SingleIntegrator,
+        }
+    }
 }
 
 /// Runs the benchmark, prints its tables and writes the report.
@@ -50,6 +73,7 @@ pub fn run_command(args: &PedestriansArgs) -> anyhow::Result<()> {
         scenes: args.scenes.clone(),
         dims: Dims::DEFAULT,
         hyper: Hyper { seed: args.seed, epochs: args.epochs, ..Hyper::default() },
+        dynamics: args.dynamics.into(),
         train: !args.no_train,
     };
     let scenes = if args.scenes.is_empty() { SCENES.len() } else { args.scenes.len() };
@@ -66,7 +90,7 @@ pub fn run_command(args: &PedestriansArgs) -> anyhow::Result<()> {
     }
     if let Some(dir) = &args.out {
         let command = std::env::args().collect::<Vec<_>>().join(" ");
-        let path = write_report(dir, &report(&results, args.seed, command, start.elapsed().as_secs_f64()))?;
+        let path = write_report(dir, &report(&results, &options, command, start.elapsed().as_secs_f64()))?;
         eprintln!("wrote {}", path.display());
     }
     Ok(())

@@ -19,7 +19,9 @@ use dynotraj_core::metrics::ForecastScores;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::infer::LearnedPredictor;
-use dynotraj_core::predict::{Context, Forecast, MotionPrior, Predictor as _, PriorSettings, constant_velocity};
+use dynotraj_core::predict::{
+    Context, Dynamics, Forecast, MotionPrior, Predictor as _, PriorSettings, constant_velocity,
+};
 use dynotraj_formats::eth_ucy::{PERIOD_S, Recording, read};
 use dynotraj_sources::pedestrian_windows::{FUTURE_STEPS, HISTORY_STEPS, Window, windows};
 use dynotraj_sources::trajectory::Source;
@@ -88,6 +90,8 @@ pub struct BenchmarkOptions {
     pub dims: Dims,
     /// Optimisation settings.
     pub hyper: Hyper,
+    /// How the learned model's outputs move its forecast.
+    pub dynamics: Dynamics,
     /// Train the learned model (otherwise only cv and the prior are scored).
     pub train: bool,
 }
@@ -423,9 +427,9 @@ pub fn fold_reports(results: &[SceneResult], seed: u64) -> Vec<FoldReport> {
         .collect()
 }
 
-/// The report of a run: the scene table, the ratios, the folds.
+/// The report of a run of `options`: the scene table, the ratios, the folds.
 #[must_use]
-pub fn report(results: &[SceneResult], seed: u64, command: String, seconds: f64) -> Report {
+pub fn report(results: &[SceneResult], options: &BenchmarkOptions, command: String, seconds: f64) -> Report {
     let section = |stem: &str, title: &str, caption: &str, table: Table| Section {
         stem: stem.to_owned(),
         title: title.to_owned(),
@@ -452,9 +456,16 @@ pub fn report(results: &[SceneResult], seed: u64, command: String, seconds: f64)
                 ratio_table(results),
             ),
         ],
-        folds: fold_reports(results, seed),
+        folds: fold_reports(results, options.hyper.seed),
         seconds,
-        notes: Vec::new(),
+        notes: vec![format!(
+            "Learned model: widths {:?}, {} dynamics, seed {}, at most {} epochs; the prior and the \
+             model chosen on the training recordings' train windows, the epoch on their val windows.",
+            options.dims,
+            options.dynamics.name(),
+            options.hyper.seed,
+            options.hyper.epochs
+        )],
         figures: Vec::new(),
     }
 }
@@ -496,6 +507,7 @@ mod tests {
             scenes: vec!["univ".into()],
             dims: Dims::DEFAULT,
             hyper: Hyper { epochs: 2, ..Hyper::default() },
+            dynamics: Dynamics::SingleIntegrator,
             train: true,
         };
         let scenes = chosen_scenes(&options.scenes).unwrap();

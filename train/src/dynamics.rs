@@ -1,4 +1,5 @@
-//! The dynamically-extended unicycle on candle tensors, vectorised over the horizon: the mean
+//! The dynamically-extended unicycle on candle tensors (and a pedestrian's single integrator:
+//! [`velocity_residual`], whose positions are prefix sums), vectorised over the horizon: the mean
 //! rollout, step for step the same arithmetic as `dynotraj_core::predict::unicycle_step`
 //! (which inference runs), and the propagation of the control covariance to a position
 //! covariance for the likelihood.
@@ -33,6 +34,8 @@
 use candle_core::{D, DType, Result, Tensor};
 use dynotraj_core::limits::{MAX_ACCEL, MAX_TURN_RATE};
 use dynotraj_core::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
+use dynotraj_core::predict::Dynamics;
+use dynotraj_core::predict::dynamics::{MAX_VELOCITY_RESIDUAL, VELOCITY_RESIDUAL_SCALE};
 
 /// Below this turn rate (rad/s) the straight form is used, as in core's `unicycle_step`.
 const STRAIGHT_TURN_RATE: f32 = 0.01;
@@ -115,19 +118,29 @@ pub fn integrate(w: &Tensor, a: &Tensor, speed: &Tensor, dt: f64) -> Result<(Ten
     Ok((positions, MidSteps { travel, cos_mid, sin_mid }))
 }
 
-/// The control covariance [R, T, 2, 2] in physical units from the decoder's log sigmas
-/// [R, T, 2] and raw correlations [R, T, 1] (rho = tanh(raw)).
+/// The control covariance [R, T, 2, 2] in physical units of `dynamics` from the decoder's log
+/// sigmas [R, T, 2] and raw correlations [R, T, 1] (rho = tanh(raw)).
 ///
 /// # Errors
 /// Shape errors.
-pub fn control_covariance(log_sigma: &Tensor, rho_raw: &Tensor) -> Result<Tensor> {
+pub fn control_covariance(log_sigma: &Tensor, rho_raw: &Tensor, dynamics: Dynamics) -> Result<Tensor> {
     let (r, t, _) = log_sigma.dims3()?;
+    let [scale_0, scale_1] = dynamics.residual_scales();
     // Bounded log sigmas keep exp finite; the bounds sit far outside any useful spread.
     let sigma = log_sigma.clamp(-8.0f32, 4.0f32)?.exp()?;
-    let sw = (sigma.narrow(D::Minus1, 0, 1)? * f64::from(TURN_RATE_SCALE))?;
-    let sa = (sigma.narrow(D::Minus1, 1, 1)? * f64::from(ACCEL_SCALE))?;
+    let sw = (sigma.narrow(D::Minus1, 0, 1)? * f64::from(scale_0))?;
+    let sa = (sigma.narrow(D::Minus1, 1, 1)? * f64::from(scale_1))?;
     let off = ((rho_raw.tanh()? * &sw)? * &sa)?;
     Tensor::cat(&[sw.sqr()?, off.clone(), off, sa.sqr()?], D::Minus1)?.reshape((r, t, 2, 2))
+}
+
+/// A single integrator's residual velocity [R, T, 2] (m/s, agent frame) from the decoder's
+/// standardised means, each component clamped as core's rollout clamps it.
+///
+/// # Errors
+/// Shape errors.
+pub fn velocity_residual(mu: &Tensor) -> Result<Tensor> {
+    (mu * f64::from(VELOCITY_RESIDUAL_SCALE))?.clamp(-MAX_VELOCITY_RESIDUAL, MAX_VELOCITY_RESIDUAL)
 }
 
 /// Products of the 2x2 matrices of [R, T, 2, 2] tensors.
@@ -253,6 +266,7 @@ mod tests {
         let q = control_covariance(
             &Tensor::from_vec(log_sigma, (rows, t, 2), &dev).unwrap(),
             &Tensor::from_vec(rho, (rows, t, 1), &dev).unwrap(),
+            Dynamics::Unicycle,
         )
         .unwrap();
         let got = position_covariance(&mid, &q, dt).unwrap().reshape((rows, t, 4)).unwrap().to_vec3::<f32>().unwrap();

@@ -3,7 +3,7 @@
 //! Blob: the 20 inference tensors of `dynotraj_core::model::arch` in layout order, each as
 //! row-major f32 (candle's linear weights are [out, in] and its recurrent weights are PyTorch's
 //! [gates * H, in] with gates (i, f, g, o) or (r, z, n): the layout's own convention, so no
-//! reordering is needed), written by `dynotraj_core::model::blob::write_blob` in f32 or int8.
+//! reordering is needed), written by `dynotraj_core::model::blob::write_blob_with` in f32 or int8.
 //!
 //! Checkpoint (`.safetensors`): every variable of the network, inference and training-only,
 //! under its PyTorch-style name (`enc.weight_ih_l0`, `gru.bias_hh_l0`, `future.weight_hh_l0_reverse`,
@@ -21,8 +21,8 @@ use std::path::Path;
 use candle_core::{DType, Device, Result, Tensor};
 use candle_nn::VarMap;
 use dynotraj_core::model::arch::Dims;
-use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
-use dynotraj_core::predict::PriorSettings;
+use dynotraj_core::model::blob::{Precision, blob_len, write_blob_with};
+use dynotraj_core::predict::{Dynamics, PriorSettings};
 
 use super::cells::bias;
 use super::model::Network;
@@ -69,7 +69,7 @@ pub fn to_blob(net: &Network, dims: &Dims, precision: Precision, dt: f32, prior:
     let tensors = layout_tensors(net)?;
     let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
     let mut buf = vec![0u8; blob_len(dims, precision)];
-    write_blob(dims, precision, dt, prior, &slices, &mut buf)
+    write_blob_with(dims, precision, dt, prior, net.dynamics, &slices, &mut buf)
         .map_err(|e| candle_core::Error::Msg(format!("writing the model blob: {e}")))?;
     Ok(buf)
 }
@@ -139,7 +139,15 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32, PriorSettin
     if !prior.is_valid() {
         candle_core::bail!("meta.prior is out of range: {prior:?}");
     }
-    let (net, vars) = Network::new(dims, 0)?;
+    let (mut net, vars) = Network::new(dims, 0)?;
+    // The dynamics are the blob header's (byte 7); a checkpoint without a blob is a unicycle's.
+    if let Some(blob) = saved.get("meta.blob") {
+        let code = blob.narrow(0, 7, 1)?.to_dtype(DType::U8)?.to_vec1::<u8>()?;
+        net.dynamics = code
+            .first()
+            .and_then(|&c| Dynamics::from_code(c))
+            .ok_or_else(|| candle_core::Error::Msg(format!("meta.blob holds an unknown dynamics code {code:?}")))?;
+    }
     {
         let data = vars.data().lock().map_err(|_| candle_core::Error::Msg("variable store poisoned".into()))?;
         for (name, var) in data.iter() {
@@ -262,12 +270,33 @@ mod tests {
         }
     }
 
+    /// The output layer (zero in a new network) set to small pseudo-random values, so the
+    /// residual is not zero.
+    fn with_random_output(vars: &VarMap) {
+        let data = vars.data().lock().unwrap();
+        for name in ["out.weight", "out.bias"] {
+            let var = data.get(name).unwrap_or_else(|| panic!("no {name}"));
+            let n = var.as_tensor().elem_count();
+            let values: Vec<f32> = (0..n).map(|i| 0.3 * ((i as f32) * 1.7).sin()).collect();
+            var.set(&Tensor::from_vec(values, var.as_tensor().shape(), &Device::Cpu).unwrap()).unwrap();
+        }
+    }
+
     #[test]
     fn the_candle_forecast_is_what_core_computes_from_the_exported_blob() {
+        for dynamics in Dynamics::ALL {
+            let (mut net, vars) = Network::new(Dims::DEFAULT, 3).unwrap();
+            net.dynamics = dynamics;
+            with_random_output(&vars);
+            candle_forecast_matches_core(&net);
+        }
+    }
+
+    fn candle_forecast_matches_core(net: &Network) {
         let dt = 0.05;
-        let (net, _) = Network::new(Dims::DEFAULT, 3).unwrap();
         let prior = PriorSettings::DEFAULT;
-        let blob = to_blob(&net, &Dims::DEFAULT, Precision::F32, dt, &prior).unwrap();
+        let blob = to_blob(net, &Dims::DEFAULT, Precision::F32, dt, &prior).unwrap();
+        assert_eq!(ModelBlob::parse(&blob).unwrap().dynamics(), net.dynamics);
         let mut predictor = LearnedPredictor::new(ModelBlob::parse(&blob).unwrap());
         let runs = constant_control_runs(6, 40, dt, 5);
         for states in &runs {
@@ -285,7 +314,11 @@ mod tests {
                 let frame = plan(&states[..=s], &prior, dt).unwrap().frame;
                 for (a, w) in ours.iter().zip(&core) {
                     let q = frame.to_agent(w);
-                    assert!((a[0] - q.x).abs() < 1e-3 && (a[1] - q.y).abs() < 1e-3, "{a:?} vs {q:?}");
+                    assert!(
+                        (a[0] - q.x).abs() < 1e-3 && (a[1] - q.y).abs() < 1e-3,
+                        "{:?}: {a:?} vs {q:?}",
+                        net.dynamics
+                    );
                 }
             }
         }
@@ -295,11 +328,12 @@ mod tests {
     fn checkpoints_round_trip_and_carry_the_blob() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("m.safetensors");
-        let (net, vars) = Network::new(SMALL, 11).unwrap();
+        let (mut net, vars) = Network::new(SMALL, 11).unwrap();
+        net.dynamics = Dynamics::SingleIntegrator;
         let prior = PriorSettings { accel_gain: 0.75, ..PriorSettings::DEFAULT };
         save_checkpoint(&net, &vars, 0.1, &prior, &path).unwrap();
         let (back, _, dt, back_prior) = load_checkpoint(&path).unwrap();
-        assert_eq!((back.dims, dt, back_prior), (SMALL, 0.1, prior));
+        assert_eq!((back.dims, dt, back_prior, back.dynamics), (SMALL, 0.1, prior, Dynamics::SingleIntegrator));
         let blob = to_blob(&net, &SMALL, Precision::F32, 0.1, &prior).unwrap();
         assert_eq!(to_blob(&back, &SMALL, Precision::F32, 0.1, &prior).unwrap(), blob);
         let stored = candle_core::safetensors::load(&path, &Device::Cpu).unwrap();

@@ -43,7 +43,7 @@ use candle_nn::VarMap;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
-use dynotraj_core::predict::PriorSettings;
+use dynotraj_core::predict::{Dynamics, PriorSettings};
 
 pub use dataset::{Sample, Split, sample_at, sample_over, sequence_samples, split_by_run, split_by_sequence};
 use dynotraj_sources::sequence::SequenceTracks;
@@ -121,6 +121,8 @@ pub struct TrainConfig<'a> {
     pub mirror: bool,
     /// The motion prior the network's residual is added to.
     pub prior: PriorChoice,
+    /// How the network's outputs move the forecast (vehicles: the unicycle).
+    pub dynamics: Dynamics,
 }
 
 impl<'a> TrainConfig<'a> {
@@ -141,6 +143,7 @@ impl<'a> TrainConfig<'a> {
             validate_on_sequences: DEFAULT_VALIDATE_ON_SEQUENCES,
             split_seed: DEFAULT_SPLIT_SEED,
             prior: PriorChoice::Tuned,
+            dynamics: Dynamics::Unicycle,
         }
     }
 
@@ -352,7 +355,8 @@ pub fn train_split(
     let mut best: Option<(Network, VarMap, fit::FitOutcome, u64)> = None;
     for restart in 0..config.hyper.restarts.max(1) {
         let seed = restart_seed(config.hyper.seed, restart);
-        let (network, vars) = Network::new(config.dims, seed)?;
+        let (mut network, vars) = Network::new(config.dims, seed)?;
+        network.dynamics = config.dynamics;
         let hyper = Hyper { seed, ..config.hyper };
         let outcome = fit::fit(&network, &vars, &split.train, &split.validation, config.dt, &hyper, observer)?;
         if best.as_ref().is_none_or(|b| outcome.best_val_ade < b.2.best_val_ade) {

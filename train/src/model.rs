@@ -12,10 +12,11 @@
 use candle_core::{D, DType, Device, Result, Tensor};
 use candle_nn::{Linear, Module as _, VarMap};
 use dynotraj_core::model::arch::{Dims, FEATURES, FUTURE_ENC, OUTPUTS, PZ_HIDDEN};
+use dynotraj_core::predict::Dynamics;
 
 use super::batch::Batch;
 use super::cells::{GruCell, LstmCell, bias, linear, linear_within};
-use super::dynamics::{control_covariance, controls, integrate, position_covariance};
+use super::dynamics::{control_covariance, controls, cumsum_time, integrate, position_covariance, velocity_residual};
 use super::fused::gru_gates;
 use super::params::ParamStore;
 
@@ -48,6 +49,8 @@ pub struct Network {
     pub future_c0: Linear,
     /// q(z|x,y) (cond + 2 FUTURE_ENC -> k) (training only).
     pub qz: Linear,
+    /// How the decoder's outputs move the forecast (the blob's header carries it).
+    pub dynamics: Dynamics,
 }
 
 /// Which latent modes the decoder runs.
@@ -95,6 +98,7 @@ impl Network {
             future_h0: linear(&mut p, "future_h0", FEATURES, FUTURE_ENC)?,
             future_c0: linear(&mut p, "future_c0", FEATURES, FUTURE_ENC)?,
             qz: linear(&mut p, "qz", cond + 2 * FUTURE_ENC, k)?,
+            dynamics: Dynamics::Unicycle,
         };
         Ok((net, p.into_vars()))
     }
@@ -203,16 +207,24 @@ impl Network {
             .matmul(&self.out.weight().t()?)?
             .broadcast_add(bias(&self.out)?)?
             .reshape((rows, horizon, OUTPUTS))?;
-        let (w, a) = controls(&out.narrow(D::Minus1, 0, 2)?, &prior)?;
         let dt = f64::from(dt);
-        let (positions, mid) = integrate(&w, &a, &speed, dt)?;
-        let covariances = if covariance {
-            let q = control_covariance(&out.narrow(D::Minus1, 2, 2)?, &out.narrow(D::Minus1, 4, 1)?)?;
-            Some(position_covariance(&mid, &q, dt)?)
-        } else {
-            None
-        };
-        Ok(Rollout { positions, covariances })
+        let mean = out.narrow(D::Minus1, 0, 2)?;
+        let spread = || control_covariance(&out.narrow(D::Minus1, 2, 2)?, &out.narrow(D::Minus1, 4, 1)?, self.dynamics);
+        match self.dynamics {
+            Dynamics::Unicycle => {
+                let (w, a) = controls(&mean, &prior)?;
+                let (positions, mid) = integrate(&w, &a, &speed, dt)?;
+                let covariances = if covariance { Some(position_covariance(&mid, &spread()?, dt)?) } else { None };
+                Ok(Rollout { positions, covariances })
+            }
+            Dynamics::SingleIntegrator => {
+                let (w, a) = controls(&mean.zeros_like()?, &prior)?;
+                let (path, _) = integrate(&w, &a, &speed, dt)?;
+                let positions = (path + (cumsum_time(&velocity_residual(&mean)?)? * dt)?)?;
+                let covariances = if covariance { Some((cumsum_time(&spread()?)? * (dt * dt))?) } else { None };
+                Ok(Rollout { positions, covariances })
+            }
+        }
     }
 
     /// The unimodal forecast [B, H, 2] (agent frame, metres): the most likely mode of

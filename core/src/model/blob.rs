@@ -7,7 +7,7 @@
 //!  0     4     magic "DTJM"
 //!  4     2     BLOB_VERSION (u16 LE)
 //!  6     1     precision: 0 = f32, 1 = int8
-//!  7     1     reserved, 0
+//!  7     1     dynamics: 0 = unicycle, 1 = single integrator (`predict::Dynamics`)
 //!  8     8     enc, edge, k, dec (u16 LE each)
 //! 16     8     FEATURES, MAX_STEPS, HORIZON, OUTPUTS (u16 LE each): must match this build
 //! 24     4     frame period the model was trained at, seconds (f32 LE)
@@ -26,7 +26,7 @@
 
 use super::arch::{Dims, FEATURES, MAX_STEPS, OUTPUTS, TENSORS};
 use crate::limits::HORIZON;
-use crate::predict::PriorSettings;
+use crate::predict::{Dynamics, PriorSettings};
 use crate::wire::crc32;
 
 /// The blob's magic bytes.
@@ -82,6 +82,11 @@ pub enum BlobError {
         /// The code found.
         found: u8,
     },
+    /// An unknown dynamics code.
+    Dynamics {
+        /// The code found.
+        found: u8,
+    },
     /// Widths that are zero or beyond the MAX_* capacities of this build.
     UnsupportedDims,
     /// FEATURES, MAX_STEPS, HORIZON or OUTPUTS differ from this build's.
@@ -123,6 +128,9 @@ impl core::fmt::Display for BlobError {
                 "model blob version {found}, this build reads {BLOB_VERSION} (retrain: version 3 adds the motion prior)"
             ),
             Self::Precision { found } => write!(f, "unknown model precision code {found}"),
+            Self::Dynamics { found } => {
+                write!(f, "unknown model dynamics code {found} (0 unicycle, 1 single integrator)")
+            }
             Self::UnsupportedDims => f.write_str("model widths are zero or exceed this build's capacities"),
             Self::ShapeMismatch => f.write_str("model features, history, horizon or outputs differ from this build's"),
             Self::Length { expected, found } => write!(f, "model payload is {found} bytes, its widths need {expected}"),
@@ -207,6 +215,7 @@ pub struct ModelBlob<'a> {
     precision: Precision,
     frame_period_s: f32,
     prior: PriorSettings,
+    dynamics: Dynamics,
     payload: &'a [u8],
     /// Where each tensor starts in the payload and its shape, computed once on parse: looking
     /// them up by walking the layout at every affine map was 5% of the firmware's instructions.
@@ -278,6 +287,8 @@ impl<'a> ModelBlob<'a> {
             Some(1) => Precision::Int8,
             other => return Err(BlobError::Precision { found: other.unwrap_or(0) }),
         };
+        let code = header.get(7).copied().unwrap_or(0);
+        let dynamics = Dynamics::from_code(code).ok_or(BlobError::Dynamics { found: code })?;
         let dims = Dims { enc: h16(8), edge: h16(10), k: h16(12), dec: h16(14) };
         if !dims.is_supported() {
             return Err(BlobError::UnsupportedDims);
@@ -316,6 +327,7 @@ impl<'a> ModelBlob<'a> {
             precision,
             frame_period_s,
             prior,
+            dynamics,
             payload: body.get(HEADER_LEN..).unwrap_or(&[]),
             layout: layout(&dims, precision),
         };
@@ -376,6 +388,12 @@ impl<'a> ModelBlob<'a> {
         &self.prior
     }
 
+    /// How the network's outputs move the forecast.
+    #[must_use]
+    pub const fn dynamics(&self) -> Dynamics {
+        self.dynamics
+    }
+
     /// Tensor `index` in layout order (`None` past the last).
     #[must_use]
     pub fn tensor(&self, index: usize) -> Option<TensorView<'a>> {
@@ -391,8 +409,8 @@ impl<'a> ModelBlob<'a> {
     }
 }
 
-/// Writes a blob of `dims` in `precision` from float tensors given in layout order (each
-/// row-major, `rows * cols` values), quantising for int8. Returns the blob length.
+/// Writes a unicycle blob of `dims` in `precision` from float tensors given in layout order
+/// (each row-major, `rows * cols` values), quantising for int8. Returns the blob length.
 ///
 /// # Errors
 /// [`BlobError::TensorShape`] for a missing or mis-sized tensor, [`BlobError::NonFinite`] for a
@@ -402,6 +420,22 @@ pub fn write_blob(
     precision: Precision,
     frame_period_s: f32,
     prior: &PriorSettings,
+    tensors: &[&[f32]],
+    out: &mut [u8],
+) -> Result<usize, BlobError> {
+    write_blob_with(dims, precision, frame_period_s, prior, Dynamics::Unicycle, tensors, out)
+}
+
+/// [`write_blob`] for a model of `dynamics`.
+///
+/// # Errors
+/// See [`write_blob`].
+pub fn write_blob_with(
+    dims: &Dims,
+    precision: Precision,
+    frame_period_s: f32,
+    prior: &PriorSettings,
+    dynamics: Dynamics,
     tensors: &[&[f32]],
     out: &mut [u8],
 ) -> Result<usize, BlobError> {
@@ -425,8 +459,8 @@ pub fn write_blob(
     }
     header.get_mut(..4).unwrap_or(&mut []).copy_from_slice(&BLOB_MAGIC);
     header.get_mut(4..6).unwrap_or(&mut []).copy_from_slice(&BLOB_VERSION.to_le_bytes());
-    if let Some(p) = header.get_mut(6) {
-        *p = precision.code();
+    if let Some([p, d]) = header.get_mut(6..8) {
+        (*p, *d) = (precision.code(), dynamics.code());
     }
     header.get_mut(24..28).unwrap_or(&mut []).copy_from_slice(&frame_period_s.to_le_bytes());
     header

@@ -1,9 +1,7 @@
 //! Inference: the forward pass of [`super::arch`] over a [`ModelBlob`], in f32 or int8 by the
 //! blob's precision, in fixed caller-owned scratch memory.
 
-use super::arch::{
-    ACCEL_SCALE, Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, TURN_RATE_SCALE, tensor as t,
-};
+use super::arch::{Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ_HIDDEN, tensor as t};
 use super::blob::ModelBlob;
 use super::blob::Precision;
 use super::dot::{Int8Dot, PortableDot};
@@ -135,7 +133,7 @@ pub fn forecast<D: Int8Dot>(
     let n = state_features(history, &plan.frame, dt, Some(&own), &mut s.own);
     neighbour_sum(context.neighbours, &plan.frame, n, dt, &mut s.neighbours);
     let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
-    let mut rollout = Rollout::new(&plan, dt);
+    let mut rollout = Rollout::with_dynamics(&plan, dt, kernel.blob().dynamics());
     forward(kernel, s, n, u0, |t, residual| {
         if let (Some(p), Some(o)) = (rollout.step(t, residual), out.get_mut(t)) {
             *o = p;
@@ -211,8 +209,8 @@ struct LstmState<'s> {
     gates_h: &'s mut [f32],
 }
 
-/// The forward pass: encoders, latent, decoder. Hands each step's residual controls (physical
-/// units, unclamped: the rollout adds them to the prior's and clamps the sum) to `emit`.
+/// The forward pass: encoders, latent, decoder. Hands each step's residual (physical units of
+/// the blob's dynamics, unclamped: the rollout adds it to the prior's and clamps) to `emit`.
 fn forward<D: Int8Dot>(
     k: &Kernel<'_, D>,
     s: &mut Scratch,
@@ -222,6 +220,7 @@ fn forward<D: Int8Dot>(
 ) -> Result<(), ShapeError> {
     let Dims { enc, edge, k: modes, dec } = k.blob().dims();
     let cond = enc + edge;
+    let [scale_0, scale_1] = k.blob().dynamics().residual_scales();
 
     // History encoder -> cond[edge..cond]; edge encoder -> cond[..edge].
     for (which, width) in [(0usize, enc), (1, edge)] {
@@ -285,7 +284,7 @@ fn forward<D: Int8Dot>(
         k.affine(t::OUT_W, Some(t::OUT_B), s.h.get(..dec).ok_or(ShapeError)?, mean)?;
         let [mu_w, mu_a, ..] = s.out;
         u = [mu_w, mu_a];
-        emit(step, [mu_w * TURN_RATE_SCALE, mu_a * ACCEL_SCALE]);
+        emit(step, [mu_w * scale_0, mu_a * scale_1]);
     }
     Ok(())
 }
@@ -332,8 +331,8 @@ mod tests {
     use super::*;
     use crate::geometry::Point2;
     use crate::limits::PRIOR_STATES;
-    use crate::model::blob::{Precision, blob_len, write_blob};
-    use crate::predict::{MotionPrior, PriorSettings};
+    use crate::model::blob::{Precision, blob_len, write_blob, write_blob_with};
+    use crate::predict::{Dynamics, MotionPrior, PriorSettings};
 
     /// A blob of `dims` with small pseudo-random weights (a stand-in for a trained model).
     pub(crate) fn random_blob(dims: &Dims, precision: Precision, seed: u32) -> Vec<u8> {
@@ -400,11 +399,69 @@ mod tests {
 
     /// A blob of `dims` whose every weight is zero: its residual is zero.
     fn zero_blob(dims: &Dims, precision: Precision, prior: &PriorSettings) -> Vec<u8> {
-        let tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| vec![0.0; r * c]).collect();
+        bias_blob(dims, precision, prior, Dynamics::Unicycle, [0.0; 2])
+    }
+
+    /// A blob whose only nonzero weights are the two mean outputs' biases: every step's
+    /// standardised residual is `mean`.
+    fn bias_blob(
+        dims: &Dims,
+        precision: Precision,
+        prior: &PriorSettings,
+        dynamics: Dynamics,
+        mean: [f32; 2],
+    ) -> Vec<u8> {
+        let mut tensors: Vec<Vec<f32>> = dims.tensors().iter().map(|(r, c)| vec![0.0; r * c]).collect();
+        tensors[t::OUT_B][..2].copy_from_slice(&mean);
         let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
         let mut buf = vec![0u8; blob_len(dims, precision)];
-        write_blob(dims, precision, 0.05, prior, &slices, &mut buf).unwrap();
+        write_blob_with(dims, precision, 0.05, prior, dynamics, &slices, &mut buf).unwrap();
         buf
+    }
+
+    #[test]
+    fn a_single_integrator_adds_its_velocity_to_the_prior_s_path() {
+        let h = long_history();
+        let mut prior_path = [Point2::default(); HORIZON];
+        MotionPrior(PriorSettings::DEFAULT).predict(&h, 0.05, &mut prior_path).unwrap();
+        let bits = |f: &Forecast| f.map(|p| (p.x.to_bits(), p.y.to_bits()));
+        for precision in [Precision::F32, Precision::Int8] {
+            let zero =
+                bias_blob(&Dims::DEFAULT, precision, &PriorSettings::DEFAULT, Dynamics::SingleIntegrator, [0.0; 2]);
+            let blob = ModelBlob::parse(&zero).unwrap();
+            assert_eq!(blob.dynamics(), Dynamics::SingleIntegrator);
+            let mut out = [Point2::default(); HORIZON];
+            LearnedPredictor::new(blob).predict(&h, 0.05, &mut out).unwrap();
+            assert_eq!(bits(&out), bits(&prior_path), "{precision:?}: zero residual is the prior");
+        }
+        // 0.5 m/s to the agent's left on every step (and a bound far past it, clamped).
+        let frame = crate::predict::prior::plan(&h, &PriorSettings::DEFAULT, 0.05).unwrap().frame;
+        for (mean, expect) in [(0.5f32, 0.5f32), (100.0, crate::predict::dynamics::MAX_VELOCITY_RESIDUAL)] {
+            let left = bias_blob(
+                &Dims::DEFAULT,
+                Precision::F32,
+                &PriorSettings::DEFAULT,
+                Dynamics::SingleIntegrator,
+                [0.0, mean],
+            );
+            let mut out = [Point2::default(); HORIZON];
+            LearnedPredictor::new(ModelBlob::parse(&left).unwrap()).predict(&h, 0.05, &mut out).unwrap();
+            for (t, (p, q)) in out.iter().zip(&prior_path).enumerate() {
+                let (a, b) = (frame.to_agent(p), frame.to_agent(q));
+                let want = expect * 0.05 * (t + 1) as f32;
+                assert!((a.x - b.x).abs() < 1e-3 && (a.y - b.y - want).abs() < 1e-3, "step {t}: {a:?} vs {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_unknown_dynamics_code_is_refused() {
+        let mut buf = zero_blob(&Dims::DEFAULT, Precision::F32, &PriorSettings::DEFAULT);
+        buf[7] = 2;
+        let body = buf.len() - 4;
+        let crc = crate::wire::crc32(&buf[..body]);
+        buf[body..].copy_from_slice(&crc.to_le_bytes());
+        assert_eq!(ModelBlob::parse(&buf).err(), Some(crate::model::blob::BlobError::Dynamics { found: 2 }));
     }
 
     /// A 21-state history that brakes and turns.

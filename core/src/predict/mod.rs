@@ -1,14 +1,17 @@
-//! Forecasting: unicycle dynamics with the paper's limits, and the baseline predictors.
+//! Forecasting: unicycle dynamics with the paper's limits (and a pedestrian's single
+//! integrator, `dynamics`), and the baseline predictors.
 //!
 //! A forecast is made at the current frame s from a history of bird's-eye states, oldest first,
 //! whose last element is frame s; it holds positions for frames s+1 ..= s+HORIZON.
 
 mod baseline;
+pub mod dynamics;
 mod fit;
 pub mod prior;
 mod unicycle;
 
 pub use baseline::{Baseline, constant_velocity, constant_velocity_fit, ctra};
+pub use dynamics::Dynamics;
 pub use fit::{ParabolaFit, fitted_velocity, parabola_fit};
 pub use prior::{MotionPrior, PriorPlan, PriorSettings};
 pub use unicycle::{clamp_controls, unicycle_step};

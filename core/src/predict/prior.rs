@@ -22,6 +22,7 @@
 //!
 //! Positions only: like `cv`, the prior is the same predictor on every source.
 
+use super::dynamics::{Dynamics, clamp_velocity_residual};
 use super::fit::parabola_fit;
 use super::{Forecast, PredictError, Predictor, checked_forecast, checked_history_of, clamp_controls, unicycle_step};
 use crate::geometry::{AgentFrame, BevState, Point2};
@@ -172,30 +173,57 @@ fn trend_of(v: Point2, acc: Point2, frame: &AgentFrame) -> Trend {
     }
 }
 
-/// The unicycle rolled out over a plan one step at a time, with a residual added to each step's
-/// controls: the learned predictor steps it as its decoder produces each residual, so no
-/// horizon of residuals is ever stored. A zero residual gives the prior itself, bit for bit:
-/// the learned predictor and [`MotionPrior`] share this arithmetic.
+/// The plan rolled out one step at a time, with a residual added to each step under the
+/// agent's [`Dynamics`]: the learned predictor steps it as its decoder produces each residual,
+/// so no horizon of residuals is ever stored. A zero residual gives the prior itself, bit for
+/// bit: the learned predictor and [`MotionPrior`] share this arithmetic.
 #[derive(Debug, Clone)]
 pub struct Rollout<'p> {
     plan: &'p PriorPlan,
     state: BevState,
     dt: f32,
+    dynamics: Dynamics,
+    /// A single integrator's integrated residual velocity (agent frame, metres).
+    offset: Point2,
 }
 
 impl<'p> Rollout<'p> {
-    /// At the plan's start.
+    /// At the plan's start, for a unicycle.
     #[must_use]
     pub const fn new(plan: &'p PriorPlan, dt: f32) -> Self {
-        Self { plan, state: BevState { x: 0.0, y: 0.0, heading: 0.0, speed: plan.speed }, dt }
+        Self::with_dynamics(plan, dt, Dynamics::Unicycle)
     }
 
-    /// Step `t` (0-based) with `residual` (physical turn rate, acceleration) added to the prior's
-    /// controls: the world position after it (`None` past the horizon).
+    /// At the plan's start, under `dynamics`.
+    #[must_use]
+    pub const fn with_dynamics(plan: &'p PriorPlan, dt: f32, dynamics: Dynamics) -> Self {
+        Self {
+            plan,
+            state: BevState { x: 0.0, y: 0.0, heading: 0.0, speed: plan.speed },
+            dt,
+            dynamics,
+            offset: Point2 { x: 0.0, y: 0.0 },
+        }
+    }
+
+    /// Step `t` (0-based) with `residual` (physical units of the dynamics: turn rate and
+    /// acceleration added to the prior's controls, or a velocity added to the prior's): the
+    /// world position after it (`None` past the horizon).
     pub fn step(&mut self, t: usize, residual: [f32; 2]) -> Option<Point2> {
         let c = self.plan.controls.get(t)?;
-        self.state = unicycle_step(&self.state, c[0] + residual[0], c[1] + residual[1], self.dt);
-        Some(self.plan.frame.to_world(&self.state.position()))
+        let position = match self.dynamics {
+            Dynamics::Unicycle => {
+                self.state = unicycle_step(&self.state, c[0] + residual[0], c[1] + residual[1], self.dt);
+                self.state.position()
+            }
+            Dynamics::SingleIntegrator => {
+                self.state = unicycle_step(&self.state, c[0], c[1], self.dt);
+                self.offset.x += clamp_velocity_residual(residual[0]) * self.dt;
+                self.offset.y += clamp_velocity_residual(residual[1]) * self.dt;
+                Point2::new(self.state.x + self.offset.x, self.state.y + self.offset.y)
+            }
+        };
+        Some(self.plan.frame.to_world(&position))
     }
 }
 
