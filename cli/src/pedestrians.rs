@@ -22,6 +22,9 @@ pub struct PedestriansArgs {
     /// Scenes held out, comma-separated (eth, hotel, univ, zara1, zara2; default all).
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub scenes: Vec<String>,
+    /// Network widths: history encoder, edge encoder, latent modes, decoder.
+    #[arg(long, default_value = super::common::DEFAULT_DIMS, value_parser = super::model_cost::parse_dims, value_name = "ENC,EDGE,K,DEC")]
+    pub dims: Dims,
     /// Seed of the weights and the shuffling.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -71,7 +74,7 @@ pub fn run_command(args: &PedestriansArgs) -> anyhow::Result<()> {
     let options = BenchmarkOptions {
         data: args.data.clone(),
         scenes: args.scenes.clone(),
-        dims: Dims::DEFAULT,
+        dims: args.dims,
         hyper: Hyper { seed: args.seed, epochs: args.epochs, ..Hyper::default() },
         dynamics: args.dynamics.into(),
         train: !args.no_train,

@@ -4,7 +4,8 @@
 //! since a smoothed source carries acceleration and turn that a noisy one does not, and only on
 //! the sequences a fold trains on, never on the ones it is scored on. The search is coordinate
 //! descent over small grids, each step keeping the best mean ADE over every training instance:
-//! 1. the velocity window, with no acceleration and no turn (the `cv-fit` family);
+//! 1. the velocity window, with no acceleration and no turn (the `cv-fit` family; the last
+//!    displacement too at frame rates of [`LAST_DISPLACEMENT_MIN_PERIOD_S`] and slower);
 //! 2. the trend window, acceleration gain and decay, with no turn;
 //! 3. the trend window, turn gain and decay, with step 2's acceleration.
 //!
@@ -27,6 +28,20 @@ use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 
 /// Velocity windows tried, states.
 pub const VELOCITY_WINDOWS: [u8; 5] = [3, 5, 7, 9, 11];
+
+/// The slowest frame rate's period from which the last displacement (a window of two states) is
+/// tried too, seconds (4 Hz). At the 2.5 Hz of pedestrian recordings it is a velocity of its
+/// own; at a vehicle camera's 10-20 Hz it carries two frames' position noise at full gain
+/// (`dynotraj_core::predict::fit`).
+pub const LAST_DISPLACEMENT_MIN_PERIOD_S: f32 = 0.25;
+
+/// The velocity windows tried at frame period `dt`.
+#[must_use]
+pub fn velocity_windows(dt: f32) -> Vec<u8> {
+    let last_displacement = (dt >= LAST_DISPLACEMENT_MIN_PERIOD_S).then_some(2);
+    last_displacement.into_iter().chain(VELOCITY_WINDOWS).collect()
+}
+
 /// Trend windows tried, states.
 pub const TREND_WINDOWS: [u8; 4] = [7, 11, 15, PRIOR_STATES as u8];
 /// Gains tried.
@@ -192,7 +207,7 @@ pub fn tune_prior(instances: &[PriorInstance], dt: f32, objective: PriorObjectiv
     let cv_ace = score(&mut Baseline::ConstantVelocity, instances, dt).ace;
     let best = |candidates| best(candidates, instances, dt, objective, cv_ace);
     let off = PriorSettings::OFF;
-    let v = best(VELOCITY_WINDOWS.iter().map(|&w| PriorSettings { velocity_window: w, ..off }).collect());
+    let v = best(velocity_windows(dt).into_iter().map(|w| PriorSettings { velocity_window: w, ..off }).collect());
     let mut accel = Vec::new();
     for &trend_window in &TREND_WINDOWS {
         for &accel_gain in &GAINS {
@@ -264,6 +279,13 @@ mod tests {
                 PriorInstance { history: states[i..=now].to_vec(), future: future.to_vec(), follows: i > 0 }
             })
             .collect()
+    }
+
+    #[test]
+    fn the_last_displacement_is_a_window_at_walking_rates_only() {
+        assert_eq!(velocity_windows(0.05), VELOCITY_WINDOWS.to_vec(), "20 Hz");
+        assert_eq!(velocity_windows(0.1), VELOCITY_WINDOWS.to_vec(), "10 Hz");
+        assert_eq!(velocity_windows(0.4), vec![2, 3, 5, 7, 9, 11], "2.5 Hz");
     }
 
     #[test]
