@@ -402,6 +402,38 @@ pub fn ratio_table(results: &[SceneResult]) -> Table {
     t
 }
 
+/// Each scene's training: its windows, the epoch kept and the judged validation gain over the
+/// prior.
+#[must_use]
+pub fn training_table(results: &[SceneResult]) -> Table {
+    let mut t = Table::new([
+        "scene",
+        "train windows",
+        "val windows",
+        "epoch kept",
+        "best epoch's val ADE / prior's [95 %]",
+        "val cv ADE",
+        "val prior ADE",
+        "val ADE kept",
+        "seconds",
+    ]);
+    for r in results {
+        let Some(tr) = r.training.as_ref() else { continue };
+        t.push([
+            r.scene.to_owned(),
+            r.train_windows.0.to_string(),
+            r.train_windows.1.to_string(),
+            tr.best_epoch.to_string(),
+            interval(tr.gain),
+            format!("{:.3}", tr.val_cv_ade),
+            format!("{:.3}", tr.val_prior_ade),
+            format!("{:.3}", tr.best_val_ade),
+            format!("{:.0}", tr.seconds),
+        ]);
+    }
+    t
+}
+
 /// Each scene's training as the experiment's fold summary reads it.
 #[must_use]
 pub fn fold_reports(results: &[SceneResult], seed: u64) -> Vec<FoldReport> {
@@ -454,6 +486,13 @@ pub fn report(results: &[SceneResult], options: &BenchmarkOptions, command: Stri
                 "Ratios with 95 % bootstrap intervals over walks",
                 "Each walk (a pedestrian's consecutive observations) is one resampling unit.",
                 ratio_table(results),
+            ),
+            section(
+                "training",
+                "Training per scene",
+                "A trained epoch is kept only when its validation gain over the prior holds under a \
+                 bootstrap over walks (upper end below 1); otherwise the scene ships the prior (epoch 0).",
+                training_table(results),
             ),
         ],
         folds: fold_reports(results, options.hyper.seed),

@@ -2,16 +2,18 @@
 //! clipping by value, the KL schedule, and early stopping on the validation ADE of the
 //! unimodal forecast (the best epoch's weights are restored at the end).
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::time::Instant;
 
 use candle_core::{Device, Result, Tensor, Var};
 use candle_nn::{AdamW, Optimizer as _, ParamsAdamW, VarMap};
+use dynotraj_core::metrics::ForecastScores;
 use rand::SeedableRng as _;
 use rand::seq::SliceRandom as _;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
 use super::batch::Batch;
+use super::bootstrap::{Metric, RatioInterval, ratio_interval};
 use super::dataset::Sample;
 use super::loss::{LossConfig, beta, loss};
 use super::model::{Network, ade};
@@ -61,6 +63,11 @@ pub struct Hyper {
     /// After training, scale the mean-control outputs by the factor of [`SHRINK_FACTORS`]
     /// with the best held-out ADE ([`shrink_towards_cv`]).
     pub shrink: bool,
+    /// Keep the trained weights only when their held-out gain over the motion prior holds under
+    /// a bootstrap over whole runs (the 97.5th percentile of the ADE ratio below 1); otherwise
+    /// ship the prior (epoch 0). Why: a fold's few validation runs pick the best of many epochs,
+    /// and a gain of a percent on them is as often noise as not.
+    pub require_sure_gain: bool,
 }
 
 /// [`Hyper::ema_decay`] by default: off (tried on a training fold's validation sequences, no
@@ -94,6 +101,7 @@ impl Default for Hyper {
             ema_decay: DEFAULT_EMA_DECAY,
             restarts: DEFAULT_RESTARTS,
             shrink: DEFAULT_SHRINK,
+            require_sure_gain: true,
         }
     }
 }
@@ -148,6 +156,10 @@ pub struct FitOutcome {
     pub steps: usize,
     /// The factor [`shrink_towards_cv`] kept (1 when not asked for).
     pub shrink: f32,
+    /// The best epoch's held-out ADE over the prior's with its run-bootstrap interval, when an
+    /// epoch beat the prior and [`Hyper::require_sure_gain`] judged it (kept when its upper end is
+    /// below 1).
+    pub gain: Option<RatioInterval>,
 }
 
 /// Mean ADE (metres) of the unimodal forecast over `samples`, in chunks.
@@ -155,16 +167,43 @@ pub struct FitOutcome {
 /// # Errors
 /// Shape errors; an empty set.
 pub fn mean_ade(net: &Network, samples: &[Sample], dt: f32) -> Result<f32> {
-    let mut sum = 0.0f64;
-    for chunk in samples.chunks(1024) {
-        let refs: Vec<&Sample> = chunk.iter().collect();
-        let b = Batch::new(&refs, &Device::Cpu)?;
-        sum += ade(&net.forecast(&b, dt)?, &b.future)?.iter().map(|&v| f64::from(v)).sum::<f64>();
-    }
+    let ades = sample_ades(net, samples, dt)?;
+    Ok((ades.iter().map(|&v| f64::from(v)).sum::<f64>() / samples.len() as f64) as f32)
+}
+
+/// ADE (metres) of the unimodal forecast of every sample, in order.
+///
+/// # Errors
+/// Shape errors; an empty set.
+pub fn sample_ades(net: &Network, samples: &[Sample], dt: f32) -> Result<Vec<f32>> {
     if samples.is_empty() {
         candle_core::bail!("no samples to score");
     }
-    Ok((sum / samples.len() as f64) as f32)
+    let mut out = Vec::with_capacity(samples.len());
+    for chunk in samples.chunks(1024) {
+        let refs: Vec<&Sample> = chunk.iter().collect();
+        let b = Batch::new(&refs, &Device::Cpu)?;
+        out.extend(ade(&net.forecast(&b, dt)?, &b.future)?);
+    }
+    Ok(out)
+}
+
+/// The ADE ratio of `trained` over `untrained` (per-sample ADEs of `samples`) with its
+/// bootstrap interval over whole runs; a gain is sure when the interval's upper end is below 1.
+#[must_use]
+pub fn judged_gain(samples: &[Sample], trained: &[f32], untrained: &[f32]) -> Option<RatioInterval> {
+    ratio_interval(&by_run(samples, trained), &by_run(samples, untrained), Metric::Ade)
+}
+
+/// Per-sample ADEs gathered into one [`ForecastScores`] per run (`Sample::group`), in group order.
+fn by_run(samples: &[Sample], ades: &[f32]) -> Vec<ForecastScores> {
+    let mut runs: BTreeMap<usize, ForecastScores> = BTreeMap::new();
+    for (s, &a) in samples.iter().zip(ades) {
+        let run = runs.entry(s.group).or_default();
+        run.ade.push(a);
+        run.fde.push(a);
+    }
+    runs.into_values().collect()
 }
 
 fn snapshot(vars: &VarMap) -> Result<HashMap<String, Tensor>> {
@@ -259,9 +298,13 @@ pub fn fit(
     // Epoch 0 is the untrained model (the cv-fit forecast, constant velocity along the fitted
     // velocity, when the output layer starts at zero): a trained epoch is kept only if it beats it
     // on the held-out runs.
-    let untrained = if hyper.keep_untrained_if_better { mean_ade(net, held_out, dt)? } else { f32::INFINITY };
-    let mut out = FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0, shrink: 1.0 };
-    let mut best = snapshot(vars)?;
+    let untrained_ades = sample_ades(net, held_out, dt)?;
+    let untrained_mean = (untrained_ades.iter().map(|&v| f64::from(v)).sum::<f64>() / held_out.len() as f64) as f32;
+    let untrained = if hyper.keep_untrained_if_better { untrained_mean } else { f32::INFINITY };
+    let mut out =
+        FitOutcome { history: Vec::new(), best_epoch: 0, best_val_ade: untrained, steps: 0, shrink: 1.0, gain: None };
+    let untrained_weights = snapshot(vars)?;
+    let mut best = untrained_weights.clone();
     let mut average = if hyper.ema_decay > 0.0 { Some(Average::new(hyper.ema_decay, &params)?) } else { None };
     for epoch in 1..=hyper.epochs {
         order.shuffle(&mut rng);
@@ -324,6 +367,14 @@ pub fn fit(
     restore(vars, &best)?;
     if hyper.shrink && out.best_epoch > 0 {
         (out.shrink, out.best_val_ade) = shrink_towards_cv(net, vars, held_out, dt)?;
+    }
+    if hyper.require_sure_gain && out.best_epoch > 0 {
+        let gain = judged_gain(held_out, &sample_ades(net, held_out, dt)?, &untrained_ades);
+        out.gain = gain;
+        if !gain.is_some_and(|g| g.high < 1.0) {
+            restore(vars, &untrained_weights)?;
+            (out.best_epoch, out.best_val_ade, out.shrink) = (0, untrained_mean, 1.0);
+        }
     }
     Ok(out)
 }
@@ -398,12 +449,29 @@ mod tests {
     }
 
     #[test]
+    fn a_gain_is_sure_only_when_it_holds_over_the_runs() {
+        let dt = 0.05;
+        let runs = constant_control_runs(12, 45, dt, 4);
+        let all = samples(&runs, dt);
+        let untrained: Vec<f32> = all.iter().map(|_| 1.0).collect();
+        // Every run 10 % better: sure.
+        let steady: Vec<f32> = all.iter().map(|_| 0.9).collect();
+        let g = judged_gain(&all, &steady, &untrained).unwrap();
+        assert!((g.ratio - 0.9).abs() < 1e-6 && g.high < 1.0, "{g:?}");
+        // Half the runs 40 % better, half 30 % worse: better on average, not surely.
+        let mixed: Vec<f32> = all.iter().map(|s| if s.group % 2 == 0 { 0.6 } else { 1.3 }).collect();
+        let m = judged_gain(&all, &mixed, &untrained).unwrap();
+        assert!(m.ratio < 1.0 && m.high >= 1.0, "{m:?}");
+    }
+
+    #[test]
     fn shrinking_an_overshooting_model_picks_a_smaller_factor_and_keeps_it() {
         let dt = 0.05;
         let runs = constant_control_runs(16, 45, dt, 4);
         let split = split_by_run(samples(&runs, dt), runs.len(), 0.25, 2);
         let (net, vars) = Network::new(Dims { enc: 16, edge: 8, k: 2, dec: 16 }, 3).unwrap();
-        let hyper = Hyper { epochs: 4, batch: 32, patience: 4, shrink: false, ..Hyper::default() };
+        let hyper =
+            Hyper { epochs: 4, batch: 32, patience: 4, shrink: false, require_sure_gain: false, ..Hyper::default() };
         fit(&net, &vars, &split.train, &split.validation, dt, &hyper, &mut |_| {}).unwrap();
         // Make the trained corrections four times too strong: a quarter is then the right one.
         let weight = vars.data().lock().unwrap().get("out.weight").unwrap().clone();

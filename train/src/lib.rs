@@ -3,6 +3,7 @@
 //! - [`prior_fit`]: the motion prior's settings, chosen on a fold's training sequences.
 //! - [`dataset`]: samples (features by core's own code) from eligible runs through a source.
 //! - [`batch`]: mini-batches as tensors.
+//! - [`bootstrap`]: ratio intervals by resampling whole runs (epoch selection, reports).
 //! - [`params`], [`cells`], [`fused`]: seeded parameters; LSTM/GRU cells and linear layers in
 //!   PyTorch's naming and gate order; the GRU gates as one fused operation.
 //! - [`dynamics`]: the unicycle rollout (as inference computes it) and covariance propagation.
@@ -22,6 +23,7 @@
 //! /proc and /sys at every matrix product.
 
 pub mod batch;
+pub mod bootstrap;
 pub mod cells;
 pub mod dataset;
 pub mod dynamics;
@@ -217,6 +219,10 @@ pub struct TrainReport {
     pub best_val_ade: f32,
     /// The output shrink factor kept (1: none).
     pub shrink: f32,
+    /// The best trained epoch's validation ADE over the prior's, with its run-bootstrap
+    /// interval (when an epoch beat the prior and the gain was judged): the epoch is kept only
+    /// when the interval's upper end is below 1.
+    pub gain: Option<bootstrap::RatioInterval>,
     /// Validation ADE of the constant-velocity forecast, metres (the reference to beat).
     pub val_cv_ade: f32,
     /// Validation ADE of the motion prior alone (the untrained model), metres.
@@ -373,6 +379,7 @@ pub fn train_split(
         best_epoch: outcome.best_epoch,
         best_val_ade: outcome.best_val_ade,
         shrink: outcome.shrink,
+        gain: outcome.gain,
         val_cv_ade: mean_cv_ade(if split.validation.is_empty() { &split.train } else { &split.validation }),
         val_prior_ade: {
             let v = if split.validation.is_empty() { &split.train } else { &split.validation };

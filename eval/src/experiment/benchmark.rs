@@ -261,6 +261,7 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
         "prior ADE / cv",
         "int8 ACE",
         "cv ACE",
+        "folds keeping a trained epoch",
         "goal met",
     ]);
     let mut columns = vec![("arm", ColumnKind::Text), ("seed", ColumnKind::Int)];
@@ -276,7 +277,13 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
     for names in &ratio_columns {
         columns.extend(names.iter().map(|n| (*n, ColumnKind::Num)));
     }
-    columns.extend([("int8_ace", ColumnKind::Num), ("cv_ace", ColumnKind::Num), ("goal_met", ColumnKind::Text)]);
+    columns.extend([
+        ("int8_ace", ColumnKind::Num),
+        ("cv_ace", ColumnKind::Num),
+        ("folds_trained", ColumnKind::Int),
+        ("folds", ColumnKind::Int),
+        ("goal_met", ColumnKind::Text),
+    ]);
     let mut d = Data::new(columns);
     let md = |r: &Option<RatioInterval>| {
         r.map_or_else(|| "-".to_string(), |r| format!("{:.3} [{:.3}, {:.3}]", r.ratio, r.low, r.high))
@@ -303,6 +310,8 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
             let vs_prior = |i: usize| ratios[i].is_some_and(|x| x.ratio <= GOAL_VS_PRIOR && x.high < 1.0);
             let met = vs_cv(0) && vs_cv(2) && vs_prior(1) && vs_prior(3) && lw[2] <= cvw[2];
             let verdict = if met { "yes" } else { "no" };
+            let folds: Vec<&FoldReport> = result.folds.iter().filter(|f| f.arm == *arm && f.seed == *seed).collect();
+            let trained = folds.iter().filter(|f| f.best_epoch > 0).count();
             t.push([
                 arm.to_string(),
                 seed.to_string(),
@@ -315,6 +324,7 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
                 md(&ratios[4]),
                 format!("{:.3}", lw[2]),
                 format!("{:.3}", cvw[2]),
+                format!("{trained} / {}", folds.len()),
                 verdict.to_string(),
             ]);
             let mut cells =
@@ -326,7 +336,13 @@ pub fn goal_table(result: &BenchmarkResult, arms: &[Source]) -> Table {
                     Cell::opt(r.map(|x| x.high), 4),
                 ]);
             }
-            cells.extend([Cell::num(lw[2], 3), Cell::num(cvw[2], 3), Cell::text(verdict)]);
+            cells.extend([
+                Cell::num(lw[2], 3),
+                Cell::num(cvw[2], 3),
+                Cell::int(trained),
+                Cell::int(folds.len()),
+                Cell::text(verdict),
+            ]);
             d.push(cells);
         }
     }

@@ -23,9 +23,9 @@ use dynotraj_core::predict::PriorSettings;
 use super::FoldReport;
 use dynotraj_train::TrainConfig;
 
-/// Version of what training computes; part of every key (5: the camera's path is a training
-/// input).
-pub const CACHE_VERSION: u32 = 5;
+/// Version of what training computes; part of every key (6: a trained epoch is kept only when
+/// its gain over the prior holds under a run bootstrap).
+pub const CACHE_VERSION: u32 = 6;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]

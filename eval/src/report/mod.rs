@@ -1,6 +1,9 @@
 //! Reports: tables in Markdown, CSV or JSON (Table I, III and IV layouts among them).
 
-pub mod bootstrap;
+/// Run-resampled ratio intervals (defined in `dynotraj_train`, which selects epochs with them).
+pub mod bootstrap {
+    pub use dynotraj_train::bootstrap::*;
+}
 pub mod chart;
 pub mod data;
 pub mod estimator_tables;
