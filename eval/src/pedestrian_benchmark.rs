@@ -18,6 +18,7 @@ use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::ForecastScores;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
+use dynotraj_core::model::features::FeatureScales;
 use dynotraj_core::model::infer::LearnedPredictor;
 use dynotraj_core::predict::{
     Context, Dynamics, Forecast, MotionPrior, Predictor as _, PriorSettings, constant_velocity,
@@ -193,14 +194,25 @@ fn prior_instances(windows: &[Window]) -> Vec<PriorInstance> {
     out
 }
 
-/// Training samples of `windows` over motion prior `prior`, grouped by walk.
-fn samples(windows: &[Window], prior: &PriorSettings) -> Vec<dynotraj_train::Sample> {
+/// Training samples of `windows` over motion prior `prior` for a model of `dynamics`, grouped by
+/// walk.
+fn samples(windows: &[Window], prior: &PriorSettings, dynamics: Dynamics) -> Vec<dynotraj_train::Sample> {
+    let scales = FeatureScales::of(dynamics);
     windows
         .iter()
         .filter_map(|w| {
             let refs = w.neighbour_histories();
             let context = Context::with_neighbours(&refs);
-            sample_over(&w.states(PERIOD_S), HISTORY_STEPS - 1, FUTURE_STEPS, &context, PERIOD_S, w.walk, prior)
+            sample_over(
+                &w.states(PERIOD_S),
+                HISTORY_STEPS - 1,
+                FUTURE_STEPS,
+                &context,
+                PERIOD_S,
+                w.walk,
+                prior,
+                &scales,
+            )
         })
         .collect()
 }
@@ -255,7 +267,10 @@ pub fn run_scene(
             hyper: options.hyper,
             ..TrainConfig::new(&[], Vec::new(), Source::Gt)
         };
-        let split = Split { train: samples(&train, &prior), validation: samples(&val, &prior) };
+        let split = Split {
+            train: samples(&train, &prior, options.dynamics),
+            validation: samples(&val, &prior, options.dynamics),
+        };
         let names = trained_on.iter().map(|n| (*n).to_owned()).collect();
         let model = train_split(split, names, prior, &config, start, observer)?;
         for (label, precision) in [("learned f32", Precision::F32), ("learned int8", Precision::Int8)] {

@@ -14,7 +14,9 @@
 
 use dynotraj_core::limits::{HORIZON, MAX_PRIOR_HISTORY, MIN_HISTORY};
 use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
-use dynotraj_core::model::features::{OwnContext, StepFeatures, initial_control, neighbour_sum, state_features};
+use dynotraj_core::model::features::{
+    FeatureScales, OwnContext, StepFeatures, initial_control, neighbour_sum, state_features,
+};
 use dynotraj_core::predict::prior::{Controls, plan};
 use dynotraj_core::predict::{Context, PriorSettings, unicycle_step};
 use dynotraj_core::{BevState, Point2};
@@ -138,11 +140,13 @@ pub fn sample_at(
     group: usize,
     prior: &PriorSettings,
 ) -> Option<Sample> {
-    sample_over(states, s, HORIZON, context, dt, group, prior)
+    sample_over(states, s, HORIZON, context, dt, group, prior, &FeatureScales::VEHICLE)
 }
 
-/// [`sample_at`] with `horizon` future steps (at most [`HORIZON`]).
+/// [`sample_at`] with `horizon` future steps (at most [`HORIZON`]), features standardised by
+/// `scales` (those of the dynamics the model is trained with).
 #[must_use]
+#[expect(clippy::too_many_arguments, reason = "sample_at's inputs and the two a benchmark of its own sets")]
 pub fn sample_over(
     states: &[BevState],
     s: usize,
@@ -151,6 +155,7 @@ pub fn sample_over(
     dt: f32,
     group: usize,
     prior: &PriorSettings,
+    scales: &FeatureScales,
 ) -> Option<Sample> {
     if s < MIN_HISTORY || horizon == 0 || horizon > HORIZON {
         return None;
@@ -163,17 +168,17 @@ pub fn sample_over(
     let plan = plan(history, prior, dt)?;
     let frame = plan.frame;
     let mut own = [[0.0; FEATURES]; MAX_STEPS];
-    let steps =
-        state_features(history, &frame, dt, Some(&OwnContext::of(history, context.observer, plan.trend)), &mut own);
+    let own_context = OwnContext::of(history, context.observer, plan.trend);
+    let steps = state_features(history, &frame, dt, Some(&own_context), scales, &mut own);
     let mut summed = [[0.0; FEATURES]; MAX_STEPS];
     let finite: Vec<&[BevState]> =
         context.neighbours.iter().copied().filter(|h| h.iter().all(BevState::is_finite)).collect();
-    neighbour_sum(&finite, &frame, steps, dt, &mut summed);
+    neighbour_sum(&finite, &frame, steps, dt, scales, &mut summed);
     let mut future = [Point2::default(); HORIZON];
     for (f, st) in future.iter_mut().zip(future_states) {
         *f = frame.to_agent(&st.position());
     }
-    let initial_control = initial_control(own.get(steps - 1)?);
+    let initial_control = initial_control(own.get(steps - 1)?, scales);
     Some(Sample {
         group,
         steps,

@@ -173,7 +173,9 @@ mod tests {
 
     use super::*;
     use crate::batch::Batch;
-    use crate::dataset::sample_at;
+    use dynotraj_core::model::features::FeatureScales;
+
+    use crate::dataset::sample_over;
     use crate::synthetic::constant_control_runs;
 
     const SMALL: Dims = Dims { enc: 8, edge: 6, k: 3, dec: 10 };
@@ -306,7 +308,8 @@ mod tests {
                 let neighbour = &beside[s.saturating_sub(4)..=s];
                 let neighbours = [neighbour];
                 let context = Context { neighbours: &neighbours, observer: Some(Point2::new(-12.0, 7.0)) };
-                let sample = sample_at(states, s, &context, dt, 0, &prior).unwrap();
+                let scales = FeatureScales::of(net.dynamics);
+                let sample = sample_over(states, s, HORIZON, &context, dt, 0, &prior, &scales).unwrap();
                 let b = Batch::new(&[&sample], &Device::Cpu).unwrap();
                 let ours = net.forecast(&b, dt).unwrap().to_vec3::<f32>().unwrap().remove(0);
                 let mut core = [Point2::default(); HORIZON];

@@ -7,10 +7,54 @@ use super::arch::{
 };
 use crate::geometry::{AgentFrame, BevState, Point2, angle_diff};
 use crate::limits::MAX_PRIOR_HISTORY;
+use crate::predict::Dynamics;
 use crate::predict::prior::Trend;
 
 /// Standardised features of up to [`MAX_STEPS`] states, oldest first.
 pub type StepFeatures = [[f32; FEATURES]; MAX_STEPS];
+
+/// What the features are standardised by, and how far a neighbour counts: per agent dynamics,
+/// since a walker's metre is a car's ten (Trajectron++ standardises and draws its attention
+/// radius per agent type too).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeatureScales {
+    /// Positions, metres.
+    pub pos: f32,
+    /// Velocities (and the trend's speed), m/s.
+    pub vel: f32,
+    /// Accelerations (and the trend's), m/s^2.
+    pub acc: f32,
+    /// Heading rates (and the trend's turn rate), rad/s.
+    pub heading_rate: f32,
+    /// Neighbours closer than this at the current frame feed the edge encoder, metres.
+    pub neighbour_radius_m: f32,
+}
+
+impl FeatureScales {
+    /// Vehicles and cyclists (the unicycle's agents).
+    pub const VEHICLE: Self = Self {
+        pos: POS_SCALE,
+        vel: VEL_SCALE,
+        acc: ACC_SCALE,
+        heading_rate: HEADING_RATE_SCALE,
+        neighbour_radius_m: NEIGHBOUR_RADIUS_M,
+    };
+
+    /// Pedestrians (the single integrator's): Trajectron++'s pedestrian standardisation (1 m/s^2
+    /// of acceleration, 2 m/s of velocity), positions over a 3.2 s history by 2 m so a brisk
+    /// walk stays inside the clamp, and its 3 m pedestrian attention radius.
+    pub const PEDESTRIAN: Self =
+        Self { pos: 2.0, vel: 2.0, acc: 1.0, heading_rate: HEADING_RATE_SCALE, neighbour_radius_m: 3.0 };
+
+    /// The scales of agents moving under `dynamics`.
+    #[must_use]
+    pub const fn of(dynamics: Dynamics) -> Self {
+        match dynamics {
+            Dynamics::Unicycle => Self::VEHICLE,
+            Dynamics::SingleIntegrator => Self::PEDESTRIAN,
+        }
+    }
+}
 
 /// What only the agent's own feature rows carry; a neighbour's rows hold zeros there.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -34,12 +78,12 @@ impl OwnContext {
     }
 
     /// The standardised columns, in feature order.
-    fn columns(&self) -> [f32; 5] {
+    fn columns(&self, scales: &FeatureScales) -> [f32; 5] {
         let t = &self.trend;
         [
-            clamp(t.speed / VEL_SCALE),
-            clamp(t.accel / ACC_SCALE),
-            clamp(t.turn_rate / HEADING_RATE_SCALE),
+            clamp(t.speed / scales.vel),
+            clamp(t.accel / scales.acc),
+            clamp(t.turn_rate / scales.heading_rate),
             clamp(self.age.min(MAX_PRIOR_HISTORY) as f32 / AGE_SCALE_FRAMES),
             clamp(self.range_m.map_or(0.0, |r| r / RANGE_SCALE)),
         ]
@@ -55,14 +99,16 @@ fn newest(states: &[BevState]) -> &[BevState] {
     states.get(states.len().saturating_sub(MAX_STEPS)..).unwrap_or(states)
 }
 
-/// Features of `states` (oldest first; the newest [`MAX_STEPS`] are used) in `frame`, written to
-/// `out[..n]`; returns n. Rows past n are zeroed. `own` (the agent's trend, age and range) fills
-/// the last five columns of every row; neighbours have none (zeros).
+/// Features of `states` (oldest first; the newest [`MAX_STEPS`] are used) in `frame`,
+/// standardised by `scales`, written to `out[..n]`; returns n. Rows past n are zeroed. `own`
+/// (the agent's trend, age and range) fills the last five columns of every row; neighbours have
+/// none (zeros).
 pub fn state_features(
     states: &[BevState],
     frame: &AgentFrame,
     dt: f32,
     own: Option<&OwnContext>,
+    scales: &FeatureScales,
     out: &mut StepFeatures,
 ) -> usize {
     let states = newest(states);
@@ -90,19 +136,19 @@ pub fn state_features(
         *v0 = *v1;
         *r0 = *r1;
     }
-    let long = own.map_or([0.0; 5], OwnContext::columns);
+    let long = own.map_or([0.0; 5], |o| o.columns(scales));
     let mut prev_v: Option<Point2> = None;
     for (((row, s), (p, v)), r) in out.iter_mut().zip(states).zip(pos.iter().zip(&vel)).zip(&turn) {
         let a = prev_v.map_or(Point2::default(), |pv| rate(*v, pv));
         *row = [
-            clamp(p.x / POS_SCALE),
-            clamp(p.y / POS_SCALE),
-            clamp(v.x / VEL_SCALE),
-            clamp(v.y / VEL_SCALE),
-            clamp(a.x / ACC_SCALE),
-            clamp(a.y / ACC_SCALE),
+            clamp(p.x / scales.pos),
+            clamp(p.y / scales.pos),
+            clamp(v.x / scales.vel),
+            clamp(v.y / scales.vel),
+            clamp(a.x / scales.acc),
+            clamp(a.y / scales.acc),
             clamp(angle_diff(s.heading, frame.heading()) / core::f32::consts::PI),
-            clamp(r / HEADING_RATE_SCALE),
+            clamp(r / scales.heading_rate),
             long[0],
             long[1],
             long[2],
@@ -118,23 +164,25 @@ pub fn state_features(
 }
 
 /// The decoder's first control input: the current (turn rate, longitudinal acceleration) of the
-/// agent, standardised as the decoder's outputs are, taken from the newest feature row.
+/// agent, standardised as a unicycle decoder's outputs are, taken from the newest feature row
+/// (standardised by `scales`).
 #[must_use]
-pub fn initial_control(current_row: &[f32; FEATURES]) -> [f32; 2] {
+pub fn initial_control(current_row: &[f32; FEATURES], scales: &FeatureScales) -> [f32; 2] {
     let [_, _, _, _, ax, _, _, rate, ..] = *current_row;
-    [clamp(rate * HEADING_RATE_SCALE / TURN_RATE_SCALE), clamp(ax * ACC_SCALE / ACCEL_SCALE)]
+    [clamp(rate * scales.heading_rate / TURN_RATE_SCALE), clamp(ax * scales.acc / ACCEL_SCALE)]
 }
 
 /// The summed neighbour features of the edge encoder, aligned with the agent's `n` feature
 /// rows: each neighbour history (oldest first, ending at the agent's current frame) is
-/// featurised in the agent's frame and added row by row, aligned at the newest row. Only
-/// neighbours within [`NEIGHBOUR_RADIUS_M`] of the agent at the current frame count, the
-/// closest [`MAX_NEIGHBOURS`] of them. Returns how many were summed.
+/// featurised in the agent's frame (standardised by `scales`) and added row by row, aligned at
+/// the newest row. Only neighbours within `scales.neighbour_radius_m` of the agent at the
+/// current frame count, the closest [`MAX_NEIGHBOURS`] of them. Returns how many were summed.
 pub fn neighbour_sum(
     neighbours: &[&[BevState]],
     frame: &AgentFrame,
     n: usize,
     dt: f32,
+    scales: &FeatureScales,
     out: &mut StepFeatures,
 ) -> usize {
     *out = [[0.0; FEATURES]; MAX_STEPS];
@@ -145,7 +193,7 @@ pub fn neighbour_sum(
     for (j, h) in neighbours.iter().enumerate() {
         let Some(p) = h.last().map(|s| frame.to_agent(&s.position())) else { continue };
         let d2 = p.x * p.x + p.y * p.y;
-        if d2.is_nan() || d2 > NEIGHBOUR_RADIUS_M * NEIGHBOUR_RADIUS_M {
+        if d2.is_nan() || d2 > scales.neighbour_radius_m * scales.neighbour_radius_m {
             continue;
         }
         let at = chosen.get(..count).unwrap_or(&[]).iter().position(|&(_, c)| d2 < c).unwrap_or(count);
@@ -165,7 +213,7 @@ pub fn neighbour_sum(
     let mut rows: StepFeatures = [[0.0; FEATURES]; MAX_STEPS];
     for (j, _) in chosen {
         let Some(h) = neighbours.get(*j) else { continue };
-        let m = state_features(h, frame, dt, None, &mut rows);
+        let m = state_features(h, frame, dt, None, scales, &mut rows);
         // Align the newest rows: neighbour row m-1 adds to agent row n-1.
         for (dst, src) in
             out.get_mut(..n).unwrap_or(&mut []).iter_mut().rev().zip(rows.get(..m).unwrap_or(&[]).iter().rev())
@@ -183,6 +231,8 @@ pub fn neighbour_sum(
 mod tests {
     use super::*;
 
+    const V: FeatureScales = FeatureScales::VEHICLE;
+
     fn st(x: f32, y: f32, heading: f32) -> BevState {
         BevState { x, y, heading, speed: 0.0 }
     }
@@ -196,8 +246,8 @@ mod tests {
             st(5.0 + c * base[i].x - s * base[i].y, -3.0 + s * base[i].x + c * base[i].y, base[i].heading + 1.0)
         });
         let (mut a, mut b) = ([[0.0; FEATURES]; MAX_STEPS], [[0.0; FEATURES]; MAX_STEPS]);
-        assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, None, &mut a), 4);
-        state_features(&moved, &AgentFrame::of(&moved[3]), dt, None, &mut b);
+        assert_eq!(state_features(&base, &AgentFrame::of(&base[3]), dt, None, &V, &mut a), 4);
+        state_features(&moved, &AgentFrame::of(&moved[3]), dt, None, &V, &mut b);
         for (ra, rb) in a.iter().zip(&b) {
             for (x, y) in ra.iter().zip(rb) {
                 assert!((x - y).abs() < 1e-4, "{a:?}\n{b:?}");
@@ -218,16 +268,16 @@ mod tests {
         assert_eq!((young.age, old.age), (2, MAX_PRIOR_HISTORY), "age counts past states, up to the cap");
         assert!((young.range_m.unwrap() - 22.0).abs() < 1e-5);
         let mut out = [[0.0; FEATURES]; MAX_STEPS];
-        let n = state_features(&run[..3], &AgentFrame::of(&run[2]), 0.1, Some(&young), &mut out);
+        let n = state_features(&run[..3], &AgentFrame::of(&run[2]), 0.1, Some(&young), &V, &mut out);
         for row in &out[..n] {
             assert!((row[11] - 2.0 / AGE_SCALE_FRAMES).abs() < 1e-6 && (row[12] - 22.0 / RANGE_SCALE).abs() < 1e-6);
         }
         let unknown = OwnContext::of(&run, None, Trend::default());
-        state_features(&run, &AgentFrame::of(&run[29]), 0.1, Some(&unknown), &mut out);
+        state_features(&run, &AgentFrame::of(&run[29]), 0.1, Some(&unknown), &V, &mut out);
         assert_eq!((out[0][11], out[0][12]), (1.0, 0.0), "an unknown observer reads as range 0");
         let mut summed = [[0.0; FEATURES]; MAX_STEPS];
         let near: [&[BevState]; 1] = [&run[..3]];
-        neighbour_sum(&near, &AgentFrame::of(&run[2]), 3, 0.1, &mut summed);
+        neighbour_sum(&near, &AgentFrame::of(&run[2]), 3, 0.1, &V, &mut summed);
         assert!(summed[..3].iter().all(|r| r[8..] == [0.0; 5]), "neighbours carry no trend, age or range");
     }
 
@@ -239,7 +289,7 @@ mod tests {
         let frame = AgentFrame::of(&own[2]);
         let mut out = [[0.0; FEATURES]; MAX_STEPS];
         let hs: [&[BevState]; 2] = [&near, &far];
-        assert_eq!(neighbour_sum(&hs, &frame, 3, 0.1, &mut out), 1);
+        assert_eq!(neighbour_sum(&hs, &frame, 3, 0.1, &V, &mut out), 1);
         assert_eq!(out[0], [0.0; FEATURES], "a shorter neighbour history leaves the oldest row empty");
         assert!((out[2][0] - 4.0 / POS_SCALE).abs() < 1e-6 && (out[2][1] - 2.0 / POS_SCALE).abs() < 1e-6);
     }
@@ -259,9 +309,26 @@ mod tests {
         let mut out = [[0.0; FEATURES]; MAX_STEPS];
         let within = (0..24).filter(|&k| 1.0 + 1.5 * k as f32 <= NEIGHBOUR_RADIUS_M).count();
         assert!(within > MAX_NEIGHBOURS);
-        assert_eq!(neighbour_sum(&refs, &frame, 2, 0.1, &mut out), within.min(MAX_NEIGHBOURS));
+        assert_eq!(neighbour_sum(&refs, &frame, 2, 0.1, &V, &mut out), within.min(MAX_NEIGHBOURS));
         // The newest rows' x positions sum to those of the closest ones.
         let want: f32 = (0..MAX_NEIGHBOURS).map(|k| (1.0 + 1.5 * k as f32) / POS_SCALE).sum();
         assert!((out[1][0] - want).abs() < 1e-4, "{} vs {want}", out[1][0]);
+    }
+
+    #[test]
+    fn a_walker_s_features_are_scaled_for_walking_and_count_only_near_neighbours() {
+        let walk: [BevState; 3] = core::array::from_fn(|i| st(0.5 * i as f32, 0.0, 0.0));
+        let frame = AgentFrame::of(&walk[2]);
+        let (mut car, mut person) = ([[0.0; FEATURES]; MAX_STEPS], [[0.0; FEATURES]; MAX_STEPS]);
+        state_features(&walk, &frame, 0.4, None, &V, &mut car);
+        state_features(&walk, &frame, 0.4, None, &FeatureScales::of(Dynamics::SingleIntegrator), &mut person);
+        // 1.25 m/s: a twelfth of a car's velocity scale, most of a walker's.
+        assert!((car[2][2] - 1.25 / 15.0).abs() < 1e-6 && (person[2][2] - 1.25 / 2.0).abs() < 1e-6);
+        let near: [BevState; 1] = [st(2.0, 2.0, 0.0)];
+        let far: [BevState; 1] = [st(6.0, 3.0, 0.0)];
+        let hs: [&[BevState]; 2] = [&near, &far];
+        let mut out = [[0.0; FEATURES]; MAX_STEPS];
+        assert_eq!(neighbour_sum(&hs, &frame, 3, 0.4, &V, &mut out), 2);
+        assert_eq!(neighbour_sum(&hs, &frame, 3, 0.4, &FeatureScales::PEDESTRIAN, &mut out), 1, "3 m for walkers");
     }
 }

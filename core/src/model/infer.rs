@@ -5,7 +5,7 @@ use super::arch::{Dims, FEATURES, MAX_DEC, MAX_EDGE, MAX_ENC, MAX_K, OUTPUTS, PZ
 use super::blob::ModelBlob;
 use super::blob::Precision;
 use super::dot::{Int8Dot, PortableDot};
-use super::features::{OwnContext, StepFeatures, initial_control, neighbour_sum, state_features};
+use super::features::{FeatureScales, OwnContext, StepFeatures, initial_control, neighbour_sum, state_features};
 use super::kernel::{Activation, Exact, Kernel, MAX_AFFINE_IN, ShapeError, Table};
 use crate::geometry::BevState;
 use crate::limits::HORIZON;
@@ -130,9 +130,10 @@ pub fn forecast<D: Int8Dot>(
     }
     let Some(plan) = plan(history, prior, dt) else { return Err(PredictError::HistoryTooShort) };
     let own = OwnContext::of(full, context.observer, plan.trend);
-    let n = state_features(history, &plan.frame, dt, Some(&own), &mut s.own);
-    neighbour_sum(context.neighbours, &plan.frame, n, dt, &mut s.neighbours);
-    let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]));
+    let scales = FeatureScales::of(kernel.blob().dynamics());
+    let n = state_features(history, &plan.frame, dt, Some(&own), &scales, &mut s.own);
+    neighbour_sum(context.neighbours, &plan.frame, n, dt, &scales, &mut s.neighbours);
+    let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]), &scales);
     let mut rollout = Rollout::with_dynamics(&plan, dt, kernel.blob().dynamics());
     forward(kernel, s, n, u0, |t, residual| {
         if let (Some(p), Some(o)) = (rollout.step(t, residual), out.get_mut(t)) {
