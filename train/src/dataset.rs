@@ -13,7 +13,7 @@
 //! `neighbour_sum` keeps the closest within the radius.
 
 use dynotraj_core::limits::{HORIZON, MAX_PRIOR_HISTORY, MIN_HISTORY};
-use dynotraj_core::model::arch::{FEATURES, MAX_STEPS, POS_SCALE};
+use dynotraj_core::model::arch::{FEATURES, MAX_STEPS};
 use dynotraj_core::model::features::{
     FeatureScales, OwnContext, StepFeatures, initial_control, neighbour_sum, state_features,
 };
@@ -51,6 +51,9 @@ pub struct Sample {
     /// Future steps trained on and scored (at most [`HORIZON`]: a benchmark whose horizon is
     /// shorter trains the decoder's first steps only).
     pub horizon: usize,
+    /// The last step of the history (previous position to current), agent frame, metres: what
+    /// constant velocity repeats.
+    pub last_step: Point2,
 }
 
 impl Sample {
@@ -64,9 +67,7 @@ impl Sample {
     /// `constant_velocity`), the reference a learned forecast should beat.
     #[must_use]
     pub fn constant_velocity_ade(&self) -> f32 {
-        let prev = self.own.get(self.steps.saturating_sub(2)).copied().unwrap_or([0.0; FEATURES]);
-        // The current position is the agent frame's origin; the step is minus the previous one.
-        self.straight_line_ade(Point2::new(-prev[0] * POS_SCALE, -prev[1] * POS_SCALE))
+        self.straight_line_ade(self.last_step)
     }
 
     /// ADE (metres) of the forecast at zero residual: the motion prior's, at frame period `dt`.
@@ -118,6 +119,7 @@ impl Sample {
             initial_control: [-w, a],
             prior: self.prior.map(|[w, a]| [-w, a]),
             future: self.future.map(|p| Point2::new(p.x, -p.y)),
+            last_step: Point2::new(self.last_step.x, -self.last_step.y),
             ..self.clone()
         }
     }
@@ -179,6 +181,8 @@ pub fn sample_over(
         *f = frame.to_agent(&st.position());
     }
     let initial_control = initial_control(own.get(steps - 1)?, scales);
+    let [.., before, now] = history else { return None };
+    let (before, now) = (frame.to_agent(&before.position()), frame.to_agent(&now.position()));
     Some(Sample {
         group,
         steps,
@@ -189,6 +193,7 @@ pub fn sample_over(
         prior: plan.controls,
         future,
         horizon,
+        last_step: Point2::new(now.x - before.x, now.y - before.y),
     })
 }
 
@@ -294,6 +299,11 @@ mod tests {
         assert!((s.speed - 10.0).abs() < 1e-3);
         assert_eq!(sample_at(&states, 9, &Context::NONE, dt, 0, &PriorSettings::DEFAULT).unwrap().steps, MAX_STEPS);
         assert!(s.constant_velocity_ade() < 1e-3);
+        // Whatever the features are scaled by: a walker at 1.25 m/s, 2.5 Hz, 12 steps.
+        let walk = line(30, 1.25, 0.4);
+        let p =
+            sample_over(&walk, 7, 12, &Context::NONE, 0.4, 0, &PriorSettings::OFF, &FeatureScales::PEDESTRIAN).unwrap();
+        assert!(p.constant_velocity_ade() < 1e-4 && (p.last_step.x - 0.5).abs() < 1e-5, "{:?}", p.last_step);
     }
 
     #[test]
