@@ -55,3 +55,21 @@ pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
         None
     }
 }
+
+/// The ETH/UCY folder (all_data/, train/, val/): `$DYNOTRAJ_ETH_UCY`, else
+/// `../shared/trajectories/eth_ucy` beside the workspace. `None` (with a skip naming `what`)
+/// when it is absent.
+#[must_use]
+pub fn shared_eth_ucy(what: &str) -> Option<PathBuf> {
+    let root = std::env::var_os("DYNOTRAJ_ETH_UCY")
+        .map_or_else(|| manifest_dir().join("../../shared/trajectories/eth_ucy"), PathBuf::from);
+    if root.join("all_data").is_dir() {
+        Some(root)
+    } else {
+        dynotraj_testkit::skipped(
+            what,
+            &format!("{} not found (set DYNOTRAJ_ETH_UCY to the ETH/UCY folder)", root.join("all_data").display()),
+        );
+        None
+    }
+}
