@@ -63,9 +63,9 @@ pub struct Hyper {
     /// After training, scale the mean-control outputs by the factor of [`SHRINK_FACTORS`]
     /// with the best held-out ADE ([`shrink_towards_cv`]).
     pub shrink: bool,
-    /// Keep the trained weights only when their held-out gain over the motion prior holds under
-    /// a bootstrap over whole runs (the 97.5th percentile of the ADE ratio below 1); otherwise
-    /// ship the prior (epoch 0). Why: a fold's few validation runs pick the best of many epochs,
+    /// With [`Hyper::keep_untrained_if_better`], keep the trained weights only when their
+    /// held-out gain over the motion prior holds under a bootstrap over whole runs (the 97.5th
+    /// percentile of the ADE ratio below 1); otherwise ship the prior (epoch 0). Why: a fold's few validation runs pick the best of many epochs,
     /// and a gain of a percent on them is as often noise as not.
     pub require_sure_gain: bool,
 }
@@ -368,7 +368,7 @@ pub fn fit(
     if hyper.shrink && out.best_epoch > 0 {
         (out.shrink, out.best_val_ade) = shrink_towards_cv(net, vars, held_out, dt)?;
     }
-    if hyper.require_sure_gain && out.best_epoch > 0 {
+    if hyper.keep_untrained_if_better && hyper.require_sure_gain && out.best_epoch > 0 {
         let gain = judged_gain(held_out, &sample_ades(net, held_out, dt)?, &untrained_ades);
         out.gain = gain;
         if !gain.is_some_and(|g| g.high < 1.0) {
