@@ -60,8 +60,10 @@ impl Window {
 }
 
 /// States of consecutive `positions` at period `dt`: speed and heading from the step into each
-/// position (the first takes the step out of it), the heading held over steps shorter than
-/// [`STILL_STEP_M`] (and taken from the first longer step before any).
+/// position (the first takes the step out of it). A step shorter than [`STILL_STEP_M`] holds
+/// the heading, unless no step of the window so far was longer: a slow walker's millimetre steps
+/// are then all the direction there is (before any step the heading is the first long step's,
+/// else the first nonzero step's).
 #[must_use]
 pub fn states_from_positions(positions: &[Point2], dt: f32) -> Vec<BevState> {
     let step_into = |k: usize| -> Option<Point2> {
@@ -69,17 +71,21 @@ pub fn states_from_positions(positions: &[Point2], dt: f32) -> Vec<BevState> {
             if k == 0 { (positions.first()?, positions.get(1)?) } else { (positions.get(k - 1)?, positions.get(k)?) };
         Some(Point2::new(b.x - a.x, b.y - a.y))
     };
-    let moving = |d: &Point2| d.x.hypot(d.y) >= STILL_STEP_M;
-    let first_heading = (0..positions.len()).filter_map(step_into).find(moving).map_or(0.0, |d| d.y.atan2(d.x));
-    let mut heading = first_heading;
+    let long = |d: &Point2| d.x.hypot(d.y) >= STILL_STEP_M;
+    let nonzero = |d: &Point2| d.x != 0.0 || d.y != 0.0;
+    let steps: Vec<Point2> = (0..positions.len()).filter_map(step_into).collect();
+    let first = steps.iter().find(|d| long(d)).or_else(|| steps.iter().find(|d| nonzero(d)));
+    let mut heading = first.map_or(0.0, |d| d.y.atan2(d.x));
+    let mut moved = false;
     positions
         .iter()
         .enumerate()
         .map(|(k, p)| {
             let d = step_into(k).unwrap_or_default();
-            if moving(&d) {
+            if long(&d) || (!moved && nonzero(&d)) {
                 heading = d.y.atan2(d.x);
             }
+            moved |= long(&d);
             BevState { x: p.x, y: p.y, heading, speed: d.x.hypot(d.y) / dt }
         })
         .collect()
@@ -171,5 +177,10 @@ mod tests {
         let speeds: Vec<f32> = s.iter().map(|s| s.speed).collect();
         assert_eq!(speeds, vec![0.0, 0.0, 2.0, 0.0, 2.0], "the first state takes the step out of it");
         assert!(states_from_positions(&[p(1.0, 1.0)], 0.4)[0].is_finite());
+        // A slow walker going -x in 8 mm steps heads -x, not along a default.
+        let slow: Vec<Point2> = (0..8).map(|k| p(2.0 - 0.008 * k as f32, 3.5)).collect();
+        assert!(
+            states_from_positions(&slow, 0.4).iter().all(|s| (s.heading.abs() - std::f32::consts::PI).abs() < 1e-4)
+        );
     }
 }
