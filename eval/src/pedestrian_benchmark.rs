@@ -194,10 +194,11 @@ fn prior_instances(windows: &[Window]) -> Vec<PriorInstance> {
     out
 }
 
-/// Training samples of `windows` over motion prior `prior` for a model of `dynamics`, grouped by
-/// walk.
-fn samples(windows: &[Window], prior: &PriorSettings, dynamics: Dynamics) -> Vec<dynotraj_train::Sample> {
-    let scales = FeatureScales::of(dynamics);
+/// Training samples of `windows` over motion prior `prior`, grouped by walk, with the features of
+/// the dynamics `config` trains (so the blob's dynamics, which inference reads them by, and the
+/// samples cannot disagree).
+fn samples(windows: &[Window], prior: &PriorSettings, config: &TrainConfig<'_>) -> Vec<dynotraj_train::Sample> {
+    let scales = FeatureScales::of(config.dynamics);
     windows
         .iter()
         .filter_map(|w| {
@@ -208,7 +209,7 @@ fn samples(windows: &[Window], prior: &PriorSettings, dynamics: Dynamics) -> Vec
                 HISTORY_STEPS - 1,
                 FUTURE_STEPS,
                 &context,
-                PERIOD_S,
+                config.dt,
                 w.walk,
                 prior,
                 &scales,
@@ -265,17 +266,21 @@ pub fn run_scene(
             dt,
             dims: options.dims,
             hyper: options.hyper,
+            dynamics: options.dynamics,
             ..TrainConfig::new(&[], Vec::new(), Source::Gt)
         };
-        let split = Split {
-            train: samples(&train, &prior, options.dynamics),
-            validation: samples(&val, &prior, options.dynamics),
-        };
+        let split = Split { train: samples(&train, &prior, &config), validation: samples(&val, &prior, &config) };
         let names = trained_on.iter().map(|n| (*n).to_owned()).collect();
         let model = train_split(split, names, prior, &config, start, observer)?;
         for (label, precision) in [("learned f32", Precision::F32), ("learned int8", Precision::Int8)] {
             let bytes = model.blob(precision)?;
             let blob = ModelBlob::parse(&bytes).map_err(|e| anyhow::anyhow!("the {label} blob: {e:?}"))?;
+            anyhow::ensure!(
+                blob.dynamics() == options.dynamics,
+                "the {label} blob forecasts with {} dynamics, its samples were made for {}",
+                blob.dynamics().name(),
+                options.dynamics.name()
+            );
             let mut learned = LearnedPredictor::new(blob);
             rows.push((
                 label,
