@@ -8,9 +8,11 @@
 //! [`Walk`] is a run of consecutive steps.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use dynotraj_core::Point2;
+
+use crate::line_file::LineFileError;
 
 /// Frame numbers between consecutive observations of a recording.
 pub const FRAME_STEP: u32 = 10;
@@ -73,40 +75,21 @@ impl Recording {
 }
 
 /// A recording that cannot be used, naming the file and line.
-#[derive(Debug, thiserror::Error)]
-pub enum EthUcyError {
-    /// The file cannot be read.
-    #[error("{}: cannot read the trajectory file: {source}", path.display())]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The error.
-        source: std::io::Error,
-    },
-    /// A line does not hold an observation.
-    #[error("{} line {line}: {what}", path.display())]
-    Line {
-        /// The file.
-        path: PathBuf,
-        /// The line number (1-based).
-        line: usize,
-        /// What was expected and found.
-        what: String,
-    },
-    /// No observation.
-    #[error("{}: no observation (expected lines `frame<TAB>pedestrian_id<TAB>x<TAB>y`)", path.display())]
-    Empty {
-        /// The file.
-        path: PathBuf,
-    },
-}
+pub type EthUcyError = LineFileError;
+
+/// What an empty recording is told it lacks.
+const NO_OBSERVATION: &str = "no observation (expected lines `frame<TAB>pedestrian_id<TAB>x<TAB>y`)";
 
 /// Reads the recording at `path`.
 ///
 /// # Errors
 /// The file cannot be read, or [`parse`] refuses it.
 pub fn read(path: &Path) -> Result<Recording, EthUcyError> {
-    let text = std::fs::read_to_string(path).map_err(|source| EthUcyError::Io { path: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| LineFileError::Io {
+        path: path.to_path_buf(),
+        kind: "trajectory file",
+        source,
+    })?;
     parse(&text, path)
 }
 
@@ -123,7 +106,7 @@ fn whole(text: &str, max: f64) -> Option<u32> {
 /// number, a frame number not a multiple of [`FRAME_STEP`], a coordinate that is not a finite
 /// number, one pedestrian twice at one frame; a file without observations.
 pub fn parse(text: &str, path: &Path) -> Result<Recording, EthUcyError> {
-    let bad = |line: usize, what: String| EthUcyError::Line { path: path.to_path_buf(), line, what };
+    let bad = |line: usize, what: String| LineFileError::Line { path: path.to_path_buf(), line, what };
     let mut by_id: BTreeMap<u32, BTreeMap<u32, (usize, Point2)>> = BTreeMap::new();
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
@@ -156,7 +139,7 @@ pub fn parse(text: &str, path: &Path) -> Result<Recording, EthUcyError> {
         }
     }
     if by_id.is_empty() {
-        return Err(EthUcyError::Empty { path: path.to_path_buf() });
+        return Err(LineFileError::Empty { path: path.to_path_buf(), expected: NO_OBSERVATION });
     }
     let mut walks = Vec::new();
     for (id, steps) in by_id {

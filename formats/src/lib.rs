@@ -4,6 +4,7 @@
 //! - [`atomic`]: output files written whole or not at all.
 //! - [`eth_ucy`]: the ETH/UCY pedestrian recordings (the field's forecasting benchmark).
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
+//! - [`line_file`]: the error of a line-oriented text file, naming file and line.
 //! - [`manifest`]: drive manifests, the list of a run's layout folders and bags.
 //! - [`tracks_file`]: recorded feature-track streams (`.dtt`), the link's bytes.
 //! - [`model_file`]: model blobs on disk; [`model_signing`]: their signing keys and signatures.
@@ -14,6 +15,7 @@
 pub mod atomic;
 pub mod eth_ucy;
 pub mod kitti;
+pub mod line_file;
 pub mod manifest;
 pub mod model_file;
 pub mod model_signing;

@@ -16,6 +16,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::kitti::checked_sequence_id;
+use crate::line_file::LineFileError;
 
 /// One line of a manifest that names a source of drives.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -29,33 +30,10 @@ pub struct ManifestEntry {
 }
 
 /// A manifest that cannot be used, naming the file and line.
-#[derive(Debug, thiserror::Error)]
-pub enum ManifestError {
-    /// The file cannot be read.
-    #[error("{}: cannot read the drive manifest: {source}", path.display())]
-    Io {
-        /// The manifest.
-        path: PathBuf,
-        /// The error.
-        source: std::io::Error,
-    },
-    /// A line does not hold what a manifest line holds.
-    #[error("{} line {line}: {what}", path.display())]
-    Line {
-        /// The manifest.
-        path: PathBuf,
-        /// The line number (1-based).
-        line: usize,
-        /// What was expected and found.
-        what: String,
-    },
-    /// No line names a drive.
-    #[error("{}: no drive (expected a path per line: a KITTI-layout folder, a ROS 2 bag, or a folder of them)", path.display())]
-    Empty {
-        /// The manifest.
-        path: PathBuf,
-    },
-}
+pub type ManifestError = LineFileError;
+
+/// What an empty manifest is told it lacks.
+const NO_DRIVE: &str = "no drive (expected a path per line: a KITTI-layout folder, a ROS 2 bag, or a folder of them)";
 
 /// Reads the manifest at `path`.
 ///
@@ -63,12 +41,15 @@ pub enum ManifestError {
 /// An unreadable file, a line with more than a path and a sequence list, a bad sequence id or
 /// one given twice on a line, or a manifest without any entry, named by file and line.
 pub fn read_manifest(path: &Path) -> Result<Vec<ManifestEntry>, ManifestError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|source| ManifestError::Io { path: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| LineFileError::Io {
+        path: path.to_path_buf(),
+        kind: "drive manifest",
+        source,
+    })?;
     let base = path.parent().unwrap_or_else(|| Path::new(""));
     parse_manifest(&text, base)
-        .map_err(|(line, what)| ManifestError::Line { path: path.to_path_buf(), line, what })?
-        .ok_or_else(|| ManifestError::Empty { path: path.to_path_buf() })
+        .map_err(|(line, what)| LineFileError::Line { path: path.to_path_buf(), line, what })?
+        .ok_or_else(|| LineFileError::Empty { path: path.to_path_buf(), expected: NO_DRIVE })
 }
 
 /// The entries of manifest text whose relative paths are taken from `base`; `None` when it

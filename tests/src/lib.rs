@@ -22,15 +22,17 @@ pub fn manifest_dir() -> PathBuf {
 /// need real data skip clearly instead of failing on a machine without it.
 #[must_use]
 pub fn kitti_training_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("DYNOTRAJ_KITTI")
-        .map_or_else(|| manifest_dir().join("../../shared/kitti/tracking/training"), PathBuf::from);
-    if dir.join("label_02").is_dir() {
+    shared_data("DYNOTRAJ_KITTI", "kitti/tracking/training", "label_02", "kitti_training_dir", "real KITTI data")
+}
+
+/// The folder `$env` names, else `../shared/<default>` beside the workspace, when it holds
+/// `probe`; else `None`, the skip recorded under the running test (or `fallback`) with `what`.
+fn shared_data(env: &str, default: &str, probe: &str, fallback: &str, what: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os(env).map_or_else(|| manifest_dir().join("../../shared").join(default), PathBuf::from);
+    if dir.join(probe).is_dir() {
         Some(dir)
     } else {
-        dynotraj_testkit::skipped(
-            "kitti_training_dir",
-            &format!("real KITTI data not found at {} (set DYNOTRAJ_KITTI)", dir.display()),
-        );
+        dynotraj_testkit::skipped(fallback, &format!("{what} not found at {} (set {env})", dir.display()));
         None
     }
 }
@@ -61,15 +63,5 @@ pub fn shared_kitti(sub: &str, what: &str) -> Option<PathBuf> {
 /// when it is absent.
 #[must_use]
 pub fn shared_eth_ucy(what: &str) -> Option<PathBuf> {
-    let root = std::env::var_os("DYNOTRAJ_ETH_UCY")
-        .map_or_else(|| manifest_dir().join("../../shared/trajectories/eth_ucy"), PathBuf::from);
-    if root.join("all_data").is_dir() {
-        Some(root)
-    } else {
-        dynotraj_testkit::skipped(
-            what,
-            &format!("{} not found (set DYNOTRAJ_ETH_UCY to the ETH/UCY folder)", root.join("all_data").display()),
-        );
-        None
-    }
+    shared_data("DYNOTRAJ_ETH_UCY", "trajectories/eth_ucy", "all_data", what, "the ETH/UCY recordings")
 }

@@ -130,11 +130,12 @@ pub fn forecast<D: Int8Dot>(
     }
     let Some(plan) = plan(history, prior, dt) else { return Err(PredictError::HistoryTooShort) };
     let own = OwnContext::of(full, context.observer, plan.trend);
-    let scales = FeatureScales::of(kernel.blob().dynamics());
+    let dynamics = kernel.blob().dynamics();
+    let scales = FeatureScales::of(dynamics);
     let n = state_features(history, &plan.frame, dt, Some(&own), &scales, &mut s.own);
     neighbour_sum(context.neighbours, &plan.frame, n, dt, &scales, &mut s.neighbours);
     let u0 = initial_control(s.own.get(n.wrapping_sub(1)).unwrap_or(&[0.0; FEATURES]), &scales);
-    let mut rollout = Rollout::with_dynamics(&plan, dt, kernel.blob().dynamics());
+    let mut rollout = Rollout::with_dynamics(&plan, dt, dynamics);
     forward(kernel, s, n, u0, |t, residual| {
         if let (Some(p), Some(o)) = (rollout.step(t, residual), out.get_mut(t)) {
             *o = p;

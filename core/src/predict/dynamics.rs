@@ -10,7 +10,7 @@
 //!
 //! At a zero output both forecast the motion prior, bit for bit.
 
-use crate::limits::{MAX_ACCEL, MAX_TURN_RATE};
+use crate::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
 
 /// Standard deviation of a pedestrian's residual velocity the decoder's outputs are scaled by,
 /// m/s per unit output.
@@ -57,7 +57,7 @@ impl Dynamics {
     #[must_use]
     pub const fn residual_scales(self) -> [f32; 2] {
         match self {
-            Self::Unicycle => [MAX_TURN_RATE, MAX_ACCEL],
+            Self::Unicycle => [TURN_RATE_SCALE, ACCEL_SCALE],
             Self::SingleIntegrator => [VELOCITY_RESIDUAL_SCALE, VELOCITY_RESIDUAL_SCALE],
         }
     }
