@@ -1,6 +1,8 @@
 //! `dynotraj eval`: ADE, FDE and ACE per sequence and their weighted average (Table IV layout).
 
 use clap::Args;
+use dynotraj_core::predict::consistency::MAX_CARRY;
+use dynotraj_core::predict::{Carried, Carry};
 
 use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
 use dynotraj_eval::forecast_eval::score_sequence;
@@ -33,6 +35,10 @@ pub struct EvalArgs {
     /// `experiment --tests`.
     #[arg(long, value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub tests: Vec<String>,
+    /// Share of an object's previous forecast that its next one carries, 0 ..= 0.9, for every
+    /// predictor given (consistent forecasts: lower ACE; 0 leaves each forecast as made).
+    #[arg(long, value_parser = crate::numbers::non_negative_f32, default_value_t = 0.0, value_name = "SHARE")]
+    pub carry: f32,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Md)]
     pub format: Format,
@@ -62,6 +68,7 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     if let Some(twice) = super::common::first_repeated(&args.predictor) {
         anyhow::bail!("--predictor: {} is given twice (its rows would repeat)", twice.label());
     }
+    anyhow::ensure!(args.carry <= MAX_CARRY, "--carry {}: at most {MAX_CARRY}", args.carry);
     let seqs = args.data.load_for(&ids, &args.source)?;
 
     let mut arms = Vec::new();
@@ -72,10 +79,11 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
         for spec in &args.predictor {
             let loaded = LoadedPredictor::load(spec, dt)?;
             let mut forecaster = loaded.forecaster();
-            let mut arm = ArmScores::new(arm_label(spec, source));
+            let mut forecaster = Carried(forecaster.as_mut(), Carry::new(args.carry));
+            let mut arm = ArmScores::new(arm_label(spec, source, args.carry));
             let mut failed = 0;
             for (seq_runs, scene) in runs.iter().zip(&scenes) {
-                let r = score_sequence(seq_runs, scene, forecaster.as_mut(), dt);
+                let r = score_sequence(seq_runs, scene, &mut forecaster, dt);
                 arm.push_sequence(&r);
                 failed += r.failed;
             }
@@ -90,7 +98,8 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     Ok(forecast_table(&ids, &arms, &[]))
 }
 
-fn arm_label(p: &PredictorSpec, s: Source) -> String {
-    let name = format!("{} on {}", p.label(), s.name());
+fn arm_label(p: &PredictorSpec, s: Source, carry: f32) -> String {
+    let carried = if carry > 0.0 { format!(" carrying {carry}") } else { String::new() };
+    let name = format!("{}{carried} on {}", p.label(), s.name());
     if s.is_causal() { name } else { format!("{name} (inputs saw later frames)") }
 }

@@ -42,7 +42,7 @@ pub enum PriorObjectiveArg {
     /// The least mean ADE on the training sequences.
     Ade,
     /// The least mean ADE among the settings whose consistency error (ACE) on the training
-    /// sequences is no worse than constant velocity's.
+    /// sequences is no worse than constant velocity's (the default).
     AdeWithinCvAce,
     /// The least mean ADE plus mean ACE.
     AdePlusAce,
@@ -190,7 +190,7 @@ pub struct HyperArgs {
     pub prior: bool,
     /// What the motion prior's settings are chosen for on the training sequences
     /// (docs/decisions.md, "A motion prior under the network").
-    #[arg(long, value_enum, default_value = "ade", conflicts_with = "prior", value_name = "OBJECTIVE")]
+    #[arg(long, value_enum, default_value = "ade-within-cv-ace", conflicts_with = "prior", value_name = "OBJECTIVE")]
     pub prior_objective: PriorObjectiveArg,
 }
 
@@ -268,8 +268,8 @@ impl HyperArgs {
     pub fn prior_choice(&self) -> PriorChoice {
         match (self.prior, self.prior_objective) {
             (false, _) => PriorChoice::Fixed(PriorSettings::OFF),
-            (true, PriorObjectiveArg::Ade) => PriorChoice::Tuned,
-            (true, PriorObjectiveArg::AdeWithinCvAce) => PriorChoice::TunedFor(PriorObjective::AdeWithinCvAce),
+            (true, PriorObjectiveArg::Ade) => PriorChoice::TunedFor(PriorObjective::Ade),
+            (true, PriorObjectiveArg::AdeWithinCvAce) => PriorChoice::Tuned,
             (true, PriorObjectiveArg::AdePlusAce) => PriorChoice::TunedFor(PriorObjective::AdePlusAce),
         }
     }

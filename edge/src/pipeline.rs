@@ -8,7 +8,7 @@ use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ, PRIOR_STA
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::model::kernel::Kernel;
 use dynotraj_core::model::{Scratch, forecast};
-use dynotraj_core::predict::{Context, Forecast, constant_velocity};
+use dynotraj_core::predict::{Carry, Context, Forecast, ForecastMemory, constant_velocity};
 use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
 use dynotraj_dsp::DspDot;
 use heapless::Vec;
@@ -88,6 +88,8 @@ pub struct Pipeline<'m, const W: usize = EDGE_WINDOW> {
     /// The learned model's working memory, built with the edge (a predictor built when a model
     /// arrives would put its 8 KiB of scratch on the stack for a moment).
     scratch: Scratch,
+    /// Each object's last forecast, which its next carries as the model's prior says.
+    forecasts: ForecastMemory<MAX_OBJECTS>,
     stats: EdgeStats,
     last_frame: Option<u32>,
     /// Compute spent on parts of the frame being assembled.
@@ -113,6 +115,7 @@ impl<'m, const W: usize> Pipeline<'m, W> {
             histories: Histories::new(),
             model: None,
             scratch: Scratch::ZERO,
+            forecasts: ForecastMemory::new(),
             stats: EdgeStats::ZERO,
             last_frame: None,
             pending_compute: 0,
@@ -124,13 +127,25 @@ impl<'m, const W: usize> Pipeline<'m, W> {
     pub fn reset(&mut self) {
         // Every field named (no `..`), as in `Estimator::reset`.
         // The scratch is working memory, written before it is read by every forecast.
-        let Self { estimator, camera, dt, estimate, histories, model, scratch: _, stats, last_frame, pending_compute } =
-            self;
+        let Self {
+            estimator,
+            camera,
+            dt,
+            estimate,
+            histories,
+            model,
+            scratch: _,
+            forecasts,
+            stats,
+            last_frame,
+            pending_compute,
+        } = self;
         *dt = 1.0 / PAPER_FRAME_RATE_HZ;
         estimator.reset(edge_params(Intrinsics::KITTI_0926, *dt), ESTIMATOR_SEED);
         *camera = None;
         estimate.reset(0, 0);
         *histories = Histories::new();
+        forecasts.clear();
         *model = None;
         *stats = EdgeStats::ZERO;
         *last_frame = None;
@@ -202,6 +217,7 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         self.estimator.reset(params, ESTIMATOR_SEED);
         self.camera = Some(*info);
         self.histories = Histories::new();
+        self.forecasts.clear();
         self.last_frame = None;
         self.pending_compute = 0;
         // In hundredths of a hertz: formatting a float would cost the firmware 10 KB of flash.
@@ -330,8 +346,12 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         let observer = Some(bev_point(&self.estimate.camera.translation.vector.into()));
         let context = Context { neighbours: &neighbours, observer };
         let learned = self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &context, self.dt, &mut points));
+        let mut carry = Carry::NONE;
         let ok = match learned {
-            Some(Ok(())) => true,
+            Some(Ok(())) => {
+                carry = self.model.as_ref().map_or(Carry::NONE, |k| k.blob().prior().carry());
+                true
+            }
             Some(Err(e)) => {
                 self.stats.forecasts_fallback = self.stats.forecasts_fallback.saturating_add(1);
                 if self.stats.forecasts_fallback == 1 {
@@ -348,6 +368,7 @@ impl<'m, const W: usize> Pipeline<'m, W> {
             }
             return None;
         }
+        self.forecasts.blend(u32::from(own.object_id), self.estimate.frame, carry, &mut points);
         Some(Prediction {
             frame: self.estimate.frame,
             object_id: own.object_id,

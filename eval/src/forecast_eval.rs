@@ -14,7 +14,7 @@
 
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, ace, ade, fde, step_errors};
-use dynotraj_core::predict::{Forecast, PredictError, Predictor};
+use dynotraj_core::predict::{Forecast, KeptForecast, PredictError, Predictor, carry_forward};
 use dynotraj_core::{BevState, Point2};
 
 use dynotraj_sources::scene::{Scene, SourcedRun};
@@ -187,7 +187,8 @@ pub fn forecast_at(
 /// Forecasts every test instance (indices into `run.states`) and scores each against the same
 /// source's future. The history of instance s is `run.states[..=s]` (the predictor keeps the
 /// newest frames it uses); neighbours are the other runs of `scene` present at the frame. ACE
-/// pairs the forecasts of consecutive instances.
+/// pairs the forecasts of consecutive instances, each blended with the one before as the
+/// forecaster's [`Predictor::carry`] says.
 pub fn score_run(
     run: &SourcedRun,
     instances: std::ops::Range<usize>,
@@ -220,7 +221,10 @@ pub fn score_run_against(
             continue;
         };
         match forecast_at(run, s, scene, forecaster, dt) {
-            Ok(forecast) => {
+            Ok(mut forecast) => {
+                if let Some(p) = &previous {
+                    carry_forward(&KeptForecast::keep(p), forecaster.carry(), &mut forecast);
+                }
                 let (Some(a), Some(f)) = (ade(&forecast, &truth), fde(&forecast, &truth)) else { continue };
                 out.scores.ade.push(a);
                 out.scores.fde.push(f);

@@ -29,15 +29,16 @@ fn firmware_under_qemu_matches_the_host_edge_bit_for_bit() {
 /// The image `scripts/build-firmware.sh` builds with a model of the default size linked in
 /// (sim/data/models: seeded weights, the memory and arithmetic of a trained model of those
 /// widths): it forecasts with the model, bit for bit as the host edge does, and leaves at least
-/// 16 KiB of the 128 KiB of RAM free.
+/// 14 KiB of the 128 KiB of RAM free (16 KiB before each object's last forecast was kept for
+/// consistent forecasts, 2.2 KiB; docs/decisions.md).
 #[test]
-fn firmware_with_the_default_model_matches_the_host_edge_and_leaves_16_kib_of_ram() {
+fn firmware_with_the_default_model_matches_the_host_edge_and_leaves_14_kib_of_ram() {
     let elf = firmware_program("dynotraj-firmware-model");
     let model = std::fs::read(default_model_blob()).unwrap();
     let log = run_and_compare(&elf, Some(&model));
     assert!(log.contains("model linked in (int8)"), "the image runs its linked model: {log}");
     let ram = check_memory(&elf, &log, Some("memory-model.golden"));
-    assert!(ram <= 112 * KIB, "RAM {ram} B: less than 16 KiB of the 128 KiB left with the model linked in");
+    assert!(ram <= 114 * KIB, "RAM {ram} B: less than 14 KiB of the 128 KiB left with the model linked in");
 }
 
 /// Streams the 16-car fixture to the firmware `elf` under QEMU in lockstep and checks its

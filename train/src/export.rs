@@ -10,7 +10,7 @@
 //! `qz.weight`, ...; see [`super::model`]), plus
 //! - `meta.dims`: f32 [5] = enc, edge, k, dec, frame period in seconds;
 //! - `meta.prior`: f32 [6] = the motion prior's velocity window, trend window, accel gain, turn
-//!   gain, accel decay, turn decay;
+//!   gain, accel decay, turn decay, carry percent;
 //! - `meta.blob`: u8 [n], the f32 model blob of the same weights.
 //!
 //! [`load_checkpoint`] rebuilds the network from it (to resume, inspect or re-export).
@@ -94,6 +94,7 @@ pub fn save_checkpoint(net: &Network, vars: &VarMap, dt: f32, prior: &PriorSetti
         p.turn_gain,
         p.accel_decay,
         p.turn_decay,
+        f32::from(p.carry_percent),
     ];
     all.insert("meta.prior".into(), Tensor::new(&fields, &Device::Cpu)?);
     let blob = to_blob(net, &net.dims, Precision::F32, dt, prior)?;
@@ -125,8 +126,13 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32, PriorSettin
         })?
         .to_dtype(DType::F32)?
         .to_vec1::<f32>()?;
-    let [vw, tw, accel_gain, turn_gain, accel_decay, turn_decay] = fields[..] else {
-        candle_core::bail!("meta.prior holds {} values, expected 6", fields.len())
+    // Six values in checkpoints written before the carry (none carried).
+    let (values, carry) = match fields[..] {
+        [ref six @ .., carry] if six.len() == 6 => (six, carry),
+        ref six => (six, 0.0),
+    };
+    let [vw, tw, accel_gain, turn_gain, accel_decay, turn_decay] = values[..] else {
+        candle_core::bail!("meta.prior holds {} values, expected 7 (or 6)", fields.len())
     };
     let prior = PriorSettings {
         velocity_window: vw as u8,
@@ -135,6 +141,7 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32, PriorSettin
         turn_gain,
         accel_decay,
         turn_decay,
+        carry_percent: carry as u8,
     };
     if !prior.is_valid() {
         candle_core::bail!("meta.prior is out of range: {prior:?}");

@@ -72,7 +72,7 @@ pub const DEFAULT_MIRROR: bool = true;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PriorChoice {
     /// Chosen on the fold's training sequences through its source ([`prior_fit::tune_prior`])
-    /// for the least mean ADE: the default.
+    /// under the default [`PriorObjective`]: the default.
     Tuned,
     /// Chosen the same way under another objective.
     TunedFor(PriorObjective),
@@ -159,7 +159,7 @@ impl<'a> TrainConfig<'a> {
     pub fn prior_settings(&self) -> PriorSettings {
         match self.prior {
             PriorChoice::Fixed(p) => p,
-            PriorChoice::Tuned => self.tuned_prior(PriorObjective::Ade),
+            PriorChoice::Tuned => self.tuned_prior(PriorObjective::default()),
             PriorChoice::TunedFor(objective) => self.tuned_prior(objective),
         }
     }

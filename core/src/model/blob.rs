@@ -14,7 +14,8 @@
 //! 28     4     payload length, bytes (u32 LE)
 //! 32     1     motion prior: velocity window, states (u8)
 //! 33     1     motion prior: trend window, states (u8)
-//! 34     2     reserved, 0
+//! 34     1     motion prior: carry, percent (u8; 0 in blobs written before it)
+//! 35     1     reserved, 0
 //! 36    16     motion prior: accel gain, turn gain, accel decay, turn decay (f32 LE each)
 //! 52     n     payload: the tensors of `Dims::tensors`, in order
 //! 52+n   4     CRC-32/ISO-HDLC of bytes 0 .. 52+n (u32 LE)
@@ -314,6 +315,7 @@ impl<'a> ModelBlob<'a> {
         let prior = PriorSettings {
             velocity_window: header.get(32).copied().unwrap_or(0),
             trend_window: header.get(33).copied().unwrap_or(0),
+            carry_percent: header.get(34).copied().unwrap_or(0),
             accel_gain: f32_at(header, 9),
             turn_gain: f32_at(header, 10),
             accel_decay: f32_at(header, 11),
@@ -467,8 +469,8 @@ pub fn write_blob_with(
         .get_mut(28..32)
         .unwrap_or(&mut [])
         .copy_from_slice(&u32::try_from(payload).map_err(|_| BlobError::UnsupportedDims)?.to_le_bytes());
-    if let Some([v, t]) = header.get_mut(32..34) {
-        (*v, *t) = (prior.velocity_window, prior.trend_window);
+    if let Some([v, t, c]) = header.get_mut(32..35) {
+        (*v, *t, *c) = (prior.velocity_window, prior.trend_window, prior.carry_percent);
     }
     let floats = [prior.accel_gain, prior.turn_gain, prior.accel_decay, prior.turn_decay];
     for (chunk, v) in header.get_mut(36..52).unwrap_or(&mut []).chunks_exact_mut(4).zip(floats) {

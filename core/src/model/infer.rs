@@ -159,6 +159,10 @@ impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
     ) -> Result<(), PredictError> {
         LearnedPredictor::predict_in_context(self, history, context, dt, out)
     }
+
+    fn carry(&self) -> crate::predict::Carry {
+        self.kernel.blob().prior().carry()
+    }
 }
 
 /// One LSTM step (PyTorch gates i, f, g, o) over `input`, updating `h[..w]` and `c[..w]`.

@@ -5,12 +5,14 @@
 //! whose last element is frame s; it holds positions for frames s+1 ..= s+HORIZON.
 
 mod baseline;
+pub mod consistency;
 pub mod dynamics;
 mod fit;
 pub mod prior;
 mod unicycle;
 
 pub use baseline::{Baseline, constant_velocity, constant_velocity_fit, ctra};
+pub use consistency::{Carry, ForecastMemory, KeptForecast, carry_forward};
 pub use dynamics::Dynamics;
 pub use fit::{ParabolaFit, fitted_velocity, parabola_fit};
 pub use prior::{MotionPrior, PriorPlan, PriorSettings};
@@ -60,6 +62,57 @@ pub trait Predictor {
     ) -> Result<(), PredictError> {
         let _ = context;
         self.predict(history, dt, out)
+    }
+
+    /// The share of an object's forecast at the frame before that its next forecast carries
+    /// ([`consistency`]): whoever forecasts an object frame after frame applies it. None unless
+    /// the predictor says otherwise.
+    fn carry(&self) -> Carry {
+        Carry::NONE
+    }
+}
+
+impl<P: Predictor + ?Sized> Predictor for &mut P {
+    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+        (**self).predict(history, dt, out)
+    }
+
+    fn predict_in_context(
+        &mut self,
+        history: &[BevState],
+        context: &Context<'_>,
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
+        (**self).predict_in_context(history, context, dt, out)
+    }
+
+    fn carry(&self) -> Carry {
+        (**self).carry()
+    }
+}
+
+/// `P` whose forecasts carry the share `.1` of the previous one ([`Predictor::carry`]), as made otherwise.
+#[derive(Debug, Clone, Copy)]
+pub struct Carried<P>(pub P, pub Carry);
+
+impl<P: Predictor> Predictor for Carried<P> {
+    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
+        self.0.predict(history, dt, out)
+    }
+
+    fn predict_in_context(
+        &mut self,
+        history: &[BevState],
+        context: &Context<'_>,
+        dt: f32,
+        out: &mut Forecast,
+    ) -> Result<(), PredictError> {
+        self.0.predict_in_context(history, context, dt, out)
+    }
+
+    fn carry(&self) -> Carry {
+        self.1
     }
 }
 

@@ -22,6 +22,7 @@
 //!
 //! Positions only: like `cv`, the prior is the same predictor on every source.
 
+use super::consistency::{Carry, MAX_CARRY};
 use super::dynamics::{Dynamics, clamp_velocity_residual};
 use super::fit::parabola_fit;
 use super::{Forecast, PredictError, Predictor, checked_forecast, checked_history_of, clamp_controls, unicycle_step};
@@ -49,6 +50,10 @@ pub struct PriorSettings {
     pub accel_decay: f32,
     /// Factor per frame by which the applied turn rate fades, 0..=1.
     pub turn_decay: f32,
+    /// Percent of an object's forecast at the frame before that its next forecast carries
+    /// ([`super::consistency`]), 0..=90: whoever forecasts the object frame after frame applies
+    /// it ([`Predictor::carry`]); 0 leaves every forecast as made.
+    pub carry_percent: u8,
 }
 
 impl PriorSettings {
@@ -65,6 +70,7 @@ impl PriorSettings {
         turn_gain: 0.0,
         accel_decay: 1.0,
         turn_decay: 1.0,
+        carry_percent: 0,
     };
 
     /// The settings of the `prior` row where no training chose them (`dynotraj eval`): per
@@ -72,12 +78,13 @@ impl PriorSettings {
     /// sequences for the estimated source (what a vehicle's own camera gives), a tie going to
     /// the milder value (docs/decisions.md).
     pub const DEFAULT: Self = Self {
-        velocity_window: 5,
-        trend_window: 21,
-        accel_gain: 0.5,
-        turn_gain: 0.25,
-        accel_decay: 0.9,
+        velocity_window: 3,
+        trend_window: 7,
+        accel_gain: 0.75,
+        turn_gain: 0.75,
+        accel_decay: 0.95,
         turn_decay: 0.9,
+        carry_percent: 60,
     };
 
     /// True when every field is within its documented range.
@@ -92,6 +99,13 @@ impl PriorSettings {
             && gain(self.turn_gain)
             && unit(self.accel_decay)
             && unit(self.turn_decay)
+            && f32::from(self.carry_percent) <= 100.0 * MAX_CARRY
+    }
+
+    /// The share of the previous forecast carried ([`Self::carry_percent`]).
+    #[must_use]
+    pub fn carry(&self) -> Carry {
+        Carry::new(f32::from(self.carry_percent) / 100.0)
     }
 
     /// States of history the prior reads (the longer of its two windows).
@@ -247,6 +261,10 @@ impl Predictor for MotionPrior {
         let p = plan(h, &self.0, dt).ok_or(PredictError::HistoryTooShort)?;
         roll_out(&p, dt, out);
         checked_forecast(out)
+    }
+
+    fn carry(&self) -> Carry {
+        self.0.carry()
     }
 }
 

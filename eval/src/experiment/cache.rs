@@ -25,7 +25,7 @@ use dynotraj_train::TrainConfig;
 
 /// Version of what training computes; part of every key (6: a trained epoch is kept only when
 /// its gain over the prior holds under a run bootstrap).
-pub const CACHE_VERSION: u32 = 6;
+pub const CACHE_VERSION: u32 = 7;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,7 +121,7 @@ impl FoldCache {
         let (f32_blob, int8_blob) = (blob("blob")?, blob("blob.int8")?);
         let text = std::fs::read_to_string(self.path(name, key, "fold")).ok()?;
         let v: Vec<&str> = text.split_whitespace().collect();
-        let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td] = v[..] else {
+        let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td, carry] = v[..] else {
             return None;
         };
         let prior = PriorSettings {
@@ -131,6 +131,7 @@ impl FoldCache {
             turn_gain: tg.parse().ok()?,
             accel_decay: ad.parse().ok()?,
             turn_decay: td.parse().ok()?,
+            carry_percent: carry.parse().ok()?,
         };
         let report = FoldReport {
             train_instances: instances.parse().ok()?,
@@ -156,7 +157,7 @@ impl FoldCache {
         let p = &r.prior;
         let _ = writeln!(
             line,
-            "{} {} {} {} {} {} {} {} {} {} {} {} {}",
+            "{} {} {} {} {} {} {} {} {} {} {} {} {} {}",
             r.train_instances,
             r.best_epoch,
             r.shrink,
@@ -169,7 +170,8 @@ impl FoldCache {
             p.accel_gain,
             p.turn_gain,
             p.accel_decay,
-            p.turn_decay
+            p.turn_decay,
+            p.carry_percent
         );
         // The .fold file last: a fold is read only when all three are there, and each is
         // written under a temporary name and renamed, so an interrupted run leaves no fold that

@@ -65,6 +65,7 @@ pub fn folds_table(folds: &[FoldReport]) -> Table {
         ("prior windows v/t", "prior_windows", Text),
         ("prior gains a/w", "prior_gains", Text),
         ("prior decays a/w", "prior_decays", Text),
+        ("prior carry %", "prior_carry_percent", Int),
         ("training s", "training_s", Num),
         ("cached", "cached", Text),
     ];
@@ -84,6 +85,7 @@ pub fn folds_table(folds: &[FoldReport]) -> Table {
             Cell::text(format!("{}/{}", f.prior.velocity_window, f.prior.trend_window)),
             Cell::text(format!("{}/{}", f.prior.accel_gain, f.prior.turn_gain)),
             Cell::text(format!("{}/{}", f.prior.accel_decay, f.prior.turn_decay)),
+            Cell::int(f.prior.carry_percent),
             Cell::num(f64::from(f.seconds), 1),
             Cell::text(if f.cached { "yes" } else { "no" }),
         ]);
