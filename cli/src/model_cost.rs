@@ -8,12 +8,13 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::model::blob::{Precision, blob_len, write_blob};
+use dynotraj_core::model::blob::{Precision, blob_len, write_blob_with};
 use dynotraj_core::model::{Dims, LearnedPredictor, Scratch};
-use dynotraj_core::predict::{Baseline, Context, Forecast, MotionPrior, PriorSettings};
+use dynotraj_core::predict::{Baseline, Context, Dynamics, Forecast, MotionPrior, PriorSettings};
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
+use super::pedestrians::DynamicsArg;
 use dynotraj_core::predict::Predictor;
 use dynotraj_eval::report::{Cell, ColumnKind, Data, Format, Table};
 use dynotraj_formats::model_file::ModelFile;
@@ -29,6 +30,10 @@ pub struct ModelCostArgs {
     /// Widths enc,edge,k,dec (one or more sets separated by `;`) when no --model is given.
     #[arg(long, default_value = DEFAULT_DIMS, value_name = "DIMS")]
     pub dims: String,
+    /// Dynamics of the random-weight blobs (a --model's are its own): the unicycle of vehicles
+    /// or the single integrator of pedestrians.
+    #[arg(long, value_enum, default_value_t = DynamicsArg::Unicycle)]
+    pub dynamics: DynamicsArg,
     /// Forecasts timed per configuration.
     #[arg(long, default_value_t = 2000)]
     pub iterations: u32,
@@ -57,7 +62,7 @@ pub fn parse_dims(s: &str) -> anyhow::Result<Dims> {
     Ok(d)
 }
 
-pub use dynotraj_sim::cost_inputs::random_blob;
+pub use dynotraj_sim::cost_inputs::{random_blob, random_blob_with};
 
 fn time_per_forecast(f: &mut dyn Predictor, dt: f32, iterations: u32) -> f64 {
     let (history, other) = dynotraj_sim::cost_inputs::forecast_histories();
@@ -98,6 +103,7 @@ pub fn table(args: &ModelCostArgs) -> anyhow::Result<Table> {
         ("us_per_object", Num),
     ]);
     let mut configs: Vec<TimedModel> = Vec::new();
+    let dynamics = Dynamics::from(args.dynamics);
     if let Some(path) = &args.model {
         let f = ModelFile::load(path)?;
         let dims = f.blob().dims();
@@ -112,28 +118,29 @@ pub fn table(args: &ModelCostArgs) -> anyhow::Result<Table> {
                 let mut buf = vec![0; blob_len(&dims, Precision::Int8)];
                 let tensors = dynotraj_formats::model_file::float_tensors(&f.blob());
                 let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
-                write_blob(&dims, Precision::Int8, f.blob().frame_period_s(), f.blob().prior(), &slices, &mut buf)
+                let b = f.blob();
+                write_blob_with(&dims, Precision::Int8, b.frame_period_s(), b.prior(), b.dynamics(), &slices, &mut buf)
                     .map_err(|e| anyhow::anyhow!("quantising {}: {e}", path.display()))?;
                 buf
             };
             vec![("f32", f.bytes().to_vec()), ("int8", q)]
         };
-        configs.push((path.display().to_string(), dims, blobs));
+        configs.push((format!("{}, {}", path.display(), f.blob().dynamics().name()), dims, blobs));
     } else {
         for d in args.dims.split(';') {
             let dims = parse_dims(d)?;
             if let Some(dir) = &args.out {
                 std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
                 let path = dir.join(format!("random-{},{},{},{}.int8", dims.enc, dims.edge, dims.k, dims.dec));
-                dynotraj_formats::atomic::write_file(&path, random_blob(&dims, Precision::Int8, dt))
+                dynotraj_formats::atomic::write_file(&path, random_blob_with(&dims, Precision::Int8, dt, dynamics))
                     .with_context(|| format!("writing {}", path.display()))?;
             }
             configs.push((
-                "random weights".into(),
+                format!("random weights, {}", dynamics.name()),
                 dims,
                 vec![
-                    ("f32", random_blob(&dims, Precision::F32, dt)),
-                    ("int8", random_blob(&dims, Precision::Int8, dt)),
+                    ("f32", random_blob_with(&dims, Precision::F32, dt, dynamics)),
+                    ("int8", random_blob_with(&dims, Precision::Int8, dt, dynamics)),
                 ],
             ));
         }

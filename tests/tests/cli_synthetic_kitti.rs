@@ -117,7 +117,7 @@ fn bench_labels_a_models_rows_by_the_blobs_precision() {
     };
     let t = dynotraj_cli::model_cost::table(&a).unwrap();
     let labels: Vec<&str> = (0..2).map(|r| cell(&t, r, "predictor")).collect();
-    assert_eq!(labels, ["f32 (random weights)", "int8 (random weights)"]);
+    assert_eq!(labels, ["f32 (random weights, unicycle)", "int8 (random weights, unicycle)"]);
     let blob = dir.path().join("random-8,8,2,16.int8");
     let Command::ModelCost(a) = cli(&["model-cost", "--model", blob.to_str().unwrap(), "--iterations", "1"]) else {
         panic!()
@@ -125,5 +125,15 @@ fn bench_labels_a_models_rows_by_the_blobs_precision() {
     let t = dynotraj_cli::model_cost::table(&a).unwrap();
     let models: Vec<&str> =
         (0..t.rows.len()).map(|r| cell(&t, r, "predictor")).filter(|p| p.contains("random-8,8,2,16")).collect();
-    assert_eq!(models, [format!("int8 ({})", blob.display())], "an int8 blob is timed once, as int8");
+    assert_eq!(models, [format!("int8 ({}, unicycle)", blob.display())], "an int8 blob is timed once, as int8");
+    // The pedestrian model's cost: a single integrator's blob, kept and read back as one.
+    let Command::ModelCost(a) =
+        cli(&["model-cost", "--dynamics", "single-integrator", "--iterations", "1", "--out", out])
+    else {
+        panic!()
+    };
+    let t = dynotraj_cli::model_cost::table(&a).unwrap();
+    assert_eq!(cell(&t, 1, "predictor"), "int8 (random weights, single integrator)");
+    let file = dynotraj_formats::model_file::ModelFile::load(&dir.path().join("random-8,8,3,8.int8")).unwrap();
+    assert_eq!(file.blob().dynamics(), dynotraj_core::predict::Dynamics::SingleIntegrator);
 }
