@@ -21,7 +21,8 @@ use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::features::FeatureScales;
 use dynotraj_core::model::infer::LearnedPredictor;
 use dynotraj_core::predict::{
-    Context, Dynamics, Forecast, MotionPrior, Predictor as _, PriorSettings, constant_velocity,
+    Carry, Context, Dynamics, Forecast, KeptForecast, MotionPrior, Predictor as _, PriorSettings, carry_forward,
+    constant_velocity,
 };
 use dynotraj_formats::eth_ucy::{PERIOD_S, Recording, read};
 use dynotraj_sources::pedestrian_windows::{FUTURE_STEPS, HISTORY_STEPS, Window, windows};
@@ -218,11 +219,18 @@ fn samples(windows: &[Window], prior: &PriorSettings, config: &TrainConfig<'_>) 
         .collect()
 }
 
-/// Scores of `predict` on every window, one entry per walk (in walk order).
-fn score(windows: &[Window], mut predict: impl FnMut(&Window, &mut Forecast) -> bool) -> Vec<ForecastScores> {
+/// Scores of `predict` on every window, one entry per walk (in walk order). A window that
+/// follows another of its walk by one step is blended with that one's forecast by `carry`, as
+/// a forecaster running frame after frame does (and as the prior's tuning scores them).
+fn score(
+    windows: &[Window],
+    carry: Carry,
+    mut predict: impl FnMut(&Window, &mut Forecast) -> bool,
+) -> Vec<ForecastScores> {
     let mut per_walk: Vec<ForecastScores> = Vec::new();
     let mut last_walk = None;
     let mut out: Forecast = [Point2::default(); HORIZON];
+    let mut previous: Option<(usize, u32, KeptForecast)> = None;
     for w in windows {
         if last_walk != Some(w.walk) {
             per_walk.push(ForecastScores::default());
@@ -230,8 +238,14 @@ fn score(windows: &[Window], mut predict: impl FnMut(&Window, &mut Forecast) -> 
         }
         let Some(scores) = per_walk.last_mut() else { continue };
         if !predict(w, &mut out) {
+            previous = None;
             continue;
         }
+        if let Some((_, _, kept)) = previous.filter(|&(walk, step, _)| walk == w.walk && step.wrapping_add(1) == w.step)
+        {
+            carry_forward(&kept, carry, &mut out);
+        }
+        previous = Some((w.walk, w.step, KeptForecast::keep(&out)));
         let errors: Vec<f32> = out.iter().zip(&w.future).map(|(p, q)| p.distance(q)).collect();
         let n = errors.len().max(1) as f32;
         scores.ade.push(errors.iter().sum::<f32>() / n);
@@ -258,8 +272,8 @@ pub fn run_scene(
     let prior = tune_prior(&prior_instances(&train), PERIOD_S, PriorObjective::Ade);
     let dt = PERIOD_S;
     let mut rows: Vec<(&'static str, Vec<ForecastScores>)> = vec![
-        ("cv", score(&test, |w, out| constant_velocity(&w.history, dt, out).is_ok())),
-        ("prior", score(&test, |w, out| MotionPrior(prior).predict(&w.history, dt, out).is_ok())),
+        ("cv", score(&test, Carry::NONE, |w, out| constant_velocity(&w.history, dt, out).is_ok())),
+        ("prior", score(&test, prior.carry(), |w, out| MotionPrior(prior).predict(&w.history, dt, out).is_ok())),
     ];
     let training = if options.train {
         let config = TrainConfig {
@@ -281,10 +295,11 @@ pub fn run_scene(
                 blob.dynamics().name(),
                 options.dynamics.name()
             );
+            let carry = blob.prior().carry();
             let mut learned = LearnedPredictor::new(blob);
             rows.push((
                 label,
-                score(&test, |w, out| {
+                score(&test, carry, |w, out| {
                     let refs = w.neighbour_histories();
                     learned.predict_in_context(&w.history, &Context::with_neighbours(&refs), dt, out).is_ok()
                 }),
@@ -586,5 +601,33 @@ mod tests {
         let missing = BenchmarkOptions { data: dir.path().join("absent"), ..options };
         let err = run_scene(scenes[0], &missing, &mut |_| {}).unwrap_err().to_string();
         assert!(err.contains("absent") && err.contains("biwi_eth_train.txt"), "{err}");
+    }
+
+    #[test]
+    fn consecutive_windows_of_a_walk_are_blended_and_others_are_not() {
+        let window = |walk, step| Window {
+            pedestrian: 1,
+            walk,
+            step,
+            history: Vec::new(),
+            future: vec![Point2::default(); FUTURE_STEPS],
+            neighbours: Vec::new(),
+        };
+        // Walk 0 steps 0, 1, 3 (a gap before 3), walk 1 step 4: each fresh forecast is 1 m off.
+        let windows = [window(0, 0), window(0, 1), window(0, 3), window(1, 4)];
+        let fresh = |w: &Window, out: &mut Forecast| {
+            // The second window's fresh forecast is 3 m off, the others 1 m.
+            let off = if w.step == 1 { 3.0 } else { 1.0 };
+            *out = [Point2::new(off, 0.0); HORIZON];
+            true
+        };
+        let walks = score(&windows, Carry::new(0.5), fresh);
+        assert_eq!(walks.iter().map(|w| w.ade.count()).sum::<u32>(), 4);
+        let ade = |walk: usize| walks[walk].ade.value().unwrap();
+        // Walk 0: 1 m, then (3 + 1) / 2 = 2 m blended, then 1 m after the gap.
+        assert!((ade(0) - (1.0 + 2.0 + 1.0) / 3.0).abs() < 1e-4, "{}", ade(0));
+        assert!((ade(1) - 1.0).abs() < 1e-6, "a new walk starts afresh: {}", ade(1));
+        let unblended = score(&windows, Carry::NONE, fresh);
+        assert!((unblended[0].ade.value().unwrap() - 5.0 / 3.0).abs() < 1e-4);
     }
 }
