@@ -346,12 +346,13 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         let observer = Some(bev_point(&self.estimate.camera.translation.vector.into()));
         let context = Context { neighbours: &neighbours, observer };
         let learned = self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &context, self.dt, &mut points));
-        let mut carry = Carry::NONE;
+        // The model's carry for its own forecasts; a constant-velocity fallback carries none.
+        let carry = match (&self.model, &learned) {
+            (Some(k), Some(Ok(()))) => k.blob().prior().carry(),
+            _ => Carry::NONE,
+        };
         let ok = match learned {
-            Some(Ok(())) => {
-                carry = self.model.as_ref().map_or(Carry::NONE, |k| k.blob().prior().carry());
-                true
-            }
+            Some(Ok(())) => true,
             Some(Err(e)) => {
                 self.stats.forecasts_fallback = self.stats.forecasts_fallback.saturating_add(1);
                 if self.stats.forecasts_fallback == 1 {

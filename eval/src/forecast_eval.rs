@@ -14,7 +14,7 @@
 
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, ace, ade, fde, step_errors};
-use dynotraj_core::predict::{Forecast, KeptForecast, PredictError, Predictor, carry_forward};
+use dynotraj_core::predict::{Forecast, PredictError, Predictor, carry_forward};
 use dynotraj_core::{BevState, Point2};
 
 use dynotraj_sources::scene::{Scene, SourcedRun};
@@ -223,7 +223,7 @@ pub fn score_run_against(
         match forecast_at(run, s, scene, forecaster, dt) {
             Ok(mut forecast) => {
                 if let Some(p) = &previous {
-                    carry_forward(&KeptForecast::keep(p), forecaster.carry(), &mut forecast);
+                    carry_forward(p, forecaster.carry(), &mut forecast);
                 }
                 let (Some(a), Some(f)) = (ade(&forecast, &truth), fde(&forecast, &truth)) else { continue };
                 out.scores.ade.push(a);

@@ -21,8 +21,7 @@ use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::features::FeatureScales;
 use dynotraj_core::model::infer::LearnedPredictor;
 use dynotraj_core::predict::{
-    Carry, Context, Dynamics, Forecast, KeptForecast, MotionPrior, Predictor as _, PriorSettings, carry_forward,
-    constant_velocity,
+    Carry, Context, Dynamics, Forecast, MotionPrior, Predictor as _, PriorSettings, carry_forward, constant_velocity,
 };
 use dynotraj_formats::eth_ucy::{PERIOD_S, Recording, read};
 use dynotraj_sources::pedestrian_windows::{FUTURE_STEPS, HISTORY_STEPS, Window, windows};
@@ -230,7 +229,7 @@ fn score(
     let mut per_walk: Vec<ForecastScores> = Vec::new();
     let mut last_walk = None;
     let mut out: Forecast = [Point2::default(); HORIZON];
-    let mut previous: Option<(usize, u32, KeptForecast)> = None;
+    let mut previous: Option<(usize, u32, Forecast)> = None;
     for w in windows {
         if last_walk != Some(w.walk) {
             per_walk.push(ForecastScores::default());
@@ -241,11 +240,13 @@ fn score(
             previous = None;
             continue;
         }
-        if let Some((_, _, kept)) = previous.filter(|&(walk, step, _)| walk == w.walk && step.wrapping_add(1) == w.step)
+        if let Some((walk, step, last)) = &previous
+            && *walk == w.walk
+            && step.wrapping_add(1) == w.step
         {
-            carry_forward(&kept, carry, &mut out);
+            carry_forward(last, carry, &mut out);
         }
-        previous = Some((w.walk, w.step, KeptForecast::keep(&out)));
+        previous = Some((w.walk, w.step, out));
         let errors: Vec<f32> = out.iter().zip(&w.future).map(|(p, q)| p.distance(q)).collect();
         let n = errors.len().max(1) as f32;
         scores.ade.push(errors.iter().sum::<f32>() / n);

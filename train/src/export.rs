@@ -127,9 +127,9 @@ pub fn load_checkpoint(path: &Path) -> Result<(Network, VarMap, f32, PriorSettin
         .to_dtype(DType::F32)?
         .to_vec1::<f32>()?;
     // Six values in checkpoints written before the carry (none carried).
-    let (values, carry) = match fields[..] {
-        [ref six @ .., carry] if six.len() == 6 => (six, carry),
-        ref six => (six, 0.0),
+    let (values, carry) = match fields.split_at_checked(6) {
+        Some((six, &[carry])) => (six, carry),
+        _ => (&fields[..], 0.0),
     };
     let [vw, tw, accel_gain, turn_gain, accel_decay, turn_decay] = values[..] else {
         candle_core::bail!("meta.prior holds {} values, expected 7 (or 6)", fields.len())

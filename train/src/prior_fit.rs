@@ -17,12 +17,12 @@
 //! instances, since a planner needs forecasts that do not jump from one frame to the next; the
 //! mean ADE alone, or ADE plus ACE, on request.
 //!
-//! About 560 settings, each a prior forecast per instance: a few seconds per fold.
+//! About 700 settings, each a prior forecast per instance: a few seconds per fold.
 
 use dynotraj_core::BevState;
 use dynotraj_core::limits::{HORIZON, MAX_PRIOR_HISTORY, MIN_HISTORY};
 use dynotraj_core::metrics::ace;
-use dynotraj_core::predict::{Baseline, Forecast, KeptForecast, MotionPrior, Predictor, PriorSettings, carry_forward};
+use dynotraj_core::predict::{Baseline, Forecast, MotionPrior, Predictor, PriorSettings, carry_forward};
 use dynotraj_core::{Point2, limits::PRIOR_STATES};
 use rayon::prelude::*;
 
@@ -159,7 +159,7 @@ pub fn score(predictor: &mut impl Predictor, instances: &[PriorInstance], dt: f3
             return PriorScore::FAILED;
         }
         if inst.follows {
-            carry_forward(&KeptForecast::keep(&before), predictor.carry(), &mut out);
+            carry_forward(&before, predictor.carry(), &mut out);
         }
         let ade: f32 =
             out.iter().zip(&inst.future).map(|(p, q)| p.distance(q)).sum::<f32>() / inst.future.len().max(1) as f32;

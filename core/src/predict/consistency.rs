@@ -72,9 +72,16 @@ impl KeptForecast {
     }
 }
 
-/// Blends `fresh` (made at frame s) with `previous` (kept at frame s - 1) in place, as the
-/// module docs say.
-pub fn carry_forward(previous: &KeptForecast, carry: Carry, fresh: &mut Forecast) {
+/// Blends `fresh` (made at frame s) with `previous` (made at frame s - 1) in place, as the
+/// module docs say, reading `previous` to the centimetre as [`ForecastMemory`] keeps it.
+pub fn carry_forward(previous: &Forecast, carry: Carry, fresh: &mut Forecast) {
+    if carry.share() > 0.0 {
+        carry_kept(&KeptForecast::keep(previous), carry, fresh);
+    }
+}
+
+/// [`carry_forward`] from a kept forecast.
+fn carry_kept(previous: &KeptForecast, carry: Carry, fresh: &mut Forecast) {
     let c = carry.share();
     if c <= 0.0 {
         return;
@@ -126,7 +133,7 @@ impl<const N: usize> ForecastMemory<N> {
         if let Some(prev) = slot.and_then(|i| self.kept.get(i)).copied().flatten()
             && prev.frame.checked_add(1) == Some(frame)
         {
-            carry_forward(&prev.forecast, carry, forecast);
+            carry_kept(&prev.forecast, carry, forecast);
         }
         let slot = slot.or_else(|| self.kept.iter().position(Option::is_none)).or_else(|| {
             self.replaced = self.replaced.saturating_add(1);
@@ -179,7 +186,7 @@ mod tests {
         let previous = line(0.0, 1.0);
         let mut fresh = line(1.0, 1.0);
         let expected = fresh;
-        carry_forward(&KeptForecast::keep(&previous), Carry::new(0.5), &mut fresh);
+        carry_forward(&previous, Carry::new(0.5), &mut fresh);
         assert_eq!(fresh, expected);
     }
 
@@ -208,7 +215,7 @@ mod tests {
         assert_eq!(Carry::new(-1.0), Carry::NONE);
         assert_eq!(Carry::new(5.0).share(), MAX_CARRY);
         let mut fresh = line(1.0, 3.0);
-        carry_forward(&KeptForecast::keep(&line(0.0, 1.0)), Carry::NONE, &mut fresh);
+        carry_forward(&line(0.0, 1.0), Carry::NONE, &mut fresh);
         assert_eq!(fresh, line(1.0, 3.0));
     }
 

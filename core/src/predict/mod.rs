@@ -12,7 +12,7 @@ pub mod prior;
 mod unicycle;
 
 pub use baseline::{Baseline, constant_velocity, constant_velocity_fit, ctra};
-pub use consistency::{Carry, ForecastMemory, KeptForecast, carry_forward};
+pub use consistency::{Carry, ForecastMemory, carry_forward};
 pub use dynamics::Dynamics;
 pub use fit::{ParabolaFit, fitted_velocity, parabola_fit};
 pub use prior::{MotionPrior, PriorPlan, PriorSettings};
@@ -72,31 +72,12 @@ pub trait Predictor {
     }
 }
 
-impl<P: Predictor + ?Sized> Predictor for &mut P {
-    fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
-        (**self).predict(history, dt, out)
-    }
+/// The predictor `.0`, whose forecasts carry the share `.1` of the previous one
+/// ([`Predictor::carry`]), as it makes them otherwise.
+#[derive(Debug)]
+pub struct Carried<'p, P: ?Sized>(pub &'p mut P, pub Carry);
 
-    fn predict_in_context(
-        &mut self,
-        history: &[BevState],
-        context: &Context<'_>,
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError> {
-        (**self).predict_in_context(history, context, dt, out)
-    }
-
-    fn carry(&self) -> Carry {
-        (**self).carry()
-    }
-}
-
-/// `P` whose forecasts carry the share `.1` of the previous one ([`Predictor::carry`]), as made otherwise.
-#[derive(Debug, Clone, Copy)]
-pub struct Carried<P>(pub P, pub Carry);
-
-impl<P: Predictor> Predictor for Carried<P> {
+impl<P: Predictor + ?Sized> Predictor for Carried<'_, P> {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
         self.0.predict(history, dt, out)
     }
