@@ -9,7 +9,7 @@ use clap::Args;
 use super::common::DataArgs;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_eval::experiment::ExperimentConfig;
+use dynotraj_core::predict::Dynamics;
 use dynotraj_eval::experiment::benchmark::{
     BenchmarkResult, DEFAULT_GROUPS, GOAL_VS_CV, GOAL_VS_CV_HIGH, GOAL_VS_PRIOR, goal_table, run_benchmark,
     seeds_table, sequence_groups,
@@ -17,6 +17,7 @@ use dynotraj_eval::experiment::benchmark::{
 use dynotraj_eval::experiment::figures::Figure;
 use dynotraj_eval::experiment::report::{Report, Section, write_report};
 use dynotraj_eval::experiment::sections::{deployment_section, table_i_sources};
+use dynotraj_eval::experiment::{ExperimentConfig, fold_specs};
 use dynotraj_eval::report::chart::{Chart, Series, write_chart};
 use dynotraj_eval::report::{Format, instances_table};
 use dynotraj_sources::trajectory::Source;
@@ -76,7 +77,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);
     if let Some(shard) = args.shard {
-        let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len() / shard.count);
+        let bars = TrainBars::new(fold_specs(&config, &args.seeds).len().div_ceil(shard.count));
         let done = dynotraj_eval::experiment::benchmark::train_shard(&sequences, &config, &args.seeds, shard, &bars);
         bars.finish();
         let (mine, all) = done?;
@@ -87,7 +88,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let bars = TrainBars::new(config.arms.len() * config.folds.len() * args.seeds.len());
+    let bars = TrainBars::new(fold_specs(&config, &args.seeds).len());
     let result = run_benchmark(&sequences, &config, &args.seeds, &bars);
     bars.finish();
     let result = result?;
@@ -156,13 +157,59 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
 }
 
 /// The report's tables: the weighted scores per seed, the goal, the deployment comparison, the
-/// truth-scored rows, Table I and the per-sequence tables of every seed.
+/// truth-scored rows, Table I and the per-sequence tables of every seed; then the weighted
+/// scores, goal and deployment of every other agent type (pedestrians), by their own models.
 fn sections(
     result: &BenchmarkResult,
     config: &ExperimentConfig,
     sequences: &[dynotraj_sources::sequence::SequenceTracks],
     args: &BenchmarkArgs,
 ) -> anyhow::Result<Vec<Section>> {
+    let agent_types = result.agent_types();
+    let Some(first) = agent_types.first() else { anyhow::bail!("--classes: no class to forecast") };
+    let primary = result.of_agents(*first).context("the first agent type's rows")?;
+    let mut out = agent_sections(&primary, config, args, (*first, false));
+    let rule = args.data.rule()?;
+    let sources = table_i_sources(&config.arms);
+    out.push(Section {
+        stem: "table_i".into(),
+        title: "Eligible objects and test instances".into(),
+        caption: "Per source: the labels (GT and GT+EKF share them) and, for the estimated arm, the estimator's own \
+            tracks; every forecast class, each agent type scored below by its own models."
+            .into(),
+        table: instances_table(sequences, &sources, &rule),
+    });
+    for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
+        out.push(Section {
+            stem: format!("per_sequence_seed{seed}"),
+            title: format!("Per held-out sequence, seed {seed}"),
+            caption: "ADE, FDE (m), ACE per held-out sequence and weighted; each arm against its own source's future."
+                .into(),
+            table: r.table.clone(),
+        });
+        if let Some((t, _)) = &r.deployment {
+            let mut d = deployment_section(t.clone());
+            d.stem = format!("deployment_seed{seed}");
+            d.title = format!("Deployment per held-out sequence, seed {seed}");
+            out.push(d);
+        }
+    }
+    for &agents in agent_types.iter().skip(1) {
+        let other = result.of_agents(agents).context("an agent type's rows")?;
+        out.extend(agent_sections(&other, config, args, (agents, true)));
+    }
+    Ok(out)
+}
+
+/// The weighted scores per seed, the goal, and (with the simulator's truth) the deployment
+/// comparison and the truth-scored rows of one agent type's `result`; stems and titles name
+/// the `agents` when `named` (every agent type after the first), captions always.
+fn agent_sections(
+    result: &BenchmarkResult,
+    config: &ExperimentConfig,
+    args: &BenchmarkArgs,
+    (agents, named): (Dynamics, bool),
+) -> Vec<Section> {
     let seeds = args.seeds.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
     let mut out = vec![
         Section {
@@ -202,32 +249,26 @@ fn sections(
             table: seeds_table(result, |r| r.common.as_ref().map(|(_, rows)| &rows[..])),
         });
     }
-    let rule = args.data.rule()?;
-    let sources = table_i_sources(&config.arms);
-    out.push(Section {
-        stem: "table_i".into(),
-        title: "Eligible objects and test instances".into(),
-        caption:
-            "Per source: the labels (GT and GT+EKF share them) and, for the estimated arm, the estimator's own tracks."
-                .into(),
-        table: instances_table(sequences, &sources, &rule),
-    });
-    for (seed, r) in result.seeds.iter().zip(&result.per_seed) {
-        out.push(Section {
-            stem: format!("per_sequence_seed{seed}"),
-            title: format!("Per held-out sequence, seed {seed}"),
-            caption: "ADE, FDE (m), ACE per held-out sequence and weighted; each arm against its own source's future."
-                .into(),
-            table: r.table.clone(),
-        });
-        if let Some((t, _)) = &r.deployment {
-            let mut d = deployment_section(t.clone());
-            d.stem = format!("deployment_seed{seed}");
-            d.title = format!("Deployment per held-out sequence, seed {seed}");
-            out.push(d);
+    let classes: Vec<&str> = config.rule.for_agents(agents).classes.iter().map(|c| c.kitti_name()).collect();
+    for s in &mut out {
+        if named {
+            s.stem = format!("{}_{}", s.stem, agents.agents());
+            s.title = format!("{}: {}", capitalised(agents.agents()), s.title);
         }
+        s.caption.push_str(&format!(
+            " Only {} ({} dynamics), each fold by a model trained on them alone; a fold whose training \
+                sequences hold none ships the prior at its settings for no data (cv-fit).",
+            classes.join(", "),
+            agents.name()
+        ));
     }
-    Ok(out)
+    out
+}
+
+/// `word` with its first letter in capitals.
+fn capitalised(word: &str) -> String {
+    let mut chars = word.chars();
+    chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
 }
 
 /// Weighted ADE per held-out sequence of the learned int8 model and cv, per arm, averaged over

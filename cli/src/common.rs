@@ -24,12 +24,9 @@ pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "00
 /// together.
 pub const DEFAULT_DIMS: &str = "8,8,3,8";
 
-/// `--classes`' default where the classes forecast are meant ([`ObjectClass::FORECAST`]; a
-/// test holds the two together).
-pub const FORECAST_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist";
-/// `--classes`' default where the classes placed in a scene are meant
-/// ([`ObjectClass::IN_SCENE`]; a test holds the two together).
-pub const IN_SCENE_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist,Pedestrian";
+/// `--classes`' default: the classes forecast ([`ObjectClass::FORECAST`]; a test holds the two
+/// together).
+pub const FORECAST_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist,Pedestrian";
 
 /// `--rate`: the frame rate of a sequence's frames.
 #[derive(Debug, Clone, Copy, Args)]
@@ -79,29 +76,17 @@ impl MinStepArg {
     }
 }
 
-/// `--classes` of the objects forecast and scored.
+/// `--classes`: the objects forecast and scored, and those a simulator places in its scenes.
 #[derive(Debug, Clone, Args)]
-pub struct ForecastClassesArg {
-    /// Object classes considered (KITTI type names, comma-separated).
+pub struct ClassesArg {
+    /// Object classes (KITTI type names, comma-separated): those forecast and scored, each by
+    /// the models of its agent type (pedestrians: the single integrator; every other class:
+    /// the unicycle), and those a simulator places in its scenes.
     #[arg(
         long = "classes",
         value_delimiter = ',',
         value_parser = crate::numbers::object_class,
         default_value = FORECAST_CLASSES,
-        value_name = "LIST"
-    )]
-    pub list: Vec<ObjectClass>,
-}
-
-/// `--classes` of the objects a simulator places in the scene.
-#[derive(Debug, Clone, Args)]
-pub struct SceneClassesArg {
-    /// Object classes placed in the scene (KITTI type names, comma-separated).
-    #[arg(
-        long = "classes",
-        value_delimiter = ',',
-        value_parser = crate::numbers::object_class,
-        default_value = IN_SCENE_CLASSES,
         value_name = "LIST"
     )]
     pub list: Vec<ObjectClass>,
@@ -128,7 +113,7 @@ pub struct DataArgs {
     pub rate: FrameRateArg,
     /// The classes.
     #[command(flatten)]
-    pub classes: ForecastClassesArg,
+    pub classes: ClassesArg,
     /// The moving threshold.
     #[command(flatten)]
     pub min_step: MinStepArg,
@@ -533,7 +518,6 @@ mod tests {
             list.split(',').map(|c| crate::numbers::object_class(c).unwrap()).collect()
         };
         assert_eq!(parse(FORECAST_CLASSES), ObjectClass::FORECAST);
-        assert_eq!(parse(IN_SCENE_CLASSES), ObjectClass::IN_SCENE);
         let err = crate::numbers::object_class("car").unwrap_err();
         assert!(err.contains("expected a KITTI type (Car, Van,") && err.contains("found `car`"), "{err}");
     }

@@ -17,9 +17,7 @@ use dynotraj_core::estimate::{EstimatorProfile, Intrinsics, PROFILES, SmootherPa
 use dynotraj_core::wire::{ObjectClass, Track};
 use dynotraj_sim::track_sim::SimFrame;
 
-use super::common::{
-    EstimatedSourceArgs, FrameRateArg, MinStepArg, SceneClassesArg, progress, record_path, sequence_ids,
-};
+use super::common::{ClassesArg, EstimatedSourceArgs, FrameRateArg, MinStepArg, progress, record_path, sequence_ids};
 use dynotraj_eval::jobs::map_jobs;
 use dynotraj_eval::report::estimator_tables::{
     cost_table, counters_table, data_tables, per_object_table, replay_tables, rpe_sources_table, tables,
@@ -87,7 +85,7 @@ pub struct EstimateArgs {
     pub rate: FrameRateArg,
     /// The classes.
     #[command(flatten)]
-    pub classes: SceneClassesArg,
+    pub classes: ClassesArg,
     /// The moving threshold.
     #[command(flatten)]
     pub min_step: MinStepArg,

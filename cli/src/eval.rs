@@ -9,7 +9,7 @@ use dynotraj_eval::forecast_eval::score_sequence;
 use dynotraj_eval::predictors::{LoadedPredictor, PredictorSpec};
 use dynotraj_eval::report::{ArmScores, Format, Table, forecast_table};
 use dynotraj_sources::scene::Scene;
-use dynotraj_sources::trajectory::{Source, eligible_runs};
+use dynotraj_sources::trajectory::{EligibleRun, Source, eligible_runs};
 
 /// Options of `dynotraj eval`.
 #[derive(Debug, Args)]
@@ -71,31 +71,58 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     anyhow::ensure!(args.carry <= MAX_CARRY, "--carry {}: at most {MAX_CARRY}", args.carry);
     let seqs = args.data.load_for(&ids, &args.source)?;
 
+    let loaded: Vec<LoadedPredictor> =
+        args.predictor.iter().map(|spec| LoadedPredictor::load(spec, dt)).collect::<anyhow::Result<_>>()?;
+    let agent_types = rule.agent_types();
     let mut arms = Vec::new();
-    let bar = progress((args.source.len() * args.predictor.len()) as u64, "scoring");
-    for &source in &args.source {
-        let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &rule)).collect();
-        let scenes: Vec<Scene> = seqs.iter().map(|s| s.scene(source, dt)).collect();
-        for spec in &args.predictor {
-            let loaded = LoadedPredictor::load(spec, dt)?;
-            let mut forecaster = loaded.forecaster();
-            let mut forecaster = Carried(forecaster.as_mut(), Carry::new(args.carry));
-            let mut arm = ArmScores::new(arm_label(spec, source, args.carry));
-            let mut failed = 0;
-            for (seq_runs, scene) in runs.iter().zip(&scenes) {
-                let r = score_sequence(seq_runs, scene, &mut forecaster, dt);
-                arm.push_sequence(&r);
-                failed += r.failed;
+    let bar = progress((args.source.len() * args.predictor.len() * agent_types.len()) as u64, "scoring");
+    // Each agent type apart: a model forecasts only the agents of its dynamics, and a row
+    // mixing agent types would hide which one a change helps.
+    for (k, &agents) in agent_types.iter().enumerate() {
+        let agent_rule = rule.for_agents(agents);
+        for &source in &args.source {
+            let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &agent_rule)).collect();
+            if k > 0 && runs.iter().all(Vec::is_empty) {
+                bar.inc(args.predictor.len() as u64);
+                continue;
             }
-            if failed > 0 {
-                log::warn!("{}: {failed} instances could not be forecast", arm.label);
+            let scenes: Vec<Scene> = seqs.iter().map(|s| s.scene(source, dt)).collect();
+            for (spec, loaded) in args.predictor.iter().zip(&loaded) {
+                bar.inc(1);
+                if !loaded.forecasts(agents) {
+                    continue;
+                }
+                let label = arm_label(spec, source, args.carry);
+                let label = if k == 0 { label } else { format!("{label}, {}", agents.agents()) };
+                arms.push(score_arm(loaded, label, &runs, &scenes, (dt, args.carry)));
             }
-            arms.push(arm);
-            bar.inc(1);
         }
     }
     bar.finish_and_clear();
     Ok(forecast_table(&ids, &arms, &[]))
+}
+
+/// The scores of `loaded` (carrying `carry` of its last forecast) on every sequence's `runs`.
+fn score_arm(
+    loaded: &LoadedPredictor,
+    label: String,
+    runs: &[Vec<EligibleRun>],
+    scenes: &[Scene],
+    (dt, carry): (f32, f32),
+) -> ArmScores {
+    let mut forecaster = loaded.forecaster();
+    let mut forecaster = Carried(forecaster.as_mut(), Carry::new(carry));
+    let mut arm = ArmScores::new(label);
+    let mut failed = 0;
+    for (seq_runs, scene) in runs.iter().zip(scenes) {
+        let r = score_sequence(seq_runs, scene, &mut forecaster, dt);
+        arm.push_sequence(&r);
+        failed += r.failed;
+    }
+    if failed > 0 {
+        log::warn!("{}: {failed} instances could not be forecast", arm.label);
+    }
+    arm
 }
 
 fn arm_label(p: &PredictorSpec, s: Source, carry: f32) -> String {

@@ -85,7 +85,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);
     let loading_seconds = start.elapsed().as_secs_f64();
-    let bars = TrainBars::new(config.arms.len() * config.folds.len());
+    let bars = TrainBars::new(dynotraj_eval::experiment::fold_specs(&config, &[config.hyper.seed]).len());
     let result = run_experiment(&sequences, &config, &bars);
     bars.finish();
     let mut result = result?;
@@ -134,6 +134,10 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             println!("\nAgainst the simulator's truth, on the instances every arm has:\n");
             print!("{}", table.render(Format::Md));
         }
+        for other in &result.other_agents {
+            println!("\n{}, by their own models:\n", other.agents.agents());
+            print!("{}", other.table.render(Format::Md));
+        }
     } else {
         let mut named = vec![("table_iv", &result.table)];
         if let Some((table, _)) = &result.common {
@@ -144,6 +148,8 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     eprint!("{summary}");
     if let Some(dir) = &args.run.out {
         let rule = args.data.rule()?;
+        // The figures and recordings show the first agent type's forecasts (vehicles).
+        let shown = rule.for_agents(result.agents);
         let mut command = String::from("dynotraj experiment");
         for a in std::env::args().skip(2) {
             command.push(' ');
@@ -158,14 +164,14 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
         };
         let mut r = experiment_report(&run, command, &result, &sequences, &rule);
         let (figures, models) = (dir.join("figures"), dir.join("models"));
-        r.figures = write_figures(&figures, &sequences, &args.arms, &rule, args.data.dt()?, &models, &args.objects)?;
+        r.figures = write_figures(&figures, &sequences, &args.arms, &shown, args.data.dt()?, &models, &args.objects)?;
         let path = write_report(dir, &r)?;
         eprintln!("wrote {}", path.display());
         if let Some(record) = &args.record {
             let ids = test_ids(args)?;
             let tests: Vec<&SequenceTracks> = sequences.iter().filter(|s| ids.contains(&s.id)).collect();
             let fold_models = FoldModels::load(&models, &args.arms, &sequences)?;
-            for w in write_recordings(record, &tests, &args.arms, &fold_models, &rule, args.data.dt()?)? {
+            for w in write_recordings(record, &tests, &args.arms, &fold_models, &shown, args.data.dt()?)? {
                 eprintln!("recorded {} ({} bytes)", w.path.display(), w.bytes);
             }
         }

@@ -11,7 +11,7 @@ use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim};
 use dynotraj_sim::track_sim::LabelBox;
 
-use super::common::{self, SceneClassesArg, progress};
+use super::common::{self, ClassesArg, progress};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
 use dynotraj_frontend::image_sim_files::write_sequence_with;
@@ -57,7 +57,7 @@ pub struct SimulateArgs {
     pub seed: u64,
     /// The classes.
     #[command(flatten)]
-    pub classes: SceneClassesArg,
+    pub classes: ClassesArg,
 }
 
 /// The sequences `args` asks for: those of the KITTI folder, or the synthetic drive's one.

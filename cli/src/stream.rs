@@ -215,7 +215,7 @@ impl TracksInputArgs {
 pub fn simulated(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
     let data =
         TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    let input = sim_input(&data, &ObjectClass::IN_SCENE);
+    let input = sim_input(&data, &ObjectClass::FORECAST);
     let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
     let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);

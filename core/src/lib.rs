@@ -6,6 +6,7 @@
 //! counted outcome, never a panic.
 //!
 //! Modules:
+//! - [`class`]: what an object is (KITTI's types), and so the agent type that forecasts it.
 //! - [`limits`]: the named capacities and the paper's horizons and limits.
 //! - [`wire`]: every message of the pipeline, and its framing (postcard + CRC-32 + COBS).
 //! - [`geometry`]: SE(3)/SE(2) helpers, camera-to-bird's-eye projection, angle wrapping.
@@ -19,6 +20,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+pub mod class;
 pub mod estimate;
 pub mod geometry;
 pub mod limits;

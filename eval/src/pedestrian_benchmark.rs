@@ -479,6 +479,7 @@ pub fn fold_reports(results: &[SceneResult], seed: u64) -> Vec<FoldReport> {
             let t = r.training.as_ref()?;
             Some(FoldReport {
                 arm: Source::Gt,
+                agents: Dynamics::SingleIntegrator,
                 sequence: r.scene.to_owned(),
                 seed,
                 train_instances: t.train_instances,

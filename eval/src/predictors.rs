@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use dynotraj_core::predict::{Baseline, MotionPrior, PriorSettings};
+use dynotraj_core::predict::{Baseline, Dynamics, MotionPrior, PriorSettings};
 
 use dynotraj_core::predict::Predictor;
 use dynotraj_formats::model_file::ModelFile;
@@ -94,6 +94,16 @@ impl LoadedPredictor {
                 );
                 Ok(Self::Model(m))
             }
+        }
+    }
+
+    /// Whether it forecasts agents of `dynamics`: a baseline or a prior forecasts any agent, a
+    /// model only those of its blob's dynamics.
+    #[must_use]
+    pub fn forecasts(&self, dynamics: Dynamics) -> bool {
+        match self {
+            Self::Baseline(_) | Self::Prior(_) => true,
+            Self::Model(m) => m.blob().dynamics() == dynamics,
         }
     }
 

@@ -198,8 +198,8 @@ pub fn sample_over(
 }
 
 /// The samples of every eligible run of `seq` under `rule`, through `source` at frame period
-/// `dt`; run k of the sequence gets group `first_group + k`. Returns the samples and the number
-/// of runs.
+/// `dt`, with the features of `scales` (the dynamics trained); run k of the sequence gets group
+/// `first_group + k`. Returns the samples and the number of runs.
 #[must_use]
 pub fn sequence_samples(
     seq: &SequenceTracks,
@@ -207,7 +207,7 @@ pub fn sequence_samples(
     dt: f32,
     rule: &EligibilityRule,
     first_group: usize,
-    prior: &PriorSettings,
+    (prior, scales): (&PriorSettings, &FeatureScales),
 ) -> (Vec<Sample>, usize) {
     let tracks = seq.tracks_for(source);
     let scene = seq.scene(source, dt);
@@ -218,7 +218,8 @@ pub fn sequence_samples(
         for s in run.instances() {
             let frame = run.first_frame + s as u32;
             let neighbours = scene.neighbours_at(run.track_id, frame);
-            out.extend(sample_at(&states, s, &scene.context_at(&neighbours, frame), dt, first_group + k, prior));
+            let context = scene.context_at(&neighbours, frame);
+            out.extend(sample_over(&states, s, HORIZON, &context, dt, first_group + k, prior, scales));
         }
     }
     (out, runs.len())

@@ -45,6 +45,7 @@ use candle_nn::VarMap;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::model::features::FeatureScales;
 use dynotraj_core::predict::{Dynamics, PriorSettings};
 
 pub use dataset::{Sample, Split, sample_at, sample_over, sequence_samples, split_by_run, split_by_sequence};
@@ -123,8 +124,14 @@ pub struct TrainConfig<'a> {
     pub mirror: bool,
     /// The motion prior the network's residual is added to.
     pub prior: PriorChoice,
-    /// How the network's outputs move the forecast (vehicles: the unicycle).
+    /// How the network's outputs move the forecast (vehicles: the unicycle), and so the agents
+    /// trained on: the classes of `rule` that this dynamics forecasts
+    /// ([`EligibilityRule::for_agents`]).
     pub dynamics: Dynamics,
+    /// With no training instance at all, ship the untrained model (the prior alone, at the
+    /// settings chosen on no data: [`PriorSettings::OFF`]) instead of failing. For agent types
+    /// that some folds' training sequences do not hold (KITTI's few moving pedestrians).
+    pub empty_ships_prior: bool,
 }
 
 impl<'a> TrainConfig<'a> {
@@ -146,7 +153,14 @@ impl<'a> TrainConfig<'a> {
             split_seed: DEFAULT_SPLIT_SEED,
             prior: PriorChoice::Tuned,
             dynamics: Dynamics::Unicycle,
+            empty_ships_prior: false,
         }
+    }
+
+    /// The eligibility of the agents trained: `rule`'s classes of `dynamics`.
+    #[must_use]
+    pub fn agent_rule(&self) -> EligibilityRule {
+        self.rule.for_agents(self.dynamics)
     }
 
     /// The sequences trained on (every one not excluded).
@@ -166,7 +180,7 @@ impl<'a> TrainConfig<'a> {
 
     fn tuned_prior(&self, objective: PriorObjective) -> PriorSettings {
         prior_fit::tune_prior(
-            &prior_fit::prior_instances(&self.training_sequences(), self.source, self.dt, &self.rule),
+            &prior_fit::prior_instances(&self.training_sequences(), self.source, self.dt, &self.agent_rule()),
             self.dt,
             objective,
         )
@@ -179,8 +193,9 @@ impl<'a> TrainConfig<'a> {
         let mut per_sequence = Vec::new();
         let mut groups = 0;
         let mut used = Vec::new();
+        let (rule, scales) = (self.agent_rule(), FeatureScales::of(self.dynamics));
         for seq in self.training_sequences() {
-            let (samples, runs) = sequence_samples(seq, self.source, self.dt, &self.rule, groups, prior);
+            let (samples, runs) = sequence_samples(seq, self.source, self.dt, &rule, groups, (prior, &scales));
             groups += runs;
             per_sequence.push(samples);
             used.push(seq.id.clone());
@@ -303,6 +318,37 @@ impl TrainedModel {
     }
 }
 
+/// The untrained model of `config` (zero residual: the motion prior `prior` alone), for a fold
+/// without training instances ([`TrainConfig::empty_ships_prior`]).
+fn untrained(
+    sequences: Vec<String>,
+    prior: PriorSettings,
+    config: &TrainConfig<'_>,
+    start: Instant,
+) -> anyhow::Result<TrainedModel> {
+    let (mut network, vars) = Network::new(config.dims, config.hyper.seed)?;
+    network.dynamics = config.dynamics;
+    log::info!("no training instances of {} in {sequences:?}: the fold ships the prior", config.dynamics.agents());
+    let report = TrainReport {
+        kept_seed: config.hyper.seed,
+        sequences,
+        train_instances: 0,
+        val_instances: 0,
+        epochs: 0,
+        best_epoch: 0,
+        best_val_ade: f32::NAN,
+        shrink: 1.0,
+        gain: None,
+        val_cv_ade: f32::NAN,
+        val_prior_ade: f32::NAN,
+        prior,
+        steps: 0,
+        seconds: start.elapsed().as_secs_f32(),
+        history: Vec::new(),
+    };
+    Ok(TrainedModel { network, vars, dt: config.dt, prior, report })
+}
+
 /// The seed of restart `restart` of a fold trained with `seed`: the seed itself for restart 0,
 /// else a value no small seed takes.
 #[must_use]
@@ -355,7 +401,15 @@ pub fn train_split(
         let reflected: Vec<Sample> = split.train.iter().map(Sample::mirrored).collect();
         split.train.extend(reflected);
     }
-    anyhow::ensure!(!split.train.is_empty(), "no training instances in {sequences:?} (source {})", config.source);
+    if split.train.is_empty() && config.empty_ships_prior {
+        return untrained(sequences, prior, config, start);
+    }
+    anyhow::ensure!(
+        !split.train.is_empty(),
+        "no training instances of {} in {sequences:?} (source {})",
+        config.dynamics.agents(),
+        config.source
+    );
     // Restarts: independent trainings from other seeds, the one with the best validation ADE
     // kept (restart 0 is the seed itself, so one restart is plain training).
     let mut best: Option<(Network, VarMap, fit::FitOutcome, u64)> = None;

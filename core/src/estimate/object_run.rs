@@ -190,7 +190,7 @@ impl<const W: usize> Default for ObjectRun<W> {
 /// Their motions get the vehicle kinematic prior once their heading is known.
 #[must_use]
 pub fn moves_like_a_vehicle(class: ObjectClass) -> bool {
-    !matches!(class, ObjectClass::Pedestrian | ObjectClass::PersonSitting | ObjectClass::Background)
+    !class.is_person() && class != ObjectClass::Background
 }
 
 /// The pure rotation turning the bird's-eye heading by `angle` (about the up axis, -y).

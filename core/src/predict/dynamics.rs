@@ -10,6 +10,7 @@
 //!
 //! At a zero output both forecast the motion prior, bit for bit.
 
+use crate::class::ObjectClass;
 use crate::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
 
 /// Standard deviation of a pedestrian's residual velocity the decoder's outputs are scaled by,
@@ -53,6 +54,31 @@ impl Dynamics {
         }
     }
 
+    /// The dynamics an object of `class` is forecast with: the single integrator for people
+    /// (pedestrians, sitting persons), the unicycle for everything else. The class every wire
+    /// track and object state carries is the agent type: host and edge route by it, and a blob
+    /// forecasts only the objects of its own dynamics.
+    #[must_use]
+    pub const fn of_class(class: ObjectClass) -> Self {
+        if class.is_person() { Self::SingleIntegrator } else { Self::Unicycle }
+    }
+
+    /// Index of this dynamics in [`Self::ALL`] (a slot per dynamics, as the edge keeps).
+    #[must_use]
+    pub const fn index(self) -> usize {
+        self.code() as usize
+    }
+
+    /// The agent type's name in reports and file names: `vehicles` (and cyclists) or
+    /// `pedestrians`.
+    #[must_use]
+    pub const fn agents(self) -> &'static str {
+        match self {
+            Self::Unicycle => "vehicles",
+            Self::SingleIntegrator => "pedestrians",
+        }
+    }
+
     /// Physical units per unit of the decoder's two standardised outputs.
     #[must_use]
     pub const fn residual_scales(self) -> [f32; 2] {
@@ -89,5 +115,16 @@ mod tests {
         }
         assert_eq!(Dynamics::from_code(2), None);
         assert_eq!(Dynamics::default(), Dynamics::Unicycle, "a header's zero byte is the unicycle");
+        for (i, d) in Dynamics::ALL.into_iter().enumerate() {
+            assert_eq!(d.index(), i);
+        }
+    }
+
+    #[test]
+    fn people_walk_and_everything_else_drives() {
+        for c in ObjectClass::ALL {
+            let want = if c.is_person() { Dynamics::SingleIntegrator } else { Dynamics::Unicycle };
+            assert_eq!(Dynamics::of_class(c), want, "{c:?}");
+        }
     }
 }

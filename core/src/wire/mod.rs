@@ -35,7 +35,6 @@
 //! [`PROTOCOL_VERSION`] changes with any change to the bytes of an existing message; receivers
 //! reject (and count) frames of other versions instead of misreading them.
 
-mod class;
 mod decoder;
 mod error;
 mod frame;
@@ -46,7 +45,7 @@ mod stats;
 #[cfg(test)]
 mod tests;
 
-pub use class::ObjectClass;
+pub use crate::class::ObjectClass;
 pub use decoder::{Feed, FrameDecoder};
 pub use error::WireError;
 pub use frame::{DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode};

@@ -9,6 +9,7 @@ use super::findings::total_of;
 use super::folds::{FoldSpec, TrainProgress, train_folds};
 use super::{ExperimentConfig, ExperimentResult, FoldReport, check_inputs, fold_specs, score_seed};
 use crate::report::{ArmScores, Cell, ColumnKind, Data, Table, forecast_table};
+use dynotraj_core::predict::Dynamics;
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::Source;
 
@@ -79,10 +80,43 @@ pub fn run_benchmark(
     for &seed in seeds {
         let mut r = score_seed(sequences, config, &specs, &trained, seed)?;
         r.table = forecast_table(&ids, &r.arms, &[]);
+        for other in &mut r.other_agents {
+            other.table = forecast_table(&ids, &other.arms, &[]);
+        }
         per_seed.push(r);
     }
     let folds = trained.into_iter().map(|t| t.report).collect();
     Ok(BenchmarkResult { seeds: seeds.to_vec(), per_seed, folds, seconds: start.elapsed().as_secs_f64() })
+}
+
+impl BenchmarkResult {
+    /// The agent types scored, the first (whose rows `per_seed` holds) first.
+    #[must_use]
+    pub fn agent_types(&self) -> Vec<Dynamics> {
+        self.per_seed
+            .first()
+            .map(|r| std::iter::once(r.agents).chain(r.other_agents.iter().map(|o| o.agents)).collect())
+            .unwrap_or_default()
+    }
+
+    /// The benchmark of agent type `agents` alone, as if run for it only: its rows per seed
+    /// and its folds. `None` when it was not scored.
+    #[must_use]
+    pub fn of_agents(&self, agents: Dynamics) -> Option<Self> {
+        let per_seed = self
+            .per_seed
+            .iter()
+            .map(|r| {
+                if r.agents == agents {
+                    Some(ExperimentResult { other_agents: Vec::new(), ..r.clone() })
+                } else {
+                    r.other_agents.iter().find(|o| o.agents == agents).cloned()
+                }
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let folds = self.folds.iter().filter(|f| f.agents == agents).cloned().collect();
+        Some(Self { seeds: self.seeds.clone(), per_seed, folds, seconds: self.seconds })
+    }
 }
 
 /// One of `count` equal parts of a run's work, `index` from 0: the units whose number modulo

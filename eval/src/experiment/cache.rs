@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use crc::{CRC_64_ECMA_182, Crc};
 use dynotraj_core::model::arch::FEATURES;
-use dynotraj_core::predict::PriorSettings;
+use dynotraj_core::predict::{Dynamics, PriorSettings};
 
 use super::FoldReport;
 use dynotraj_train::TrainConfig;
@@ -64,6 +64,10 @@ pub fn fold_key(train: &TrainConfig<'_>) -> u64 {
         train.prior
     );
     d.update(settings.as_bytes());
+    // Only another agent type adds to the key, so vehicle folds keep the keys they had.
+    if train.dynamics != Dynamics::Unicycle || train.empty_ships_prior {
+        d.update(format!(" {:?} {}", train.dynamics, train.empty_ships_prior).as_bytes());
+    }
     for seq in train.sequences.iter().filter(|s| !train.exclude.contains(&s.id)) {
         d.update(seq.id.as_bytes());
         for t in seq.tracks_for(train.source) {
@@ -231,6 +235,7 @@ mod tests {
         let cache = FoldCache::open(dir.path()).unwrap();
         let report = FoldReport {
             arm: Source::Gt,
+            agents: dynotraj_core::predict::Dynamics::Unicycle,
             sequence: "0003".into(),
             seed: 1,
             train_instances: 10,

@@ -3,6 +3,7 @@
 
 use anyhow::Context as _;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::predict::Dynamics;
 
 use super::cache::{CachedFold, FoldCache, fold_key};
 use super::{ExperimentConfig, FoldReport};
@@ -20,6 +21,8 @@ pub struct FoldSpec {
     pub fold: usize,
     /// The seed of the weights and the shuffling.
     pub seed: u64,
+    /// The agent type trained: the classes of the config's rule that this dynamics forecasts.
+    pub agents: Dynamics,
 }
 
 /// What the training stage tells its caller while it runs; called from the worker threads.
@@ -41,15 +44,20 @@ impl TrainProgress for Quiet {
 
 impl FoldSpec {
     /// The fold's name in files and messages: `<arm>-<held-out ids joined by +>`, with
-    /// `-s<seed>` unless the seed is the config's own (so one-seed experiments keep their names).
+    /// `-s<seed>` unless the seed is the config's own (so one-seed experiments keep their names)
+    /// and `-pedestrians` for a model of pedestrians (vehicles' names are as they always were).
     #[must_use]
     pub fn name(&self, config: &ExperimentConfig) -> String {
         let held = config.folds.get(self.fold).map(|f| f.join("+")).unwrap_or_default();
-        if self.seed == config.hyper.seed {
-            format!("{}-{held}", self.arm)
-        } else {
-            format!("{}-{held}-s{}", self.arm, self.seed)
+        let mut name = format!("{}-{held}", self.arm);
+        if self.seed != config.hyper.seed {
+            name.push_str(&format!("-s{}", self.seed));
         }
+        if self.agents != Dynamics::Unicycle {
+            name.push('-');
+            name.push_str(self.agents.agents());
+        }
+        name
     }
 
     /// The training set-up of this fold.
@@ -57,7 +65,7 @@ impl FoldSpec {
     pub fn train_config<'a>(&self, sequences: &'a [SequenceTracks], config: &ExperimentConfig) -> TrainConfig<'a> {
         let mut train = TrainConfig::new(sequences, config.folds.get(self.fold).cloned().unwrap_or_default(), self.arm);
         train.dt = config.dt;
-        train.rule = config.rule.clone();
+        train.rule = config.rule.for_agents(self.agents);
         train.dims = config.dims;
         train.hyper = config.hyper;
         train.hyper.seed = self.seed;
@@ -65,6 +73,10 @@ impl FoldSpec {
         train.mirror = config.mirror;
         train.prior = config.prior;
         train.validate_on_sequences = config.validate_on_sequences;
+        train.dynamics = self.agents;
+        // Vehicles are in every drive, so a fold without them is a mistake worth an error;
+        // pedestrians are rare enough in driving data that some folds' sequences hold none.
+        train.empty_ships_prior = self.agents != Dynamics::Unicycle;
         train
     }
 }
@@ -107,6 +119,7 @@ pub fn train_folds(
         let key = fold_key(&train);
         let template = FoldReport {
             arm: spec.arm,
+            agents: spec.agents,
             sequence: train.exclude.join("+"),
             seed: spec.seed,
             train_instances: 0,
@@ -190,7 +203,7 @@ mod tests {
             mirror: true,
             prior: dynotraj_train::PriorChoice::Tuned,
             dt: 0.05,
-            rule: EligibilityRule::default(),
+            rule: EligibilityRule::default().for_agents(Dynamics::Unicycle),
             out: None,
             cache: None,
             jobs,
@@ -229,6 +242,45 @@ mod tests {
         assert_ne!(seed(1), seed(2), "the seed changes the weights");
     }
 
+    /// With pedestrians in the rule, each fold also trains a pedestrian model of its own; with no
+    /// pedestrian in its training sequences it ships the prior (no error), under another name
+    /// and cache key than the vehicles' model of the same fold.
+    #[test]
+    fn pedestrian_folds_without_pedestrians_ship_the_prior() {
+        let sequences: Vec<SequenceTracks> = ["a", "b", "c"].iter().zip(1..).map(|(id, s)| sequence(id, s)).collect();
+        let mut both = config(1);
+        both.rule = EligibilityRule::default();
+        both.folds = vec![vec!["a".into()]];
+        let specs = super::super::fold_specs(&both, &[1]);
+        let agents: Vec<Dynamics> = specs.iter().map(|s| s.agents).collect();
+        assert_eq!(agents, vec![Dynamics::Unicycle, Dynamics::SingleIntegrator]);
+        assert_eq!(specs[0].name(&both), "gt-a");
+        assert_eq!(specs[1].name(&both), "gt-a-pedestrians");
+        let keys: Vec<u64> =
+            specs.iter().map(|s| super::super::cache::fold_key(&s.train_config(&sequences, &both))).collect();
+        assert_ne!(keys[0], keys[1]);
+        let vehicles_only = FoldSpec { agents: Dynamics::Unicycle, ..specs[0] };
+        assert_eq!(
+            keys[0],
+            super::super::cache::fold_key(&vehicles_only.train_config(&sequences, &config(1))),
+            "a vehicle fold's key does not depend on whether pedestrians are in the rule"
+        );
+        let trained = train_folds(&sequences, &both, &specs, &Quiet).unwrap();
+        assert!(trained[0].report.train_instances > 50);
+        let walkers = &trained[1].report;
+        assert_eq!((walkers.train_instances, walkers.best_epoch, walkers.agents), (0, 0, Dynamics::SingleIntegrator));
+        let blob = dynotraj_core::model::blob::ModelBlob::parse(&trained[1].int8_blob).unwrap();
+        assert_eq!(blob.dynamics(), Dynamics::SingleIntegrator);
+        assert_eq!(*blob.prior(), dynotraj_core::predict::PriorSettings::OFF);
+        let mut vehicles = both.clone();
+        vehicles.rule = vehicles.rule.for_agents(Dynamics::Unicycle);
+        let mut strict = FoldSpec { agents: Dynamics::Unicycle, ..specs[0] }.train_config(&sequences, &vehicles);
+        strict.sequences = &sequences[..1];
+        strict.exclude = vec!["a".into()];
+        let e = dynotraj_train::train_fold(&strict).err().unwrap();
+        assert!(format!("{e:#}").contains("no training instances of vehicles"), "{e:#}");
+    }
+
     /// A second restart can only keep a model at least as good on validation as the first,
     /// which is plain training with the fold's seed.
     #[test]
@@ -239,7 +291,7 @@ mod tests {
         one.folds = vec![vec!["a".into()]];
         let mut two = one.clone();
         two.hyper.restarts = 2;
-        let spec = FoldSpec { arm: Source::Gt, fold: 0, seed: 1 };
+        let spec = FoldSpec { arm: Source::Gt, fold: 0, seed: 1, agents: Dynamics::Unicycle };
         let plain = dynotraj_train::train_fold(&spec.train_config(&sequences, &one)).unwrap();
         let best = dynotraj_train::train_fold(&spec.train_config(&sequences, &two)).unwrap();
         assert_eq!(plain.report.kept_seed, 1);

@@ -24,7 +24,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use dynotraj_core::model::Dims;
-use dynotraj_core::predict::{Baseline, MotionPrior};
+use dynotraj_core::predict::{Baseline, Dynamics, MotionPrior};
 
 use crate::forecast_eval::{Reference, instance_keys, score_sequence, score_sequence_against};
 use crate::report::{ArmScores, Table, forecast_table};
@@ -86,6 +86,12 @@ impl ExperimentConfig {
         tests.iter().map(|t| vec![t.clone()]).collect()
     }
 
+    /// This configuration for the agents of `dynamics` alone (its rule's classes of them).
+    #[must_use]
+    pub fn for_agents(&self, dynamics: Dynamics) -> Self {
+        Self { rule: self.rule.for_agents(dynamics), ..self.clone() }
+    }
+
     /// The index of the fold holding out `id`.
     #[must_use]
     pub fn fold_of(&self, id: &str) -> Option<usize> {
@@ -98,6 +104,8 @@ impl ExperimentConfig {
 pub struct FoldReport {
     /// Arm.
     pub arm: Source,
+    /// The agent type trained (its dynamics).
+    pub agents: Dynamics,
     /// Held-out sequences, joined by `+`.
     pub sequence: String,
     /// The seed it was trained with.
@@ -122,9 +130,16 @@ pub struct FoldReport {
     pub cached: bool,
 }
 
-/// The experiment's results.
+/// The experiment's results for one agent type (the first of the rule's, normally vehicles),
+/// with those of the others beside it.
 #[derive(Debug, Clone)]
 pub struct ExperimentResult {
+    /// The agent type scored here: the rule's classes of this dynamics, each forecast by the
+    /// models trained on them.
+    pub agents: Dynamics,
+    /// The same experiment for the rule's other agent types (pedestrians), with their own
+    /// models; their folds are in this result's `folds`.
+    pub other_agents: Vec<ExperimentResult>,
     /// Table IV layout: learned f32 and int8 per arm, the baselines, the paper's rows.
     pub table: Table,
     /// The measured rows of the table (learned f32, int8, cv, ctra per arm), per sequence.
@@ -181,13 +196,16 @@ pub fn run_experiment(
     Ok(result)
 }
 
-/// Every (arm, fold, seed) of `config` for `seeds`, arm by arm, seed by seed, fold by fold.
+/// Every (agent type, arm, fold, seed) of `config` for `seeds`: agent type by agent type (in
+/// [`Dynamics::ALL`] order), arm by arm, seed by seed, fold by fold.
 #[must_use]
 pub fn fold_specs(config: &ExperimentConfig, seeds: &[u64]) -> Vec<FoldSpec> {
     let mut out = Vec::new();
-    for &arm in &config.arms {
-        for &seed in seeds {
-            out.extend((0..config.folds.len()).map(|fold| FoldSpec { arm, fold, seed }));
+    for agents in config.rule.agent_types() {
+        for &arm in &config.arms {
+            for &seed in seeds {
+                out.extend((0..config.folds.len()).map(|fold| FoldSpec { arm, fold, seed, agents }));
+            }
         }
     }
     out
@@ -226,15 +244,15 @@ pub fn check_inputs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> 
 /// The model files of `seed` (f32 and int8), by (arm, fold), each blob parsed once.
 type SeedModels = Vec<((Source, usize), [ModelFile; 2])>;
 
-/// The two model files of every fold of `seed` in `trained` (trained for `specs`).
+/// The two model files of every fold of `seed` for `agents` in `trained` (trained for `specs`).
 fn seed_models(
     config: &ExperimentConfig,
     specs: &[FoldSpec],
     trained: &[CachedFold],
-    seed: u64,
+    (seed, agents): (u64, Dynamics),
 ) -> anyhow::Result<SeedModels> {
     let mut out = SeedModels::new();
-    for (spec, t) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
+    for (spec, t) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed && s.agents == agents) {
         let name = spec.name(config);
         let files = [
             ModelFile::from_bytes(t.f32_blob.clone(), &name)?,
@@ -260,9 +278,10 @@ fn models_for<'m>(
         .with_context(|| format!("no trained model for {arm}, fold {fold}"))
 }
 
-/// Scores the models of `seed` (trained for `specs`, in `trained`) on every test sequence:
-/// Table IV for the arms' own futures, and, when the estimated arm brought the simulator's
-/// truth, the same against that truth and the deployment comparison.
+/// Scores the models of `seed` (trained for `specs`, in `trained`) on every test sequence,
+/// each agent type of the rule by its own models: Table IV for the arms' own futures, and,
+/// when the estimated arm brought the simulator's truth, the same against that truth and the
+/// deployment comparison.
 ///
 /// # Errors
 /// A missing model; a blob that does not load; I/O errors for --out.
@@ -273,11 +292,6 @@ pub fn score_seed(
     trained: &[CachedFold],
     seed: u64,
 ) -> anyhow::Result<ExperimentResult> {
-    let ids = config.test_sequences();
-    let tests: Vec<&SequenceTracks> = ids
-        .iter()
-        .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| not_loaded(id, sequences)))
-        .collect::<anyhow::Result<_>>()?;
     if let Some(dir) = &config.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (spec, fold) in specs.iter().zip(trained).filter(|(s, _)| s.seed == seed) {
@@ -289,8 +303,52 @@ pub fn score_seed(
             }
         }
     }
-    let folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
-    let models = seed_models(config, specs, trained, seed)?;
+    let mut per_agent = Vec::new();
+    for (k, agents) in config.rule.agent_types().into_iter().enumerate() {
+        let for_agents = config.for_agents(agents);
+        // An agent type after the first with no eligible run in any test sequence has no rows.
+        if k > 0 && !has_test_runs(sequences, &for_agents) {
+            log::info!("no eligible {} in the test sequences: none scored", agents.agents());
+            continue;
+        }
+        per_agent.push(score_agents(sequences, &for_agents, specs, trained, (seed, agents))?);
+    }
+    anyhow::ensure!(!per_agent.is_empty(), "--classes: no class to forecast");
+    let mut result = per_agent.remove(0);
+    result.folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
+    result.other_agents = per_agent;
+    Ok(result)
+}
+
+/// Whether any test sequence of `config` holds an eligible run under its rule, in any arm.
+fn has_test_runs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> bool {
+    let tests = config.test_sequences();
+    sequences
+        .iter()
+        .filter(|s| tests.contains(&s.id))
+        .any(|s| config.arms.iter().any(|&a| !eligible_runs(s.tracks_for(a), &config.rule).is_empty()))
+}
+
+/// [`score_seed`] for the agent type of `config`'s rule (one), by the models trained on it.
+fn score_agents(
+    sequences: &[SequenceTracks],
+    config: &ExperimentConfig,
+    specs: &[FoldSpec],
+    trained: &[CachedFold],
+    (seed, agents): (u64, Dynamics),
+) -> anyhow::Result<ExperimentResult> {
+    let ids = config.test_sequences();
+    let tests: Vec<&SequenceTracks> = ids
+        .iter()
+        .map(|id| sequences.iter().find(|s| &s.id == id).with_context(|| not_loaded(id, sequences)))
+        .collect::<anyhow::Result<_>>()?;
+    let folds = specs
+        .iter()
+        .zip(trained)
+        .filter(|(s, _)| s.seed == seed && s.agents == agents)
+        .map(|(_, f)| f.report.clone())
+        .collect();
+    let models = seed_models(config, specs, trained, (seed, agents))?;
     // The common reference: the simulator's truth of each test sequence, and the instances
     // that every arm has; only when every test sequence has a truth (none from real images).
     let truths: Option<Vec<Scene>> =
@@ -409,5 +467,15 @@ pub fn score_seed(
     let names: Vec<&str> = config.arms.iter().map(Source::name).collect();
     let table = forecast_table(&ids, &arms, &paper::reference_rows(&names, &ids));
     let common = truths.is_some().then(|| (forecast_table(&ids, &common_arms, &[]), common_arms));
-    Ok(ExperimentResult { table, arms, common, deployment, folds, seconds: 0.0, loading_seconds: 0.0 })
+    Ok(ExperimentResult {
+        agents,
+        other_agents: Vec::new(),
+        table,
+        arms,
+        common,
+        deployment,
+        folds,
+        seconds: 0.0,
+        loading_seconds: 0.0,
+    })
 }

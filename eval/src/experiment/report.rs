@@ -54,6 +54,7 @@ pub fn folds_table(folds: &[FoldReport]) -> Table {
     use ColumnKind::{Int, Num, Text};
     let columns = [
         ("arm", "arm", Text),
+        ("agents", "agents", Text),
         ("held-out sequences", "held_out_sequences", Text),
         ("seed", "seed", Int),
         ("training instances", "training_instances", Int),
@@ -73,6 +74,7 @@ pub fn folds_table(folds: &[FoldReport]) -> Table {
     for f in folds {
         d.push(vec![
             Cell::text(f.arm.to_string()),
+            Cell::text(f.agents.agents()),
             Cell::text(f.sequence.as_str()),
             Cell::int(f.seed),
             Cell::int(f.train_instances),
@@ -165,6 +167,7 @@ mod tests {
         table.push(["ADE", "1.25"]);
         let fold = FoldReport {
             arm: Source::Estimated,
+            agents: dynotraj_core::predict::Dynamics::Unicycle,
             sequence: "0003".into(),
             seed: 1,
             train_instances: 9,
@@ -199,7 +202,7 @@ mod tests {
             md.contains("| ADE    | 1.25 |") && md.contains("scored against own future") && md.contains("a finding"),
             "{md}"
         );
-        assert!(md.contains("| estimated | 0003"), "{md}");
+        assert!(md.contains("| estimated | vehicles | 0003"), "{md}");
         assert!(md.contains("![ACE](figures/fig5.png)") && md.contains("(figures/fig5.svg)"), "{md}");
         assert!(md.contains("1 of 1 folds were read from the fold cache; training them took 3 s"), "{md}");
         assert_eq!(std::fs::read_to_string(dir.path().join("table_iv.csv")).unwrap(), "metric,avg\nADE,1.25\n");

@@ -7,6 +7,7 @@ use super::findings::{Scoring, findings};
 use super::report::{Report, Section};
 use crate::report::estimator_tables::table_iii_of;
 use crate::report::{Table, instances_table};
+use dynotraj_core::predict::Dynamics;
 use dynotraj_sources::estimation::EstimateInput;
 use dynotraj_sources::estimation::{Kind, RunScores};
 use dynotraj_sources::sequence::SequenceTracks;
@@ -83,6 +84,7 @@ pub fn experiment_report(
             });
         }
     }
+    let first_table_iv = sections.len();
     sections.push(Section {
         stem: "table_iv".into(),
         title: "Table IV: forecasts, leave one sequence out".into(),
@@ -108,6 +110,12 @@ pub fn experiment_report(
     if let Some((table, _)) = &result.deployment {
         sections.push(deployment_section(table.clone()));
     }
+    for s in &mut sections[first_table_iv..] {
+        s.caption.push_str(&agents_caption(result.agents, rule));
+    }
+    for other in &result.other_agents {
+        sections.extend(other_agent_sections(other, rule));
+    }
     let mut notes = vec![format!(
         "Stages: loading and estimating the sequences {:.0} s (rendering and tracking them, or reading the \
             estimate cache), training and scoring {:.0} s, on {} job(s).",
@@ -132,6 +140,47 @@ pub fn experiment_report(
         notes,
         figures: Vec::new(),
     }
+}
+
+/// Which classes a table of `agents` scores, under `rule`, for its caption.
+fn agents_caption(agents: Dynamics, rule: &EligibilityRule) -> String {
+    let classes: Vec<&str> = rule.for_agents(agents).classes.iter().map(|c| c.kitti_name()).collect();
+    format!(
+        " Only {} ({} dynamics), each fold by a model trained on them alone; a fold whose training sequences hold \
+            none ships the prior at its settings for no data (cv-fit).",
+        classes.join(", "),
+        agents.name()
+    )
+}
+
+/// Table IV of another agent type (pedestrians), against its own future, the common truth and
+/// in deployment, with stems and titles that name it.
+fn other_agent_sections(result: &ExperimentResult, rule: &EligibilityRule) -> Vec<Section> {
+    let name = result.agents.agents();
+    let mut out = vec![Section {
+        stem: format!("table_iv_{name}"),
+        title: format!("Table IV, {name}: forecasts, leave one sequence out"),
+        caption: "As Table IV above.".into(),
+        table: result.table.clone(),
+    }];
+    if let Some((table, _)) = &result.common {
+        out.push(Section {
+            stem: format!("table_iv_truth_{name}"),
+            title: format!("Table IV, {name}, against the simulator's truth"),
+            caption: "As above, against the simulator's truth.".into(),
+            table: table.clone(),
+        });
+    }
+    if let Some((table, _)) = &result.deployment {
+        let mut d = deployment_section(table.clone());
+        d.stem = format!("deployment_{name}");
+        d.title = format!("Deployment, {name}");
+        out.push(d);
+    }
+    for s in &mut out {
+        s.caption.push_str(&agents_caption(result.agents, rule));
+    }
+    out
 }
 
 /// The deployment comparison as a report section.

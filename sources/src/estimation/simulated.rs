@@ -178,7 +178,7 @@ impl EvalOptions {
         let defaults = EstimatorParams::kitti(Intrinsics::KITTI_0926, dt);
         Self {
             dt,
-            classes: ObjectClass::IN_SCENE.to_vec(),
+            classes: ObjectClass::FORECAST.to_vec(),
             min_step_m: 0.1,
             seed: 1,
             pixel_sigma: 0.5,

@@ -13,6 +13,7 @@
 
 use dynotraj_core::BevState;
 use dynotraj_core::limits::{HORIZON, MIN_ELIGIBLE_RUN, MIN_HISTORY};
+use dynotraj_core::predict::Dynamics;
 use dynotraj_core::wire::ObjectClass;
 
 use super::ObjectTrack;
@@ -42,10 +43,26 @@ pub struct EligibilityRule {
 }
 
 impl Default for EligibilityRule {
-    /// The paper's 32 frames, the documented moving rule, and the classes the unicycle models
-    /// (vehicles and cyclists; the paper's sequence 0000 objects are a van and a cyclist).
+    /// The paper's 32 frames, the documented moving rule, and every forecast class
+    /// ([`ObjectClass::FORECAST`]: vehicles, cyclists and pedestrians).
     fn default() -> Self {
         Self { min_run: MIN_ELIGIBLE_RUN, moving: MovingRule::default(), classes: ObjectClass::FORECAST.to_vec() }
+    }
+}
+
+impl EligibilityRule {
+    /// This rule for the agents of `dynamics` only: its classes that `dynamics` forecasts
+    /// ([`Dynamics::of_class`]). A model is trained and scored on one agent type.
+    #[must_use]
+    pub fn for_agents(&self, dynamics: Dynamics) -> Self {
+        let classes = self.classes.iter().copied().filter(|&c| Dynamics::of_class(c) == dynamics).collect();
+        Self { classes, ..self.clone() }
+    }
+
+    /// The agent types among this rule's classes, in [`Dynamics::ALL`] order.
+    #[must_use]
+    pub fn agent_types(&self) -> Vec<Dynamics> {
+        Dynamics::ALL.into_iter().filter(|&d| self.classes.iter().any(|&c| Dynamics::of_class(c) == d)).collect()
     }
 }
 
@@ -123,5 +140,25 @@ mod tests {
         assert_eq!(runs[0].instances(), 1..10);
         assert_eq!(runs[1].instances().len(), 1);
         assert_eq!(instance_frames(5).len(), 0);
+    }
+
+    #[test]
+    fn a_rule_splits_into_its_agent_types() {
+        let all = EligibilityRule::default();
+        assert_eq!(all.agent_types(), vec![Dynamics::Unicycle, Dynamics::SingleIntegrator]);
+        let walkers = all.for_agents(Dynamics::SingleIntegrator);
+        assert_eq!(walkers.classes, vec![ObjectClass::Pedestrian]);
+        assert_eq!(walkers.agent_types(), vec![Dynamics::SingleIntegrator]);
+        let drivers = all.for_agents(Dynamics::Unicycle);
+        assert!(!drivers.classes.contains(&ObjectClass::Pedestrian) && drivers.classes.contains(&ObjectClass::Cyclist));
+        let mut walker = track(5, (0..40).collect(), 0.15);
+        walker.class = ObjectClass::Pedestrian;
+        let car = track(6, (0..40).collect(), 1.0);
+        let runs = |rule: &EligibilityRule| -> Vec<i32> {
+            eligible_runs(&[walker.clone(), car.clone()], rule).iter().map(|r| r.track_id).collect()
+        };
+        assert_eq!(runs(&all), vec![5, 6]);
+        assert_eq!(runs(&walkers), vec![5]);
+        assert_eq!(runs(&drivers), vec![6]);
     }
 }

@@ -1,4 +1,6 @@
-//! Object classes, with the KITTI type names they come from.
+//! Object classes, with the KITTI type names they come from: what an object is, on the wire
+//! (one byte) and in every file, and so which agent type forecasts it
+//! ([`crate::predict::Dynamics::of_class`]).
 
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
@@ -44,13 +46,10 @@ impl ObjectClass {
         Self::Misc,
     ];
 
-    /// The classes forecast by default: the ones the unicycle models, vehicles and cyclists
-    /// (the paper's sequence 0000 objects are a van and a cyclist).
-    pub const FORECAST: [Self; 5] = [Self::Car, Self::Van, Self::Truck, Self::Tram, Self::Cyclist];
-
-    /// The classes the simulators place in a scene by default: the forecast ones and
-    /// pedestrians, who are in the scene even where nothing forecasts them.
-    pub const IN_SCENE: [Self; 6] = [Self::Car, Self::Van, Self::Truck, Self::Tram, Self::Cyclist, Self::Pedestrian];
+    /// The classes forecast by default: vehicles and cyclists (the unicycle's agents; the
+    /// paper's sequence 0000 objects are a van and a cyclist) and pedestrians (the single
+    /// integrator's). Sitting persons and `Misc` do not move as agents do.
+    pub const FORECAST: [Self; 6] = [Self::Car, Self::Van, Self::Truck, Self::Tram, Self::Cyclist, Self::Pedestrian];
 
     /// Every KITTI object type ([`Self::ALL`] without [`Self::Background`]).
     pub const KITTI: [Self; 8] = [
@@ -92,6 +91,12 @@ impl ObjectClass {
         }
     }
 
+    /// True for people: pedestrians and sitting persons, who step sideways and turn on the spot.
+    #[must_use]
+    pub const fn is_person(&self) -> bool {
+        matches!(self, Self::Pedestrian | Self::PersonSitting)
+    }
+
     /// True for motor vehicles and trams: car, van, truck, tram. Cyclists and pedestrians are
     /// vulnerable road users and are kept apart from vehicles when selecting and scoring.
     #[must_use]
@@ -115,7 +120,6 @@ mod tests {
         assert_eq!(ObjectClass::from_kitti_name("Person_sitting"), Some(ObjectClass::PersonSitting));
         assert_eq!(ObjectClass::from_kitti_name("Person"), Some(ObjectClass::PersonSitting));
         assert_eq!(&ObjectClass::ALL[1..], &ObjectClass::KITTI[..]);
-        assert_eq!(&ObjectClass::IN_SCENE[..5], &ObjectClass::FORECAST[..]);
         let vehicles = ObjectClass::ALL.into_iter().filter(ObjectClass::is_vehicle).count();
         assert_eq!(vehicles, 4);
         assert!(!ObjectClass::Cyclist.is_vehicle());
