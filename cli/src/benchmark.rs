@@ -73,7 +73,7 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
         ids.len(),
         args.folds
     );
-    let mut config = args.run.config(&args.data, &args.arms, folds)?;
+    let mut config = args.run.config(&args.data, &args.arms, folds)?.with_present_agents(&sequences);
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);
     if let Some(shard) = args.shard {

@@ -81,7 +81,10 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     // A bad --object fails before the folds are trained, not after.
     subjects(&args.objects, &sequences, &args.data.rule()?)?;
-    let mut config = args.run.config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?;
+    let mut config = args
+        .run
+        .config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?
+        .with_present_agents(&sequences);
     // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
     config.stop = Some(crate::interrupt::stop_flag()?);
     let loading_seconds = start.elapsed().as_secs_f64();

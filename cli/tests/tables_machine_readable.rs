@@ -217,7 +217,9 @@ fn the_dataset_eval_bench_and_estimate_tables_read_as_typed_data() {
     let t = check_both("dataset", &with(&dataset, "csv"), &with(&dataset, "json"));
     let kinds: BTreeSet<_> = t.cells["row_kind"].iter().flatten().cloned().collect();
     assert_eq!(kinds, BTreeSet::from(["data".to_string(), "sum".to_string()]), "Table I's rows are data or sums");
-    assert_eq!(t.cells["row_kind"].len(), 6, "two sources x (two sequences + sum)");
+    assert_eq!(t.cells["row_kind"].len(), 12, "(all agents, pedestrians) x two sources x (two sequences + sum)");
+    let agents: BTreeSet<_> = t.cells["agents"].iter().flatten().cloned().collect();
+    assert_eq!(agents, BTreeSet::from(["all".to_string(), "pedestrians".to_string()]));
 
     let eval = ["eval", "--kitti", kitti, "--tests", "0000,0001", "--source", "gt,estimated"];
     let eval = [&eval[..], &["--predictor", "cv,ctra"]].concat();

@@ -3,6 +3,7 @@
 use dynotraj_core::estimate::PoseEstimate;
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{MAX_HISTORY, MAX_OBJECTS, PRIOR_STATES};
+use dynotraj_core::wire::ObjectClass;
 
 /// States kept whole per object: the history the network reads plus the current frame.
 pub const HISTORY_LEN: usize = MAX_HISTORY + 1;
@@ -20,6 +21,8 @@ const _: () = assert!(OLDER_LEN <= u8::MAX as usize);
 pub struct History {
     /// The object.
     pub object_id: u16,
+    /// What it is: which agent type's model forecasts it.
+    pub class: ObjectClass,
     /// The estimator's segment of the object frame: a re-orientation restarts the history,
     /// since headings before and after do not belong to one frame.
     segment: u16,
@@ -38,6 +41,7 @@ pub struct History {
 impl History {
     const EMPTY: Self = Self {
         object_id: 0,
+        class: ObjectClass::Background,
         segment: 0,
         last_frame: 0,
         len: 0,
@@ -153,7 +157,7 @@ impl Histories {
             }
             let Some(slot) = self.slots.get_mut(i) else { break };
             if !continues {
-                *slot = History { object_id: o.object_id, segment: o.segment, ..History::EMPTY };
+                *slot = History { object_id: o.object_id, class: o.class, segment: o.segment, ..History::EMPTY };
             }
             slot.last_frame = estimate.frame;
             slot.push(o.bev);

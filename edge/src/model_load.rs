@@ -77,12 +77,16 @@ impl<'b> ModelLoader<'b> {
         }
     }
 
-    /// The blob, if complete and checked; gives up the buffer for as long as it was lent.
+    /// The blob, if complete and checked, and the rest of the buffer after it (room for the
+    /// model of another agent type); gives up the buffer for as long as it was lent.
     #[must_use]
-    pub fn finish(self) -> Option<&'b [u8]> {
+    pub fn finish(self) -> Option<(&'b [u8], &'b mut [u8])> {
         let (len, crc) = self.blob?;
-        let whole: &'b [u8] = self.buf;
-        let blob = whole.get(..len as usize)?;
-        (self.received == len && crc32(blob) == crc).then_some(blob)
+        if self.received != len || len as usize > self.buf.len() {
+            return None;
+        }
+        let (blob, rest) = self.buf.split_at_mut(len as usize);
+        let blob: &'b [u8] = blob;
+        (crc32(blob) == crc).then_some((blob, rest))
     }
 }

@@ -8,13 +8,16 @@ use dynotraj_core::limits::{HORIZON, MAX_OBJECTS, PAPER_FRAME_RATE_HZ, PRIOR_STA
 use dynotraj_core::model::blob::ModelBlob;
 use dynotraj_core::model::kernel::Kernel;
 use dynotraj_core::model::{Scratch, forecast};
-use dynotraj_core::predict::{Carry, Context, Forecast, ForecastMemory, constant_velocity};
+use dynotraj_core::predict::{Carry, Context, Dynamics, Forecast, ForecastMemory, constant_velocity};
 use dynotraj_core::wire::{CameraInfo, EstimateKind, FrameStats, FrameTracks, Message, Prediction};
 use dynotraj_dsp::DspDot;
 use heapless::Vec;
 
 use crate::history::Histories;
 use crate::transport::Clock;
+
+/// Agent types, each with a model slot: [`Dynamics::ALL`].
+const AGENT_TYPES: usize = Dynamics::ALL.len();
 
 /// Seed of the estimator's RANSAC sampling: fixed, so every build of the edge computes the
 /// same bits from the same stream.
@@ -83,8 +86,10 @@ pub struct Pipeline<'m, const W: usize = EDGE_WINDOW> {
     dt: f32,
     estimate: PoseEstimate,
     histories: Histories,
-    /// The learned model, if any: only this small view changes with the model.
-    model: Option<Kernel<'m, DspDot>>,
+    /// The learned model of each agent type ([`Dynamics::index`]), if any: only these small
+    /// views change with the models. An object whose agent type has none is forecast by
+    /// constant velocity.
+    models: [Option<Kernel<'m, DspDot>>; AGENT_TYPES],
     /// The learned model's working memory, built with the edge (a predictor built when a model
     /// arrives would put its 8 KiB of scratch on the stack for a moment).
     scratch: Scratch,
@@ -113,7 +118,7 @@ impl<'m, const W: usize> Pipeline<'m, W> {
             dt,
             estimate: PoseEstimate::new(),
             histories: Histories::new(),
-            model: None,
+            models: [const { None }; AGENT_TYPES],
             scratch: Scratch::ZERO,
             forecasts: ForecastMemory::new(),
             stats: EdgeStats::ZERO,
@@ -133,7 +138,7 @@ impl<'m, const W: usize> Pipeline<'m, W> {
             dt,
             estimate,
             histories,
-            model,
+            models,
             scratch: _,
             forecasts,
             stats,
@@ -146,21 +151,31 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         estimate.reset(0, 0);
         *histories = Histories::new();
         forecasts.clear();
-        *model = None;
+        *models = [const { None }; AGENT_TYPES];
         *stats = EdgeStats::ZERO;
         *last_frame = None;
         *pending_compute = 0;
     }
 
-    /// Forecasts with the learned model in `blob` from now on.
+    /// Forecasts the agents of `blob`'s dynamics with its learned model from now on (the
+    /// model of the other agent type stays).
     pub fn set_model(&mut self, blob: ModelBlob<'m>) {
-        self.model = Some(Kernel::with_dot(blob));
+        let dynamics = blob.dynamics();
+        if let Some(slot) = self.models.get_mut(dynamics.index()) {
+            *slot = Some(Kernel::with_dot(blob));
+        }
     }
 
-    /// Whether a learned model is in use.
+    /// Whether a learned model is in use, for any agent type.
     #[must_use]
-    pub const fn has_model(&self) -> bool {
-        self.model.is_some()
+    pub fn has_model(&self) -> bool {
+        self.models.iter().any(Option::is_some)
+    }
+
+    /// Whether a learned model forecasts the agents of `dynamics`.
+    #[must_use]
+    pub fn has_model_for(&self, dynamics: Dynamics) -> bool {
+        self.models.get(dynamics.index()).is_some_and(Option::is_some)
     }
 
     /// The edge's counters.
@@ -345,9 +360,10 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         // Seen from the camera the objects were placed against: the range the model reads.
         let observer = Some(bev_point(&self.estimate.camera.translation.vector.into()));
         let context = Context { neighbours: &neighbours, observer };
-        let learned = self.model.as_ref().map(|k| forecast(k, &mut self.scratch, long, &context, self.dt, &mut points));
+        let model = self.models.get(Dynamics::of_class(own.class).index()).and_then(Option::as_ref);
+        let learned = model.map(|k| forecast(k, &mut self.scratch, long, &context, self.dt, &mut points));
         // The model's carry for its own forecasts; a constant-velocity fallback carries none.
-        let carry = match (&self.model, &learned) {
+        let carry = match (model, &learned) {
             (Some(k), Some(Ok(()))) => k.blob().prior().carry(),
             _ => Carry::NONE,
         };

@@ -454,8 +454,12 @@ fn on_chunk<'m, const W: usize>(
         ChunkOutcome::Complete => {
             load.chunks_stored += 1;
             let (l, key) = loader.take()?;
-            let bytes = l.finish()?;
+            let (bytes, rest) = l.finish()?;
             *model = accept_signed(bytes, &key, load, edge);
+            // What the blob left of the buffer takes the model of another agent type.
+            if matches!(model, ModelStatus::Loaded { .. }) {
+                *loader = Some((ModelLoader::new(rest), key));
+            }
             Some(model.notice())
         }
     }

@@ -17,13 +17,14 @@ fn model_loader_accepts_only_a_whole_blob_with_its_crc() {
     let outcomes: Vec<_> = chunks.iter().map(|c| l.accept(c)).collect();
     assert_eq!(outcomes.last(), Some(&ChunkOutcome::Complete));
     assert!(outcomes[..outcomes.len() - 1].iter().all(|o| *o == ChunkOutcome::Stored));
-    assert_eq!(l.finish(), Some(&blob[..]));
+    let (loaded, rest) = l.finish().unwrap();
+    assert_eq!((loaded, rest.len()), (&blob[..], 24), "the blob, and the rest of the buffer for another");
 
     // A lost chunk: the rest is rejected and the load never completes.
     let mut l = ModelLoader::new(&mut buf);
     assert_eq!(l.accept(&chunks[0]), ChunkOutcome::Stored);
     assert!(chunks[2..].iter().all(|c| l.accept(c) == ChunkOutcome::Rejected(ModelRefusal::OutOfOrder)));
-    assert_eq!(l.finish(), None);
+    assert!(l.finish().is_none());
 
     // A corrupted byte (with the CRC of the true blob): every byte arrives, the CRC refuses it.
     let mut l = ModelLoader::new(&mut buf);
@@ -31,7 +32,7 @@ fn model_loader_accepts_only_a_whole_blob_with_its_crc() {
     bad[3].data[5] ^= 1;
     let last = bad.iter().map(|c| l.accept(c)).last();
     assert_eq!(last, Some(ChunkOutcome::CrcMismatch));
-    assert_eq!(l.finish(), None);
+    assert!(l.finish().is_none());
     assert_ne!(crc32(&blob), 0);
 
     // Too big for the buffer.

@@ -17,12 +17,12 @@
 
 #if defined(DYNOTRAJ_POINTER_32)
 // Bytes of a `DynotrajSession` on targets with 32-bit pointers (Cortex-M).
-#define DYNOTRAJ_SESSION_SIZE 106872
+#define DYNOTRAJ_SESSION_SIZE 107248
 #endif
 
 #if defined(DYNOTRAJ_POINTER_64)
 // Bytes of a `DynotrajSession` on targets with 64-bit pointers (the host).
-#define DYNOTRAJ_SESSION_SIZE 107768
+#define DYNOTRAJ_SESSION_SIZE 108488
 #endif
 
 // Alignment a `DynotrajSession`'s memory must have, bytes.

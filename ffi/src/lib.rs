@@ -25,10 +25,10 @@ use dynotraj_edge::{Clock, RunError, Session, Transport};
 
 /// Bytes of a `DynotrajSession` on targets with 32-bit pointers (Cortex-M).
 #[cfg(target_pointer_width = "32")]
-pub const DYNOTRAJ_SESSION_SIZE: usize = 106_872;
+pub const DYNOTRAJ_SESSION_SIZE: usize = 107_248;
 /// Bytes of a `DynotrajSession` on targets with 64-bit pointers (the host).
 #[cfg(target_pointer_width = "64")]
-pub const DYNOTRAJ_SESSION_SIZE: usize = 107_768;
+pub const DYNOTRAJ_SESSION_SIZE: usize = 108_488;
 /// Alignment a `DynotrajSession`'s memory must have, bytes.
 pub const DYNOTRAJ_SESSION_ALIGN: usize = 8;
 

@@ -17,7 +17,17 @@ use dynotraj_sources::estimation::input::KITTI_IMAGE_SIZE;
 /// `frames` frames of the 16-car scene at the paper's 20 Hz.
 #[must_use]
 pub fn scene_tracks(frames: usize) -> Tracks {
-    let (cams, boxes) = scene(frames);
+    tracks_of(scene(frames))
+}
+
+/// `frames` frames of the same scene with every other car a pedestrian (8 of each).
+#[must_use]
+pub fn mixed_scene_tracks(frames: usize) -> Tracks {
+    tracks_of(dynotraj_sim::cost_inputs::mixed_agents_scene(frames))
+}
+
+/// The track simulator's stream of a scene at the paper's 20 Hz.
+fn tracks_of((cams, boxes): (Vec<nalgebra::Isometry3<f64>>, Vec<dynotraj_sim::track_sim::LabelBox>)) -> Tracks {
     let i = Intrinsics::KITTI_0926;
     let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
     let sim = simulate(&cams, &boxes, &SimSpec::kitti(i, KITTI_IMAGE_SIZE, dt, 3));
@@ -96,8 +106,8 @@ impl Transport for MemLink<'_> {}
 
 /// What the host build of the edge answers to `stream`, run in process (the reference).
 #[must_use]
-pub fn reference_replies(stream: &[u8], model: Option<&[u8]>) -> Vec<Message> {
-    run_in_process(stream, model).replies
+pub fn reference_replies(stream: &[u8], models: &[&[u8]]) -> Vec<Message> {
+    run_in_process(stream, models).replies
 }
 
 /// An in-process session's answers and where its model load ended.
@@ -111,14 +121,19 @@ pub struct InProcess {
     pub load: dynotraj_edge::LoadStats,
 }
 
-/// Runs the host build of the edge in process on `stream`: with `model` linked in, or else
-/// loading one from the stream (signed by the provisioned key).
+/// Runs the host build of the edge in process on `stream`: with `models` linked in (one per
+/// agent type), or else (none) loading them from the stream (signed by the provisioned key).
 #[must_use]
-pub fn run_in_process(stream: &[u8], model: Option<&[u8]>) -> InProcess {
+pub fn run_in_process(stream: &[u8], models: &[&[u8]]) -> InProcess {
     let mut buffer = vec![0u8; 512 * 1024];
-    let mut session: Box<Session<'_>> = Box::new(match model {
-        Some(blob) => Session::with_model(blob).unwrap(),
-        None => Session::with_model_buffer(&mut buffer, dynotraj_edge::provisioned::MODEL_KEY),
+    let mut session: Box<Session<'_>> = Box::new(if models.is_empty() {
+        Session::with_model_buffer(&mut buffer, dynotraj_edge::provisioned::MODEL_KEY)
+    } else {
+        let mut s = Session::new();
+        for blob in models {
+            s.set_model(blob).unwrap();
+        }
+        s
     });
     let mut link = MemLink { input: stream, chunk: 256, output: Vec::new() };
     session.run(&mut link, &mut NoClock).unwrap();
@@ -226,10 +241,16 @@ fn checked_elf(path: PathBuf) -> PathBuf {
 }
 
 /// The int8 model blob of the default widths that `scripts/build-firmware.sh` links into the
-/// `dynotraj-firmware-model` image.
+/// `dynotraj-firmware-model` image for vehicles.
 #[must_use]
 pub fn default_model_blob() -> PathBuf {
     crate::manifest_dir().join("../sim/data/models/default-dims.int8")
+}
+
+/// Its twin for pedestrians (single integrator), linked into the same image.
+#[must_use]
+pub fn default_pedestrian_model_blob() -> PathBuf {
+    crate::manifest_dir().join("../sim/data/models/default-dims-pedestrian.int8")
 }
 
 /// A free loopback port (free when this returns; QEMU binds it right after).

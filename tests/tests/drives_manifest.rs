@@ -154,8 +154,8 @@ fn a_bag_in_a_manifest_is_imported_and_estimated_from_its_images() {
     let cache = d.join("cache");
     let args = ["dataset", "--drives", s(&manifest), "--source", "gt,estimated", "--rate", "10", "--format", "csv"];
     let table = run(&[&args[..], &["--estimate-cache", s(&cache)]].concat());
-    assert!(table.lines().any(|l| l == "data,gt,run7,0,0"), "a bag has no labels:\n{table}");
-    assert!(table.lines().any(|l| l.starts_with("data,estimated,run7,")), "{table}");
+    assert!(table.lines().any(|l| l == "data,gt,all,run7,0,0"), "a bag has no labels:\n{table}");
+    assert!(table.lines().any(|l| l.starts_with("data,estimated,all,run7,")), "{table}");
     // The bag's estimate is the layout's: the same tracks from the same images. (The fixture's 24
     // frames are too few for a test instance, so Table I cannot tell; the cached tracks can.)
     let estimate = |id: &str| -> (Vec<u8>, EstimatedTracks) {

@@ -22,7 +22,7 @@ fn with_carry(blob: &[u8], percent: u8) -> Vec<u8> {
 
 fn predictions(model: &[u8]) -> Vec<Prediction> {
     let tracks = scene_tracks(20);
-    reference_replies(&encode_all(&host_messages(&tracks, Some(model))), Some(model))
+    reference_replies(&encode_all(&host_messages(&tracks, Some(model))), &[model])
         .into_iter()
         .filter_map(|m| if let Message::Prediction(p) = m { Some(p) } else { None })
         .collect()

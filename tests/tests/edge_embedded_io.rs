@@ -10,7 +10,7 @@ use dynotraj_tests::edge_fixture::{decode_all, encode_all, host_messages, output
 fn embedded_io_halves_and_whole_drivers_plug_in_and_answer_as_the_reference_link() {
     let tracks = scene_tracks(6);
     let stream = encode_all(&host_messages(&tracks, None));
-    let reference = outputs(&reference_replies(&stream, None));
+    let reference = outputs(&reference_replies(&stream, &[]));
     assert!(reference.len() > 16, "the fixture is answered ({} replies)", reference.len());
 
     let mut halves_out = Vec::new();

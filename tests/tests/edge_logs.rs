@@ -40,7 +40,7 @@ fn logged(stream: &[u8]) -> Vec<(Level, String)> {
     let _ = log::set_logger(&CAPTURE);
     log::set_max_level(LevelFilter::Trace);
     RECORDS.with(|r| r.borrow_mut().clear());
-    let _ = run_in_process(stream, None);
+    let _ = run_in_process(stream, &[]);
     RECORDS.with(|r| r.borrow().iter().filter(|(l, _)| *l <= Level::Info).cloned().collect())
 }
 

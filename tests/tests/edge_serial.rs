@@ -43,7 +43,7 @@ impl Transport for Pty {}
 #[test]
 fn serial_pty_edge_matches_the_in_process_edge() {
     let tracks = scene_tracks(6);
-    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), None);
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), &[]);
 
     let (mut master, slave) = TTYPort::pair().unwrap();
     master.set_timeout(Duration::from_millis(100)).unwrap();

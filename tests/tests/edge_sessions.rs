@@ -39,7 +39,7 @@ fn notices_until_closed(mut client: TcpStream) -> Vec<Notice> {
 #[test]
 fn the_edge_serves_sessions_in_a_row_survives_an_idle_client_and_stops_on_sigterm() {
     let tracks = scene_tracks(6);
-    let reference = outputs(&reference_replies(&encode_all(&host_messages(&tracks, None)), None));
+    let reference = outputs(&reference_replies(&encode_all(&host_messages(&tracks, None)), &[]));
     let (mut edge, lines, addr) = spawn_listening_edge(&["--listen", "tcp://127.0.0.1:0", "--idle-timeout", "1.5"]);
 
     let one = lockstep(&tracks, &addr);

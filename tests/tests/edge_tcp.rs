@@ -20,7 +20,7 @@ use dynotraj_tests::edge_fixture::{
 /// notices the edge sent.
 fn over_tcp(sent: Option<Vec<u8>>, expected: Option<&[u8]>) -> (Vec<String>, Vec<Notice>) {
     let tracks = scene_tracks(10);
-    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), expected);
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), expected.as_slice());
     let forecasts = reference.iter().filter(|m| matches!(m, Message::Prediction(_))).count();
     assert!(forecasts >= 16 * 5, "the reference forecasts the cars ({forecasts} forecasts)");
 

@@ -14,7 +14,7 @@ fn embassy_example_under_qemu_matches_the_host_edge_byte_for_byte() {
     let elf = firmware_program("dynotraj-embassy");
     let frames = 12;
     let tracks = scene_tracks(frames);
-    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), None);
+    let reference = reference_replies(&encode_all(&host_messages(&tracks, None)), &[]);
 
     let (result, status, log) = stream_to_qemu(&elf, &tracks);
     assert!(status.success(), "embassy example exit {status}: {log}");

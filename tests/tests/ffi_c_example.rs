@@ -90,7 +90,7 @@ impl Fixture {
         let stream = encode_all(&host_messages(&scene_tracks(FRAMES), None));
         // The edge's frames decoded and encoded again: encoding is deterministic, so these are
         // the bytes it wrote.
-        let reference = encode_all(&reference_replies(&stream, None));
+        let reference = encode_all(&reference_replies(&stream, &[]));
         std::fs::write(tmp.path().join("stream.bin"), &stream).unwrap();
         Self { dir: tmp.path().to_path_buf(), reference, _tmp: tmp }
     }

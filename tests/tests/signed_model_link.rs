@@ -22,7 +22,7 @@ fn blob() -> Vec<u8> {
 /// The edge's answers to the 16-car fixture with `sent` as the model over the link.
 fn streamed(sent: Option<&[u8]>) -> InProcess {
     let tracks = scene_tracks(6);
-    run_in_process(&encode_all(&host_messages(&tracks, sent)), None)
+    run_in_process(&encode_all(&host_messages(&tracks, sent)), &[])
 }
 
 fn forecasts(r: &InProcess) -> usize {
@@ -65,7 +65,7 @@ fn a_model_signed_by_the_provisioned_key_is_loaded_and_used() {
     assert_eq!(got.model, ModelStatus::Loaded { len: blob.len() as u32 });
     assert_eq!((got.load.unsigned, got.load.bad_signatures), (0, 0));
     let tracks = scene_tracks(6);
-    let linked = run_in_process(&encode_all(&host_messages(&tracks, None)), Some(&blob));
+    let linked = run_in_process(&encode_all(&host_messages(&tracks, None)), &[&blob]);
     assert!(forecasts(&got) >= 16 * 3);
     assert_eq!(
         outputs(&got.replies),

@@ -188,11 +188,22 @@ pub fn sample_ades(net: &Network, samples: &[Sample], dt: f32) -> Result<Vec<f32
     Ok(out)
 }
 
+/// Fewest held-out runs a gain is judged on. A bootstrap over k runs has C(2k-1, k) distinct
+/// draws: 126 at five runs, 10 at three, one at one, where the interval is a point and any
+/// gain "holds". Below this, no gain is sure and the fold ships the prior (KITTI's pedestrians:
+/// a fold's validation sequences hold one to three of them).
+pub const MIN_JUDGED_RUNS: usize = 5;
+
 /// The ADE ratio of `trained` over `untrained` (per-sample ADEs of `samples`) with its
 /// bootstrap interval over whole runs; a gain is sure when the interval's upper end is below 1.
+/// `None` over fewer than [`MIN_JUDGED_RUNS`] runs.
 #[must_use]
 pub fn judged_gain(samples: &[Sample], trained: &[f32], untrained: &[f32]) -> Option<RatioInterval> {
-    ratio_interval(&by_run(samples, trained), &by_run(samples, untrained), Metric::Ade)
+    let (num, den) = (by_run(samples, trained), by_run(samples, untrained));
+    if num.len() < MIN_JUDGED_RUNS {
+        return None;
+    }
+    ratio_interval(&num, &den, Metric::Ade)
 }
 
 /// Per-sample ADEs gathered into one [`ForecastScores`] per run (`Sample::group`), in group order.
@@ -462,6 +473,12 @@ mod tests {
         let mixed: Vec<f32> = all.iter().map(|s| if s.group % 2 == 0 { 0.6 } else { 1.3 }).collect();
         let m = judged_gain(&all, &mixed, &untrained).unwrap();
         assert!(m.ratio < 1.0 && m.high >= 1.0, "{m:?}");
+        // Every run better, but too few runs to tell: not judged, so not sure.
+        let few: Vec<Sample> = all.iter().filter(|s| s.group < MIN_JUDGED_RUNS - 1).cloned().collect();
+        let ones = vec![1.0; few.len()];
+        assert!(judged_gain(&few, &vec![0.5; few.len()], &ones).is_none());
+        let enough: Vec<Sample> = all.iter().filter(|s| s.group < MIN_JUDGED_RUNS).cloned().collect();
+        assert!(judged_gain(&enough, &vec![0.5; enough.len()], &vec![1.0; enough.len()]).is_some_and(|g| g.high < 1.0));
     }
 
     #[test]

@@ -4,9 +4,9 @@
 //! Boot: paint the stack, start SysTick, check the instruction clock, enable the UART; then
 //! serve one session (the host's `LinkStats` goodbye ends it) and exit through semihosting:
 //! status 0 after a clean session, 1 after a transport or encoding failure, a panic (the
-//! `panic-semihosting` exit feature) or a HardFault. The model blob named by
-//! `DYNOTRAJ_FW_MODEL` at build time is linked into flash; without one the edge forecasts
-//! with constant velocity. Logs go to the semihosting console (QEMU's stdout/stderr): the
+//! `panic-semihosting` exit feature) or a HardFault. The model blobs named by
+//! `DYNOTRAJ_FW_MODEL` at build time (one per agent type) are linked into flash; without any the
+//! edge forecasts with constant velocity. Logs go to the semihosting console (QEMU's stdout/stderr): the
 //! edge's events through the `log` facade ([`logger`]), the closing summary and peak stack as
 //! plain lines whatever the log level (tests/tests/edge_qemu.rs reads them).
 #![no_std]
@@ -18,9 +18,6 @@ use cortex_m_rt::entry;
 use dynotraj_edge::{ModelStatus, Session};
 use dynotraj_firmware::{clock, logger, session, stack};
 use static_cell::ConstStaticCell;
-
-/// The model linked into flash (empty: none).
-static MODEL: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/model.bin"));
 
 /// The device interrupt vectors: only UART0 RX (IRQ 0) is used; IRQ 1 (UART0 TX) is not.
 #[unsafe(link_section = ".vector_table.interrupts")]
@@ -42,7 +39,7 @@ static SESSION: ConstStaticCell<Session<'static>> = ConstStaticCell::new(Session
 
 #[entry]
 fn main() -> ! {
-    let (mut cp, session) = session::boot(&SESSION, MODEL);
+    let (mut cp, session) = session::boot(&SESSION);
     let mut link = uart::Uart::new(&mut cp.NVIC);
     log::info!(
         "ready: model {}, int8 products {}, stack {} B, log level {}",

@@ -12,22 +12,20 @@ use crate::exit::{fail, fail_with, succeed};
 use crate::{clock, logger, stack};
 
 /// Boots: paints the stack, starts and checks the instruction clock, installs the logger, takes
-/// the session from `slot` and gives it `model` when one is linked in (empty: none). Returns the
-/// core peripherals (for the UART's interrupt) and the session; any failure exits with status 1.
-pub fn boot(
-    slot: &'static ConstStaticCell<Session<'static>>,
-    model: &'static [u8],
-) -> (cortex_m::Peripherals, &'static mut Session<'static>) {
+/// the session from `slot` and gives it the models linked in ([`crate::LINKED_MODELS`]). Returns
+/// the core peripherals (for the UART's interrupt) and the session; any failure exits with
+/// status 1.
+pub fn boot(slot: &'static ConstStaticCell<Session<'static>>) -> (cortex_m::Peripherals, &'static mut Session<'static>) {
     stack::paint();
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
     clock::start(&mut cp.SYST);
     logger::init();
     clock::check();
     let Some(session) = slot.try_take() else { fail("session taken twice") };
-    if !model.is_empty()
-        && let Err(e) = session.set_model(model)
-    {
-        fail_with(format_args!("linked model rejected: {e:?}"));
+    for model in crate::LINKED_MODELS.into_iter().filter(|m| !m.is_empty()) {
+        if let Err(e) = session.set_model(model) {
+            fail_with(format_args!("linked model rejected: {e:?}"));
+        }
     }
     (cp, session)
 }

@@ -72,6 +72,7 @@ pub fn run_benchmark(
 ) -> anyhow::Result<BenchmarkResult> {
     let start = Instant::now();
     check_inputs(sequences, config)?;
+    let config = &config.with_present_agents(sequences);
     anyhow::ensure!(!seeds.is_empty(), "--seeds: expected at least one seed");
     let specs = fold_specs(config, seeds);
     let trained = train_folds(sequences, config, &specs, progress)?;
@@ -201,6 +202,7 @@ pub fn train_shard(
     progress: &dyn TrainProgress,
 ) -> anyhow::Result<(usize, usize)> {
     check_inputs(sequences, config)?;
+    let config = &config.with_present_agents(sequences);
     anyhow::ensure!(
         config.cache.is_some(),
         "--shard: needs a fold cache (--out DIR, without --no-cache): it is where the shards' folds meet"

@@ -25,7 +25,7 @@ use dynotraj_train::TrainConfig;
 
 /// Version of what training computes; part of every key (6: a trained epoch is kept only when
 /// its gain over the prior holds under a run bootstrap).
-pub const CACHE_VERSION: u32 = 7;
+pub const CACHE_VERSION: u32 = 8;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]

@@ -86,6 +86,27 @@ impl ExperimentConfig {
         tests.iter().map(|t| vec![t.clone()]).collect()
     }
 
+    /// This configuration without the agent types (after the first) that no loaded sequence
+    /// holds an eligible run of in any arm: they would train folds on nothing and score nothing.
+    #[must_use]
+    pub fn with_present_agents(&self, sequences: &[SequenceTracks]) -> Self {
+        let present = |d: Dynamics| {
+            let rule = self.rule.for_agents(d);
+            sequences.iter().any(|s| self.arms.iter().any(|&a| !eligible_runs(s.tracks_for(a), &rule).is_empty()))
+        };
+        let kept: Vec<Dynamics> = self
+            .rule
+            .agent_types()
+            .into_iter()
+            .enumerate()
+            .filter(|&(k, d)| k == 0 || present(d))
+            .map(|(_, d)| d)
+            .collect();
+        let mut rule = self.rule.clone();
+        rule.classes.retain(|&c| kept.contains(&Dynamics::of_class(c)));
+        Self { rule, ..self.clone() }
+    }
+
     /// This configuration for the agents of `dynamics` alone (its rule's classes of them).
     #[must_use]
     pub fn for_agents(&self, dynamics: Dynamics) -> Self {
@@ -189,6 +210,7 @@ pub fn run_experiment(
 ) -> anyhow::Result<ExperimentResult> {
     let start = Instant::now();
     check_inputs(sequences, config)?;
+    let config = &config.with_present_agents(sequences);
     let specs = fold_specs(config, &[config.hyper.seed]);
     let trained = train_folds(sequences, config, &specs, progress)?;
     let mut result = score_seed(sequences, config, &specs, &trained, config.hyper.seed)?;

@@ -22,9 +22,6 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::pipe::Pipe;
 use static_cell::{ConstStaticCell, StaticCell};
 
-/// The model linked into flash (empty: none).
-static MODEL: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/model.bin"));
-
 /// Bytes of the receive pipe: as the main firmware's ring (src/uart.rs), room for what the line
 /// delivers while a frame is computed; when it is full the interrupt holds the sender back.
 const RX_PIPE_LEN: usize = 2048;
@@ -135,7 +132,7 @@ impl Transport for Uart {
 
 #[entry]
 fn main() -> ! {
-    let (mut cp, session) = session::boot(&SESSION, MODEL);
+    let (mut cp, session) = session::boot(&SESSION);
     uart0::enable(&mut cp.NVIC);
     log::info!("ready on embassy: stack {} B, log level {}", stack::available(), logger::level());
 

@@ -55,9 +55,11 @@ struct Args {
     /// Forecast with this int8/f32 model blob (a file on the edge's own disk, trusted as a
     /// model linked into firmware is) instead of waiting for one over the link. A model sent
     /// over the link is accepted only when signed with the key provisioned at build time
-    /// (`DYNOTRAJ_MODEL_PUBKEY`; `dynotraj sign`).
+    /// (`DYNOTRAJ_MODEL_PUBKEY`; `dynotraj sign`). Once per agent type: each blob forecasts the
+    /// objects of its dynamics (vehicles: unicycle; pedestrians: single integrator), the others
+    /// constant velocity.
     #[arg(long)]
-    model: Option<PathBuf>,
+    model: Vec<PathBuf>,
     /// End a TCP session when nothing arrived for this many seconds.
     #[arg(long, value_parser = idle_seconds, default_value = "60", value_name = "S")]
     idle_timeout: Duration,
@@ -130,7 +132,7 @@ fn model_file(path: &std::path::Path) -> Result<&'static [u8], String> {
 /// The edge's state across sessions: the model it was given, the buffer a model sent over the
 /// link is loaded into, its clock and totals.
 struct Edge {
-    model: Option<&'static [u8]>,
+    models: Vec<&'static [u8]>,
     buffer: Vec<u8>,
     clock: WallClock,
     totals: Totals,
@@ -139,9 +141,15 @@ struct Edge {
 impl Edge {
     /// Runs one session over `io` and prints its line.
     fn session<T: Transport<Error = LinkError>>(&mut self, io: &mut T, who: &str) -> Result<(), RunError<LinkError>> {
-        let mut session: Session<'_> = match self.model {
-            Some(blob) => Session::with_model(blob).unwrap_or_default(),
-            None => Session::with_model_buffer(&mut self.buffer, MODEL_KEY),
+        let mut session: Session<'_> = if self.models.is_empty() {
+            Session::with_model_buffer(&mut self.buffer, MODEL_KEY)
+        } else {
+            let mut s = Session::new();
+            for blob in &self.models {
+                // Checked when the edge started.
+                let _ = s.set_model(blob);
+            }
+            s
         };
         let result = session.run(io, &mut self.clock);
         eprintln!("{}", report::session_line(who, &session, &report::ending(&result, session.ended())));
@@ -159,7 +167,7 @@ impl Edge {
     /// Says which key a model over the link must be signed with (once the link is up: the
     /// first line stays the listening address, which callers read).
     fn key_note(&self) {
-        if self.model.is_none() {
+        if self.models.is_empty() {
             let id: String =
                 dynotraj_core::model::signed::key_id(&MODEL_KEY).iter().map(|b| format!("{b:02x}")).collect();
             let dev =
@@ -170,9 +178,20 @@ impl Edge {
 }
 
 fn serve(args: &Args) -> Result<(), String> {
-    let model = args.model.as_deref().map(model_file).transpose()?;
+    let models = args.model.iter().map(|p| model_file(p)).collect::<Result<Vec<_>, _>>()?;
+    let dynamics = |b: &[u8]| ModelBlob::parse(b).map(|m| m.dynamics()).ok();
+    for (i, a) in models.iter().enumerate() {
+        if let Some(j) = models.iter().skip(i + 1).position(|b| dynamics(b) == dynamics(a)) {
+            return Err(format!(
+                "--model {} and {} both forecast {}: give one blob per agent type",
+                args.model[i].display(),
+                args.model[i + 1 + j].display(),
+                dynamics(a).map_or("?", |d| d.agents())
+            ));
+        }
+    }
     let mut edge =
-        Edge { model, buffer: vec![0u8; MODEL_BUFFER_LEN], clock: WallClock::new(), totals: Totals::default() };
+        Edge { models, buffer: vec![0u8; MODEL_BUFFER_LEN], clock: WallClock::new(), totals: Totals::default() };
     if let Some(url) = &args.listen {
         serve_tcp(&mut edge, url, args)
     } else if let Some(path) = &args.serial {
