@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
+use dynotraj_core::predict::Dynamics;
 use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
@@ -27,6 +28,24 @@ pub const DEFAULT_DIMS: &str = "8,8,3,8";
 /// `--classes`' default: the classes forecast ([`ObjectClass::FORECAST`]; a test holds the two
 /// together).
 pub const FORECAST_CLASSES: &str = "Car,Van,Truck,Tram,Cyclist,Pedestrian";
+
+/// `--dynamics` values: an agent type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DynamicsArg {
+    /// Turn rate and acceleration: vehicles and cyclists.
+    Unicycle,
+    /// Velocity: pedestrians.
+    SingleIntegrator,
+}
+
+impl From<DynamicsArg> for Dynamics {
+    fn from(d: DynamicsArg) -> Self {
+        match d {
+            DynamicsArg::Unicycle => Self::Unicycle,
+            DynamicsArg::SingleIntegrator => Self::SingleIntegrator,
+        }
+    }
+}
 
 /// `--rate`: the frame rate of a sequence's frames.
 #[derive(Debug, Clone, Copy, Args)]

@@ -14,7 +14,7 @@ use dynotraj_core::predict::{Baseline, Context, Dynamics, Forecast, MotionPrior,
 use dynotraj_core::{BevState, Point2};
 
 use super::common::DEFAULT_DIMS;
-use super::pedestrians::DynamicsArg;
+use super::common::DynamicsArg;
 use dynotraj_core::predict::Predictor;
 use dynotraj_eval::report::{Cell, ColumnKind, Data, Format, Table};
 use dynotraj_formats::model_file::ModelFile;

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::common::DynamicsArg;
 use super::train_progress::TrainBars;
 use dynotraj_core::model::arch::Dims;
-use dynotraj_core::predict::Dynamics;
 use dynotraj_eval::experiment::report::write_report;
 use dynotraj_eval::pedestrian_benchmark::{BenchmarkOptions, SCENES, ratio_table, report, run, scene_table};
 use dynotraj_eval::report::Format;
@@ -44,24 +44,6 @@ pub struct PedestriansArgs {
     /// Report folder (REPORT.md, each table as Markdown, CSV and JSON).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-}
-
-/// `--dynamics` values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DynamicsArg {
-    /// Turn rate and acceleration.
-    Unicycle,
-    /// Velocity.
-    SingleIntegrator,
-}
-
-impl From<DynamicsArg> for Dynamics {
-    fn from(d: DynamicsArg) -> Self {
-        match d {
-            DynamicsArg::Unicycle => Self::Unicycle,
-            DynamicsArg::SingleIntegrator => Self::SingleIntegrator,
-        }
-    }
 }
 
 /// Runs the benchmark, prints its tables and writes the report.

@@ -9,7 +9,7 @@ use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::predict::PriorSettings;
 
-use super::common::{DEFAULT_DIMS, DataArgs, progress};
+use super::common::{DEFAULT_DIMS, DataArgs, DynamicsArg, progress};
 use super::model_cost::parse_dims;
 use dynotraj_sources::trajectory::Source;
 use dynotraj_train::loss::LossConfig;
@@ -83,6 +83,10 @@ pub struct TrainArgs {
     /// Network widths: history encoder, edge encoder, latent modes, decoder.
     #[arg(long, default_value = DEFAULT_DIMS, value_parser = parse_dims, value_name = "ENC,EDGE,K,DEC")]
     pub dims: Dims,
+    /// The agent type trained, among the classes of --classes: unicycle (vehicles and cyclists)
+    /// or single-integrator (pedestrians). One blob per agent type; the edge takes both.
+    #[arg(long, value_enum, default_value_t = DynamicsArg::Unicycle)]
+    pub dynamics: DynamicsArg,
     /// Optimisation and loss settings.
     #[command(flatten)]
     pub hyper: HyperArgs,
@@ -293,8 +297,13 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
             sequences.iter().map(|s| s.id.as_str()).collect::<Vec<_>>().join(", ")
         );
     }
-    let mut config =
-        TrainConfig { dt, rule, dims: args.dims, ..TrainConfig::new(&sequences, args.exclude.clone(), args.source) };
+    let mut config = TrainConfig {
+        dt,
+        rule,
+        dims: args.dims,
+        dynamics: args.dynamics.into(),
+        ..TrainConfig::new(&sequences, args.exclude.clone(), args.source)
+    };
     args.hyper.apply(&mut config)?;
     let bar = progress(0, "training");
     let mut val = f32::NAN;

@@ -161,3 +161,57 @@ fn training_flags_out_of_range_are_refused_before_any_sequence_is_loaded() {
     let e = format!("{:#}", dynotraj_cli::run(Cli::try_parse_from(args).unwrap()).unwrap_err());
     assert!(e.contains("--tests: 0003 is given twice") && !e.contains("no-kitti"), "{e}");
 }
+
+/// A pedestrian model: `train --dynamics single-integrator` trains on the pedestrians alone, a
+/// drive without any says so, and `eval` scores the blob on pedestrians only, beside cv.
+#[test]
+fn a_pedestrian_model_trains_on_kitti_pedestrians_and_scores_only_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let synthetic = dir.path().join("synthetic");
+    write_sequence(&synthetic, "0000", &generate(&DriveSpec::default()));
+    write_sequence(&synthetic, "0001", &generate(&DriveSpec { seed: 8, ..DriveSpec::default() }));
+    let model_dir = dir.path().join("walkers");
+    let train = |kitti: &str, sequences: &str, exclude: &str| {
+        let args = [
+            "dynotraj",
+            "train",
+            "--kitti",
+            kitti,
+            "--sequences",
+            sequences,
+            "--exclude",
+            exclude,
+            "--source",
+            "gt",
+            "--dynamics",
+            "single-integrator",
+            "--out",
+            model_dir.to_str().unwrap(),
+            "--epochs",
+            "2",
+            "--rate",
+            "10",
+        ];
+        let Command::Train(a) = Cli::try_parse_from(args).unwrap().command else { panic!("not the train command") };
+        train::run(&a)
+    };
+    let e = format!("{:#}", train(synthetic.to_str().unwrap(), "0000,0001", "0001").unwrap_err());
+    assert!(e.contains("no training instances of pedestrians"), "{e}");
+
+    let Some(kitti) = dynotraj_tests::kitti_training_dir() else { return };
+    let kitti = kitti.to_str().unwrap();
+    train(kitti, "0001,0011,0013", "0013").unwrap();
+    let blob = fs::read(model_dir.join("model.blob.int8")).unwrap();
+    assert_eq!(ModelBlob::parse(&blob).unwrap().dynamics(), dynotraj_core::predict::Dynamics::SingleIntegrator);
+    let model = format!("model:{}", model_dir.join("model.blob.int8").display());
+    let args = ["dynotraj", "eval", "--kitti", kitti, "--tests", "0013", "--source", "gt", "--rate", "10"];
+    let predictors = format!("cv,{model}");
+    let args = [&args[..], &["--predictor", &predictors]].concat();
+    let Command::Eval(a) = Cli::try_parse_from(&args).unwrap().command else { panic!("not the eval command") };
+    let table = dynotraj_cli::eval::table(&a).unwrap().render(dynotraj_eval::report::Format::Md);
+    let rows: Vec<&str> = table.lines().filter(|l| l.contains(" on gt")).collect();
+    assert!(rows.iter().any(|r| r.contains("cv on gt") && !r.contains("pedestrians")), "{table}");
+    assert!(rows.iter().any(|r| r.contains("cv on gt, pedestrians")), "{table}");
+    assert!(rows.iter().any(|r| r.contains("model.blob.int8 on gt, pedestrians")), "{table}");
+    assert!(!rows.iter().any(|r| r.contains("model.blob.int8 on gt |")), "a walkers' model scores no vehicle: {table}");
+}
