@@ -284,8 +284,9 @@ pub unsafe extern "C" fn dynotraj_session_init(
     DynotrajStatus::Ok
 }
 
-/// Forecasts with the model blob `blob` (`len` bytes, int8 or f32) from now on, instead of
-/// constant velocity.
+/// Forecasts the agents of the model blob's dynamics (vehicles and cyclists: unicycle;
+/// pedestrians: single integrator) with `blob` (`len` bytes, int8 or f32) from now on, instead
+/// of constant velocity. Call once per agent type; a blob of a type already set replaces it.
 ///
 /// # Safety
 /// - `session` was initialised by `dynotraj_session_init` and no other call uses it meanwhile.
