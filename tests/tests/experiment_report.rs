@@ -76,6 +76,10 @@ fn the_report_folder_and_a_cached_rerun() {
     }
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(
+        md.contains("No eligible pedestrians in the test sequences, so no table scores them; no loaded sequence holds one"),
+        "the synthetic drives hold no pedestrian, and the report says so: {md}"
+    );
     println!("{md}");
     // The captions and notes name what the Estimated arm ran on (here the track-level simulator).
     assert!(md.contains("against the truth of the track-level simulator"), "Table III caption");

@@ -124,6 +124,20 @@ pub fn experiment_report(
         run.jobs
     )];
     notes.push(super::figures::time_axis::time_span_note(run.dt, run.history_frames));
+    let scored: Vec<Dynamics> =
+        std::iter::once(result.agents).chain(result.other_agents.iter().map(|o| o.agents)).collect();
+    for missing in rule.agent_types().into_iter().filter(|d| !scored.contains(d)) {
+        let trained = result.folds.iter().any(|f| f.agents == missing);
+        notes.push(format!(
+            "No eligible {} in the test sequences, so no table scores them; {}.",
+            missing.agents(),
+            if trained {
+                "their models were trained all the same (Folds), and Table I counts them where the sequences hold any"
+            } else {
+                "no loaded sequence holds one, so none was trained"
+            }
+        ));
+    }
     notes.extend(findings(&result.arms, run.arms, Scoring::OwnFuture));
     if let Some((_, arms)) = &result.common {
         notes.extend(findings(arms, run.arms, Scoring::CommonTruth));
