@@ -1,6 +1,6 @@
 //! Object classes, with the KITTI type names they come from: what an object is, on the wire
 //! (one byte) and in every file, and so which agent type forecasts it
-//! ([`crate::predict::Dynamics::of_class`]).
+//! (`predict::Dynamics::of_class`).
 
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};

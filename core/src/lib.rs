@@ -6,6 +6,7 @@
 //! counted outcome, never a panic.
 //!
 //! Modules:
+//! - [`crc`]: the one checksum (CRC-32) of frames, model chunks and blobs.
 //! - [`class`]: what an object is (KITTI's types), and so the agent type that forecasts it.
 //! - [`limits`]: the named capacities and the paper's horizons and limits.
 //! - [`wire`]: every message of the pipeline, and its framing (postcard + CRC-32 + COBS).
@@ -21,6 +22,7 @@
 #![forbid(unsafe_code)]
 
 pub mod class;
+pub mod crc;
 pub mod estimate;
 pub mod geometry;
 pub mod limits;

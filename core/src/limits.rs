@@ -7,9 +7,14 @@
 pub const HORIZON: usize = 30;
 /// Most history frames (before the current one) fed to a predictor.
 pub const MAX_HISTORY: usize = 6;
+/// Most states in a history the network reads: [`MAX_HISTORY`] past frames and the current one.
+pub const MAX_STEPS: usize = MAX_HISTORY + 1;
+/// Bytes of a signer's public key that name it (a signed blob's trailer, the edge's notice of a
+/// model signed by another key).
+pub const KEY_ID_LEN: usize = 8;
 /// Most history frames (before the current one) the motion prior reads: its acceleration and
 /// turn rate need a longer memory than the network's input (21 states are 2 s of KITTI's real
-/// 10 Hz; [`crate::predict::prior`]).
+/// 10 Hz; `predict::prior`).
 pub const MAX_PRIOR_HISTORY: usize = 20;
 /// States a motion-prior history holds at most: [`MAX_PRIOR_HISTORY`] and the current one.
 pub const PRIOR_STATES: usize = MAX_PRIOR_HISTORY + 1;

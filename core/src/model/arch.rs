@@ -74,13 +74,12 @@
 //! Concatenation orders are exactly as written above: x = [h_edge, h_hist]; decoder initial
 //! input [z, x]; GRU input [u_prev, z, x].
 
-use crate::limits::{HORIZON, MAX_ACCEL, MAX_HISTORY, MAX_PRIOR_HISTORY, MAX_TURN_RATE};
+use crate::limits::{HORIZON, MAX_PRIOR_HISTORY};
 
 /// Features per history state: eight of the state itself, three of the motion prior's
 /// long-window estimates, the track's age and its range from the observer.
 pub const FEATURES: usize = 13;
-/// Most states in a history: MAX_HISTORY past frames and the current one.
-pub const MAX_STEPS: usize = MAX_HISTORY + 1;
+pub use crate::limits::MAX_STEPS;
 /// Hidden width of p(z|x).
 pub const PZ_HIDDEN: usize = 32;
 /// Decoder outputs per step: mean (2), log sigma (2), correlation (1) of the controls.
@@ -102,10 +101,7 @@ pub const AGE_SCALE_FRAMES: f32 = MAX_PRIOR_HISTORY as f32;
 pub const RANGE_SCALE: f32 = 50.0;
 /// Standardised features are clamped to this magnitude (guards against wild inputs).
 pub const FEATURE_CLAMP: f32 = 5.0;
-/// Standardised turn-rate output times this is rad/s.
-pub const TURN_RATE_SCALE: f32 = MAX_TURN_RATE;
-/// Standardised acceleration output times this is m/s^2.
-pub const ACCEL_SCALE: f32 = MAX_ACCEL;
+pub use crate::predict::dynamics::{ACCEL_SCALE, TURN_RATE_SCALE};
 /// Neighbours closer than this at the current frame feed the edge encoder, metres
 /// (Trajectron++'s vehicle-vehicle attention radius).
 pub const NEIGHBOUR_RADIUS_M: f32 = 30.0;

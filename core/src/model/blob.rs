@@ -26,9 +26,9 @@
 //! a multiple of 4 bytes (w = q * scale, scale = max |w| of the row / 127); a bias stays f32.
 
 use super::arch::{Dims, FEATURES, MAX_STEPS, OUTPUTS, TENSORS};
+use crate::crc::crc32;
 use crate::limits::HORIZON;
 use crate::predict::{Dynamics, PriorSettings};
-use crate::wire::crc32;
 
 /// The blob's magic bytes.
 pub const BLOB_MAGIC: [u8; 4] = *b"DTJM";

@@ -465,7 +465,7 @@ mod tests {
         let mut buf = zero_blob(&Dims::DEFAULT, Precision::F32, &PriorSettings::DEFAULT);
         buf[7] = 2;
         let body = buf.len() - 4;
-        let crc = crate::wire::crc32(&buf[..body]);
+        let crc = crate::crc::crc32(&buf[..body]);
         buf[body..].copy_from_slice(&crc.to_le_bytes());
         assert_eq!(ModelBlob::parse(&buf).err(), Some(crate::model::blob::BlobError::Dynamics { found: 2 }));
     }

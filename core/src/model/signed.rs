@@ -16,8 +16,7 @@ use ed25519_dalek::{Signature, VerifyingKey};
 
 /// The four bytes that open the trailer.
 pub const SIGNATURE_MAGIC: [u8; 4] = *b"DTSG";
-/// Bytes of the public key that name it in the trailer.
-pub const KEY_ID_LEN: usize = 8;
+pub use crate::limits::KEY_ID_LEN;
 /// Bytes of an Ed25519 signature.
 pub const SIGNATURE_LEN: usize = 64;
 /// Bytes of an Ed25519 public key.

@@ -11,7 +11,12 @@
 //! At a zero output both forecast the motion prior, bit for bit.
 
 use crate::class::ObjectClass;
-use crate::model::arch::{ACCEL_SCALE, TURN_RATE_SCALE};
+use crate::limits::{MAX_ACCEL, MAX_TURN_RATE};
+
+/// Standardised turn-rate output times this is rad/s.
+pub const TURN_RATE_SCALE: f32 = MAX_TURN_RATE;
+/// Standardised acceleration output times this is m/s^2.
+pub const ACCEL_SCALE: f32 = MAX_ACCEL;
 
 /// Standard deviation of a pedestrian's residual velocity the decoder's outputs are scaled by,
 /// m/s per unit output.

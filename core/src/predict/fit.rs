@@ -10,7 +10,7 @@
 //! displacement's (the squared weights below sum to 0.464 against 2).
 
 use crate::geometry::{BevState, Point2};
-use crate::model::arch::MAX_STEPS;
+use crate::limits::MAX_STEPS;
 
 /// The velocity (m/s) at the newest state of the least-squares parabola (per coordinate, over
 /// time) through the positions of the newest [`MAX_STEPS`] states of `history` (oldest first,

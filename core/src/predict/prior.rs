@@ -27,8 +27,8 @@ use super::dynamics::{Dynamics, clamp_velocity_residual};
 use super::fit::parabola_fit;
 use super::{Forecast, PredictError, Predictor, checked_forecast, checked_history_of, clamp_controls, unicycle_step};
 use crate::geometry::{AgentFrame, BevState, Point2};
+use crate::limits::MAX_STEPS;
 use crate::limits::{HORIZON, PRIOR_STATES};
-use crate::model::arch::MAX_STEPS;
 
 /// Below this fitted speed (m/s) the direction of motion is mostly noise, so the rollout keeps
 /// the source's heading.

@@ -1,6 +1,6 @@
 //! One frame: `0x00 COBS([version][postcard(Message)][CRC-32 LE]) 0x00`, encoded and decoded whole.
 
-use crc::{CRC_32_ISO_HDLC, Crc};
+use crate::crc::{CRC32, crc32};
 use postcard::experimental::max_size::MaxSize;
 use postcard::ser_flavors::crc::CrcModifier;
 use postcard::ser_flavors::{Cobs, Slice};
@@ -27,16 +27,6 @@ const VERSION_LEN: usize = 1;
 const CRC_LEN: usize = 4;
 /// Shortest valid payload: version and CRC around an (impossible) empty body.
 const MIN_PAYLOAD_LEN: usize = VERSION_LEN + CRC_LEN;
-
-/// CRC-32/ISO-HDLC (the zlib / Ethernet CRC), table-driven. A `static` so that its 1 KiB
-/// table exists once, in flash.
-static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
-
-/// CRC-32/ISO-HDLC of `bytes`: the frame check, also used for [`super::ModelChunk::blob_crc`].
-#[must_use]
-pub fn crc32(bytes: &[u8]) -> u32 {
-    CRC32.checksum(bytes)
-}
 
 /// Encodes `msg` as one complete frame, both delimiters included, into `out`, and returns the
 /// frame's length. `out` of [`MAX_FRAME_LEN`] bytes (a [`FrameBuf`]) always suffices.

@@ -46,9 +46,10 @@ mod stats;
 mod tests;
 
 pub use crate::class::ObjectClass;
+pub use crate::crc::crc32;
 pub use decoder::{Feed, FrameDecoder};
 pub use error::WireError;
-pub use frame::{DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, crc32, decode, encode};
+pub use frame::{DELIMITER, FrameBuf, MAX_FRAME_LEN, MAX_MESSAGE_LEN, MAX_PAYLOAD_LEN, decode, encode};
 pub use messages::{
     CameraInfo, CameraPose, ComputeUnit, EstimateKind, FrameStats, FrameTracks, LinkStats, MODEL_CHUNK_LEN, Message,
     ModelChunk, ObjectState, ObjectStates, Prediction, STATIC_OBJECT_ID, TRACKS_PER_MESSAGE, Track,

@@ -4,7 +4,7 @@
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
-use crate::model::signed::KEY_ID_LEN;
+use crate::limits::KEY_ID_LEN;
 
 /// Something about the session the host has to know, sent by the edge when it happens.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, MaxSize)]

@@ -20,6 +20,7 @@
 //! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
 pub mod cache;
+pub mod cache_file;
 pub mod cost;
 #[cfg(feature = "images")]
 pub mod end_to_end;

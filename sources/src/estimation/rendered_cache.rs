@@ -9,7 +9,7 @@
 //! front-end: bump the version with one (or, for a change to the downscaled matcher's path
 //! alone, [`DOWNSCALED_REFINE_VERSION`]). File: `rendered-<seq>-<key>.bin`, the key, postcard
 //! bytes and their CRC-32, written as the estimate cache writes its files
-//! ([`super::cache::decode`]); a file whose checksum does not match, that holds another key's
+//! ([`super::cache_file::decode`]); a file whose checksum does not match, that holds another key's
 //! entry or that does not decode is a miss, never an error.
 
 use std::path::{Path, PathBuf};
@@ -21,7 +21,7 @@ use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 
-use super::cache::{load_file, store_file};
+use super::cache_file::{load_file, store_file};
 use dynotraj_formats::kitti::SequenceData;
 
 /// Version of what rendering and tracking compute; part of every key (2: static points kept
@@ -143,12 +143,12 @@ pub fn load(dir: &Path, id: &str, key: u64) -> Option<Vec<SimFrame>> {
     Some(frames.into_iter().map(restored).collect())
 }
 
-/// The front-end frames of a cache file's bytes stored under `key` ([`super::cache::decode`]).
+/// The front-end frames of a cache file's bytes stored under `key` ([`super::cache_file::decode`]).
 ///
 /// # Errors
 /// What is wrong with the bytes, in words.
 pub fn decode_frames(bytes: &[u8], key: u64) -> Result<Vec<SimFrame>, &'static str> {
-    let frames: Vec<StoredFrame> = super::cache::decode(bytes, key)?;
+    let frames: Vec<StoredFrame> = super::cache_file::decode(bytes, key)?;
     Ok(frames.into_iter().map(restored).collect())
 }
 
