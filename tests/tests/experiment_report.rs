@@ -77,7 +77,9 @@ fn the_report_folder_and_a_cached_rerun() {
 
     let md = fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert!(
-        md.contains("No eligible pedestrians in the test sequences, so no table scores them; no loaded sequence holds one"),
+        md.contains(
+            "No eligible pedestrians in the test sequences, so no table scores them; no loaded sequence holds one"
+        ),
         "the synthetic drives hold no pedestrian, and the report says so: {md}"
     );
     println!("{md}");
