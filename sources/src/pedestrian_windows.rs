@@ -60,7 +60,7 @@ impl Window {
 }
 
 /// States of consecutive `positions` at period `dt`: speed and heading from the step into each
-/// position (the first takes the step out of it). A step shorter than [`STILL_STEP_M`] holds
+/// position (the first takes the step out of it). A step shorter than `STILL_STEP_M` holds
 /// the heading, unless no step of the window so far was longer: a slow walker's millimetre steps
 /// are then all the direction there is (before any step the heading is the first long step's,
 /// else the first nonzero step's).

@@ -10,7 +10,8 @@
 //!   the smoothness of object trajectories (mean |delta heading|, |delta speed|).
 //! - [`cache`]: estimated tracks kept between runs of the experiment.
 //! - [`rendered_cache`]: the front-end's tracks of rendered sequences kept between runs.
-//! - [`bench`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
+//! - [`cache_file`]: the one file format of both caches (key, postcard value, CRC-32).
+//! - [`cost`]: compute per frame at the ECU's full budget (16 objects x 128 points + 256 static).
 //! - [`simulated`]: one sequence end to end on the track-level simulator (simulate, estimate,
 //!   score).
 //! - [`tracks`]: the estimator's outputs as bird's-eye object tracks (the Estimated source).

@@ -23,7 +23,7 @@ pub enum Source {
     /// `RTS_WINDOW - 1` later frames. Not causal; reported apart.
     GtRts,
     /// Ours: the estimator's newest-frame estimate at each frame (causal), from its own tracks
-    /// ([`super::estimated`]); no label enters a state.
+    /// ([`crate::estimation::tracks`]); no label enters a state.
     Estimated,
     /// Ours through the same forward unicycle EKF as `GtEkf` (causal): what a vehicle gets by
     /// filtering its own estimates before forecasting.
