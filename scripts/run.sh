@@ -10,7 +10,7 @@
 # trained on every core (--jobs); renderings and trained folds are cached in
 # reports/kitti/cache, so a rerun takes seconds. The paper's
 # nine-sequence setting is the experiment with --sequences 0000,0001,0002,0003,0004,0005,0006,0018,0020
-# (reports/kitti-paper9, README).
+# (reports/kitti-paper9, docs/cli.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

@@ -1,4 +1,4 @@
-//! One grammar across the commands, as the README's table states it: read from clap's own
+//! One grammar across the commands, as docs/cli.md's table states it: read from clap's own
 //! description of every subcommand, so a new flag that breaks a rule fails here.
 
 use std::process::Command;

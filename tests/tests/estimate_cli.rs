@@ -41,7 +41,7 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
     }
     let tum = std::fs::read_to_string(seq.join("camera_causal.tum")).expect("reads");
     assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), 120);
-    // The paper's 20 Hz unless --rate says otherwise: said in every pose file and the README.
+    // The paper's 20 Hz unless --rate says otherwise: said in every pose file and docs/cli.md.
     assert!(
         tum.lines().any(|l| l.starts_with("# timestamps: seconds at 20.000 Hz (one frame every 0.0500 s)")),
         "{tum}"

@@ -25,11 +25,11 @@ enum Kind {
     Word(&'static [&'static str]),
 }
 
-/// `forecasts.csv`, as `--out`'s help and the README document it.
+/// `forecasts.csv`, as `--out`'s help and docs/cli.md document it.
 const FORECASTS: [(&str, Kind); 5] =
     [("frame", Kind::Count), ("object_id", Kind::Count), ("step", Kind::Count), ("x", Kind::Num), ("y", Kind::Num)];
 
-/// `frames.csv`, as the README documents it.
+/// `frames.csv`, as docs/cli.md documents it.
 const FRAMES: [(&str, Kind); 12] = [
     ("frame", Kind::Count),
     ("sent_ms", Kind::Num),
@@ -215,7 +215,7 @@ fn the_readers_refuse_a_ragged_row_a_word_for_a_number_and_another_header() {
     assert!(word.is_err(), "an unknown forecaster is refused");
 }
 
-/// `soak.csv`, as `soak --out`'s help and the README document it.
+/// `soak.csv`, as `soak --out`'s help and docs/cli.md document it.
 const SOAK: [(&str, Kind); 18] = [
     ("seconds", Kind::Num),
     ("frames_sent", Kind::Count),

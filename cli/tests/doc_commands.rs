@@ -1,5 +1,5 @@
-//! Every `dynotraj` command of the README, run through the built binary on a small synthetic
-//! KITTI layout: each exits 0 and prints (or writes) what the README says it does. The slow
+//! Every `dynotraj` command of docs/cli.md, run through the built binary on a small synthetic
+//! KITTI layout: each exits 0 and prints (or writes) what docs/cli.md says it does. The slow
 //! ones run on few frames, small networks and one epoch. (`stream`, `sign`, `verify`, `keygen`
 //! and the edge run through their binaries in tests/tests/edge_sessions.rs and cli_errors.rs.)
 
