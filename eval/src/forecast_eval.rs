@@ -97,7 +97,7 @@ impl HorizonErrors {
 
 /// Scores of one run.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct RunScores {
+pub struct ForecastRunScores {
     /// ADE, FDE and ACE means.
     pub scores: ForecastScores,
     /// Each scored instance, in frame order.
@@ -195,7 +195,7 @@ pub fn score_run(
     scene: &Scene,
     forecaster: &mut dyn Predictor,
     dt: f32,
-) -> RunScores {
+) -> ForecastRunScores {
     score_run_against(run, instances, scene, forecaster, dt, Reference::OwnFuture)
 }
 
@@ -208,8 +208,8 @@ pub fn score_run_against(
     forecaster: &mut dyn Predictor,
     dt: f32,
     reference: Reference<'_>,
-) -> RunScores {
-    let mut out = RunScores::default();
+) -> ForecastRunScores {
+    let mut out = ForecastRunScores::default();
     let mut previous: Option<Forecast> = None;
     for s in instances {
         if run.states.get(s + 1..=s + HORIZON).is_none() {
@@ -253,7 +253,12 @@ pub fn instance_keys(runs: &[EligibleRun]) -> std::collections::BTreeSet<(i32, u
 
 /// Scores `forecaster` on every eligible run of one sequence through `scene` (the sequence's
 /// tracks through the source being scored).
-pub fn score_sequence(runs: &[EligibleRun], scene: &Scene, forecaster: &mut dyn Predictor, dt: f32) -> RunScores {
+pub fn score_sequence(
+    runs: &[EligibleRun],
+    scene: &Scene,
+    forecaster: &mut dyn Predictor,
+    dt: f32,
+) -> ForecastRunScores {
     score_sequence_against(runs, scene, forecaster, dt, Reference::OwnFuture)
 }
 
@@ -264,8 +269,8 @@ pub fn score_sequence_against(
     forecaster: &mut dyn Predictor,
     dt: f32,
     reference: Reference<'_>,
-) -> RunScores {
-    let mut total = RunScores::default();
+) -> ForecastRunScores {
+    let mut total = ForecastRunScores::default();
     for run in runs {
         let Some(sourced) = scene.run_at(run.track_id, run.first_frame) else { continue };
         let r = score_run_against(sourced, run.instances(), scene, forecaster, dt, reference);

@@ -14,7 +14,7 @@ use super::tracker::TrackerParams;
 
 /// What the front-end gave on a rendering: its tracks with the truth, per frame, and how it did.
 #[derive(Debug, Clone)]
-pub struct Tracked {
+pub struct RenderingTracked {
     /// The front-end's tracks with the truth, per frame.
     pub frames: Vec<SimFrame>,
     /// Stage times.
@@ -34,7 +34,7 @@ pub fn track_with(
     dt: f32,
     stereo: StereoParams,
     on_frame: Option<&dyn Fn(u64)>,
-) -> Result<Tracked, FrontEndError> {
+) -> Result<RenderingTracked, FrontEndError> {
     track_measured(sim, frames, dt, (stereo, TrackerParams::default()), on_frame, None)
 }
 
@@ -50,7 +50,7 @@ pub fn track_measured(
     (stereo, tracker): (StereoParams, TrackerParams),
     on_frame: Option<&dyn Fn(u64)>,
     mut errors: Option<&mut DisparityErrors>,
-) -> Result<Tracked, FrontEndError> {
+) -> Result<RenderingTracked, FrontEndError> {
     let cam = sim.camera;
     let mut fe = FrontEnd::new(stereo, tracker, cam.fb() as f32)?;
     let mut out = Vec::new();
@@ -69,5 +69,5 @@ pub fn track_measured(
             hook(out.len() as u64);
         }
     }
-    Ok(Tracked { frames: out, times: fe.times, stats: fe.tracker.stats })
+    Ok(RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats })
 }

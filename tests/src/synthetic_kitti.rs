@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use dynotraj_sim::drive::{Drive, DriveSpec, generate};
+use dynotraj_sim::drive::{DriveSpec, SyntheticDrive, generate};
 
 /// The four synthetic drives the benchmark's end-to-end tests share: sequence ids and seeds.
 pub const FOUR_DRIVES: [(&str, u64); 4] = [("0000", 1), ("0001", 8), ("0002", 9), ("0003", 4)];
@@ -12,7 +12,7 @@ pub const FOUR_DRIVES: [(&str, u64); 4] = [("0000", 1), ("0001", 8), ("0002", 9)
 ///
 /// # Panics
 /// When a file cannot be written (a test's temporary folder).
-pub fn write_sequence(root: &Path, id: &str, drive: &Drive) {
+pub fn write_sequence(root: &Path, id: &str, drive: &SyntheticDrive) {
     dynotraj_sim::kitti_layout::write_sequence(root, id, drive).expect("writing a synthetic KITTI sequence");
 }
 

@@ -30,7 +30,7 @@ impl ArmScores {
     }
 
     /// Adds one sequence's scores and its runs'.
-    pub fn push_sequence(&mut self, scores: &crate::forecast_eval::RunScores) {
+    pub fn push_sequence(&mut self, scores: &crate::forecast_eval::ForecastRunScores) {
         self.per_sequence.push(scores.scores);
         self.per_run.extend_from_slice(&scores.runs);
     }

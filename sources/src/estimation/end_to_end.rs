@@ -11,7 +11,7 @@ use super::{EstimatorRun, RunScores, run_estimator, score_run};
 use crate::on_step::OnStep;
 use dynotraj_frontend::error::FrontEndError;
 use dynotraj_frontend::pipeline::StageTimes;
-use dynotraj_frontend::rendered::{Tracked, track_with};
+use dynotraj_frontend::rendered::{RenderingTracked, track_with};
 use dynotraj_frontend::stats::FrontEndStats;
 use dynotraj_frontend::stereo::StereoParams;
 
@@ -59,7 +59,7 @@ pub fn run_with(
     on_frame: Option<&OnStep>,
 ) -> Result<EndToEnd, FrontEndError> {
     let hook = on_frame.map(|h| -> &dyn Fn(u64) { h.as_fn() });
-    let Tracked { frames: out, times, stats } = track_with(sim, frames, dt, stereo, hook)?;
+    let RenderingTracked { frames: out, times, stats } = track_with(sim, frames, dt, stereo, hook)?;
     let params = EstimatorParams::kitti(sim.camera.intrinsics(), dt);
     let run = run_estimator::<WINDOW>(&out, params, 1);
     let moving = moving_objects(&out, min_step_m);
