@@ -11,7 +11,5 @@ pub mod uart0;
 
 /// The model blobs linked into flash by `DYNOTRAJ_FW_MODEL` at build time, one per agent type
 /// (empty: none; no blob at all: constant-velocity forecasts).
-pub static LINKED_MODELS: [&[u8]; 2] = [
-    include_bytes!(concat!(env!("OUT_DIR"), "/model0.bin")),
-    include_bytes!(concat!(env!("OUT_DIR"), "/model1.bin")),
-];
+pub static LINKED_MODELS: [&[u8]; 2] =
+    [include_bytes!(concat!(env!("OUT_DIR"), "/model0.bin")), include_bytes!(concat!(env!("OUT_DIR"), "/model1.bin"))];

@@ -15,7 +15,9 @@ use crate::{clock, logger, stack};
 /// the session from `slot` and gives it the models linked in ([`crate::LINKED_MODELS`]). Returns
 /// the core peripherals (for the UART's interrupt) and the session; any failure exits with
 /// status 1.
-pub fn boot(slot: &'static ConstStaticCell<Session<'static>>) -> (cortex_m::Peripherals, &'static mut Session<'static>) {
+pub fn boot(
+    slot: &'static ConstStaticCell<Session<'static>>,
+) -> (cortex_m::Peripherals, &'static mut Session<'static>) {
     stack::paint();
     let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
     clock::start(&mut cp.SYST);
