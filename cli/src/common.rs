@@ -305,7 +305,7 @@ pub struct EstimatedSourceArgs {
     /// about 19 minutes for the sixteen sequences at scale 1 on two cores; the front-end's
     /// tracks are kept in --estimate-cache and re-estimated in seconds) or tracks (the
     /// track-level simulator: tracks of points on the labelled boxes, seconds).
-    #[arg(long, value_enum, default_value_t = SimulatedInput::Rendered, value_name = "INPUT")]
+    #[arg(long, value_parser = crate::numbers::choices(&SimulatedInput::CHOICES), default_value = "rendered", value_name = "INPUT")]
     pub ours_input: SimulatedInput,
     /// Render scale with `--ours-input rendered` (1: KITTI's 1242 x 375; 0.5 renders and tracks
     /// about 2.5x faster but doubles the object estimates' error, docs/results.md).
@@ -326,7 +326,7 @@ pub struct EstimatedSourceArgs {
     pub estimate_cache: Option<PathBuf>,
     /// Sequences estimated (rendered, tracked) and folds trained at the same time (default:
     /// the number of cores). Results do not depend on it.
-    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
+    #[arg(long, env = "DYNOTRAJ_JOBS", hide_env_values = true, default_value_t = default_jobs(), hide_default_value = true, value_parser = parse_jobs, value_name = "N")]
     pub jobs: usize,
     /// Estimator variant: fuse an object's points into its landmarks at the pose its fit found
     /// rather than at the smoother's (off by default; docs/decisions.md "Following the object").

@@ -35,7 +35,7 @@ pub struct DatasetArgs {
     #[arg(long, value_name = "I/N", requires = "estimate_cache")]
     pub shard: Option<Shard>,
     /// Output format.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
+    #[arg(long, value_parser = crate::numbers::choices(&Format::CHOICES), default_value = "md")]
     pub format: Format,
 }
 

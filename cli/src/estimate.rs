@@ -42,7 +42,7 @@ pub struct EstimateArgs {
     #[arg(
         long = "kitti",
         visible_alias = "sim-kitti",
-        env = "DYNOTRAJ_KITTI",
+        env = "DYNOTRAJ_KITTI", hide_env_values = true,
         value_name = "DIR",
         required_unless_present_any = ["cost", "tracks"],
     )]
@@ -157,7 +157,7 @@ pub struct EstimateArgs {
     /// Output format of the tables: md (for people), csv or json (one observation per row,
     /// every profile in one table with a `profile` column; JSON of several tables is one object
     /// keyed by table name).
-    #[arg(long, value_enum, default_value_t = Format::Md)]
+    #[arg(long, value_parser = crate::numbers::choices(&Format::CHOICES), default_value = "md")]
     pub format: Format,
     /// With --format csv or json, print only this table: table_iii, restarts, smoothness,
     /// counters (with --counters), per_object (with --per-object), rpe_sources (with

@@ -40,7 +40,7 @@ pub struct EvalArgs {
     #[arg(long, value_parser = crate::numbers::non_negative_f32, default_value_t = 0.0, value_name = "SHARE")]
     pub carry: f32,
     /// Output format.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
+    #[arg(long, value_parser = crate::numbers::choices(&Format::CHOICES), default_value = "md")]
     pub format: Format,
 }
 

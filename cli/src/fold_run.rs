@@ -33,7 +33,7 @@ pub struct FoldRunArgs {
     /// Output format of the tables printed: md, csv or json (one observation per row; JSON of
     /// several tables is one object keyed by table name). The report folder has every table in
     /// all three, one file each.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
+    #[arg(long, value_parser = crate::numbers::choices(&Format::CHOICES), default_value = "md")]
     pub format: Format,
     /// With --format csv or json, print only this table (named as its file in the report
     /// folder, e.g. table_iv). CSV holds one table, so it needs this flag whenever several

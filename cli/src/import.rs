@@ -120,7 +120,7 @@ pub fn run(args: &ImportArgs) -> anyhow::Result<()> {
 pub struct ExportBagArgs {
     /// A folder in the KITTI tracking layout with images (image_02/, image_03/, calib/;
     /// instance_02/ and label_02/ when present), e.g. sim/data/image_sim.
-    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
+    #[arg(long, env = "DYNOTRAJ_KITTI", hide_env_values = true, value_name = "DIR")]
     pub kitti: PathBuf,
     /// The sequences to write, comma-separated: one bag each.
     #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', required = true, value_parser = crate::numbers::sequence_id, value_name = "LIST")]

@@ -38,7 +38,7 @@ pub struct ModelCostArgs {
     #[arg(long, default_value_t = 2000)]
     pub iterations: u32,
     /// Output format.
-    #[arg(long, value_enum, default_value_t = Format::Md)]
+    #[arg(long, value_parser = crate::numbers::choices(&Format::CHOICES), default_value = "md")]
     pub format: Format,
     /// Folder for each --dims set's seeded random int8 blob, `<DIR>/random-ENC,EDGE,K,DEC.int8`,
     /// to link into the firmware (`DYNOTRAJ_FW_MODEL`) and count its instructions per frame.

@@ -147,6 +147,18 @@ pub fn sequence_id(text: &str) -> Result<String, String> {
     dynotraj_formats::kitti::checked_sequence_id(text.trim()).map(str::to_string).map_err(|e| e.to_string())
 }
 
+/// A value parser over a library's enum `T` from its table of (value, name, help): the
+/// libraries name their choices without depending on clap, and `--help` lists them with their
+/// helps as clap's own enums do.
+pub fn choices<T: Copy + Send + Sync + 'static>(
+    table: &'static [(T, &'static str, &'static str)],
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(table.iter().map(|(_, name, help)| PossibleValue::new(*name).help(*help)))
+        // The possible values admit only the table's names.
+        .map(move |name: String| table.iter().find(|(_, n, _)| *n == name).map_or(table[0].0, |(v, _, _)| *v))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -23,7 +23,7 @@ use dynotraj_sources::estimation::{Kind, sim_input};
 pub struct SimulateArgs {
     /// A KITTI tracking split folder whose labels and ego poses drive the scene (only their
     /// geometry is used: no KITTI pixels). Without it, the built-in synthetic drive is rendered.
-    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR")]
+    #[arg(long, env = "DYNOTRAJ_KITTI", hide_env_values = true, value_name = "DIR")]
     pub kitti: Option<PathBuf>,
     /// Use the built-in synthetic drive even when --kitti / DYNOTRAJ_KITTI is set.
     #[arg(long)]

@@ -30,7 +30,7 @@ use dynotraj_sources::estimation::simulated::EvalOptions;
 pub struct TrackArgs {
     /// A folder in the KITTI tracking layout (image_02/, image_03/, calib/, label_02/; see
     /// `dynotraj simulate` for the optional depth_02/ and instance_02/).
-    #[arg(long, env = "DYNOTRAJ_KITTI", value_name = "DIR", required_unless_present_any = ["cost", "check"])]
+    #[arg(long, env = "DYNOTRAJ_KITTI", hide_env_values = true, value_name = "DIR", required_unless_present_any = ["cost", "check"])]
     pub kitti: Option<PathBuf>,
     /// Sequences to track, comma-separated (default: every sequence with images in
     /// image_02/).
@@ -40,11 +40,11 @@ pub struct TrackArgs {
     #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check", "disparity_error"])]
     pub out: Option<PathBuf>,
     /// Depth from stereo matching or from the given depth maps (depth_02/).
-    #[arg(long, value_enum, default_value_t = DepthMode::Stereo)]
+    #[arg(long, value_parser = crate::numbers::choices(&DepthMode::CHOICES), default_value = "stereo")]
     pub depth: DepthMode,
     /// Instance masks: instance_02/ PNGs, label_02/ boxes refined by depth (with their ids, or
     /// re-identified by IoU as raw detections), or none.
-    #[arg(long, value_enum, default_value_t = MaskMode::Auto)]
+    #[arg(long, value_parser = crate::numbers::choices(&MaskMode::CHOICES), default_value = "auto")]
     pub masks: MaskMode,
     /// Use at most this many frames.
     #[arg(long, value_name = "N")]
@@ -83,8 +83,8 @@ pub struct TrackArgs {
     /// Camera model of the renderings of --disparity-error.
     #[arg(long, value_enum, default_value_t = RenderOptics::Ideal, value_name = "MODEL")]
     pub render_optics: RenderOptics,
-    /// Sequences rendered at once with --disparity-error.
-    #[arg(long, env = "DYNOTRAJ_JOBS", default_value_t = default_jobs(), value_parser = parse_jobs, value_name = "N")]
+    /// Sequences rendered at once with --disparity-error (default: the number of cores).
+    #[arg(long, env = "DYNOTRAJ_JOBS", hide_env_values = true, default_value_t = default_jobs(), hide_default_value = true, value_parser = parse_jobs, value_name = "N")]
     pub jobs: usize,
 }
 

@@ -33,7 +33,7 @@ use dynotraj_core::wire::Track;
 use dynotraj_formats::kitti::{LabelRow, read_calib, read_labels};
 
 /// How to get depth.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DepthMode {
     /// Stereo matching of image_02 and image_03.
     Stereo,
@@ -41,8 +41,16 @@ pub enum DepthMode {
     Given,
 }
 
+impl DepthMode {
+    /// Every mode with its name on the command line and what it does.
+    pub const CHOICES: [(Self, &'static str, &'static str); 2] = [
+        (Self::Stereo, "stereo", "Stereo matching of image_02 and image_03"),
+        (Self::Given, "given", "The depth maps of depth_02"),
+    ];
+}
+
 /// How to get masks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MaskMode {
     /// instance_02 when present, else the boxes of label_02, else none.
     Auto,
@@ -54,6 +62,21 @@ pub enum MaskMode {
     Detections,
     /// No objects.
     None,
+}
+
+impl MaskMode {
+    /// Every mode with its name on the command line and what it does.
+    pub const CHOICES: [(Self, &'static str, &'static str); 5] = [
+        (Self::Auto, "auto", "instance_02 when present, else the boxes of label_02, else none"),
+        (Self::Png, "png", "instance_02 PNGs"),
+        (Self::Boxes, "boxes", "label_02 2D boxes refined by depth (ids from the labels)"),
+        (
+            Self::Detections,
+            "detections",
+            "label_02 2D boxes refined by depth, ids dropped and re-made by IoU association",
+        ),
+        (Self::None, "none", "No objects"),
+    ];
 }
 
 /// A sequence on disk.

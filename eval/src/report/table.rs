@@ -6,7 +6,7 @@ use std::str::FromStr;
 use super::data::{Cell, ColumnKind, Data, snake};
 
 /// Output format of a table.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Format {
     /// GitHub-flavoured Markdown.
     #[default]
@@ -15,6 +15,15 @@ pub enum Format {
     Csv,
     /// An array of objects (numbers as numbers, missing values as null).
     Json,
+}
+
+impl Format {
+    /// Every format with its name on the command line and what it is.
+    pub const CHOICES: [(Self, &'static str, &'static str); 3] = [
+        (Self::Md, "md", "GitHub-flavoured Markdown"),
+        (Self::Csv, "csv", "Comma-separated values with a header row: one observation per row, typed columns"),
+        (Self::Json, "json", "An array of objects (numbers as numbers, missing values as null)"),
+    ];
 }
 
 impl FromStr for Format {

@@ -4,7 +4,7 @@
 use crate::estimation::simulated::EvalOptions;
 
 /// Where the Estimated source takes its feature tracks for a sequence without real images.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SimulatedInput {
     /// The track-level simulator: tracks of points on the labelled boxes and the static scene
     /// with pixel and depth noise and outliers (seconds for the nine sequences).
@@ -14,6 +14,25 @@ pub enum SimulatedInput {
     /// images -> front-end -> estimator.
     #[default]
     Rendered,
+}
+
+impl SimulatedInput {
+    /// Every input with its name on the command line and what it is.
+    pub const CHOICES: [(Self, &'static str, &'static str); 2] = [
+        (
+            Self::Tracks,
+            "tracks",
+            "The track-level simulator: tracks of points on the labelled boxes and the static scene with pixel and \
+             depth noise and outliers (seconds for the nine sequences)",
+        ),
+        (
+            Self::Rendered,
+            "rendered",
+            "The image simulator renders each sequence and the OpenCV front-end tracks the images (minutes: \
+             rendering, SGBM stereo and KLT at the render scale). The default: Ours is images -> front-end -> \
+             estimator",
+        ),
+    ];
 }
 
 /// How the Estimated source is made for sequences without real images.
