@@ -19,10 +19,7 @@ pub fn boot(
     slot: &'static ConstStaticCell<Session<'static>>,
 ) -> (cortex_m::Peripherals, &'static mut Session<'static>) {
     stack::paint();
-    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
-    clock::start(&mut cp.SYST);
-    logger::init();
-    clock::check();
+    let cp = start();
     let Some(session) = slot.try_take() else { fail("session taken twice") };
     for model in crate::LINKED_MODELS.into_iter().filter(|m| !m.is_empty()) {
         if let Err(e) = session.set_model(model) {
@@ -30,6 +27,16 @@ pub fn boot(
         }
     }
     (cp, session)
+}
+
+/// What every program does first: takes the core peripherals, starts and checks the instruction
+/// clock and installs the logger; returns the peripherals. Any failure exits with status 1.
+pub fn start() -> cortex_m::Peripherals {
+    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
+    clock::start(&mut cp.SYST);
+    logger::init();
+    clock::check();
+    cp
 }
 
 /// Closes: prints `program`'s summary of `session` (with the link's `bytes_lost` and the high

@@ -16,8 +16,8 @@ use dynotraj_core::model::kernel::MAX_AFFINE_IN;
 use dynotraj_core::model::{Dims, Int8Dot, LearnedPredictor, PortableDot};
 use dynotraj_core::predict::{Context, PriorSettings};
 use dynotraj_dsp::DspDot;
+use dynotraj_firmware::clock;
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
-use dynotraj_firmware::{clock, logger};
 
 /// The device interrupt vectors: none is used.
 #[unsafe(link_section = ".vector_table.interrupts")]
@@ -42,10 +42,7 @@ const REPEATS: u64 = 3;
 
 #[entry]
 fn main() -> ! {
-    let Some(mut cp) = cortex_m::Peripherals::take() else { fail("core peripherals taken twice") };
-    clock::start(&mut cp.SYST);
-    logger::init();
-    clock::check();
+    let _peripherals = dynotraj_firmware::session::start();
     hprintln!("dynotraj-kernels: int8 products {}", if dynotraj_dsp::SMLAD { "on SMLAD" } else { "portable" });
 
     let (cases, differ) = check_products();
