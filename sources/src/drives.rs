@@ -10,11 +10,9 @@
 //! into the estimate cache, keyed by its bytes, and is then such an images-only drive.
 
 use std::collections::BTreeMap;
-use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use crc::{CRC_64_ECMA_182, Crc};
 
 use crate::estimation::cache;
 use crate::estimation::from_images::{estimate_from_images, has_images, image_files};
@@ -307,7 +305,10 @@ pub fn load_drive(
 /// now unless a folder with its key is there. Two processes importing one bag at once both end
 /// with the same folder: each writes its own staging folder, and the one renamed second finds
 /// the first's.
+#[cfg(feature = "bags")]
 fn imported_bag(path: &Path, name: &str, store: &Path) -> anyhow::Result<PathBuf> {
+    use crc::{CRC_64_ECMA_182, Crc};
+    use std::io::Read as _;
     let files = dynotraj_bag::import::bag_files(path)?;
     let crc = Crc::<u64>::new(&CRC_64_ECMA_182);
     let mut d = crc.digest();
@@ -339,6 +340,15 @@ fn imported_bag(path: &Path, name: &str, store: &Path) -> anyhow::Result<PathBuf
         Err(_) if target.is_dir() => Ok(target),
         Err(e) => Err(e.context(format!("drive {name}: importing {}", path.display()))),
     }
+}
+
+/// Without the `bags` feature a bag cannot be imported: say so.
+#[cfg(not(feature = "bags"))]
+fn imported_bag(path: &Path, name: &str, _store: &Path) -> anyhow::Result<PathBuf> {
+    anyhow::bail!(
+        "drive {name}: {} is a ROS 2 bag, and this build of dynotraj-sources has no `bags` feature to import it",
+        path.display()
+    )
 }
 
 /// The number of left images `image_02/<id>/000000.png ...` in a row from frame 0.
@@ -445,5 +455,17 @@ mod tests {
         assert!(err("bad.name.mcap").contains("`bad.name` is not one"), "{}", err("bad.name.mcap"));
         let picked = select_drives(manifest_drives(&d.join("a")).unwrap(), &["0009".into()]).unwrap_err();
         assert!(picked.to_string().contains("no drive is named 0009 (the drives: 0000)"), "{picked}");
+    }
+}
+
+#[cfg(all(test, not(feature = "bags")))]
+mod tests_without_images_or_bags {
+    use super::*;
+
+    #[test]
+    fn a_bag_drive_says_which_feature_the_build_lacks() {
+        let e = imported_bag(Path::new("drives/run7.mcap"), "run7", Path::new("cache")).unwrap_err();
+        let e = format!("{e:#}");
+        assert!(e.contains("drive run7") && e.contains("run7.mcap") && e.contains("`bags` feature"), "{e}");
     }
 }
