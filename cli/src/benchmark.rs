@@ -16,7 +16,7 @@ use dynotraj_eval::experiment::benchmark::{
 };
 use dynotraj_eval::experiment::figures::Figure;
 use dynotraj_eval::experiment::report::{Report, Section, write_report};
-use dynotraj_eval::experiment::sections::{deployment_section, table_i_sources};
+use dynotraj_eval::experiment::sections::{agents_caption, deployment_section, table_i_sources};
 use dynotraj_eval::experiment::{ExperimentConfig, fold_specs};
 use dynotraj_eval::report::chart::{Chart, Series, write_chart};
 use dynotraj_eval::report::{Format, instances_table};
@@ -249,18 +249,13 @@ fn agent_sections(
             table: seeds_table(result, |r| r.common.as_ref().map(|(_, rows)| &rows[..])),
         });
     }
-    let classes: Vec<&str> = config.rule.for_agents(agents).classes.iter().map(|c| c.kitti_name()).collect();
+    let caption = agents_caption(agents, &config.rule);
     for s in &mut out {
         if named {
             s.stem = format!("{}_{}", s.stem, agents.agents());
             s.title = format!("{}: {}", capitalised(agents.agents()), s.title);
         }
-        s.caption.push_str(&format!(
-            " Only {} ({} dynamics), each fold by a model trained on them alone; a fold whose training \
-                sequences hold none ships the prior at its settings for no data (cv-fit).",
-            classes.join(", "),
-            agents.name()
-        ));
+        s.caption.push_str(&caption);
     }
     out
 }

@@ -172,12 +172,6 @@ impl<'m, const W: usize> Pipeline<'m, W> {
         self.models.iter().any(Option::is_some)
     }
 
-    /// Whether a learned model forecasts the agents of `dynamics`.
-    #[must_use]
-    pub fn has_model_for(&self, dynamics: Dynamics) -> bool {
-        self.models.get(dynamics.index()).is_some_and(Option::is_some)
-    }
-
     /// The edge's counters.
     #[must_use]
     pub const fn stats(&self) -> &EdgeStats {

@@ -218,8 +218,19 @@ impl<'m, const W: usize> Session<'m, W> {
     /// # Errors
     /// When `blob` is not a valid model blob.
     pub fn with_model(blob: &'m [u8]) -> Result<Self, BlobError> {
+        Self::with_models(&[blob])
+    }
+
+    /// A session forecasting with the models `blobs` (linked into the image), one per agent
+    /// type; a later blob of an agent type replaces an earlier one.
+    ///
+    /// # Errors
+    /// The first of `blobs` that is not a valid model blob.
+    pub fn with_models(blobs: &[&'m [u8]]) -> Result<Self, BlobError> {
         let mut s = Self::new();
-        s.set_model(blob)?;
+        for blob in blobs {
+            s.set_model(blob)?;
+        }
         Ok(s)
     }
 

@@ -129,11 +129,7 @@ pub fn run_in_process(stream: &[u8], models: &[&[u8]]) -> InProcess {
     let mut session: Box<Session<'_>> = Box::new(if models.is_empty() {
         Session::with_model_buffer(&mut buffer, dynotraj_edge::provisioned::MODEL_KEY)
     } else {
-        let mut s = Session::new();
-        for blob in models {
-            s.set_model(blob).unwrap();
-        }
-        s
+        Session::with_models(models).unwrap()
     });
     let mut link = MemLink { input: stream, chunk: 256, output: Vec::new() };
     session.run(&mut link, &mut NoClock).unwrap();

@@ -90,21 +90,22 @@ impl ExperimentConfig {
     /// holds an eligible run of in any arm: they would train folds on nothing and score nothing.
     #[must_use]
     pub fn with_present_agents(&self, sequences: &[SequenceTracks]) -> Self {
-        let present = |d: Dynamics| {
-            let rule = self.rule.for_agents(d);
-            sequences.iter().any(|s| self.arms.iter().any(|&a| !eligible_runs(s.tracks_for(a), &rule).is_empty()))
-        };
         let kept: Vec<Dynamics> = self
             .rule
             .agent_types()
             .into_iter()
             .enumerate()
-            .filter(|&(k, d)| k == 0 || present(d))
+            .filter(|&(k, d)| k == 0 || self.for_agents(d).holds_runs(sequences.iter()))
             .map(|(_, d)| d)
             .collect();
         let mut rule = self.rule.clone();
         rule.classes.retain(|&c| kept.contains(&Dynamics::of_class(c)));
         Self { rule, ..self.clone() }
+    }
+
+    /// Whether any of `sequences` holds an eligible run under this rule, in any arm.
+    fn holds_runs<'s>(&self, mut sequences: impl Iterator<Item = &'s SequenceTracks>) -> bool {
+        sequences.any(|s| self.arms.iter().any(|&a| !eligible_runs(s.tracks_for(a), &self.rule).is_empty()))
     }
 
     /// This configuration for the agents of `dynamics` alone (its rule's classes of them).
@@ -329,7 +330,8 @@ pub fn score_seed(
     for (k, agents) in config.rule.agent_types().into_iter().enumerate() {
         let for_agents = config.for_agents(agents);
         // An agent type after the first with no eligible run in any test sequence has no rows.
-        if k > 0 && !has_test_runs(sequences, &for_agents) {
+        let tests = for_agents.test_sequences();
+        if k > 0 && !for_agents.holds_runs(sequences.iter().filter(|s| tests.contains(&s.id))) {
             log::info!("no eligible {} in the test sequences: none scored", agents.agents());
             continue;
         }
@@ -340,15 +342,6 @@ pub fn score_seed(
     result.folds = specs.iter().zip(trained).filter(|(s, _)| s.seed == seed).map(|(_, f)| f.report.clone()).collect();
     result.other_agents = per_agent;
     Ok(result)
-}
-
-/// Whether any test sequence of `config` holds an eligible run under its rule, in any arm.
-fn has_test_runs(sequences: &[SequenceTracks], config: &ExperimentConfig) -> bool {
-    let tests = config.test_sequences();
-    sequences
-        .iter()
-        .filter(|s| tests.contains(&s.id))
-        .any(|s| config.arms.iter().any(|&a| !eligible_runs(s.tracks_for(a), &config.rule).is_empty()))
 }
 
 /// [`score_seed`] for the agent type of `config`'s rule (one), by the models trained on it.

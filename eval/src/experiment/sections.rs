@@ -157,7 +157,8 @@ pub fn experiment_report(
 }
 
 /// Which classes a table of `agents` scores, under `rule`, for its caption.
-fn agents_caption(agents: Dynamics, rule: &EligibilityRule) -> String {
+#[must_use]
+pub fn agents_caption(agents: Dynamics, rule: &EligibilityRule) -> String {
     let classes: Vec<&str> = rule.for_agents(agents).classes.iter().map(|c| c.kitti_name()).collect();
     format!(
         " Only {} ({} dynamics), each fold by a model trained on them alone; a fold whose training sequences hold \

@@ -21,6 +21,7 @@ use std::time::Duration;
 
 use clap::Parser;
 use dynotraj_core::model::blob::ModelBlob;
+use dynotraj_core::predict::Dynamics;
 use dynotraj_core::wire::Notice;
 use dynotraj_edge::provisioned::{MODEL_KEY, MODEL_KEY_IS_DEVELOPMENT};
 use dynotraj_edge::{RunError, Session, Transport, send_notice};
@@ -122,11 +123,12 @@ fn main() -> ExitCode {
     }
 }
 
-/// The model file of `--model`, checked.
-fn model_file(path: &std::path::Path) -> Result<&'static [u8], String> {
+/// The model file of `--model`, checked, and the agent type it forecasts.
+fn model_file(path: &std::path::Path) -> Result<(&'static [u8], Dynamics), String> {
     let bytes: &'static [u8] = std::fs::read(path).map_err(|e| format!("--model {}: {e}", path.display()))?.leak();
-    ModelBlob::parse(bytes).map_err(|e| format!("--model {}: not a model blob this edge runs: {e}", path.display()))?;
-    Ok(bytes)
+    let blob = ModelBlob::parse(bytes)
+        .map_err(|e| format!("--model {}: not a model blob this edge runs: {e}", path.display()))?;
+    Ok((bytes, blob.dynamics()))
 }
 
 /// The edge's state across sessions: the model it was given, the buffer a model sent over the
@@ -144,12 +146,8 @@ impl Edge {
         let mut session: Session<'_> = if self.models.is_empty() {
             Session::with_model_buffer(&mut self.buffer, MODEL_KEY)
         } else {
-            let mut s = Session::new();
-            for blob in &self.models {
-                // Checked when the edge started.
-                let _ = s.set_model(blob);
-            }
-            s
+            // Checked when the edge started.
+            Session::with_models(&self.models).unwrap_or_default()
         };
         let result = session.run(io, &mut self.clock);
         eprintln!("{}", report::session_line(who, &session, &report::ending(&result, session.ended())));
@@ -179,17 +177,17 @@ impl Edge {
 
 fn serve(args: &Args) -> Result<(), String> {
     let models = args.model.iter().map(|p| model_file(p)).collect::<Result<Vec<_>, _>>()?;
-    let dynamics = |b: &[u8]| ModelBlob::parse(b).map(|m| m.dynamics()).ok();
-    for (i, a) in models.iter().enumerate() {
-        if let Some(j) = models.iter().skip(i + 1).position(|b| dynamics(b) == dynamics(a)) {
+    for (i, (_, a)) in models.iter().enumerate() {
+        if let Some(j) = models.iter().skip(i + 1).position(|(_, b)| b == a) {
             return Err(format!(
                 "--model {} and {} both forecast {}: give one blob per agent type",
                 args.model[i].display(),
                 args.model[i + 1 + j].display(),
-                dynamics(a).map_or("?", |d| d.agents())
+                a.agents()
             ));
         }
     }
+    let models = models.into_iter().map(|(bytes, _)| bytes).collect();
     let mut edge =
         Edge { models, buffer: vec![0u8; MODEL_BUFFER_LEN], clock: WallClock::new(), totals: Totals::default() };
     if let Some(url) = &args.listen {
