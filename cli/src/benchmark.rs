@@ -59,7 +59,7 @@ pub struct BenchmarkArgs {
 /// # Errors
 /// Loading, training or writing errors, named.
 pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
-    args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
+    args.run.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     args.run.check_table(&["weighted", "goal"])?;
     args.run.check(&args.data, &args.arms)?;
     let start = std::time::Instant::now();

@@ -11,8 +11,7 @@ use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
-use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_sources::drives::{Drive, labelled_drives, load_drive, manifest_drives, select_drives};
+use dynotraj_sources::drives::{Drive, distinct_ids, kitti_drives, load_drive, manifest_drives, select_drives};
 use dynotraj_sources::estimation::settings::{EstimateSettings, SimulatedInput};
 use dynotraj_sources::estimation::simulated::{EvalOptions, ObjectVariants};
 use dynotraj_sources::sequence::SequenceTracks;
@@ -139,77 +138,6 @@ pub struct DataArgs {
     /// The estimated source's input, its cache and the jobs.
     #[command(flatten)]
     pub ours: EstimatedSourceArgs,
-}
-
-/// Checks, before a command's work starts, that `dir` (the output folder named by `flag`) can
-/// be made a folder: neither it nor any ancestor is a file. A training or a soak of minutes must
-/// not end in `File exists`; nothing is created, so a refused command leaves nothing behind.
-///
-/// # Errors
-/// `dir` or an ancestor is not a folder, naming the flag and the file.
-pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
-    for p in dir.ancestors().filter(|p| !p.as_os_str().is_empty()) {
-        if p.exists() {
-            anyhow::ensure!(
-                p.is_dir(),
-                "{flag} {}: expected a folder for the outputs, found a file at {}",
-                dir.display(),
-                p.display()
-            );
-            return Ok(());
-        }
-    }
-    Ok(())
-}
-
-/// Where `--record FILE` puts the recording of sequence `id`: FILE itself when the run makes
-/// one recording (`several` false) and FILE is not an existing folder; otherwise FILE is a
-/// folder holding `<id>.mcap`, under `<group>/` when a group is given (e.g. the estimator
-/// profile, when several are run). Shared by the commands that record, so that every one lays
-/// out a folder of recordings the same way.
-#[must_use]
-pub fn record_path(target: &Path, several: bool, group: Option<&str>, id: &str) -> PathBuf {
-    if !several && !target.is_dir() {
-        return target.to_path_buf();
-    }
-    let dir = group.map_or_else(|| target.to_path_buf(), |g| target.join(g));
-    dir.join(format!("{id}.mcap"))
-}
-
-/// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
-///
-/// # Errors
-/// A sequence given twice (it would count twice), a folder that cannot be listed, or one that
-/// holds no sequence (a command over nothing would print empty tables and succeed).
-pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
-    if !given.is_empty() {
-        return distinct_ids("--sequences", given.to_vec());
-    }
-    let ids = dir.sequences()?;
-    if ids.is_empty() {
-        anyhow::bail!(
-            "{}: no sequence (expected label files named like 0000.txt)",
-            dir.root().join("label_02").display()
-        );
-    }
-    Ok(ids)
-}
-
-/// The first item of `items` that an earlier one equals (a value given twice in a list option).
-#[must_use]
-pub fn first_repeated<T: PartialEq>(items: &[T]) -> Option<&T> {
-    items.iter().enumerate().find_map(|(i, x)| items[..i].contains(x).then_some(x))
-}
-
-/// `ids` (the value of option `flag`) when no sequence is in it twice.
-///
-/// # Errors
-/// A sequence given twice (it would count twice), named with its option.
-pub fn distinct_ids(flag: &str, ids: Vec<String>) -> anyhow::Result<Vec<String>> {
-    if let Some(twice) = first_repeated(&ids) {
-        anyhow::bail!("{flag}: {twice} is given twice (each sequence counts once)");
-    }
-    Ok(ids)
 }
 
 /// The one sequence of a command that works on one stream: `given` must hold exactly one id.
@@ -485,30 +413,10 @@ impl DataArgs {
     }
 }
 
-/// The drives `sequences` of the KITTI tracking folder `kitti` (every one when empty), all
-/// labelled: what `--kitti` names.
-///
-/// # Errors
-/// The folder cannot be opened or listed, holds no sequence, or a sequence is given twice.
-pub fn kitti_drives(kitti: &Path, sequences: &[String]) -> anyhow::Result<Vec<Drive>> {
-    let dir = TrackingDir::open(kitti)?;
-    Ok(labelled_drives(kitti, &sequence_ids(&dir, sequences)?))
-}
-
 /// Progress on stderr: a bar on a terminal, paced lines with the elapsed time elsewhere.
 #[must_use]
 pub fn progress(len: u64, what: &str) -> Progress {
     Progress::new(len, what)
-}
-
-/// The camera-frame point (x right, y down, z forward, metres) of a track's pixel and depth,
-/// for focal lengths `f` and principal point `c` in pixels; `None` without a usable depth (the
-/// front-end keeps tracks whose depth is unknown, and they have no place in 3D).
-#[must_use]
-pub fn track_point(k: &dynotraj_core::wire::Track, f: [f32; 2], c: [f32; 2]) -> Option<[f32; 3]> {
-    let [fx, fy] = f;
-    let [cx, cy] = c;
-    (k.depth.is_finite() && k.depth > 0.0).then(|| [(k.u - cx) / fx * k.depth, (k.v - cy) / fy * k.depth, k.depth])
 }
 
 #[cfg(test)]

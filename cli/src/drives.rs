@@ -3,8 +3,9 @@
 
 use std::path::PathBuf;
 
-use super::common::{KITTI_ENV, kitti_drives, kitti_or_env};
+use super::common::{KITTI_ENV, kitti_or_env};
 use clap::Args;
+use dynotraj_sources::drives::kitti_drives;
 use dynotraj_sources::drives::manifest_drives;
 
 /// Options of `dynotraj drives`.

@@ -63,9 +63,9 @@ pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let ids: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
-        super::common::distinct_ids("--tests", args.tests.clone())?
+        dynotraj_sources::drives::distinct_ids("--tests", args.tests.clone())?
     };
-    if let Some(twice) = super::common::first_repeated(&args.predictor) {
+    if let Some(twice) = dynotraj_sources::drives::first_repeated(&args.predictor) {
         anyhow::bail!("--predictor: {} is given twice (its rows would repeat)", twice.label());
     }
     anyhow::ensure!(args.carry <= MAX_CARRY, "--carry {}: at most {MAX_CARRY}", args.carry);

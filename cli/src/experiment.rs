@@ -8,10 +8,10 @@ use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use dynotraj_eval::experiment::figures::{FoldModels, ObjectChoice, parse_object_choice, subjects, write_figures};
-use dynotraj_eval::experiment::recording::write_recordings;
 use dynotraj_eval::experiment::report::write_report;
 use dynotraj_eval::experiment::sections::{RunSettings, experiment_report};
 use dynotraj_eval::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
+use dynotraj_eval::recording::experiment::write_recordings;
 use dynotraj_eval::report::{Format, Table};
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::Source;
@@ -65,7 +65,7 @@ fn test_ids(args: &ExperimentArgs) -> anyhow::Result<Vec<String>> {
     Ok(if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
-        super::common::distinct_ids("--tests", args.tests.clone())?
+        dynotraj_sources::drives::distinct_ids("--tests", args.tests.clone())?
     })
 }
 
@@ -122,8 +122,8 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
 /// # Errors
 /// See [`table`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
-    args.run.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
-    args.record.as_deref().map(|d| super::common::output_folder("--record", d)).transpose()?;
+    args.run.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
+    args.record.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--record", d)).transpose()?;
     let names: &[&str] =
         if args.arms.iter().any(Source::is_estimated) { &["table_iv", "table_iv_truth"] } else { &["table_iv"] };
     args.run.check_table(names)?;

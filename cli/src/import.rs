@@ -138,7 +138,7 @@ pub struct ExportBagArgs {
 /// # Errors
 /// See [`dynotraj_bag::from_layout::layout_to_bag`].
 pub fn export_bag(args: &ExportBagArgs) -> anyhow::Result<()> {
-    crate::common::output_folder("--out", &args.out)?;
+    dynotraj_formats::atomic::output_folder("--out", &args.out)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     for seq in &args.sequences {
         let bag = args.out.join(format!("{seq}.mcap"));

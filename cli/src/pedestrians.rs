@@ -51,7 +51,7 @@ pub struct PedestriansArgs {
 /// # Errors
 /// A recording that cannot be read (named), an unknown scene, training or writing errors.
 pub fn run_command(args: &PedestriansArgs) -> anyhow::Result<()> {
-    args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
+    args.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     let start = std::time::Instant::now();
     let options = BenchmarkOptions {
         data: args.data.clone(),

@@ -11,7 +11,7 @@ use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim};
 use dynotraj_sim::track_sim::LabelBox;
 
-use super::common::{self, ClassesArg, progress};
+use super::common::{ClassesArg, progress};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
 use dynotraj_frontend::image_sim_files::write_sequence_with;
@@ -66,7 +66,7 @@ pub struct SimulateArgs {
 /// A folder that cannot be listed, a sequence given twice, several ids for the drive.
 pub fn sequence_ids(args: &SimulateArgs) -> anyhow::Result<Vec<String>> {
     match (&args.kitti, args.drive) {
-        (Some(dir), false) => common::sequence_ids(&TrackingDir::open(dir)?, &args.sequences),
+        (Some(dir), false) => dynotraj_sources::drives::sequence_ids(&TrackingDir::open(dir)?, &args.sequences),
         _ => match args.sequences.as_slice() {
             [] => Ok(vec!["0000".to_string()]),
             [one] => Ok(vec![one.clone()]),
@@ -114,7 +114,7 @@ pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
 /// # Errors
 /// Loading or writing errors, named.
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
-    args.out.as_deref().map(|d| common::output_folder("--out", d)).transpose()?;
+    args.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     for id in sequence_ids(args)? {
         let sim = build(args, &id)?;
         let n = args.frames.unwrap_or(sim.len()).min(sim.len());

@@ -2,12 +2,8 @@
 //! randomly damaged stream; prints what was sent, damaged, answered and lost, and the edge's
 //! resident memory after the first frames and at the end.
 
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::time::Duration;
 
-use anyhow::Context as _;
 use clap::Args;
 
 use super::common::progress;
@@ -15,7 +11,7 @@ use super::stream::TracksInputArgs;
 use dynotraj_eval::report::stream_report::{soak_data, soak_summary};
 use dynotraj_eval::report::write_table_files;
 use dynotraj_formats::tracks_file::Tracks;
-use dynotraj_link::endpoint::{Endpoint, connect};
+use dynotraj_link::edge_process::{EdgeProcess, edge_beside_this_program};
 use dynotraj_link::soak::{SoakOptions, SoakReport, soak};
 
 /// Options of `dynotraj soak`.
@@ -49,7 +45,7 @@ pub struct SoakArgs {
 /// Input, edge start-up or link errors, named; a clean frame left unanswered.
 pub fn run(args: &SoakArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.out {
-        super::common::output_folder("--out", dir)?;
+        dynotraj_formats::atomic::output_folder("--out", dir)?;
     }
     let report = soak_edge(args)?;
     print!("{}", soak_summary(&report));
@@ -78,34 +74,12 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         args.fault_probability
     );
     let base: Tracks = args.input.load(None)?;
-    let edge = match &args.edge {
+    let binary = match &args.edge {
         Some(p) => p.clone(),
-        None => std::env::current_exe().context("locating this program")?.with_file_name("dynotraj-edge"),
+        None => edge_beside_this_program()?,
     };
-    let mut child = Command::new(&edge)
-        .args(["--listen", "tcp://127.0.0.1:0", "--sessions", "1"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .with_context(|| {
-            format!(
-                "starting the edge {} (build it with `cargo build --release --bins`, or give --edge)",
-                edge.display()
-            )
-        })?;
-    let mut lines = BufReader::new(child.stderr.take().context("edge stderr")?).lines();
-    let first = lines.next().context("the edge said nothing")?.context("reading the edge's stderr")?;
-    let Some((_, addr)) = first.rsplit_once("tcp://") else {
-        // Not an edge (or one that failed to start): what it said is its error, not an address.
-        let _ = child.kill();
-        let _ = child.wait();
-        anyhow::bail!(
-            "the edge {} did not say where it listens: expected its first line to end in tcp://HOST:PORT, found `{}`",
-            edge.display(),
-            first.trim()
-        );
-    };
-    let addr = addr.trim().to_string();
-    let (rx, tx) = connect(&Endpoint::Tcp(addr), Duration::from_secs(10))?;
+    let edge = EdgeProcess::start(&binary)?;
+    let (rx, tx) = edge.connect()?;
     let bar = std::sync::Arc::new(progress(args.frames, "frames sent"));
     let opt = SoakOptions {
         frames: args.frames,
@@ -115,13 +89,13 @@ pub fn soak_edge(args: &SoakArgs) -> anyhow::Result<SoakReport> {
         stop: Some(crate::interrupt::stop_flag()?),
         ..SoakOptions::default()
     };
-    let report = soak(&base, rx, tx, &opt, Some(child.id()))?;
+    let report = soak(&base, rx, tx, &opt, Some(edge.id()))?;
     bar.finish_and_clear();
+    let (last_words, status) = edge.wait()?;
     // The edge's last words (its session summary) go to our stderr.
-    for l in lines.map_while(Result::ok) {
+    for l in last_words {
         eprintln!("{l}");
     }
-    let status = child.wait().context("waiting for the edge")?;
     // A Ctrl-C reaches the edge too (one process group): its exit then is no fault of its own.
     anyhow::ensure!(status.success() || report.interrupted, "the edge exited with {status}");
     Ok(report)

@@ -58,7 +58,7 @@ pub struct StreamArgs {
 /// # Errors
 /// Input, link or output errors, named.
 pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
-    args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
+    args.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     let tracks = args.input.load(args.frames)?;
     let model =
         args.model.as_ref().map(|p| dynotraj_formats::model_file::read_model_file(p).context("--model")).transpose()?;

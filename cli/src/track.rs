@@ -9,10 +9,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary, Rgba};
-use dynotraj_core::wire::{CameraInfo, Track};
+use dynotraj_bag::record::RecordingSummary;
+use dynotraj_core::wire::CameraInfo;
+use dynotraj_eval::recording::record_path;
+use dynotraj_eval::recording::track::TrackRecorder;
 
-use super::common::{FrameRateArg, PointDepthArgs, RenderOptics, progress, record_path};
+use super::common::{FrameRateArg, PointDepthArgs, RenderOptics, progress};
 use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
 use dynotraj_eval::report::data::{Cell, ColumnKind, Data};
 use dynotraj_eval::report::{Format, Table};
@@ -101,7 +103,7 @@ impl TrackArgs {
 /// # Errors
 /// Reading, tracking or writing errors, named.
 pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
-    args.out.as_deref().map(|d| super::common::output_folder("--out", d)).transpose()?;
+    args.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     anyhow::ensure!(
         args.rate.hz.is_finite() && args.rate.hz > 0.0,
         "--rate: expected a positive frame rate, found {}",
@@ -150,7 +152,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
 /// A sequence given twice, or no image_02/ folder to list.
 fn image_sequences(dir: &Path, given: &[String]) -> anyhow::Result<Vec<String>> {
     if !given.is_empty() {
-        return super::common::distinct_ids("--sequences", given.to_vec());
+        return dynotraj_sources::drives::distinct_ids("--sequences", given.to_vec());
     }
     let images = dir.join("image_02");
     let mut ids: Vec<String> = std::fs::read_dir(&images)
@@ -165,7 +167,7 @@ fn image_sequences(dir: &Path, given: &[String]) -> anyhow::Result<Vec<String>> 
 }
 
 /// Tracks sequence `seq` of `dir` into the tracks file `out`, and with `record` also into a
-/// recording there ([`FrameRecorder`]); returns the stage times, the counters, the frames
+/// recording there ([`TrackRecorder`]); returns the stage times, the counters, the frames
 /// tracked and what the recording holds.
 ///
 /// # Errors
@@ -198,13 +200,7 @@ pub fn track_sequence(
     let mut fe = FrontEnd::new(stereo, args.tracker(), s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
     let mut rec = record
-        .map(|path| -> anyhow::Result<FrameRecorder> {
-            Ok(FrameRecorder {
-                rec: Recorder::create(path).context("--record")?,
-                left_dir: dir.join("image_02").join(seq),
-                camera,
-            })
-        })
+        .map(|path| TrackRecorder::create(path, dir.join("image_02").join(seq), &camera).context("--record"))
         .transpose()?;
     let bar = progress(args.frames.map_or(0, |n| n as u64), "frames tracked");
     let n = s.track(&mut fe, args.frames.unwrap_or(usize::MAX), f64::from(rate_hz), |frame, t_us, tracks| {
@@ -217,76 +213,8 @@ pub fn track_sequence(
     })?;
     bar.finish_and_clear();
     w.finish()?;
-    let recorded = rec.map(|r| r.rec.finish().context("--record")).transpose()?;
+    let recorded = rec.map(|r| r.finish().context("--record")).transpose()?;
     Ok((fe.times, fe.tracker.stats, n, recorded))
-}
-
-/// Colour of the static tracks drawn over the image.
-const STATIC_COLOR: Rgba = Rgba::opaque(0.2, 0.9, 0.3);
-/// Colours of the objects' tracks drawn over the image, by object id in turn: distinct hues,
-/// none of them the static tracks' green.
-const OBJECT_COLORS: [Rgba; 6] = [
-    Rgba::opaque(1.0, 0.3, 0.2),
-    Rgba::opaque(0.2, 0.6, 1.0),
-    Rgba::opaque(1.0, 0.8, 0.1),
-    Rgba::opaque(0.9, 0.3, 0.9),
-    Rgba::opaque(0.1, 0.9, 0.9),
-    Rgba::opaque(1.0, 0.55, 0.1),
-];
-/// Diameter of a track drawn over the image, pixels.
-const DOT_PX: f64 = 4.0;
-
-/// A `track --record` recording being written, frame by frame.
-struct FrameRecorder {
-    rec: Recorder,
-    /// The sequence's left images, `NNNNNN.png`: the front-end reads them by the same names.
-    left_dir: PathBuf,
-    /// The camera the tracks were measured with.
-    camera: CameraInfo,
-}
-
-impl FrameRecorder {
-    /// Writes frame `frame` (captured at `t_us`, the log time) and its `tracks`: the left
-    /// image's file as it is (a PNG is already what `foxglove.CompressedImage` carries, so it
-    /// is not decoded and encoded again), the tracks with a depth as points of the camera
-    /// frame, static and object tracks apart, and every track over the image.
-    fn frame(&mut self, frame: u32, t_us: u64, tracks: &[Track]) -> anyhow::Result<()> {
-        let t = t_us.checked_mul(1000).with_context(|| format!("frame {frame}: capture time {t_us} us overflows"))?;
-        let image = self.left_dir.join(format!("{frame:06}.png"));
-        let bytes = std::fs::read(&image).with_context(|| format!("reading {}", image.display()))?;
-        self.rec.image("/camera/left/compressed", t, CAMERA_FRAME, "png", &bytes)?;
-        let (statics, objects): (Vec<&Track>, Vec<&Track>) = tracks.iter().partition(|k| k.is_static());
-        let static_points: Vec<[f32; 3]> = statics.iter().filter_map(|k| self.back_project(k)).collect();
-        self.rec.points("/tracks/static", t, CAMERA_FRAME, &static_points)?;
-        let object_points: Vec<([f32; 3], u32)> =
-            objects.iter().filter_map(|k| Some((self.back_project(k)?, u32::from(k.object_id)))).collect();
-        self.rec.labelled_points("/tracks/objects", t, CAMERA_FRAME, "object_id", &object_points)?;
-        self.rec.image_points("/camera/left/annotations", t, &image_groups(&statics, &objects))?;
-        Ok(())
-    }
-
-    /// The camera-frame point of a track ([`super::common::track_point`]).
-    fn back_project(&self, k: &Track) -> Option<[f32; 3]> {
-        let c = &self.camera;
-        super::common::track_point(k, [c.fx, c.fy], [c.cx, c.cy])
-    }
-}
-
-/// The tracks drawn over the image: the static ones in one group, each object's in a group of
-/// its own colour (every track, with or without a depth: this is what the front-end followed).
-fn image_groups(statics: &[&Track], objects: &[&Track]) -> Vec<ImagePoints> {
-    let pixel = |k: &&Track| [f64::from(k.u), f64::from(k.v)];
-    let mut groups =
-        vec![ImagePoints { points: statics.iter().map(pixel).collect(), color: STATIC_COLOR, size: DOT_PX }];
-    let mut by_object: std::collections::BTreeMap<u16, Vec<[f64; 2]>> = std::collections::BTreeMap::new();
-    for k in objects {
-        by_object.entry(k.object_id).or_default().push(pixel(k));
-    }
-    for (id, points) in by_object {
-        let color = OBJECT_COLORS[usize::from(id) % OBJECT_COLORS.len()];
-        groups.push(ImagePoints { points, color, size: DOT_PX });
-    }
-    groups
 }
 
 fn print_times(t: &StageTimes, stereo: &StereoParams) {
@@ -321,7 +249,7 @@ fn print_times(t: &StageTimes, stereo: &StereoParams) {
 
 /// Renders, tracks and scores the sequences of `dir` ([`TrackArgs::disparity_error`]).
 fn disparity_error(dir: &Path, args: &TrackArgs) -> anyhow::Result<()> {
-    let drives = super::common::kitti_drives(dir, &args.sequences)?;
+    let drives = dynotraj_sources::drives::kitti_drives(dir, &args.sequences)?;
     let tracking = TrackingDir::open(dir)?;
     let opt = EvalOptions {
         max_frames: args.frames,

@@ -284,7 +284,7 @@ impl HyperArgs {
 /// # Errors
 /// Loading errors, no training instances, I/O errors.
 pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
-    super::common::output_folder("--out", &args.out)?;
+    dynotraj_formats::atomic::output_folder("--out", &args.out)?;
     let dt = args.data.dt()?;
     let rule = args.data.rule()?;
     let sequences = args.data.load_for(&args.sequences, &[args.source])?;

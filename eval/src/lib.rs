@@ -3,9 +3,11 @@
 //! tables and figures (`report`), the predictors a command names (`predictors`), and the pool
 //! of jobs they run on (`jobs`).
 
+pub mod estimation;
 pub mod experiment;
 pub mod forecast_eval;
 pub mod jobs;
 pub mod pedestrian_benchmark;
 pub mod predictors;
+pub mod recording;
 pub mod report;

@@ -29,6 +29,27 @@ pub fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
     written
 }
 
+/// Checks, before a command's work starts, that `dir` (the output folder named by `flag`) can
+/// be made a folder: neither it nor any ancestor is a file. A training or a soak of minutes must
+/// not end in `File exists`; nothing is created, so a refused command leaves nothing behind.
+///
+/// # Errors
+/// `dir` or an ancestor is not a folder, naming the flag and the file.
+pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
+    for p in dir.ancestors().filter(|p| !p.as_os_str().is_empty()) {
+        if p.exists() {
+            anyhow::ensure!(
+                p.is_dir(),
+                "{flag} {}: expected a folder for the outputs, found a file at {}",
+                dir.display(),
+                p.display()
+            );
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,9 +7,13 @@
 //!   wrapped around a link's writer the way a fault-injecting device wraps a network device.
 //! - [`stream`]: a recording sent to an edge, paced or in lockstep, with every answer kept.
 //! - [`soak`]: a long stream through the fault injector, with counters only.
+//! - [`in_process`]: the edge's session in this process as the link's other end.
+//! - [`edge_process`]: a host build of the edge started as a child process, for a soak.
 
+pub mod edge_process;
 pub mod endpoint;
 pub mod fault;
+pub mod in_process;
 pub mod soak;
 pub mod stream;
 pub mod wire_io;

@@ -403,6 +403,52 @@ fn load_images_only(root: &Path, id: &str, estimate: Option<&EstimateSettings>) 
     })
 }
 
+/// The sequences a command works on: `given`, or every sequence of `dir` when none is given.
+///
+/// # Errors
+/// A sequence given twice (it would count twice), a folder that cannot be listed, or one that
+/// holds no sequence (a command over nothing would print empty tables and succeed).
+pub fn sequence_ids(dir: &TrackingDir, given: &[String]) -> anyhow::Result<Vec<String>> {
+    if !given.is_empty() {
+        return distinct_ids("--sequences", given.to_vec());
+    }
+    let ids = dir.sequences()?;
+    if ids.is_empty() {
+        anyhow::bail!(
+            "{}: no sequence (expected label files named like 0000.txt)",
+            dir.root().join("label_02").display()
+        );
+    }
+    Ok(ids)
+}
+
+/// The first item of `items` that an earlier one equals (a value given twice in a list option).
+#[must_use]
+pub fn first_repeated<T: PartialEq>(items: &[T]) -> Option<&T> {
+    items.iter().enumerate().find_map(|(i, x)| items[..i].contains(x).then_some(x))
+}
+
+/// `ids` (the value of option `flag`) when no sequence is in it twice.
+///
+/// # Errors
+/// A sequence given twice (it would count twice), named with its option.
+pub fn distinct_ids(flag: &str, ids: Vec<String>) -> anyhow::Result<Vec<String>> {
+    if let Some(twice) = first_repeated(&ids) {
+        anyhow::bail!("{flag}: {twice} is given twice (each sequence counts once)");
+    }
+    Ok(ids)
+}
+
+/// The drives `sequences` of the KITTI tracking folder `kitti` (every one when empty), all
+/// labelled: what `--kitti` names.
+///
+/// # Errors
+/// The folder cannot be opened or listed, holds no sequence, or a sequence is given twice.
+pub fn kitti_drives(kitti: &Path, sequences: &[String]) -> anyhow::Result<Vec<Drive>> {
+    let dir = TrackingDir::open(kitti)?;
+    Ok(labelled_drives(kitti, &sequence_ids(&dir, sequences)?))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

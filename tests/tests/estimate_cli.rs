@@ -4,8 +4,8 @@
 use clap::Parser;
 use dynotraj_cli::estimate::estimate_sequences;
 use dynotraj_cli::{Cli, Command};
+use dynotraj_eval::estimation::pose_files::write_run;
 use dynotraj_eval::report::estimator_tables::tables;
-use dynotraj_sources::estimation::files::write_run;
 
 #[test]
 fn estimate_prints_table_iii_and_writes_pose_files() {

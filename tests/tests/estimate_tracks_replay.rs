@@ -3,8 +3,9 @@
 //! writes the estimate files without any truth.
 
 use clap::Parser as _;
-use dynotraj_cli::estimate::{EstimateArgs, estimate_sequences, estimate_tracks, run};
+use dynotraj_cli::estimate::{EstimateArgs, estimate_sequences, run};
 use dynotraj_cli::{Cli, Command};
+use dynotraj_eval::estimation::estimate_tracks;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sources::estimation::Kind;
 use dynotraj_tests::synthetic_kitti::write_sequence;
@@ -47,7 +48,7 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
 
     // Bit for bit: every estimate of every kind, compared as f32.
     let direct = estimate_sequences(&direct_args).unwrap().remove(0);
-    let replay = estimate_tracks(&replay_args, &tracks).unwrap();
+    let replay = replay_file(&replay_args, &tracks).unwrap();
     assert_eq!(replay.frames.len(), direct.frames);
     let mut objects = 0;
     for kind in Kind::ALL {
@@ -58,7 +59,7 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
     assert_eq!(replay.run.stats, direct.run.stats);
 
     // A different seed changes RANSAC, so the comparison above can fail.
-    let other = estimate_tracks(&args(&["--tracks", tracks_s, "--seed", "4"]), &tracks).unwrap();
+    let other = replay_file(&args(&["--tracks", tracks_s, "--seed", "4"]), &tracks).unwrap();
     assert_ne!(other.run.of(Kind::FrameToFrame), direct.run.of(Kind::FrameToFrame));
 
     // The replay's files: the same estimate files, no truth anywhere.
@@ -76,6 +77,12 @@ fn a_replayed_tracks_file_gives_the_direct_estimates_bit_for_bit() {
 
     // Bad input names the file.
     std::fs::write(&tracks, b"\x00garbage\x00").unwrap();
-    let err = estimate_tracks(&replay_args, &tracks).unwrap_err().to_string();
+    let err = replay_file(&replay_args, &tracks).unwrap_err().to_string();
     assert!(err.contains("0000.dtt"), "{err}");
+}
+
+/// The estimator on a tracks file with the options `args` give, as `estimate --tracks` runs it.
+fn replay_file(args: &EstimateArgs, tracks: &std::path::Path) -> Result<dynotraj_eval::estimation::Replay, String> {
+    let options = args.options().map_err(|e| e.to_string())?;
+    estimate_tracks(tracks, options, args.frames).map_err(|e| e.to_string())
 }

@@ -28,8 +28,10 @@ use anyhow::Context as _;
 use base64::Engine as _;
 use serde_json::{Value, json};
 
+pub use lines::{FORECAST_THICKNESS, TRAIL_THICKNESS, Trails, forecast_line, meta, trail_line};
 use schemas::schema_of;
 
+mod lines;
 mod schemas;
 #[cfg(test)]
 mod tests;
@@ -246,6 +248,15 @@ impl Recorder {
             counts: BTreeMap::new(),
             sequence: 0,
         })
+    }
+
+    /// The log time of frame `frame` at `rate_hz` ([`frame_time_ns`]), errors naming this
+    /// recording.
+    ///
+    /// # Errors
+    /// A rate that is not a positive finite number.
+    pub fn frame_time(&self, frame: u32, rate_hz: f64) -> anyhow::Result<u64> {
+        frame_time_ns(frame, rate_hz).with_context(|| format!("recording {}", self.path.display()))
     }
 
     /// The file the recording becomes on [`Recorder::finish`].

@@ -35,6 +35,12 @@ impl From<&crate::wire::CameraInfo> for Intrinsics {
 impl Intrinsics {
     /// KITTI 2011_09_26 rectified camera 0 (the calibration of tracking sequences 0000-0013).
     pub const KITTI_0926: Self = Self { fx: 721.5377, fy: 721.5377, cx: 609.5593, cy: 172.854, stereo_fb: 387.5744 };
+
+    /// The camera-frame point (x right, y down, z forward, metres) of pixel (u, v) at `depth`.
+    #[must_use]
+    pub fn back_project(&self, u: f32, v: f32, depth: f32) -> [f32; 3] {
+        crate::geometry::back_project([u, v], depth, [self.fx, self.fy], [self.cx, self.cy])
+    }
 }
 
 /// Budget and thresholds of one robust fit (minimal-set RANSAC, then Gauss-Newton/LM).

@@ -56,7 +56,7 @@ impl PointModel {
     /// The camera-frame point of a pixel and depth.
     #[must_use]
     pub fn back_project(&self, u: f32, v: f32, depth: f32) -> Point3<f32> {
-        Point3::new((u - self.cx) * depth / self.fx, (v - self.cy) * depth / self.fy, depth)
+        Point3::from(crate::geometry::back_project([u, v], depth, [self.fx, self.fy], [self.cx, self.cy]))
     }
 
     /// The camera-frame point of a correspondence's observation.

@@ -10,6 +10,7 @@ mod agent_frame;
 mod angle;
 mod bev;
 mod norm_bound;
+mod pinhole;
 mod se3;
 pub mod trig;
 
@@ -17,4 +18,5 @@ pub use agent_frame::AgentFrame;
 pub use angle::{angle_diff, wrap_angle};
 pub use bev::{BevState, Point2, bev_heading_of_rotation_y, bev_point};
 pub use norm_bound::NormBound;
+pub use pinhole::back_project;
 pub use se3::{POSE3_IDENTITY, Pose3, rotation_angle, rotation_of_scaled_axis, se2_of_bev, se3_exp, se3_log};

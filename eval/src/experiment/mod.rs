@@ -14,7 +14,6 @@ pub mod figures;
 pub mod findings;
 pub mod folds;
 pub mod paper;
-pub mod recording;
 pub mod report;
 pub mod sections;
 

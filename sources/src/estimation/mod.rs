@@ -18,14 +18,12 @@
 //! - [`from_images`]: the estimator on the image front-end's tracks of a real image sequence.
 //! - [`end_to_end`]: a rendered sequence through the front-end and the estimator, scored.
 //! - [`settings`]: how the Estimated source is made (options, simulated or rendered tracks).
-//! - [`files`]: TUM and KITTI pose files for the camera and each object, and a per-frame CSV log.
 
 pub mod cache;
 pub mod cache_file;
 pub mod cost;
 #[cfg(feature = "images")]
 pub mod end_to_end;
-pub mod files;
 pub mod from_images;
 pub mod hybrid;
 pub mod input;

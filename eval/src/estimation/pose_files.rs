@@ -37,9 +37,9 @@ use dynotraj_core::geometry::Pose3;
 use dynotraj_sim::track_sim::SimFrame;
 use nalgebra::Isometry3;
 
-use super::runner::{EstimatorRun, Kind};
-use super::score::object_runs;
 use dynotraj_formats::kitti::{write_poses, write_tum_noted};
+use dynotraj_sources::estimation::runner::{EstimatorRun, Kind};
+use dynotraj_sources::estimation::score::object_runs;
 
 fn f64_pose(p: &Pose3) -> Isometry3<f64> {
     p.cast::<f64>()

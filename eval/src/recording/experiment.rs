@@ -6,14 +6,16 @@
 use std::path::Path;
 
 use anyhow::Context as _;
-use dynotraj_bag::record::{Line, Recorder, RecordingSummary, Rgba, frame_time_ns, ground};
+use dynotraj_bag::record::{
+    Line, Recorder, RecordingSummary, Rgba, forecast_line as forecast_entity, ground, meta, trail_line,
+};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::{Baseline, Predictor};
 use dynotraj_sources::scene::{Scene, SourcedRun};
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, Source, eligible_runs};
 
-use super::figures::FoldModels;
+use crate::experiment::figures::FoldModels;
 use crate::forecast_eval::forecast_at;
 
 /// How many past states a track's line shows: as far back as a forecast reaches ahead (a
@@ -43,7 +45,7 @@ fn forecast_line(
     let f = forecast_at(run, s, scene, p, dt).ok()?;
     let mut points = vec![ground(run.states.get(s)?.x, run.states.get(s)?.y)];
     points.extend(f.iter().map(|q| ground(q.x, q.y)));
-    Some(Line { id: run.track_id.to_string(), points, color, thickness: 0.25, metadata: Vec::new() })
+    Some(forecast_entity(run.track_id, points, color, Vec::new()))
 }
 
 /// Writes `<dir>/<seq>.mcap` for every sequence of `tests`, with `arms`' fold models from
@@ -85,7 +87,7 @@ pub fn write_recordings(
             })
             .collect();
         for frame in 0..u32::try_from(seq.frame_count).unwrap_or(u32::MAX) {
-            let t = frame_time_ns(frame, rate).with_context(|| format!("recording {}", path.display()))?;
+            let t = rec.frame_time(frame, rate)?;
             for ArmRuns { arm, scene, runs } in &prepared {
                 let mut learned = models.get(*arm, &seq.id).map(|m| m.predictor());
                 let (mut tracks, mut learned_lines, mut cv_lines) = (Vec::new(), Vec::new(), Vec::new());
@@ -93,13 +95,8 @@ pub fn write_recordings(
                     let Some(run) = scene.runs.get(*i) else { continue };
                     let Some(s) = frame.checked_sub(run.first_frame).map(|s| s as usize) else { continue };
                     let Some(trail) = run.states.get(s.saturating_sub(TRAIL_STATES)..=s) else { continue };
-                    tracks.push(Line {
-                        id: run.track_id.to_string(),
-                        points: trail.iter().map(|st| ground(st.x, st.y)).collect(),
-                        color: TRACK_COLOR,
-                        thickness: 0.15,
-                        metadata: vec![("arm".into(), arm.to_string())],
-                    });
+                    let points = trail.iter().map(|st| ground(st.x, st.y)).collect();
+                    tracks.push(trail_line(run.track_id, points, TRACK_COLOR, meta("arm", arm)));
                     if !instances.contains(&s) {
                         continue;
                     }
