@@ -10,8 +10,9 @@ use dynotraj_core::predict::Dynamics;
 use dynotraj_core::wire::ObjectClass;
 
 pub use super::progress::Progress;
-use dynotraj_eval::jobs::{default_jobs, map_jobs, parse_jobs};
-use dynotraj_sources::drives::{Drive, distinct_ids, kitti_drives, load_drive, manifest_drives, select_drives};
+use dynotraj_eval::jobs::{default_jobs, parse_jobs};
+use dynotraj_eval::loading::load_drives;
+use dynotraj_sources::drives::{Drive, distinct_ids, kitti_drives, manifest_drives, select_drives};
 use dynotraj_sources::estimation::settings::{EstimateSettings, SimulatedInput};
 use dynotraj_sources::estimation::simulated::{EvalOptions, ObjectVariants};
 use dynotraj_sources::sequence::SequenceTracks;
@@ -353,7 +354,8 @@ impl DataArgs {
         self.load_drives(&self.drives(sequences)?, sources, cache)
     }
 
-    /// Loads `drives` for `sources`, as [`DataArgs::load_cached`] does the drives it names.
+    /// Loads `drives` for `sources`, as [`DataArgs::load_cached`] does the drives it names
+    /// ([`dynotraj_eval::loading::load_drives`]), with a progress bar.
     ///
     /// # Errors
     /// A missing or bad file, named.
@@ -364,34 +366,25 @@ impl DataArgs {
         cache: Option<std::path::PathBuf>,
     ) -> anyhow::Result<Vec<SequenceTracks>> {
         let dt = self.dt()?;
-        let estimate = sources.iter().any(Source::is_estimated).then(|| EstimateSettings {
+        let estimate = EstimateSettings {
             input: self.ours.ours_input,
             render_scale: self.ours.render_scale,
-            cache: cache.clone(),
+            cache,
             ..EstimateSettings::tracks(EvalOptions {
                 object_variants: self.ours.object_variants(),
                 render_optics: self.ours.render_optics.optics(),
                 point_depth: self.ours.point_depth.options(),
                 ..EvalOptions::kitti(dt)
             })
-        });
-        let bar = progress(drives.len() as u64, if estimate.is_some() { "loading and estimating" } else { "loading" });
-        let out = map_jobs(drives, self.ours.jobs, |d| {
-            let s = load_drive(d, dt, estimate.as_ref(), cache.as_deref());
-            bar.set_message(format!("sequence {} {}", d.name, if s.is_ok() { "loaded" } else { "failed" }));
+        };
+        let estimating = sources.iter().any(Source::is_estimated);
+        let bar = progress(drives.len() as u64, if estimating { "loading and estimating" } else { "loading" });
+        let out = load_drives(drives, sources, dt, &estimate, self.ours.jobs, &|name, ok| {
+            bar.set_message(format!("sequence {name} {}", if ok { "loaded" } else { "failed" }));
             bar.inc(1);
-            s
-        })?;
+        });
         bar.finish_and_clear();
-        let unlabelled: Vec<&str> = drives.iter().filter(|d| !d.is_labelled()).map(|d| d.name.as_str()).collect();
-        if !unlabelled.is_empty() && sources.iter().any(|s| !s.is_estimated()) {
-            log::warn!(
-                "{} drive(s) without labels ({}) add to the estimated sources only",
-                unlabelled.len(),
-                unlabelled.join(", ")
-            );
-        }
-        out.into_iter().collect()
+        out
     }
 
     /// The drives `sequences` names (all when empty) of --kitti or --drives.

@@ -14,7 +14,8 @@ use dynotraj_eval::report::stream_report::predictions_data;
 use dynotraj_eval::report::write_table_files;
 use dynotraj_link::in_process::{edge_model_blob, forecast};
 
-use super::stream::{FORECASTS, REPLIES_BIN, TracksInputArgs};
+use super::stream::TracksInputArgs;
+use dynotraj_eval::report::stream_report::{FORECASTS, REPLIES_BIN};
 
 /// Options of `dynotraj forecast`.
 #[derive(Debug, Args)]

@@ -7,16 +7,15 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim};
-use dynotraj_sim::track_sim::LabelBox;
 
 use super::common::{ClassesArg, progress};
+use dynotraj_eval::report::estimator_tables::end_to_end_text;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
 use dynotraj_frontend::image_sim_files::write_sequence_with;
 use dynotraj_sources::estimation::end_to_end;
-use dynotraj_sources::estimation::{Kind, sim_input};
+use dynotraj_sources::estimation::input::image_sim;
 
 /// Options of `dynotraj simulate`.
 #[derive(Debug, Args)]
@@ -79,10 +78,10 @@ pub fn sequence_ids(args: &SimulateArgs) -> anyhow::Result<Vec<String>> {
 }
 
 /// The simulator for sequence `id` of `args`: a KITTI sequence's geometry or the synthetic
-/// drive.
+/// drive ([`dynotraj_sources::estimation::input::image_sim`]).
 ///
 /// # Errors
-/// Loading errors, named; a bad scale or class.
+/// Loading errors, named; a bad scale or noise.
 pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
     anyhow::ensure!(
         args.scale.is_finite() && (0.05..=2.0).contains(&args.scale),
@@ -91,22 +90,8 @@ pub fn build(args: &SimulateArgs, id: &str) -> anyhow::Result<ImageSim> {
     );
     anyhow::ensure!((0..=50).contains(&args.noise), "--noise: expected 0..=50 grey levels, found {}", args.noise);
     let camera = Camera { noise: args.noise, ..Camera::kitti(args.scale) };
-    match (&args.kitti, args.drive) {
-        (Some(dir), false) => {
-            let classes = &args.classes.list;
-            let data = TrackingDir::open(dir)?
-                .load_sequence(id)
-                .with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-            let input = sim_input(&data, classes);
-            let n = args.frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-            let boxes: Vec<LabelBox> = input.boxes.into_iter().filter(|b| (b.frame as usize) < n).collect();
-            Ok(ImageSim::new(camera, &input.camera_poses[..n], &boxes, args.seed))
-        }
-        _ => {
-            let d = generate(&DriveSpec { frames: args.frames.unwrap_or(60), seed: args.seed, ..DriveSpec::default() });
-            Ok(ImageSim::new(camera, &d.camera_poses, &LabelBox::of_drive(&d), args.seed))
-        }
-    }
+    let kitti = args.kitti.as_deref().filter(|_| !args.drive).map(|dir| (dir, id, args.classes.list.as_slice()));
+    image_sim(kitti, camera, args.frames, args.seed)
 }
 
 /// Renders and writes.
@@ -143,32 +128,6 @@ fn end_to_end(args: &SimulateArgs, id: &str, sim: &ImageSim, n: usize) -> anyhow
     let bar = Arc::new(progress(n as u64, &format!("sequence {id}: frames rendered and tracked")));
     let r = end_to_end::run_with(sim, n, (0.05, stereo), 0.1, Some(&bar.hook()))?;
     bar.finish_and_clear();
-    let s = r.stats;
-    println!(
-        "sequence {id}, {n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving objects",
-        sim.camera.width,
-        sim.camera.height,
-        100.0 * s.static_survival(),
-        100.0 * s.object_survival(),
-        r.scores.moving_objects
-    );
-    println!(
-        "| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r \
-            (deg) |\n|---|---|---|---|---|---|"
-    );
-    for (kind, k) in Kind::ALL.iter().zip(&r.scores.kinds) {
-        let f = |x: Option<f64>, deg: bool| {
-            x.map_or("-".to_string(), |v| format!("{:.3}", if deg { v.to_degrees() } else { v }))
-        };
-        println!(
-            "| {} | {} | {} | {} | {} | {} |",
-            kind.name(),
-            f(k.camera.map(|c| c.translation), false),
-            f(k.camera.map(|c| c.rotation), true),
-            k.objects,
-            f(k.object.map(|c| c.translation), false),
-            f(k.object.map(|c| c.rotation), true)
-        );
-    }
+    print!("{}", end_to_end_text(id, n, (sim.camera.width, sim.camera.height), &r));
     Ok(())
 }

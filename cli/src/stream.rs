@@ -2,24 +2,19 @@
 //! serial port, paced at the camera rate, and collects its object states, forecasts and
 //! per-frame statistics.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::Context as _;
 use clap::Args;
-use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
-use dynotraj_core::wire::{Forecaster, Notice, ObjectClass};
-use dynotraj_sim::track_sim::{SimSpec, simulate};
+use dynotraj_core::wire::Notice;
 
 use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
-use dynotraj_eval::report::stream_report::{frames_data, predictions_data, summary};
-use dynotraj_eval::report::write_table_files;
-use dynotraj_formats::kitti::TrackingDir;
-use dynotraj_formats::tracks_file::{self, Tracks, TracksFrame};
+use dynotraj_eval::report::stream_report::{summary, write_stream_outputs};
+use dynotraj_formats::tracks_file::{self, Tracks};
 use dynotraj_link::endpoint::{Endpoint, connect};
-use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
-use dynotraj_sources::estimation::input::{KITTI_IMAGE_SIZE, sim_input};
-use dynotraj_sources::estimation::simulated::camera_info;
+use dynotraj_link::stream::{StreamOptions, stream};
+use dynotraj_sources::estimation::input::simulated_stream;
 
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]
@@ -87,7 +82,7 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     let result = stream(&tracks, rx, tx, &opt);
     bar.finish_and_clear();
     if let Some(dir) = &args.out {
-        write_outputs(dir, &result)?;
+        write_stream_outputs(dir, &result)?;
     }
     print!("{}", summary(&result, &args.to));
     anyhow::ensure!(!result.busy(), "edge {to}: {}; try again when its session ends", Notice::Busy, to = args.to);
@@ -104,69 +99,12 @@ pub fn run(args: &StreamArgs) -> anyhow::Result<()> {
     if let Some(e) = &result.link_error {
         return Err(stopped_early(format!("edge {}: {e}", args.to)));
     }
-    refused_model(&result, args)?;
-    unanswered(&result, &args.to, args.lockstep, args.timeout)
-}
-
-/// An error when the edge refused the model the stream sent (its forecasts were then not the
-/// model's); written after the summary and files.
-fn refused_model(result: &StreamResult, args: &StreamArgs) -> anyhow::Result<()> {
-    let Some(path) = &args.model else { return Ok(()) };
-    let refusal = result.notices.iter().find_map(|n| if let Notice::ModelRefused(r) = n { Some(*r) } else { None });
-    if let Some(why) = refusal {
-        anyhow::bail!(
-            "edge {}: refused --model {}: {why}; its forecasts were not the model's ({})",
-            args.to,
-            path.display(),
-            result.forecaster().map_or_else(|| "forecaster unknown".to_string(), |f| f.to_string())
-        );
+    if let Some(path) = &args.model
+        && let Some(warning) = result.model_taken(path, &args.to)?
+    {
+        eprintln!("{warning}");
     }
-    if !matches!(result.forecaster(), Some(Forecaster::Model { .. })) && !result.frames.is_empty() {
-        eprintln!(
-            "warning: edge {}: did not say that it forecasts with --model {} (an edge without session notices?)",
-            args.to,
-            path.display()
-        );
-    }
-    Ok(())
-}
-
-/// An error when the edge did not answer as the stream needs: no frame at all, or (in lockstep,
-/// where every frame waits for its answer) not every frame. The summary and files are written
-/// first, so nothing received is lost.
-fn unanswered(result: &StreamResult, to: &Endpoint, lockstep: bool, timeout_s: f64) -> anyhow::Result<()> {
-    let sent = result.frames.len();
-    let answered = result.frames.iter().filter(|f| f.stats.is_some()).count();
-    anyhow::ensure!(
-        sent == 0 || answered > 0,
-        "edge {to}: {sent} frames sent and none answered within --timeout {timeout_s} s (is an edge serving that link?)"
-    );
-    anyhow::ensure!(
-        !lockstep || answered == sent,
-        "edge {to}: {} of {sent} frames unanswered in lockstep (the edge stopped or stalled)",
-        sent - answered
-    );
-    Ok(())
-}
-
-/// The forecasts' file stem in `--out` (`.csv` and `.json`).
-pub const FORECASTS: &str = "forecasts";
-/// Per-frame latency, compute and losses (`.csv` and `.json`).
-pub const FRAMES: &str = "frames";
-/// The edge's replies as received.
-pub const REPLIES_BIN: &str = "replies.bin";
-
-/// Writes what came back into the folder `dir`: the forecasts and per-frame tables as CSV and
-/// JSON, the raw replies.
-///
-/// # Errors
-/// A file that cannot be written, named.
-fn write_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
-    write_table_files(dir, FORECASTS, &predictions_data(result))?;
-    write_table_files(dir, FRAMES, &frames_data(result))?;
-    let path = dir.join(REPLIES_BIN);
-    dynotraj_formats::atomic::write_file(&path, &result.raw)
-        .with_context(|| format!("--out: writing {}", path.display()))
+    result.answered(&args.to, args.lockstep, args.timeout)
 }
 
 /// Where a one-stream command (stream, soak, forecast) takes its tracks: a tracks file, or the
@@ -198,7 +136,7 @@ impl TracksInputArgs {
                 let dir = kitti_or_env(self.kitti.as_deref()).with_context(|| {
                     format!("--tracks FILE, or a KITTI folder (--kitti DIR or ${KITTI_ENV}), is needed")
                 })?;
-                simulated(&dir, one_sequence(&self.sequences)?, frames)?
+                simulated_stream(&dir, one_sequence(&self.sequences)?, frames)?
             }
         };
         if let Some(n) = frames {
@@ -206,25 +144,4 @@ impl TracksInputArgs {
         }
         Ok(tracks)
     }
-}
-
-/// The track-level simulator's stream for a KITTI sequence at the paper's 20 Hz.
-///
-/// # Errors
-/// Loading errors, named.
-pub fn simulated(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
-    let data =
-        TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    let input = sim_input(&data, &ObjectClass::FORECAST);
-    let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-    let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
-    let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
-    let spec = SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, dt, 1);
-    let sim = simulate(&input.camera_poses[..n], &boxes, &spec);
-    let camera = camera_info(&input.intrinsics, PAPER_FRAME_RATE_HZ);
-    let frames = sim
-        .iter()
-        .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame)))
-        .collect::<anyhow::Result<_>>()?;
-    Ok(Tracks { camera, frames })
 }

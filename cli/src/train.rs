@@ -329,12 +329,7 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     std::fs::create_dir_all(&args.out).with_context(|| format!("--out: creating {}", args.out.display()))?;
-    let files = model.save(&args.out.join(MODEL_FILE))?;
-    if args.precision != PrecisionArg::F32 {
-        let path = &files.f32_blob;
-        dynotraj_formats::atomic::write_file(path, model.blob(args.precision.into())?)
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
+    let files = model.save_as(&args.out.join(MODEL_FILE), args.precision.into())?;
     let r = &model.report;
     println!(
         "trained {} on {} ({} params): {} train / {} val instances, {} epochs (best {}), best val ADE {:.3} m \
@@ -353,17 +348,10 @@ pub fn run(args: &TrainArgs) -> anyhow::Result<()> {
         files.int8_blob.display(),
         files.checkpoint.display()
     );
-    // The same data, settings and seed give the same bytes: these identify the model. (Not
-    // CRC-32: a blob ends in its own CRC-32, and the CRC-32 of any such file is one constant.)
-    let crc64 = crc::Crc::<u64>::new(&crc::CRC_64_ECMA_182);
-    let crc = |p: &std::path::Path| {
-        std::fs::read(p).map(|b| crc64.checksum(&b)).with_context(|| format!("reading {}", p.display()))
-    };
+    let [f32_crc, int8_crc] = files.crc64()?;
     println!(
-        "model CRC-64: {:016x} ({}), int8 {:016x} ({})",
-        crc(&files.f32_blob)?,
+        "model CRC-64: {f32_crc:016x} ({}), int8 {int8_crc:016x} ({})",
         files.f32_blob.display(),
-        crc(&files.int8_blob)?,
         files.int8_blob.display()
     );
     Ok(())

@@ -7,7 +7,11 @@ pub mod estimation;
 pub mod experiment;
 pub mod forecast_eval;
 pub mod jobs;
+pub mod loading;
+pub mod model_cost;
 pub mod pedestrian_benchmark;
 pub mod predictors;
 pub mod recording;
 pub mod report;
+#[cfg(feature = "images")]
+pub mod tracking;

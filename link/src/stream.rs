@@ -114,6 +114,50 @@ impl StreamResult {
     pub fn busy(&self) -> bool {
         self.notices.contains(&Notice::Busy)
     }
+
+    /// An error when the edge refused the model `model` the stream sent to edge `to` (its
+    /// forecasts were then not the model's); otherwise a warning when the edge never said that
+    /// it forecasts with it.
+    ///
+    /// # Errors
+    /// The edge's refusal, with its reason.
+    pub fn model_taken(&self, model: &std::path::Path, to: &impl std::fmt::Display) -> anyhow::Result<Option<String>> {
+        let refusal = self.notices.iter().find_map(|n| if let Notice::ModelRefused(r) = n { Some(*r) } else { None });
+        if let Some(why) = refusal {
+            anyhow::bail!(
+                "edge {to}: refused --model {}: {why}; its forecasts were not the model's ({})",
+                model.display(),
+                self.forecaster().map_or_else(|| "forecaster unknown".to_string(), |f| f.to_string())
+            );
+        }
+        Ok((!matches!(self.forecaster(), Some(Forecaster::Model { .. })) && !self.frames.is_empty()).then(|| {
+            format!(
+                "warning: edge {to}: did not say that it forecasts with --model {} (an edge without session notices?)",
+                model.display()
+            )
+        }))
+    }
+
+    /// An error when the edge `to` did not answer as the stream needs: no frame at all, or (in
+    /// lockstep, where every frame waits for its answer) not every frame.
+    ///
+    /// # Errors
+    /// Frames unanswered, counted.
+    pub fn answered(&self, to: &impl std::fmt::Display, lockstep: bool, timeout_s: f64) -> anyhow::Result<()> {
+        let sent = self.frames.len();
+        let answered = self.frames.iter().filter(|f| f.stats.is_some()).count();
+        anyhow::ensure!(
+            sent == 0 || answered > 0,
+            "edge {to}: {sent} frames sent and none answered within --timeout {timeout_s} s (is an edge serving that \
+             link?)"
+        );
+        anyhow::ensure!(
+            !lockstep || answered == sent,
+            "edge {to}: {} of {sent} frames unanswered in lockstep (the edge stopped or stalled)",
+            sent - answered
+        );
+        Ok(())
+    }
 }
 
 /// What the reader thread hands over.

@@ -115,14 +115,14 @@ fn bench_labels_a_models_rows_by_the_blobs_precision() {
     let Command::ModelCost(a) = cli(&["model-cost", "--dims", "8,8,2,16", "--iterations", "1", "--out", out]) else {
         panic!()
     };
-    let t = dynotraj_cli::model_cost::table(&a).unwrap();
+    let t = dynotraj_eval::model_cost::model_cost_table(&a.request().unwrap()).unwrap();
     let labels: Vec<&str> = (0..2).map(|r| cell(&t, r, "predictor")).collect();
     assert_eq!(labels, ["f32 (random weights, unicycle)", "int8 (random weights, unicycle)"]);
     let blob = dir.path().join("random-8,8,2,16.int8");
     let Command::ModelCost(a) = cli(&["model-cost", "--model", blob.to_str().unwrap(), "--iterations", "1"]) else {
         panic!()
     };
-    let t = dynotraj_cli::model_cost::table(&a).unwrap();
+    let t = dynotraj_eval::model_cost::model_cost_table(&a.request().unwrap()).unwrap();
     let models: Vec<&str> =
         (0..t.rows.len()).map(|r| cell(&t, r, "predictor")).filter(|p| p.contains("random-8,8,2,16")).collect();
     assert_eq!(models, [format!("int8 ({}, unicycle)", blob.display())], "an int8 blob is timed once, as int8");
@@ -132,7 +132,7 @@ fn bench_labels_a_models_rows_by_the_blobs_precision() {
     else {
         panic!()
     };
-    let t = dynotraj_cli::model_cost::table(&a).unwrap();
+    let t = dynotraj_eval::model_cost::model_cost_table(&a.request().unwrap()).unwrap();
     assert_eq!(cell(&t, 1, "predictor"), "int8 (random weights, single integrator)");
     let file = dynotraj_formats::model_file::ModelFile::load(&dir.path().join("random-8,8,3,8.int8")).unwrap();
     assert_eq!(file.blob().dynamics(), dynotraj_core::predict::Dynamics::SingleIntegrator);

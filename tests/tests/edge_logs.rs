@@ -5,11 +5,11 @@
 
 use std::cell::RefCell;
 
-use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{STATIC_OBJECT_ID, Track, frame_parts};
 use dynotraj_formats::model_signing::{development_signing_key, sign};
+use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{encode_all, host_messages, run_in_process, scene_tracks};
 use log::{Level, LevelFilter, Log, Metadata, Record};
 

@@ -8,7 +8,6 @@ use std::net::TcpStream;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{FrameDecoder, Message, Notice};
@@ -16,6 +15,7 @@ use dynotraj_edge::{NoClock, Session};
 use dynotraj_formats::tracks_file::Tracks;
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, StreamResult, stream};
+use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{
     MemLink, dynotraj_command, encode_all, host_messages, outputs, reference_replies, scene_tracks,
     spawn_listening_edge, write_tracks_file,

@@ -4,13 +4,13 @@
 
 use std::time::Duration;
 
-use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{Forecaster, Message, ModelRefusal, Notice};
 use dynotraj_formats::model_signing::{development_signing_key, sign};
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, stream};
+use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{
     encode_all, host_messages, outputs, reference_replies, scene_tracks, spawn_listening_edge,
 };

@@ -14,12 +14,12 @@ use std::process::Command;
 use std::collections::BTreeMap;
 
 use dynotraj_bag::record::partial_path;
-use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::wire::{EstimateKind, Message, ObjectStates, Prediction};
 use dynotraj_eval::recording::forecast::cv_forecasts;
 use dynotraj_link::in_process::forecast;
+use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{dynotraj_command, scene_tracks};
 use dynotraj_tests::manifest_dir;
 use dynotraj_tests::python_env::python;

@@ -4,7 +4,6 @@
 //! A refused model is counted, the edge keeps forecasting with constant velocity, and every
 //! answer is then bit-identical to an edge that never saw a model.
 
-use dynotraj_cli::model_cost::random_blob;
 use dynotraj_core::model::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::model::signed::{SIGNATURE_LEN, SignatureError, TRAILER_LEN, key_id};
@@ -12,6 +11,7 @@ use dynotraj_core::wire::Message;
 use dynotraj_edge::ModelStatus;
 use dynotraj_edge::provisioned::MODEL_KEY;
 use dynotraj_formats::model_signing::{development_public_key, development_signing_key, sign};
+use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{InProcess, encode_all, host_messages, outputs, run_in_process, scene_tracks};
 use ed25519_dalek::{Signer as _, SigningKey};
 

@@ -114,9 +114,9 @@ fn the_counter_sees_allocations() {
 
 #[test]
 fn learned_inference_does_not_allocate() {
-    use dynotraj_cli::model_cost::random_blob;
     use dynotraj_core::model::blob::{ModelBlob, Precision};
     use dynotraj_core::model::{Dims, LearnedPredictor};
+    use dynotraj_sim::cost_inputs::random_blob;
 
     let history: Vec<BevState> =
         (0..7).map(|i| BevState { x: 0.5 * i as f32, y: 0.1, heading: 0.02 * i as f32, speed: 10.0 }).collect();

@@ -287,6 +287,21 @@ pub struct SavedFiles {
     pub checkpoint: PathBuf,
 }
 
+impl SavedFiles {
+    /// The CRC-64 (ECMA-182) of the f32 and of the int8 blob's files: the same data, settings
+    /// and seed give the same bytes, so these identify the model. (Not CRC-32: a blob ends in
+    /// its own CRC-32, and the CRC-32 of any such file is one constant.)
+    ///
+    /// # Errors
+    /// A file that cannot be read, named.
+    pub fn crc64(&self) -> anyhow::Result<[u64; 2]> {
+        let crc64 = crc::Crc::<u64>::new(&crc::CRC_64_ECMA_182);
+        let crc =
+            |p: &Path| std::fs::read(p).map(|b| crc64.checksum(&b)).with_context(|| format!("reading {}", p.display()));
+        Ok([crc(&self.f32_blob)?, crc(&self.int8_blob)?])
+    }
+}
+
 impl TrainedModel {
     /// The model blob in `precision`.
     ///
@@ -314,6 +329,20 @@ impl TrainedModel {
             .with_context(|| format!("writing {}", files.int8_blob.display()))?;
         export::save_checkpoint(&self.network, &self.vars, self.dt, &self.prior, &files.checkpoint)
             .with_context(|| format!("writing {}", files.checkpoint.display()))?;
+        Ok(files)
+    }
+
+    /// As [`TrainedModel::save`], with the blob at `path` itself in `precision` (`path.int8`
+    /// stays the int8 blob).
+    ///
+    /// # Errors
+    /// I/O errors, named.
+    pub fn save_as(&self, path: &Path, precision: Precision) -> anyhow::Result<SavedFiles> {
+        let files = self.save(path)?;
+        if precision != Precision::F32 {
+            dynotraj_formats::atomic::write_file(&files.f32_blob, self.blob(precision)?)
+                .with_context(|| format!("writing {}", files.f32_blob.display()))?;
+        }
         Ok(files)
     }
 }

@@ -8,6 +8,7 @@
 //! its report's tables and notes ([`report`] writes them).
 
 pub mod benchmark;
+pub mod benchmark_report;
 pub mod budget;
 pub mod cache;
 pub mod figures;

@@ -528,3 +528,46 @@ pub fn cost_table(r: &CostResult) -> Table {
     }
     t.with_data(d)
 }
+
+/// The end-to-end run of a rendered sequence (`id`, `n` frames of `size` pixels) as text: the
+/// front-end's KLT survival and the estimator's RPE per kind of estimate.
+#[cfg(feature = "images")]
+#[must_use]
+pub fn end_to_end_text(
+    id: &str,
+    n: usize,
+    size: (usize, usize),
+    r: &dynotraj_sources::estimation::end_to_end::EndToEnd,
+) -> String {
+    use std::fmt::Write as _;
+    let s = r.stats;
+    let mut out = format!(
+        "sequence {id}, {n} frames of {}x{}: static KLT survival {:.1}%, object KLT survival {:.1}%, {} moving \
+         objects\n",
+        size.0,
+        size.1,
+        100.0 * s.static_survival(),
+        100.0 * s.object_survival(),
+        r.scores.moving_objects
+    );
+    out.push_str(
+        "| estimate | camera RPE_t (m) | camera RPE_r (deg) | objects scored | object RPE_t (m) | object RPE_r \
+            (deg) |\n|---|---|---|---|---|---|\n",
+    );
+    for (kind, k) in Kind::ALL.iter().zip(&r.scores.kinds) {
+        let f = |x: Option<f64>, deg: bool| {
+            x.map_or("-".to_string(), |v| format!("{:.3}", if deg { v.to_degrees() } else { v }))
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} |",
+            kind.name(),
+            f(k.camera.map(|c| c.translation), false),
+            f(k.camera.map(|c| c.rotation), true),
+            k.objects,
+            f(k.object.map(|c| c.translation), false),
+            f(k.object.map(|c| c.rotation), true)
+        );
+    }
+    out
+}

@@ -2,10 +2,14 @@
 //! typed tables (written as CSV or JSON), and the closing summaries.
 
 use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context as _;
 
 use dynotraj_core::wire::{ComputeUnit, Forecaster, Message};
 
 use super::data::{Cell, ColumnKind, Data};
+use super::write_table_files;
 use dynotraj_link::endpoint::Endpoint;
 use dynotraj_link::soak::SoakReport;
 use dynotraj_link::stream::StreamResult;
@@ -242,6 +246,26 @@ pub fn soak_summary(r: &SoakReport) -> String {
         r.clean_unanswered,
         r.edge_frames_lost
     )
+}
+
+/// The forecasts' file stem in `--out` (`.csv` and `.json`).
+pub const FORECASTS: &str = "forecasts";
+/// Per-frame latency, compute and losses (`.csv` and `.json`).
+pub const FRAMES: &str = "frames";
+/// The edge's replies as received.
+pub const REPLIES_BIN: &str = "replies.bin";
+
+/// Writes what came back into the folder `dir`: the forecasts and per-frame tables as CSV and
+/// JSON, the raw replies.
+///
+/// # Errors
+/// A file that cannot be written, named.
+pub fn write_stream_outputs(dir: &Path, result: &StreamResult) -> anyhow::Result<()> {
+    write_table_files(dir, FORECASTS, &predictions_data(result))?;
+    write_table_files(dir, FRAMES, &frames_data(result))?;
+    let path = dir.join(REPLIES_BIN);
+    dynotraj_formats::atomic::write_file(&path, &result.raw)
+        .with_context(|| format!("--out: writing {}", path.display()))
 }
 
 #[cfg(test)]
