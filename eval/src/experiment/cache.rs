@@ -9,10 +9,11 @@
 //! training code itself: bump [`CACHE_VERSION`] with any change that alters what training
 //! computes, or run with `--no-cache`.
 //!
-//! Files, in the cache folder: `<arm>-<seq>-<key>.blob` (f32), `.blob.int8`, and `.fold` (one
-//! line: training instances, epoch kept, shrink factor, validation ADE, its cv ADE, seconds).
+//! Each fold is one file in the cache folder, `<arm>-<seq>-<key>.fold`, in the caches' one file
+//! format ([`dynotraj_sources::estimation::cache_file`]): the key, the two blobs (f32, int8) and
+//! what training reported, under a checksum. A file renamed or copied to another fold's name
+//! holds another key and is a miss, as is a damaged one: the fold is trained again.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
@@ -20,12 +21,14 @@ use crc::{CRC_64_ECMA_182, Crc};
 use dynotraj_core::model::arch::FEATURES;
 use dynotraj_core::predict::{Dynamics, PriorSettings};
 
+use dynotraj_sources::estimation::cache_file::{load_file, store_file};
+use serde::{Deserialize, Serialize};
+
 use super::FoldReport;
 use dynotraj_train::TrainConfig;
 
-/// Version of what training computes; part of every key (6: a trained epoch is kept only when
-/// its gain over the prior holds under a run bootstrap).
-pub const CACHE_VERSION: u32 = 8;
+/// Version of what training computes, and of the fold file; part of every key.
+pub const CACHE_VERSION: u32 = 9;
 
 /// A fold's blobs and report, as trained or as read back.
 #[derive(Debug, Clone, PartialEq)]
@@ -100,95 +103,103 @@ impl FoldCache {
         Ok(Self { dir: dir.to_path_buf() })
     }
 
-    fn path(&self, name: &str, key: u64, ext: &str) -> PathBuf {
-        self.dir.join(format!("{name}-{key:016x}.{ext}"))
+    fn path(&self, name: &str, key: u64) -> PathBuf {
+        self.dir.join(format!("{name}-{key:016x}.fold"))
     }
 
-    /// The fold `name` with `key`, when all its files are there and readable; `report.arm` and
-    /// `report.sequence` are taken from `template`.
+    /// The fold `name` with `key`, when its file is there, holds `key`'s entry, is whole and
+    /// its blobs parse; `report.arm` and `report.sequence` are taken from `template`.
     #[must_use]
     pub fn load(&self, name: &str, key: u64, template: &FoldReport) -> Option<CachedFold> {
-        let blob = |ext| {
-            let path = self.path(name, key, ext);
-            let bytes = std::fs::read(&path).ok()?;
-            match dynotraj_core::model::blob::ModelBlob::parse_exact(&bytes) {
-                Ok(_) => Some(bytes),
-                Err(e) => {
-                    log::warn!(
-                        "{}: a fold cache file this build cannot read ({e}); the fold is trained again",
-                        path.display()
-                    );
-                    None
-                }
+        let path = self.path(name, key);
+        let stored: StoredFold = load_file(&path, key)?;
+        for blob in [&stored.f32_blob, &stored.int8_blob] {
+            if let Err(e) = dynotraj_core::model::blob::ModelBlob::parse_exact(blob) {
+                log::warn!("{}: a fold this build cannot read ({e}); the fold is trained again", path.display());
+                return None;
             }
-        };
-        let (f32_blob, int8_blob) = (blob("blob")?, blob("blob.int8")?);
-        let text = std::fs::read_to_string(self.path(name, key, "fold")).ok()?;
-        let v: Vec<&str> = text.split_whitespace().collect();
-        let [instances, epoch, shrink, val, cv, seconds, val_prior, vw, tw, ag, tg, ad, td, carry] = v[..] else {
-            return None;
-        };
+        }
+        let p = stored.prior;
         let prior = PriorSettings {
-            velocity_window: vw.parse().ok()?,
-            trend_window: tw.parse().ok()?,
-            accel_gain: ag.parse().ok()?,
-            turn_gain: tg.parse().ok()?,
-            accel_decay: ad.parse().ok()?,
-            turn_decay: td.parse().ok()?,
-            carry_percent: carry.parse().ok()?,
+            velocity_window: p.velocity_window,
+            trend_window: p.trend_window,
+            accel_gain: p.accel_gain,
+            turn_gain: p.turn_gain,
+            accel_decay: p.accel_decay,
+            turn_decay: p.turn_decay,
+            carry_percent: p.carry_percent,
         };
         let report = FoldReport {
-            train_instances: instances.parse().ok()?,
-            best_epoch: epoch.parse().ok()?,
-            shrink: shrink.parse().ok()?,
-            val_ade: val.parse().ok()?,
-            val_cv_ade: cv.parse().ok()?,
-            val_prior_ade: val_prior.parse().ok()?,
+            train_instances: usize::try_from(stored.train_instances).ok()?,
+            best_epoch: usize::try_from(stored.best_epoch).ok()?,
+            shrink: stored.shrink,
+            val_ade: stored.val_ade,
+            val_cv_ade: stored.val_cv_ade,
+            val_prior_ade: stored.val_prior_ade,
             prior: prior.is_valid().then_some(prior)?,
-            seconds: seconds.parse().ok()?,
+            seconds: stored.seconds,
             ..template.clone()
         };
-        Some(CachedFold { f32_blob, int8_blob, report })
+        Some(CachedFold { f32_blob: stored.f32_blob, int8_blob: stored.int8_blob, report })
     }
 
-    /// Keeps `fold` under `name` and `key`.
+    /// Keeps `fold` under `name` and `key` (one file, written under a temporary name and
+    /// renamed, so an interrupted run leaves no fold that looks complete).
     ///
     /// # Errors
-    /// A file cannot be written, named.
+    /// The file cannot be written, named.
     pub fn store(&self, name: &str, key: u64, fold: &CachedFold) -> anyhow::Result<()> {
         let r = &fold.report;
-        let mut line = String::new();
         let p = &r.prior;
-        let _ = writeln!(
-            line,
-            "{} {} {} {} {} {} {} {} {} {} {} {} {} {}",
-            r.train_instances,
-            r.best_epoch,
-            r.shrink,
-            r.val_ade,
-            r.val_cv_ade,
-            r.seconds,
-            r.val_prior_ade,
-            p.velocity_window,
-            p.trend_window,
-            p.accel_gain,
-            p.turn_gain,
-            p.accel_decay,
-            p.turn_decay,
-            p.carry_percent
-        );
-        // The .fold file last: a fold is read only when all three are there, and each is
-        // written under a temporary name and renamed, so an interrupted run leaves no fold that
-        // looks complete.
-        for (ext, bytes) in
-            [("blob", &fold.f32_blob[..]), ("blob.int8", &fold.int8_blob[..]), ("fold", line.as_bytes())]
-        {
-            let path = self.path(name, key, ext);
-            dynotraj_formats::atomic::write_file(&path, bytes)
-                .with_context(|| format!("writing {}", path.display()))?;
-        }
-        Ok(())
+        let stored = StoredFold {
+            f32_blob: fold.f32_blob.clone(),
+            int8_blob: fold.int8_blob.clone(),
+            train_instances: r.train_instances as u64,
+            best_epoch: r.best_epoch as u64,
+            shrink: r.shrink,
+            val_ade: r.val_ade,
+            val_cv_ade: r.val_cv_ade,
+            val_prior_ade: r.val_prior_ade,
+            seconds: r.seconds,
+            prior: StoredPrior {
+                velocity_window: p.velocity_window,
+                trend_window: p.trend_window,
+                accel_gain: p.accel_gain,
+                turn_gain: p.turn_gain,
+                accel_decay: p.accel_decay,
+                turn_decay: p.turn_decay,
+                carry_percent: p.carry_percent,
+            },
+        };
+        store_file(&self.dir, &self.path(name, key), key, &stored, "a trained fold")
     }
+}
+
+/// A fold as its file holds it.
+#[derive(Serialize, Deserialize)]
+struct StoredFold {
+    f32_blob: Vec<u8>,
+    int8_blob: Vec<u8>,
+    train_instances: u64,
+    best_epoch: u64,
+    shrink: f32,
+    val_ade: f32,
+    val_cv_ade: f32,
+    val_prior_ade: f32,
+    seconds: f32,
+    prior: StoredPrior,
+}
+
+/// The motion prior's settings a fold chose, as its file holds them.
+#[derive(Serialize, Deserialize)]
+struct StoredPrior {
+    velocity_window: u8,
+    trend_window: u8,
+    accel_gain: f32,
+    turn_gain: f32,
+    accel_decay: f32,
+    turn_decay: f32,
+    carry_percent: u8,
 }
 
 #[cfg(test)]
@@ -230,7 +241,7 @@ mod tests {
     }
 
     #[test]
-    fn a_stored_fold_reads_back_and_a_damaged_one_is_a_miss() {
+    fn a_stored_fold_reads_back_and_a_damaged_or_renamed_one_is_a_miss() {
         let dir = tempfile::tempdir().unwrap();
         let cache = FoldCache::open(dir.path()).unwrap();
         let report = FoldReport {
@@ -254,18 +265,25 @@ mod tests {
         let fold = CachedFold { f32_blob, int8_blob, report: report.clone() };
         cache.store("gt-0003", 7, &fold).unwrap();
         let template = FoldReport { train_instances: 0, cached: true, ..report.clone() };
-        let read = CachedFold { report: FoldReport { cached: true, ..report }, ..fold };
+        let read = CachedFold { report: FoldReport { cached: true, ..report }, ..fold.clone() };
         assert_eq!(cache.load("gt-0003", 7, &template), Some(read));
         assert_eq!(cache.load("gt-0003", 8, &template), None);
-        let int8 = dir.path().join(format!("gt-0003-{:016x}.blob.int8", 7));
-        let good = std::fs::read(&int8).unwrap();
+        // Another fold's file under this fold's name (swapped, copied) is a miss: its key is not
+        // this one, so no held-out sequence is forecast by a model trained on it.
+        cache.store("gt-0004", 9, &fold).unwrap();
+        let ours = dir.path().join(format!("gt-0003-{:016x}.fold", 7));
+        let theirs = dir.path().join(format!("gt-0004-{:016x}.fold", 9));
+        let good = std::fs::read(&ours).unwrap();
+        std::fs::copy(&theirs, &ours).unwrap();
+        assert_eq!(cache.load("gt-0003", 7, &template), None, "another fold's file is a miss");
         let mut bad = good.clone();
         let mid = bad.len() / 2;
         bad[mid] ^= 1;
-        std::fs::write(&int8, &bad).unwrap();
-        assert_eq!(cache.load("gt-0003", 7, &template), None, "a damaged model blob is a miss, not an error later");
-        std::fs::write(&int8, &good).unwrap();
-        std::fs::write(dir.path().join(format!("gt-0003-{:016x}.fold", 7)), "3 x").unwrap();
+        std::fs::write(&ours, &bad).unwrap();
+        assert_eq!(cache.load("gt-0003", 7, &template), None, "a damaged fold is a miss, not an error later");
+        std::fs::write(&ours, &good).unwrap();
+        assert!(cache.load("gt-0003", 7, &template).is_some());
+        std::fs::write(&ours, "3 x").unwrap();
         assert_eq!(cache.load("gt-0003", 7, &template), None);
         assert!(
             std::fs::read_dir(dir.path()).unwrap().all(|e| !e.unwrap().path().to_string_lossy().ends_with(".partial"))

@@ -1,4 +1,4 @@
-//! The one file format of the estimation caches (estimated tracks, rendered front-end frames):
+//! The one file format of every cache (estimated tracks, rendered front-end frames, trained folds):
 //! `[key: u64 LE][postcard value][CRC-32 LE of what precedes it]`, written under a temporary
 //! name and renamed. A file whose checksum does not match, that holds another key's entry or
 //! that does not decode is a miss, never an error.
@@ -14,7 +14,7 @@ const FILE_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 /// The value a cache file at `path` holds for `key`, if it is readable, its checksum matches,
 /// it was stored under `key` and it decodes; else a miss, with a warning when the file is there
 /// but damaged or holds another key's entry.
-pub(crate) fn load_file<T: serde::de::DeserializeOwned>(path: &Path, key: u64) -> Option<T> {
+pub fn load_file<T: serde::de::DeserializeOwned>(path: &Path, key: u64) -> Option<T> {
     let bytes = std::fs::read(path).ok()?;
     let value = decode(&bytes, key);
     if let Err(why) = &value {
@@ -43,7 +43,10 @@ pub fn decode<T: serde::de::DeserializeOwned>(bytes: &[u8], key: u64) -> Result<
 
 /// Writes `value` under `key` as the cache file `path` in `dir` (created if missing); `what`
 /// names it in an encoding error.
-pub(crate) fn store_file<T: serde::Serialize>(
+///
+/// # Errors
+/// The folder or the file cannot be written, or the value cannot be encoded, named.
+pub fn store_file<T: serde::Serialize>(
     dir: &Path,
     path: &Path,
     key: u64,
