@@ -7,8 +7,13 @@
 //!   tracking layout that the rest of the pipeline reads.
 //! - [`record`]: recordings of what the pipeline computed, in MCAP with Foxglove's schemas, for
 //!   a standard viewer.
+//! - [`sim_layout`]: the image simulator's renderings written in the KITTI tracking layout,
+//!   with their truth.
+//! - [`png`]: the one PNG writer of the layouts.
 
 pub mod from_layout;
 pub mod import;
+pub mod png;
 pub mod record;
 pub mod ros2;
+pub mod sim_layout;

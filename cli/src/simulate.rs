@@ -1,6 +1,6 @@
 //! `dynotraj simulate`: renders an image sequence with the image simulator, driven by a KITTI
 //! sequence's labels and ego poses (or by the built-in synthetic drive), and writes it in the
-//! KITTI tracking layout with its truth (see `dynotraj_frontend::image_sim_files`).
+//! KITTI tracking layout with its truth (see `dynotraj_bag::sim_layout`).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -10,10 +10,10 @@ use clap::Args;
 use dynotraj_sim::image_sim::{Camera, ImageSim};
 
 use super::common::{ClassesArg, progress};
+use dynotraj_bag::sim_layout::write_sequence_with;
 use dynotraj_eval::report::estimator_tables::end_to_end_text;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::StereoParams;
-use dynotraj_frontend::image_sim_files::write_sequence_with;
 use dynotraj_sources::estimation::end_to_end;
 use dynotraj_sources::estimation::input::image_sim;
 

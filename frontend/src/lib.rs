@@ -25,7 +25,6 @@ pub mod disparity_error;
 pub mod error;
 pub mod features;
 pub mod image_io;
-pub mod image_sim_files;
 pub mod klt;
 pub mod masks;
 pub mod pipeline;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use dynotraj_frontend::image_sim_files::write_sequence;
+use dynotraj_bag::sim_layout::write_sequence;
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 use dynotraj_frontend::{DepthInput, Detection, FrameInput, FrontEnd, MaskInput, StereoParams, TrackerParams};
 use dynotraj_sim::drive::{DriveSpec, generate};

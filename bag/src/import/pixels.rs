@@ -3,7 +3,6 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
 use image::{DynamicImage, GrayImage, ImageBuffer, Luma, RgbImage};
 
 use super::Role;
@@ -31,7 +30,7 @@ impl Pixels {
             Self::Grey(i) => i.save_with_format(path, image::ImageFormat::Png),
             Self::Wide(i) => i.save_with_format(path, image::ImageFormat::Png),
         };
-        r.with_context(|| format!("writing {}", path.display()))
+        crate::png::save(path, r)
     }
 }
 

@@ -46,13 +46,7 @@ pub fn decode<T: serde::de::DeserializeOwned>(bytes: &[u8], key: u64) -> Result<
 ///
 /// # Errors
 /// The folder or the file cannot be written, or the value cannot be encoded, named.
-pub fn store_file<T: serde::Serialize>(
-    dir: &Path,
-    path: &Path,
-    key: u64,
-    value: &T,
-    what: &str,
-) -> anyhow::Result<()> {
+pub fn store_file<T: serde::Serialize>(dir: &Path, path: &Path, key: u64, value: &T, what: &str) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut bytes = key.to_le_bytes().to_vec();
     bytes.extend(postcard::to_stdvec(value).with_context(|| format!("encoding {what}"))?);

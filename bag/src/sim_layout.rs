@@ -1,5 +1,5 @@
 //! Writes the image simulator's output ([`dynotraj_sim::image_sim`]) in the KITTI tracking
-//! layout that [`crate::sequence`] reads, plus the truth:
+//! layout that the image front-end reads, plus the truth:
 //!
 //! ```text
 //! <dir>/image_02/<seq>/NNNNNN.png     left RGB
@@ -20,24 +20,11 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use crate::png::{write_rgb, write_u16};
 use anyhow::Context as _;
+use dynotraj_formats::kitti::{LabelRow, write_labels, write_poses};
 use dynotraj_sim::image_sim::{ImageSim, RenderedFrame};
 use nalgebra::{Isometry3, Point3, Vector3};
-use opencv::core::{Mat, Vector};
-use opencv::imgcodecs::imwrite;
-
-use crate::image_io::{bgr_from_rgb, u16_from_buffer};
-use dynotraj_formats::kitti::{LabelRow, write_labels, write_poses};
-
-/// Writes a `Mat` as PNG, naming the file on failure.
-fn write_png(path: &Path, m: &Mat) -> anyhow::Result<()> {
-    let name = path.to_str().with_context(|| format!("{}: not UTF-8", path.display()))?;
-    // Compression 9: the committed fixture is smaller, and writing is not the bottleneck.
-    let params = Vector::<i32>::from_slice(&[opencv::imgcodecs::IMWRITE_PNG_COMPRESSION, 9]);
-    let ok = imwrite(name, m, &params).with_context(|| format!("{}: writing PNG", path.display()))?;
-    anyhow::ensure!(ok, "{}: OpenCV could not write the PNG", path.display());
-    Ok(())
-}
 
 /// Writes frame `f`'s four images.
 ///
@@ -47,11 +34,11 @@ pub fn write_frame_images(dir: &Path, seq: &str, sim: &ImageSim, f: &RenderedFra
     let (w, h) = (sim.camera.width, sim.camera.height);
     let name = format!("{:06}.png", f.frame);
     for (folder, rgb) in [("image_02", &f.left), ("image_03", &f.right)] {
-        write_png(&dir.join(folder).join(seq).join(&name), &bgr_from_rgb(rgb, w, h)?)?;
+        write_rgb(&dir.join(folder).join(seq).join(&name), rgb.clone(), (w, h))?;
     }
     let depth: Vec<u16> = f.depth.iter().map(|&z| (f64::from(z) * 256.0).round().clamp(0.0, 65535.0) as u16).collect();
-    write_png(&dir.join("depth_02").join(seq).join(&name), &u16_from_buffer(&depth, w, h)?)?;
-    write_png(&dir.join("instance_02").join(seq).join(&name), &u16_from_buffer(&f.ids, w, h)?)?;
+    write_u16(&dir.join("depth_02").join(seq).join(&name), depth, (w, h))?;
+    write_u16(&dir.join("instance_02").join(seq).join(&name), f.ids.clone(), (w, h))?;
     Ok(())
 }
 
