@@ -3,7 +3,7 @@
 
 use clap::Args;
 
-use super::common::DataArgs;
+use super::data_args::DataArgs;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use dynotraj_eval::experiment::benchmark::{DEFAULT_GROUPS, run_benchmark, sequence_groups};

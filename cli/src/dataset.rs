@@ -2,7 +2,7 @@
 
 use clap::Args;
 
-use super::common::DataArgs;
+use super::data_args::DataArgs;
 use dynotraj_eval::experiment::benchmark::Shard;
 use dynotraj_eval::experiment::budget::{budget_instances, budget_table};
 use dynotraj_eval::report::{Format, Table, instances_table};

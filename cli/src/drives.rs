@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use super::common::{KITTI_ENV, kitti_or_env};
+use super::data_args::{KITTI_ENV, kitti_or_env};
 use clap::Args;
 use dynotraj_sources::drives::kitti_drives;
 use dynotraj_sources::drives::manifest_drives;

@@ -13,7 +13,9 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::estimate::{EstimatorProfile, PROFILES, SmootherParams};
 
-use super::common::{ClassesArg, EstimatedSourceArgs, FrameRateArg, MinStepArg, progress};
+use super::data_args::{ClassesArg, FrameRateArg, MinStepArg};
+use super::estimated_args::EstimatedSourceArgs;
+use super::progress::progress;
 use dynotraj_eval::estimation::pose_files::write_estimates;
 use dynotraj_eval::estimation::{
     OUTLIERS_WARNING, SequencesRequest, estimate_tracks, notes, record_sequences, write_sequence_poses,

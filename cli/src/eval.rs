@@ -4,7 +4,8 @@ use clap::Args;
 use dynotraj_core::predict::consistency::MAX_CARRY;
 use dynotraj_core::predict::{Carried, Carry};
 
-use super::common::{DataArgs, PAPER_TEST_SEQUENCES, progress};
+use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::progress::progress;
 use dynotraj_eval::forecast_eval::score_sequence;
 use dynotraj_eval::predictors::{LoadedPredictor, PredictorSpec};
 use dynotraj_eval::report::{ArmScores, Format, Table, forecast_table};

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
 use dynotraj_eval::experiment::figures::{FoldModels, ObjectChoice, parse_object_choice, subjects, write_figures};

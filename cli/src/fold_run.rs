@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::{DEFAULT_DIMS, DataArgs};
+use super::data_args::DataArgs;
+use super::model_args::DEFAULT_DIMS;
 use super::model_cost::parse_dims;
 use super::train::HyperArgs;
 use dynotraj_eval::experiment::ExperimentConfig;

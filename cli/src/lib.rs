@@ -1,16 +1,18 @@
 //! The `dynotraj` command line.
 
 pub mod benchmark;
-pub mod common;
+pub mod data_args;
 pub mod dataset;
 pub mod drives;
 pub mod estimate;
+pub mod estimated_args;
 pub mod eval;
 pub mod experiment;
 pub mod fold_run;
 pub mod forecast;
 pub mod import;
 pub mod interrupt;
+pub mod model_args;
 pub mod model_cost;
 pub mod numbers;
 pub mod pedestrians;
@@ -54,13 +56,7 @@ impl Cli {
     /// The log filter the flags ask for.
     #[must_use]
     pub const fn log_level(&self) -> log::LevelFilter {
-        match (self.quiet, self.verbose) {
-            (true, _) => log::LevelFilter::Error,
-            (false, 0) => log::LevelFilter::Warn,
-            (false, 1) => log::LevelFilter::Info,
-            (false, 2) => log::LevelFilter::Debug,
-            (false, _) => log::LevelFilter::Trace,
-        }
+        dynotraj_core::log_level::from_flags(self.quiet, self.verbose)
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 use dynotraj_core::model::Dims;
 
-use super::common::{DEFAULT_DIMS, DynamicsArg};
+use super::model_args::{DEFAULT_DIMS, DynamicsArg};
 use dynotraj_eval::model_cost::{ModelCostRequest, model_cost_table};
 use dynotraj_eval::report::Format;
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::DynamicsArg;
+use super::model_args::DynamicsArg;
 use super::train_progress::TrainBars;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_eval::experiment::report::write_report;
@@ -23,7 +23,7 @@ pub struct PedestriansArgs {
     #[arg(long, value_delimiter = ',', value_name = "LIST")]
     pub scenes: Vec<String>,
     /// Network widths: history encoder, edge encoder, latent modes, decoder.
-    #[arg(long, default_value = super::common::DEFAULT_DIMS, value_parser = super::model_cost::parse_dims, value_name = "ENC,EDGE,K,DEC")]
+    #[arg(long, default_value = super::model_args::DEFAULT_DIMS, value_parser = super::model_cost::parse_dims, value_name = "ENC,EDGE,K,DEC")]
     pub dims: Dims,
     /// Seed of the weights and the shuffling.
     #[arg(long, default_value_t = 1)]

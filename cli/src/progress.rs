@@ -128,6 +128,12 @@ impl Progress {
     }
 }
 
+/// Progress on stderr: a bar on a terminal, paced lines with the elapsed time elsewhere.
+#[must_use]
+pub fn progress(len: u64, what: &str) -> Progress {
+    Progress::new(len, what)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,8 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_sim::image_sim::{Camera, ImageSim};
 
-use super::common::{ClassesArg, progress};
+use super::data_args::ClassesArg;
+use super::progress::progress;
 use dynotraj_bag::sim_layout::write_sequence_with;
 use dynotraj_eval::report::estimator_tables::end_to_end_text;
 use dynotraj_formats::kitti::TrackingDir;

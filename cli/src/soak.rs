@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::common::progress;
+use super::progress::progress;
 use super::stream::TracksInputArgs;
 use dynotraj_eval::report::stream_report::{soak_data, soak_summary};
 use dynotraj_eval::report::write_table_files;

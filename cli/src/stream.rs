@@ -9,7 +9,8 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_core::wire::Notice;
 
-use super::common::{KITTI_ENV, kitti_or_env, one_sequence, progress};
+use super::data_args::{KITTI_ENV, kitti_or_env, one_sequence};
+use super::progress::progress;
 use dynotraj_eval::report::stream_report::{summary, write_stream_outputs};
 use dynotraj_formats::tracks_file::{self, Tracks};
 use dynotraj_link::endpoint::{Endpoint, connect};

@@ -11,7 +11,9 @@ use anyhow::Context as _;
 use clap::Args;
 use dynotraj_eval::recording::{record_path, recorded};
 
-use super::common::{FrameRateArg, PointDepthArgs, RenderOptics, progress};
+use super::data_args::FrameRateArg;
+use super::estimated_args::{PointDepthArgs, RenderOptics};
+use super::progress::progress;
 use dynotraj_eval::jobs::{default_jobs, parse_jobs};
 use dynotraj_eval::report::Format;
 use dynotraj_eval::tracking::{

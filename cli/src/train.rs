@@ -9,8 +9,10 @@ use dynotraj_core::model::arch::Dims;
 use dynotraj_core::model::blob::Precision;
 use dynotraj_core::predict::PriorSettings;
 
-use super::common::{DEFAULT_DIMS, DataArgs, DynamicsArg, progress};
+use super::data_args::DataArgs;
+use super::model_args::{DEFAULT_DIMS, DynamicsArg};
 use super::model_cost::parse_dims;
+use super::progress::progress;
 use dynotraj_sources::trajectory::Source;
 use dynotraj_train::loss::LossConfig;
 use dynotraj_train::{

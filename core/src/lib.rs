@@ -9,9 +9,10 @@
 //! - [`crc`]: the one checksum (CRC-32) of frames, model chunks and blobs.
 //! - [`class`]: what an object is (KITTI's types), and so the agent type that forecasts it.
 //! - [`limits`]: the named capacities and the paper's horizons and limits.
+//! - [`log_level`]: the log level the programs' `-q` and `-v` flags ask for.
 //! - [`wire`]: every message of the pipeline, and its framing (postcard + CRC-32 + COBS).
 //! - [`geometry`]: SE(3)/SE(2) helpers, camera-to-bird's-eye projection, angle wrapping.
-//! - [`smooth`]: the unicycle EKF (the paper's GT+EKF baseline) and its fixed-window RTS smoother.
+//! - [`gt_ekf`]: the unicycle EKF (the paper's GT+EKF baseline) and its fixed-window RTS smoother.
 //! - [`predict`]: unicycle dynamics and the baseline predictors (constant velocity, CTRA).
 //! - [`metrics`]: ADE, FDE, ACE and RPE.
 //! - [`estimate`]: the dynamic-SLAM estimator: camera ego-motion and every object's SE(3)
@@ -25,11 +26,12 @@ pub mod class;
 pub mod crc;
 pub mod estimate;
 pub mod geometry;
+pub mod gt_ekf;
 pub mod limits;
+pub mod log_level;
 pub mod metrics;
 pub mod model;
 pub mod predict;
-pub mod smooth;
 pub mod wire;
 
 pub use geometry::{BevState, Point2};

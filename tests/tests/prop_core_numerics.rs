@@ -8,10 +8,10 @@ use core::f32::consts::PI;
 
 use dynotraj_core::estimate::rigid_from_three;
 use dynotraj_core::geometry::{angle_diff, se3_exp, se3_log, wrap_angle};
+use dynotraj_core::gt_ekf::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
 use dynotraj_core::limits::{HORIZON, MAX_ACCEL, MAX_TURN_RATE};
 use dynotraj_core::metrics::{ace, ade, fde};
 use dynotraj_core::predict::{Forecast, constant_velocity, ctra, unicycle_step};
-use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
 use dynotraj_core::{BevState, Point2};
 use nalgebra::{Vector3, Vector6};
 use proptest::prelude::*;

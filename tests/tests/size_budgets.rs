@@ -4,10 +4,10 @@
 
 use core::mem::size_of;
 
+use dynotraj_core::gt_ekf::{FixedLagRts, UnicycleEkf};
 use dynotraj_core::metrics::{ForecastScores, RpeAccumulator};
 use dynotraj_core::model::{LearnedPredictor, Scratch};
 use dynotraj_core::predict::Forecast;
-use dynotraj_core::smooth::{FixedLagRts, UnicycleEkf};
 use dynotraj_core::wire::{FrameDecoder, MAX_FRAME_LEN, Message};
 use dynotraj_edge::LinkDecoder;
 
@@ -21,8 +21,8 @@ fn core_state_types_fit_their_budgets() {
     report("wire::MAX_FRAME_LEN", MAX_FRAME_LEN, 1_536);
     report("wire::FrameDecoder", size_of::<FrameDecoder>(), 1_536);
     report("wire::Message", size_of::<Message>(), 2_048);
-    report("smooth::UnicycleEkf", size_of::<UnicycleEkf>(), 128);
-    report("smooth::FixedLagRts<20>", size_of::<FixedLagRts<20>>(), 4_864);
+    report("gt_ekf::UnicycleEkf", size_of::<UnicycleEkf>(), 128);
+    report("gt_ekf::FixedLagRts<20>", size_of::<FixedLagRts<20>>(), 4_864);
     report("predict::Forecast", size_of::<Forecast>(), 240);
     report("metrics::ForecastScores", size_of::<ForecastScores>(), 64);
     report("metrics::RpeAccumulator", size_of::<RpeAccumulator>(), 128);

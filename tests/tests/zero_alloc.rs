@@ -1,10 +1,10 @@
 //! Core must not touch the heap: decoding a whole sequence of frames, running the EKF and its
 //! smoother, forecasting and scoring all happen with zero allocations.
 
+use dynotraj_core::gt_ekf::{EkfParams, FixedLagRts, Measurement};
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::{ForecastScores, RpeAccumulator, ace, ade, fde};
 use dynotraj_core::predict::{Baseline, Context, Predictor};
-use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement};
 use dynotraj_core::wire::{FrameBuf, FrameDecoder, MAX_FRAME_LEN, Message, encode, frame_parts};
 use dynotraj_core::{BevState, Point2};
 use dynotraj_sim::drive::{DriveSpec, feature_tracks, generate};

@@ -1,6 +1,5 @@
 //! The camera's track: ego-motion from static tracks, frame to frame and smoothed.
 
-use super::chain::{ChainScratch, Smoothness};
 use super::fit::fit_pose;
 use super::frame::Obs;
 use super::lie::Vec6;
@@ -8,6 +7,7 @@ use super::lie::normalised;
 use super::measure::{
     Measuring, MotionMeasurement, correspondences, inverse_information, plausible, twist_measurement,
 };
+use super::motion_smoother::{ChainScratch, Smoothness};
 use super::params::FitParams;
 use super::path::{Emitted, SmoothedPath};
 use crate::geometry::{POSE3_IDENTITY, Pose3, se3_log};

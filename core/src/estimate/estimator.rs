@@ -5,7 +5,7 @@ use heapless::Deque;
 use nalgebra::Point3;
 
 use super::camera::CameraTrack;
-use super::chain::{ChainScratch, Smoothness};
+use super::motion_smoother::{ChainScratch, Smoothness};
 use heapless::Vec;
 
 use super::frame::{DepthRange, FrameAssembler, FrameBuffer, Obs, PartOutcome};

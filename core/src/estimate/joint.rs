@@ -43,8 +43,8 @@
 //! its own chain. That keeps every chain's memory fixed; exact joint marginalisation would
 //! couple all chains' priors.
 
-use super::chain::{ChainScratch, ChainSmoother, SlotView, Smoothness};
 use super::lie::{Mat6, PackedSym6, VEC6_ZERO, Vec6, ad_matrix, adjoint, lin_to_pose};
+use super::motion_smoother::{ChainScratch, ChainSmoother, SlotView, Smoothness};
 pub use super::params::JOINT_SWEEPS;
 
 /// The coupling `B` of an object slot to the camera motion `c_bar` it was measured against.

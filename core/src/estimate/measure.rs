@@ -4,11 +4,11 @@
 use heapless::Vec;
 use nalgebra::Point3;
 
-use super::chain::{ChainScratch, Smoothness};
 use super::fit::{Fit, fit_pose};
 use super::frame::Obs;
 use super::lie::{Mat6, Vec6, ad_matrix, adjoint, map_information};
 use super::matching::for_each_match;
+use super::motion_smoother::{ChainScratch, Smoothness};
 use super::params::FitParams;
 use super::point_model::{Correspondence, PointModel};
 use super::rng::Pcg32;

@@ -94,7 +94,6 @@
 
 pub mod bev_track;
 mod camera;
-mod chain;
 mod estimator;
 pub mod fit;
 pub mod frame;
@@ -103,6 +102,7 @@ pub mod landmarks;
 mod lie;
 mod matching;
 mod measure;
+mod motion_smoother;
 mod object_run;
 mod output;
 mod params;
@@ -114,12 +114,12 @@ mod stats;
 mod triad;
 
 pub use bev_track::{BevTrack, BevTrackParams};
-pub use chain::{ChainScratch, ChainSmoother, Smoothness};
 pub use estimator::{Estimator, Pushed};
 pub use fit::fit_pose;
 pub use frame::{FrameAssembler, FrameBuffer, MAX_PIXEL, ObjectPoints, Obs};
 pub use landmarks::Landmarks;
 pub use lie::{ad_matrix, adjoint};
+pub use motion_smoother::{ChainScratch, ChainSmoother, Smoothness};
 pub use object_run::{MAX_HELD_FRAMES, NewestFit, ObjectRun, moves_like_a_vehicle};
 pub use output::{ObjectEstimate, PoseEstimate, bev_heading};
 pub use params::{EstimatorParams, FitParams, Intrinsics, KinematicPrior, REALIGN_REVERSED_RAD, SmootherParams};

@@ -9,13 +9,13 @@
 //! still in the smoother's window are emitted as they leave) -> `Free`.
 
 use super::bev_track::{BevTrack, BevTrackParams};
-use super::chain::{ChainScratch, Smoothness};
 use super::frame::{ObjectPoints, Obs};
 use super::landmarks::{
     self, Landmarks, fuse, initial_landmarks, landmark_correspondences, nearest_landmark_correspondences,
 };
 use super::lie::{Vec6, lin_to_pose, normalised, pose_to_lin};
 use super::measure::{Correspondences, Measuring, MotionMeasurement, measure_motion, robust_centroid};
+use super::motion_smoother::{ChainScratch, Smoothness};
 use super::output::{ObjectEstimate, object_estimate};
 use super::params::EstimatorParams;
 use super::path::{Emitted, SmoothedPath};

@@ -11,8 +11,8 @@
 //! consecutive causal poses form a trajectory an online system could have logged (the current
 //! estimate is revised with every frame, and pairs of it would carry those revisions).
 
-use super::chain::{ChainScratch, ChainSmoother, Smoothness};
 use super::lie::{Mat6, VEC6_ZERO, Vec6, adjoint, normalised};
+use super::motion_smoother::{ChainScratch, ChainSmoother, Smoothness};
 use crate::geometry::{POSE3_IDENTITY, Pose3, se3_exp};
 
 /// A pose leaving the window.

@@ -337,21 +337,15 @@ mod tests {
     use super::*;
     use crate::geometry::Point2;
     use crate::limits::PRIOR_STATES;
-    use crate::model::blob::{Precision, blob_len, write_blob, write_blob_with};
+    use crate::model::blob::{Precision, blob_len, write_blob_with};
     use crate::predict::{Dynamics, MotionPrior, PriorSettings};
 
-    /// A blob of `dims` with small pseudo-random weights (a stand-in for a trained model).
+    /// A blob of `dims` with stand-in weights of `seed` (in place of a trained model).
     pub(crate) fn random_blob(dims: &Dims, precision: Precision, seed: u32) -> Vec<u8> {
-        let mut state = seed;
-        let mut next = move || {
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
-        };
-        let tensors: Vec<Vec<f32>> =
-            dims.tensors().iter().map(|(r, c)| (0..r * c).map(|_| 0.4 * next()).collect()).collect();
-        let slices: Vec<&[f32]> = tensors.iter().map(Vec::as_slice).collect();
+        let mut scratch = vec![0.0; dims.parameters()];
         let mut buf = vec![0u8; blob_len(dims, precision)];
-        write_blob(dims, precision, 0.05, &PriorSettings::DEFAULT, &slices, &mut buf).unwrap();
+        let stand_in = (dims, precision, crate::predict::Dynamics::Unicycle);
+        crate::model::stand_in::write_stand_in_blob(stand_in, 0.05, seed, &mut scratch, &mut buf).unwrap();
         buf
     }
 

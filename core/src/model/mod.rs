@@ -15,6 +15,7 @@ pub mod infer;
 pub mod kernel;
 mod lut;
 pub mod signed;
+pub mod stand_in;
 
 pub use arch::Dims;
 pub use dot::{Int8Dot, PortableDot};

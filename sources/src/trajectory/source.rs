@@ -6,7 +6,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use dynotraj_core::BevState;
-use dynotraj_core::smooth::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
+use dynotraj_core::gt_ekf::{EkfParams, FixedLagRts, Measurement, UnicycleEkf};
 
 /// Look-ahead window of the GT+RTS source, frames (as DynoSAM's sliding window of 20).
 pub const RTS_WINDOW: usize = 20;

@@ -10,11 +10,11 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::HORIZON;
-use dynotraj_core::model::arch::TENSORS;
-use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len, write_blob};
+use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len};
 use dynotraj_core::model::kernel::MAX_AFFINE_IN;
+use dynotraj_core::model::stand_in::{STAND_IN_SEED, write_stand_in_blob};
 use dynotraj_core::model::{Dims, Int8Dot, LearnedPredictor, PortableDot};
-use dynotraj_core::predict::{Context, PriorSettings};
+use dynotraj_core::predict::{Context, Dynamics};
 use dynotraj_dsp::DspDot;
 use dynotraj_firmware::clock;
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
@@ -161,7 +161,7 @@ fn forecast_cost<D: Int8Dot>(mut p: LearnedPredictor<'_, D>) -> (u64, [Point2; H
     ((clock::ticks() - start) * clock::INSTRUCTIONS_PER_TICK / REPEATS, out)
 }
 
-/// A blob of `dims` with seeded random weights in `out`, its f32 tensors written to `tensors`
+/// A blob of `dims` with the stand-in weights in `out`, its f32 weights written to `tensors`
 /// first (the same seed for both precisions: the int8 blob is the f32 one quantised).
 fn random_blob<'a>(
     dims: &Dims,
@@ -169,19 +169,8 @@ fn random_blob<'a>(
     tensors: &mut [f32],
     out: &'a mut [u8],
 ) -> Result<ModelBlob<'a>, ()> {
-    let mut rng = Lcg(0x2545_f491);
-    let flat = tensors.get_mut(..dims.parameters()).ok_or(())?;
-    for v in flat.iter_mut() {
-        *v = (f32::from(rng.byte()) / 255.0 - 0.5) * 0.4;
-    }
-    let mut rest: &[f32] = flat;
-    let mut slices: [&[f32]; TENSORS] = [&[]; TENSORS];
-    for (s, (r, c)) in slices.iter_mut().zip(dims.tensors()) {
-        let (a, b) = rest.split_at_checked(r * c).ok_or(())?;
-        *s = a;
-        rest = b;
-    }
-    let len = write_blob(dims, precision, DT, &PriorSettings::DEFAULT, &slices, out).map_err(|_| ())?;
+    let stand_in = (dims, precision, Dynamics::Unicycle);
+    let len = write_stand_in_blob(stand_in, DT, STAND_IN_SEED, tensors, out).map_err(|_| ())?;
     ModelBlob::parse(out.get(..len).ok_or(())?).map_err(|_| ())
 }
 

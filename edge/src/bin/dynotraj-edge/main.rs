@@ -78,13 +78,7 @@ struct Args {
 impl Args {
     /// The log level the flags ask for (`RUST_LOG`, when set, chooses instead).
     const fn log_level(&self) -> log::LevelFilter {
-        match (self.quiet, self.verbose) {
-            (true, _) => log::LevelFilter::Error,
-            (false, 0) => log::LevelFilter::Warn,
-            (false, 1) => log::LevelFilter::Info,
-            (false, 2) => log::LevelFilter::Debug,
-            (false, _) => log::LevelFilter::Trace,
-        }
+        dynotraj_core::log_level::from_flags(self.quiet, self.verbose)
     }
 }
 
