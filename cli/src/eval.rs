@@ -1,16 +1,13 @@
 //! `dynotraj eval`: ADE, FDE and ACE per sequence and their weighted average (Table IV layout).
 
 use clap::Args;
-use dynotraj_core::predict::consistency::MAX_CARRY;
-use dynotraj_core::predict::{Carried, Carry};
 
 use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::progress::progress;
-use dynotraj_eval::forecast_eval::score_sequence;
-use dynotraj_eval::predictors::{LoadedPredictor, PredictorSpec};
-use dynotraj_eval::report::{ArmScores, Format, Table, forecast_table};
-use dynotraj_sources::scene::Scene;
-use dynotraj_sources::trajectory::{EligibleRun, Source, eligible_runs};
+use dynotraj_eval::predictors::PredictorSpec;
+use dynotraj_eval::report::{Format, Table};
+use dynotraj_eval::scores::{ScoresRequest, scores_table};
+use dynotraj_sources::trajectory::Source;
 
 /// Options of `dynotraj eval`.
 #[derive(Debug, Args)]
@@ -54,80 +51,29 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Scores every (source, predictor) arm on every sequence: the Table IV layout.
+/// Scores every (source, predictor) arm on every test sequence
+/// ([`dynotraj_eval::scores::scores_table`]), with a progress bar.
 ///
 /// # Errors
 /// Loading errors, named.
 pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
-    let dt = args.data.dt()?;
     let ids: Vec<String> = if args.tests.is_empty() {
         PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
     } else {
         dynotraj_sources::drives::distinct_ids("--tests", args.tests.clone())?
     };
-    if let Some(twice) = dynotraj_sources::drives::first_repeated(&args.predictor) {
-        anyhow::bail!("--predictor: {} is given twice (its rows would repeat)", twice.label());
-    }
-    anyhow::ensure!(args.carry <= MAX_CARRY, "--carry {}: at most {MAX_CARRY}", args.carry);
+    let request = ScoresRequest {
+        rule: &rule,
+        dt: args.data.dt()?,
+        sources: &args.source,
+        predictors: &args.predictor,
+        carry: args.carry,
+    };
+    request.check()?;
     let seqs = args.data.load_for(&ids, &args.source)?;
-
-    let loaded: Vec<LoadedPredictor> =
-        args.predictor.iter().map(|spec| LoadedPredictor::load(spec, dt)).collect::<anyhow::Result<_>>()?;
-    let agent_types = rule.agent_types();
-    let mut arms = Vec::new();
-    let bar = progress((args.source.len() * args.predictor.len() * agent_types.len()) as u64, "scoring");
-    // Each agent type apart: a model forecasts only the agents of its dynamics, and a row
-    // mixing agent types would hide which one a change helps.
-    for (k, &agents) in agent_types.iter().enumerate() {
-        let agent_rule = rule.for_agents(agents);
-        for &source in &args.source {
-            let runs: Vec<_> = seqs.iter().map(|s| eligible_runs(s.tracks_for(source), &agent_rule)).collect();
-            if k > 0 && runs.iter().all(Vec::is_empty) {
-                bar.inc(args.predictor.len() as u64);
-                continue;
-            }
-            let scenes: Vec<Scene> = seqs.iter().map(|s| s.scene(source, dt)).collect();
-            for (spec, loaded) in args.predictor.iter().zip(&loaded) {
-                bar.inc(1);
-                if !loaded.forecasts(agents) {
-                    continue;
-                }
-                let label = arm_label(spec, source, args.carry);
-                let label = if k == 0 { label } else { format!("{label}, {}", agents.agents()) };
-                arms.push(score_arm(loaded, label, &runs, &scenes, (dt, args.carry)));
-            }
-        }
-    }
+    let bar = progress((args.source.len() * args.predictor.len() * rule.agent_types().len()) as u64, "scoring");
+    let table = scores_table(&seqs, &request, &|n| bar.inc(n));
     bar.finish_and_clear();
-    Ok(forecast_table(&ids, &arms, &[]))
-}
-
-/// The scores of `loaded` (carrying `carry` of its last forecast) on every sequence's `runs`.
-fn score_arm(
-    loaded: &LoadedPredictor,
-    label: String,
-    runs: &[Vec<EligibleRun>],
-    scenes: &[Scene],
-    (dt, carry): (f32, f32),
-) -> ArmScores {
-    let mut forecaster = loaded.forecaster();
-    let mut forecaster = Carried(forecaster.as_mut(), Carry::new(carry));
-    let mut arm = ArmScores::new(label);
-    let mut failed = 0;
-    for (seq_runs, scene) in runs.iter().zip(scenes) {
-        let r = score_sequence(seq_runs, scene, &mut forecaster, dt);
-        arm.push_sequence(&r);
-        failed += r.failed;
-    }
-    if failed > 0 {
-        log::warn!("{}: {failed} instances could not be forecast", arm.label);
-    }
-    arm
-}
-
-fn arm_label(p: &PredictorSpec, s: Source, carry: f32) -> String {
-    let carried = if carry > 0.0 { format!(" carrying {carry}") } else { String::new() };
-    let name = format!("{}{carried} on {}", p.label(), s.name());
-    if s.is_causal() { name } else { format!("{name} (inputs saw later frames)") }
+    table
 }

@@ -9,7 +9,7 @@
 //!
 //! - [`transport`]: the [`Transport`] (any `embedded-io` byte stream, through [`Io`]) and
 //!   [`Clock`] the platform provides;
-//! - [`link`]: decoding ([`LinkDecoder`]; the estimator assembles the frame parts);
+//! - [`link_decoder`]: decoding ([`LinkDecoder`]; the estimator assembles the frame parts);
 //! - [`pipeline`]: the per-frame work ([`Pipeline`]);
 //! - [`model_load`]: a model blob over the link into a fixed buffer, checked by CRC;
 //! - [`provisioned`]: the Ed25519 key a model over the link must be signed with (build time);
@@ -22,7 +22,7 @@
 #![no_std]
 
 pub mod history;
-pub mod link;
+pub mod link_decoder;
 pub mod model_load;
 pub mod pipeline;
 
@@ -42,7 +42,7 @@ pub struct IntegrationGuide;
 pub use embedded_io;
 #[cfg(feature = "async")]
 pub use embedded_io_async;
-pub use link::LinkDecoder;
+pub use link_decoder::LinkDecoder;
 pub use pipeline::{EDGE_WINDOW, ESTIMATOR_SEED, EdgeStats, Pipeline};
 pub use session::{LoadStats, ModelStatus, RunError, Session, send_notice};
 pub use transport::{Clock, Io, NoClock, Split, Transport};

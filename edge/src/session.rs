@@ -10,7 +10,7 @@ use dynotraj_core::wire::{
     Forecaster, FrameBuf, LinkStats, MAX_FRAME_LEN, Message, ModelRefusal, Notice, WireError, encode,
 };
 
-use crate::link::LinkDecoder;
+use crate::link_decoder::LinkDecoder;
 #[cfg(feature = "model-over-link")]
 use crate::model_load::{ChunkOutcome, ModelLoader};
 use crate::pipeline::{EDGE_WINDOW, Pipeline};

@@ -13,5 +13,6 @@ pub mod pedestrian_benchmark;
 pub mod predictors;
 pub mod recording;
 pub mod report;
+pub mod scores;
 #[cfg(feature = "images")]
 pub mod tracking;

@@ -3,28 +3,24 @@
 //! answered and the lost frames add up to the frames sent, and the edge's resident memory does
 //! not grow (`dynotraj soak` runs the 100,000-frame version).
 
-use dynotraj_cli::soak::{SoakArgs, soak_edge};
 use dynotraj_eval::report::stream_report::soak_summary;
+use dynotraj_link::edge_process::EdgeProcess;
+use dynotraj_link::soak::{SoakOptions, soak};
 use dynotraj_sim::drive::{DriveSpec, generate};
+use dynotraj_sources::estimation::input::simulated_stream;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]
 fn a_faulty_link_loses_only_damaged_frames_and_memory_stays_flat() {
     let dir = tempfile::tempdir().unwrap();
     write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
-    let args = SoakArgs {
-        input: dynotraj_cli::stream::TracksInputArgs {
-            tracks: None,
-            kitti: Some(dir.path().to_path_buf()),
-            sequences: vec!["0000".into()],
-        },
-        frames: 2000,
-        fault_probability: 0.02,
-        seed: 7,
-        out: None,
-        edge: Some(dynotraj_tests::edge_fixture::edge_binary()),
-    };
-    let r = soak_edge(&args).unwrap();
+    let tracks = simulated_stream(dir.path(), "0000", None).unwrap();
+    let edge = EdgeProcess::start(&dynotraj_tests::edge_fixture::edge_binary()).unwrap();
+    let (rx, tx) = edge.connect().unwrap();
+    let options = SoakOptions { frames: 2000, fault_probability: 0.02, seed: 7, ..SoakOptions::default() };
+    let r = soak(&tracks, rx, tx, &options, Some(edge.id())).unwrap();
+    let (_, status) = edge.wait().unwrap();
+    assert!(status.success(), "the edge exited with {status}");
     println!("{}", soak_summary(&r));
     assert_eq!(r.frames_sent, 2000);
     assert!(r.faults_injected() > 20 && r.faults.iter().all(|&n| n > 0), "{:?}", r.faults);
