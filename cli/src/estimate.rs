@@ -16,13 +16,8 @@ use dynotraj_core::estimate::{EstimatorProfile, PROFILES, SmootherParams};
 use super::data_args::{ClassesArg, FrameRateArg, MinStepArg};
 use super::estimated_args::EstimatedSourceArgs;
 use super::progress::progress;
-use dynotraj_eval::estimation::pose_files::write_estimates;
 use dynotraj_eval::estimation::{
-    OUTLIERS_WARNING, SequencesRequest, estimate_tracks, notes, record_sequences, write_sequence_poses,
-    write_sequence_tracks,
-};
-use dynotraj_eval::report::estimator_tables::{
-    cost_table, counters_table, data_tables, per_object_table, replay_tables, rpe_sources_table, tables,
+    EstimateJob, EstimateRequest, ExtraTables, OUTLIERS_WARNING, SequencesRequest, estimate,
 };
 use dynotraj_eval::report::{Format, Table, check_table, render_tables};
 use dynotraj_sources::estimation::settings::SimulatedInput;
@@ -234,136 +229,111 @@ impl EstimateArgs {
     }
 }
 
-/// Runs every sequence, prints the tables and writes the files.
+/// Runs the command ([`dynotraj_eval::estimation::estimate`]) and prints what it has to show.
 ///
 /// # Errors
-/// Loading or writing errors, named.
+/// Bad options, loading, estimating or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
-    args.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
-    let mut names = if args.cost {
-        vec!["cost"]
-    } else if args.tracks.is_some() {
-        vec!["replay"]
+    let options = args.profiles()?.into_iter().map(|p| args.options_for(p)).collect::<anyhow::Result<Vec<_>>>()?;
+    let request = args.request(&options)?;
+    let output = if matches!(request.job, EstimateJob::Sequences { .. }) {
+        let label = if args.ours.ours_input == SimulatedInput::Rendered {
+            "rendering, tracking, estimating"
+        } else {
+            "estimating"
+        };
+        let bar = progress(0, label);
+        let output = estimate(&request, &|id, total| {
+            bar.set_length(total as u64);
+            bar.set_message(id.to_string());
+            bar.inc(1);
+        });
+        bar.finish_and_clear();
+        output?
     } else {
-        vec!["table_iii", "restarts", "smoothness"]
+        estimate(&request, &|_, _| {})?
     };
-    if args.counters && !args.cost {
-        names.push("counters");
+    for line in &output.before {
+        eprintln!("{line}");
     }
-    if args.per_object && !args.cost && args.tracks.is_none() {
-        names.push("per_object");
-    }
-    if args.rpe_sources && !args.cost && args.tracks.is_none() {
-        names.push("rpe_sources");
-    }
-    check_table(args.format, args.table.as_deref(), &names)?;
-    if args.cost {
-        let sweeps = args.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps);
-        let r = dynotraj_sources::estimation::cost::measure(args.frames.unwrap_or(300), 30, args.seed, sweeps);
-        return print_tables(args, vec![("cost", cost_table(&r))]);
-    }
-    if let Some(path) = &args.tracks {
-        let r = estimate_tracks(path, args.options()?, args.frames)?;
-        if let Some(out) = &args.out {
-            write_estimates(out, &r.frames, &r.run)?;
-            eprintln!("wrote {}", out.display());
-        }
-        if let Some(target) = &args.record {
-            eprintln!("{}", r.record(path, target)?);
-        }
-        let (t, counters) = replay_tables(&path.display().to_string(), r.frames.len(), &r.run, r.estimate_seconds);
-        let mut named = vec![("replay", t)];
-        if args.counters {
-            named.push(("counters", counters));
-        }
-        return print_tables(args, named);
-    }
-    if !args.noise_free && args.outliers >= OUTLIERS_WARNING {
-        eprintln!(
-            "warning: --outliers {}: at least {:.0} % of every frame's simulated tracks are outliers; expect the \
-             estimate to fail",
-            args.outliers,
-            OUTLIERS_WARNING * 100.0
-        );
-    }
-    let results = estimate_sequences(args)?;
-    for note in results.iter().flat_map(notes) {
-        eprintln!("{note}");
-    }
-    if let (true, Some(dir)) = (args.write_tracks, &args.out) {
-        for path in write_sequence_tracks(dir, &results, args.rate.hz)? {
-            eprintln!("wrote {}", path.display());
-        }
+    for t in &output.person_tables {
+        println!("{}", t.render(Format::Md));
     }
     if args.format == Format::Md {
-        for t in tables(&results) {
-            println!("{}", t.render(args.format));
+        for (_, t) in &output.named {
+            println!("{}", t.render(Format::Md));
         }
+    } else {
+        let refs: Vec<(&str, &Table)> = output.named.iter().map(|(n, t)| (*n, t)).collect();
+        print!("{}", render_tables(args.format, args.table.as_deref(), &refs)?);
     }
-    let mut named = if args.format == Format::Md { Vec::new() } else { data_tables(&results) };
-    if args.counters {
-        named.push(("counters", counters_table(&results)));
-    }
-    if args.per_object {
-        named.push(("per_object", per_object_table(&results)));
-    }
-    if args.rpe_sources {
-        named.push(("rpe_sources", rpe_sources_table(&results)));
-    }
-    print_tables(args, named)?;
-    let several_profiles = args.profiles.len() > 1;
-    if let Some(out) = &args.out {
-        for dir in write_sequence_poses(out, &results, several_profiles)? {
-            eprintln!("wrote {}", dir.display());
-        }
-    }
-    if let Some(target) = &args.record {
-        for said in record_sequences(target, &results, several_profiles, f64::from(args.rate.hz))? {
-            eprintln!("{said}");
-        }
+    for line in &output.after {
+        eprintln!("{line}");
     }
     Ok(())
 }
 
-/// Prints `named` tables in `--format`: Markdown each followed by a blank line, CSV or JSON as
-/// [`render_tables`] does (`--table` choosing one).
-fn print_tables(args: &EstimateArgs, named: Vec<(&str, Table)>) -> anyhow::Result<()> {
-    if args.format == Format::Md {
-        for (_, t) in &named {
-            println!("{}", t.render(Format::Md));
-        }
-        return Ok(());
+impl EstimateArgs {
+    /// The request these options make, with `options` per profile; the output folder and
+    /// `--table` checked before any work.
+    ///
+    /// # Errors
+    /// An output folder that is a file, a `--table` the run does not print, or no `--kitti`.
+    pub fn request<'a>(&'a self, options: &'a [EvalOptions]) -> anyhow::Result<EstimateRequest<'a>> {
+        self.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
+        let job = if self.cost {
+            EstimateJob::Cost {
+                frames: self.frames.unwrap_or(300),
+                seed: self.seed,
+                joint_sweeps: self.joint_sweeps.unwrap_or(dynotraj_core::estimate::HOST_PROFILE.joint_sweeps),
+            }
+        } else if let Some(tracks) = &self.tracks {
+            let options = options.first().cloned().context("--profile: no profile")?;
+            EstimateJob::Replay { tracks, options, max_frames: self.frames }
+        } else {
+            if !self.noise_free && self.outliers >= OUTLIERS_WARNING {
+                eprintln!(
+                    "warning: --outliers {}: at least {:.0} % of every frame's simulated tracks are outliers; expect \
+                     the estimate to fail",
+                    self.outliers,
+                    OUTLIERS_WARNING * 100.0
+                );
+            }
+            let kitti = self.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
+            let request = SequencesRequest {
+                kitti,
+                sequences: &self.sequences,
+                options,
+                input: self.ours.ours_input,
+                render_scale: self.ours.render_scale,
+                cache: self.ours.estimate_cache.as_deref(),
+                jobs: self.ours.jobs,
+            };
+            EstimateJob::Sequences { request, write_tracks: self.write_tracks, rate_hz: self.rate.hz }
+        };
+        let extra = ExtraTables { counters: self.counters, per_object: self.per_object, rpe_sources: self.rpe_sources };
+        let request = EstimateRequest {
+            job,
+            extra,
+            machine_tables: self.format != Format::Md,
+            out: self.out.as_deref(),
+            record: self.record.as_deref(),
+            several_profiles: self.profiles.len() > 1,
+        };
+        check_table(self.format, self.table.as_deref(), &request.table_names())?;
+        Ok(request)
     }
-    let refs: Vec<(&str, &Table)> = named.iter().map(|(n, t)| (*n, t)).collect();
-    print!("{}", render_tables(args.format, args.table.as_deref(), &refs)?);
-    Ok(())
 }
 
 /// The requested sequences estimated and scored with every profile asked for
-/// ([`dynotraj_eval::estimation::estimate_sequences`]), with a progress bar.
+/// ([`dynotraj_eval::estimation::estimate_sequences`]), for tests that read the results.
 ///
 /// # Errors
 /// Bad options, loading, rendering or cache errors, named.
 pub fn estimate_sequences(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
     let options = args.profiles()?.into_iter().map(|p| args.options_for(p)).collect::<anyhow::Result<Vec<_>>>()?;
-    let kitti = args.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
-    let request = SequencesRequest {
-        kitti,
-        sequences: &args.sequences,
-        options: &options,
-        input: args.ours.ours_input,
-        render_scale: args.ours.render_scale,
-        cache: args.ours.estimate_cache.as_deref(),
-        jobs: args.ours.jobs,
-    };
-    let label =
-        if args.ours.ours_input == SimulatedInput::Rendered { "rendering, tracking, estimating" } else { "estimating" };
-    let bar = progress(0, label);
-    let results = dynotraj_eval::estimation::estimate_sequences(&request, &|id, total| {
-        bar.set_length(total as u64);
-        bar.set_message(id.to_string());
-        bar.inc(1);
-    });
-    bar.finish_and_clear();
-    results
+    match args.request(&options)?.job {
+        EstimateJob::Sequences { request, .. } => dynotraj_eval::estimation::estimate_sequences(&request, &|_, _| {}),
+        _ => anyhow::bail!("--cost and --tracks estimate no sequences"),
+    }
 }

@@ -7,11 +7,9 @@ use clap::Args;
 use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_eval::experiment::figures::{FoldModels, ObjectChoice, parse_object_choice, subjects, write_figures};
-use dynotraj_eval::experiment::report::write_report;
-use dynotraj_eval::experiment::sections::{RunSettings, experiment_report};
+use dynotraj_eval::experiment::figures::{ObjectChoice, parse_object_choice, subjects};
+use dynotraj_eval::experiment::sections::{ReportFolder, RunSettings, write_report_folder};
 use dynotraj_eval::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
-use dynotraj_eval::recording::experiment::write_recordings;
 use dynotraj_eval::report::{Format, Table};
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::Source;
@@ -95,25 +93,7 @@ pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, St
     // The whole command: loading and estimating the sequences too.
     result.seconds = start.elapsed().as_secs_f64();
     result.loading_seconds = loading_seconds;
-    let mut summary = String::from(
-        "folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, \
-            seconds):\n",
-    );
-    for f in &result.folds {
-        summary.push_str(&format!(
-            "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s{}\n",
-            f.arm,
-            f.sequence,
-            f.train_instances,
-            f.best_epoch,
-            f.shrink,
-            f.val_ade,
-            f.val_cv_ade,
-            f.seconds,
-            if f.cached { " (cached)" } else { "" }
-        ));
-    }
-    summary.push_str(&format!("total: {:.1} s\n", result.seconds));
+    let summary = result.fold_summary();
     Ok((result, summary, sequences))
 }
 
@@ -150,9 +130,6 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     }
     eprint!("{summary}");
     if let Some(dir) = &args.run.out {
-        let rule = args.data.rule()?;
-        // The figures and recordings show the first agent type's forecasts (vehicles).
-        let shown = rule.for_agents(result.agents);
         let mut command = String::from("dynotraj experiment");
         for a in std::env::args().skip(2) {
             command.push(' ');
@@ -165,18 +142,11 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             dt: args.data.dt()?,
             history_frames: args.run.hyper.prior_choice().history_frames(),
         };
-        let mut r = experiment_report(&run, command, &result, &sequences, &rule);
-        let (figures, models) = (dir.join("figures"), dir.join("models"));
-        r.figures = write_figures(&figures, &sequences, &args.arms, &shown, args.data.dt()?, &models, &args.objects)?;
-        let path = write_report(dir, &r)?;
-        eprintln!("wrote {}", path.display());
-        if let Some(record) = &args.record {
-            let ids = test_ids(args)?;
-            let tests: Vec<&SequenceTracks> = sequences.iter().filter(|s| ids.contains(&s.id)).collect();
-            let fold_models = FoldModels::load(&models, &args.arms, &sequences)?;
-            for w in write_recordings(record, &tests, &args.arms, &fold_models, &shown, args.data.dt()?)? {
-                eprintln!("recorded {} ({} bytes)", w.path.display(), w.bytes);
-            }
+        let tests = test_ids(args)?;
+        let folder =
+            ReportFolder { dir, record: args.record.as_deref(), command, objects: &args.objects, tests: &tests };
+        for said in write_report_folder(&folder, &run, &result, &sequences, &args.data.rule()?)? {
+            eprintln!("{said}");
         }
     }
     printed

@@ -15,7 +15,7 @@ use dynotraj_eval::report::stream_report::{summary, write_stream_outputs};
 use dynotraj_formats::tracks_file::{self, Tracks};
 use dynotraj_link::endpoint::{Endpoint, connect};
 use dynotraj_link::stream::{StreamOptions, stream};
-use dynotraj_sources::estimation::input::simulated_stream;
+use dynotraj_sources::estimation::simulated::simulated_stream;
 
 /// Options of `dynotraj stream`.
 #[derive(Debug, Args)]

@@ -7,7 +7,7 @@ use dynotraj_eval::report::stream_report::soak_summary;
 use dynotraj_link::edge_process::EdgeProcess;
 use dynotraj_link::soak::{SoakOptions, soak};
 use dynotraj_sim::drive::{DriveSpec, generate};
-use dynotraj_sources::estimation::input::simulated_stream;
+use dynotraj_sources::estimation::simulated::simulated_stream;
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 #[test]

@@ -129,7 +129,11 @@ fn the_report_folder_and_a_cached_rerun() {
         assert!(out.join(format!("models/{arm}-0000.blob.int8")).is_file());
     }
     let cached = fs::read_dir(out.join("cache")).unwrap().count();
-    assert_eq!(cached, 6 + 3, "two folds x (blob, int8 blob, report), three sequences' estimated tracks");
+    assert_eq!(
+        cached,
+        2 + 3,
+        "two folds (one file each: both blobs and the report), three sequences' estimated tracks"
+    );
 
     // Against the common reference every arm has the same instances: one instance row.
     // Columns: row_kind,arm,sequence,ade,fde,ace,instances,ace_pairs (labels have no comma).

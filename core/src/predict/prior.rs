@@ -34,8 +34,9 @@ use crate::limits::{HORIZON, PRIOR_STATES};
 /// the source's heading.
 pub const MOTION_HEADING_MIN_SPEED: f32 = 1.0;
 
-/// Settings of the motion prior (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Settings of the motion prior (see the module docs). Serializable so that a trained fold's
+/// choice can be kept with it.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PriorSettings {
     /// States the velocity parabola spans, 2..=[`PRIOR_STATES`].
     pub velocity_window: u8,

@@ -26,6 +26,10 @@ use dynotraj_sources::estimation::simulated::{
 use crate::jobs::map_jobs;
 use crate::recording::estimate::{RecordInput, record_estimate};
 use crate::recording::{record_path, recorded};
+use crate::report::Table;
+use crate::report::estimator_tables::{
+    cost_table, counters_table, data_tables, per_object_table, replay_tables, rpe_sources_table, tables,
+};
 
 /// An `--outliers` share from which most of the simulated tracks lie: the estimate is then
 /// expected to fail, which deserves a word before it does.
@@ -282,6 +286,171 @@ impl Replay {
         };
         Ok(recorded(&record_estimate(&file, &input).context("--record")?))
     }
+}
+
+/// What the `estimate` command runs.
+#[derive(Debug, Clone)]
+pub enum EstimateJob<'a> {
+    /// The estimator timed per frame on a synthetic scene at the ECU's full budget.
+    Cost {
+        /// Frames timed.
+        frames: usize,
+        /// Seed of the scene.
+        seed: u64,
+        /// Joint solver sweeps per frame.
+        joint_sweeps: u8,
+    },
+    /// A tracks file estimated with no truth.
+    Replay {
+        /// The tracks file.
+        tracks: &'a Path,
+        /// The estimator's options (its frame period is the file's).
+        options: EvalOptions,
+        /// At most this many frames.
+        max_frames: Option<usize>,
+    },
+    /// KITTI sequences estimated and scored (Table III).
+    Sequences {
+        /// Which sequences, from what input, with which profiles' options.
+        request: SequencesRequest<'a>,
+        /// Also write each sequence's simulated tracks into `out` as a tracks file.
+        write_tracks: bool,
+        /// The frame rate the tracks are written at, Hz.
+        rate_hz: f32,
+    },
+}
+
+/// Which tables beyond a job's own are asked for.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ExtraTables {
+    /// The estimator's counters.
+    pub counters: bool,
+    /// The RPE of every moving object.
+    pub per_object: bool,
+    /// Where the object RPE comes from.
+    pub rpe_sources: bool,
+}
+
+/// The `estimate` command as one request.
+#[derive(Debug, Clone)]
+pub struct EstimateRequest<'a> {
+    /// What to run.
+    pub job: EstimateJob<'a>,
+    /// Extra tables.
+    pub extra: ExtraTables,
+    /// Whether the tables go to a program (CSV, JSON: each table's data) rather than a person
+    /// (Markdown, Table III in blocks per kind of estimate).
+    pub machine_tables: bool,
+    /// The folder of pose files (and, with `write_tracks`, tracks files).
+    pub out: Option<&'a Path>,
+    /// Where recordings go.
+    pub record: Option<&'a Path>,
+    /// Whether more than one profile is run (results then go in a folder per profile).
+    pub several_profiles: bool,
+}
+
+/// What the `estimate` command has to show: lines said before the tables (warnings, notes,
+/// files written before them), the tables for a person (Markdown only) and the named tables,
+/// and lines said after them (files written).
+#[derive(Debug, Default)]
+pub struct EstimateOutput {
+    /// Said before the tables.
+    pub before: Vec<String>,
+    /// Tables printed for a person only (Table III in blocks).
+    pub person_tables: Vec<Table>,
+    /// Named tables, printed in any format.
+    pub named: Vec<(&'static str, Table)>,
+    /// Said after the tables.
+    pub after: Vec<String>,
+}
+
+impl EstimateRequest<'_> {
+    /// The names of the tables this request prints, in order: what `--table` may choose.
+    #[must_use]
+    pub fn table_names(&self) -> Vec<&'static str> {
+        let (mut names, truth) = match self.job {
+            EstimateJob::Cost { .. } => return vec!["cost"],
+            EstimateJob::Replay { .. } => (vec!["replay"], false),
+            EstimateJob::Sequences { .. } => (vec!["table_iii", "restarts", "smoothness"], true),
+        };
+        if self.extra.counters {
+            names.push("counters");
+        }
+        if self.extra.per_object && truth {
+            names.push("per_object");
+        }
+        if self.extra.rpe_sources && truth {
+            names.push("rpe_sources");
+        }
+        names
+    }
+}
+
+/// Runs the `estimate` command's request: times the estimator, replays a tracks file, or
+/// estimates and scores sequences, writing the files asked for; `on_sequence` as for
+/// [`estimate_sequences`].
+///
+/// # Errors
+/// Loading, estimating or writing errors, named.
+pub fn estimate(
+    request: &EstimateRequest<'_>,
+    on_sequence: &(dyn Fn(&str, usize) + Sync),
+) -> anyhow::Result<EstimateOutput> {
+    let mut out = EstimateOutput::default();
+    match &request.job {
+        &EstimateJob::Cost { frames, seed, joint_sweeps } => {
+            let r = dynotraj_sources::estimation::cost::measure(frames, 30, seed, joint_sweeps);
+            out.named.push(("cost", cost_table(&r)));
+        }
+        EstimateJob::Replay { tracks, options, max_frames } => {
+            let r = estimate_tracks(tracks, options.clone(), *max_frames)?;
+            if let Some(dir) = request.out {
+                pose_files::write_estimates(dir, &r.frames, &r.run)?;
+                out.before.push(format!("wrote {}", dir.display()));
+            }
+            if let Some(target) = request.record {
+                out.before.push(r.record(tracks, target)?);
+            }
+            let (t, counters) =
+                replay_tables(&tracks.display().to_string(), r.frames.len(), &r.run, r.estimate_seconds);
+            out.named.push(("replay", t));
+            if request.extra.counters {
+                out.named.push(("counters", counters));
+            }
+        }
+        EstimateJob::Sequences { request: sequences, write_tracks, rate_hz } => {
+            let results = estimate_sequences(sequences, on_sequence)?;
+            out.before.extend(results.iter().flat_map(notes));
+            if let (true, Some(dir)) = (*write_tracks, request.out) {
+                for path in write_sequence_tracks(dir, &results, *rate_hz)? {
+                    out.before.push(format!("wrote {}", path.display()));
+                }
+            }
+            if request.machine_tables {
+                out.named = data_tables(&results);
+            } else {
+                out.person_tables = tables(&results);
+            }
+            if request.extra.counters {
+                out.named.push(("counters", counters_table(&results)));
+            }
+            if request.extra.per_object {
+                out.named.push(("per_object", per_object_table(&results)));
+            }
+            if request.extra.rpe_sources {
+                out.named.push(("rpe_sources", rpe_sources_table(&results)));
+            }
+            if let Some(dir) = request.out {
+                for written in write_sequence_poses(dir, &results, request.several_profiles)? {
+                    out.after.push(format!("wrote {}", written.display()));
+                }
+            }
+            if let Some(target) = request.record {
+                out.after.extend(record_sequences(target, &results, request.several_profiles, f64::from(*rate_hz))?);
+            }
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

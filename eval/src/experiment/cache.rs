@@ -119,16 +119,7 @@ impl FoldCache {
                 return None;
             }
         }
-        let p = stored.prior;
-        let prior = PriorSettings {
-            velocity_window: p.velocity_window,
-            trend_window: p.trend_window,
-            accel_gain: p.accel_gain,
-            turn_gain: p.turn_gain,
-            accel_decay: p.accel_decay,
-            turn_decay: p.turn_decay,
-            carry_percent: p.carry_percent,
-        };
+        let prior = stored.prior;
         let report = FoldReport {
             train_instances: usize::try_from(stored.train_instances).ok()?,
             best_epoch: usize::try_from(stored.best_epoch).ok()?,
@@ -150,7 +141,6 @@ impl FoldCache {
     /// The file cannot be written, named.
     pub fn store(&self, name: &str, key: u64, fold: &CachedFold) -> anyhow::Result<()> {
         let r = &fold.report;
-        let p = &r.prior;
         let stored = StoredFold {
             f32_blob: fold.f32_blob.clone(),
             int8_blob: fold.int8_blob.clone(),
@@ -161,15 +151,7 @@ impl FoldCache {
             val_cv_ade: r.val_cv_ade,
             val_prior_ade: r.val_prior_ade,
             seconds: r.seconds,
-            prior: StoredPrior {
-                velocity_window: p.velocity_window,
-                trend_window: p.trend_window,
-                accel_gain: p.accel_gain,
-                turn_gain: p.turn_gain,
-                accel_decay: p.accel_decay,
-                turn_decay: p.turn_decay,
-                carry_percent: p.carry_percent,
-            },
+            prior: r.prior,
         };
         store_file(&self.dir, &self.path(name, key), key, &stored, "a trained fold")
     }
@@ -187,19 +169,7 @@ struct StoredFold {
     val_cv_ade: f32,
     val_prior_ade: f32,
     seconds: f32,
-    prior: StoredPrior,
-}
-
-/// The motion prior's settings a fold chose, as its file holds them.
-#[derive(Serialize, Deserialize)]
-struct StoredPrior {
-    velocity_window: u8,
-    trend_window: u8,
-    accel_gain: f32,
-    turn_gain: f32,
-    accel_decay: f32,
-    turn_decay: f32,
-    carry_percent: u8,
+    prior: PriorSettings,
 }
 
 #[cfg(test)]

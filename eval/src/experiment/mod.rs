@@ -182,6 +182,37 @@ pub struct ExperimentResult {
     pub loading_seconds: f64,
 }
 
+impl ExperimentResult {
+    /// The folds in a few lines: arm and held-out sequence, training instances, the epoch kept,
+    /// the output shrink, validation ADE against cv's, seconds (cached or trained), and the
+    /// whole command's seconds.
+    #[must_use]
+    pub fn fold_summary(&self) -> String {
+        use std::fmt::Write as _;
+        let mut summary = String::from(
+            "folds (arm / held-out sequence: training instances, epoch kept, output shrink, validation ADE vs cv, \
+                seconds):\n",
+        );
+        for f in &self.folds {
+            let _ = writeln!(
+                summary,
+                "  {} / {}: {} instances, epoch {}, shrink {}, val ADE {:.3} m (cv {:.3} m), {:.1} s{}",
+                f.arm,
+                f.sequence,
+                f.train_instances,
+                f.best_epoch,
+                f.shrink,
+                f.val_ade,
+                f.val_cv_ade,
+                f.seconds,
+                if f.cached { " (cached)" } else { "" }
+            );
+        }
+        let _ = writeln!(summary, "total: {:.1} s", self.seconds);
+        summary
+    }
+}
+
 /// Scores `forecaster` on one sequence against the source's own future into `own` and, when
 /// there is a common reference, against it into `common`.
 fn score_both(

@@ -2,9 +2,13 @@
 //! estimator behind the estimated arms, Table IV (own future and common truth), deployment, and
 //! the notes on what the inputs mean. The commands only gather their settings.
 
+use std::path::Path;
+
 use super::ExperimentResult;
+use super::figures::{FoldModels, ObjectChoice, write_figures};
 use super::findings::{Scoring, findings};
-use super::report::{Report, Section};
+use super::report::{Report, Section, write_report};
+use crate::recording::experiment::write_recordings;
 use crate::report::estimator_tables::table_iii_of;
 use crate::report::{Table, instances_table};
 use dynotraj_core::predict::Dynamics;
@@ -276,4 +280,48 @@ pub fn table_i_sources(arms: &[Source]) -> Vec<Source> {
     }
     out.extend(arms.iter().copied().filter(Source::is_estimated));
     out
+}
+
+/// Where and how an experiment's report folder is written.
+#[derive(Debug, Clone)]
+pub struct ReportFolder<'a> {
+    /// The report folder (REPORT.md, tables, figures/, models/).
+    pub dir: &'a Path,
+    /// Where the test sequences' recordings go, if anywhere.
+    pub record: Option<&'a Path>,
+    /// The command line the report names.
+    pub command: String,
+    /// The objects the per-object figures draw.
+    pub objects: &'a [ObjectChoice],
+    /// The test sequences (recorded).
+    pub tests: &'a [String],
+}
+
+/// Writes the report folder of a finished experiment: REPORT.md with its tables, the figures
+/// of the first agent type (vehicles) from the fold models in `models/`, and with `record` the
+/// test sequences' recordings. Returns what is said of the files written.
+///
+/// # Errors
+/// A file that cannot be written or a fold model that cannot be read, named.
+pub fn write_report_folder(
+    folder: &ReportFolder<'_>,
+    run: &RunSettings<'_>,
+    result: &ExperimentResult,
+    sequences: &[SequenceTracks],
+    rule: &EligibilityRule,
+) -> anyhow::Result<Vec<String>> {
+    // The figures and recordings show the first agent type's forecasts (vehicles).
+    let shown = rule.for_agents(result.agents);
+    let mut r = experiment_report(run, folder.command.clone(), result, sequences, rule);
+    let (figures, models) = (folder.dir.join("figures"), folder.dir.join("models"));
+    r.figures = write_figures(&figures, sequences, run.arms, &shown, run.dt, &models, folder.objects)?;
+    let mut said = vec![format!("wrote {}", write_report(folder.dir, &r)?.display())];
+    if let Some(record) = folder.record {
+        let tests: Vec<&SequenceTracks> = sequences.iter().filter(|s| folder.tests.contains(&s.id)).collect();
+        let fold_models = FoldModels::load(&models, run.arms, sequences)?;
+        for w in write_recordings(record, &tests, run.arms, &fold_models, &shown, run.dt)? {
+            said.push(crate::recording::recorded(&w));
+        }
+    }
+    Ok(said)
 }

@@ -4,17 +4,13 @@ use std::path::Path;
 
 use anyhow::Context as _;
 use dynotraj_core::estimate::Intrinsics;
-use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim};
-use dynotraj_sim::track_sim::{LabelBox, SimSpec, simulate};
+use dynotraj_sim::track_sim::LabelBox;
 use nalgebra::{Isometry3, Point3};
 
 use dynotraj_formats::kitti::{SequenceData, TrackingDir};
-use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
-
-use super::simulated::camera_info;
 
 /// KITTI tracking image size (width, height), pixels (image_02 of the 2011_09_26 drives;
 /// other drives differ by a few pixels).
@@ -65,28 +61,6 @@ pub fn sim_input(data: &SequenceData, classes: &[ObjectClass]) -> SimInput {
         })
         .collect();
     SimInput { camera_poses: data.poses.clone(), boxes, intrinsics }
-}
-
-/// The track-level simulator's stream for sequence `id` of the KITTI folder `dir` at the
-/// paper's 20 Hz, its first `frames` frames with a limit.
-///
-/// # Errors
-/// Loading errors, named.
-pub fn simulated_stream(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
-    let data =
-        TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
-    let input = sim_input(&data, &ObjectClass::FORECAST);
-    let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
-    let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
-    let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
-    let spec = SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, dt, 1);
-    let sim = simulate(&input.camera_poses[..n], &boxes, &spec);
-    let camera = camera_info(&input.intrinsics, PAPER_FRAME_RATE_HZ);
-    let frames = sim
-        .iter()
-        .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame)))
-        .collect::<anyhow::Result<_>>()?;
-    Ok(Tracks { camera, frames })
 }
 
 /// The image simulator for sequence `id` of a KITTI folder with the objects of `classes`

@@ -2,7 +2,11 @@
 
 use dynotraj_sim::image_sim::Optics;
 use std::collections::BTreeSet;
+use std::path::Path;
 use std::time::Instant;
+
+use anyhow::Context as _;
+use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 
 use dynotraj_core::estimate::{
     EstimatorParams, EstimatorProfile, EstimatorStats, HOST_PROFILE, Intrinsics, SmootherParams,
@@ -15,9 +19,9 @@ use super::input::{KITTI_IMAGE_SIZE, sim_input};
 use super::runner::{EstimatorRun, Kind, run_estimator, run_parts};
 use super::score::{RunScores, SmoothnessSum, TrajectorySmoothness, moving_objects, score_run, smoothness};
 use crate::trajectory::label_tracks;
-use dynotraj_formats::kitti::SequenceData;
-use dynotraj_formats::tracks_file::TracksFrame;
+use dynotraj_formats::kitti::{SequenceData, TrackingDir};
 use dynotraj_formats::tracks_file::TracksWriter;
+use dynotraj_formats::tracks_file::{Tracks, TracksFrame};
 
 /// The smoothing window of the command (DynoSAM's 20 frames).
 pub const WINDOW: usize = dynotraj_core::estimate::DEFAULT_WINDOW;
@@ -439,4 +443,26 @@ fn smoothness_table(
     });
     // The kinds are measured on their own pairs; the smoothed one is on exactly `pairs`.
     [labels.result(), truth.result(), kinds[0], kinds[1], kinds[2]]
+}
+
+/// The track-level simulator's stream for sequence `id` of the KITTI folder `dir` at the
+/// paper's 20 Hz, its first `frames` frames with a limit.
+///
+/// # Errors
+/// Loading errors, named.
+pub fn simulated_stream(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::Result<Tracks> {
+    let data =
+        TrackingDir::open(dir)?.load_sequence(id).with_context(|| format!("loading KITTI tracking sequence {id}"))?;
+    let input = sim_input(&data, &ObjectClass::FORECAST);
+    let n = frames.map_or(input.camera_poses.len(), |m| m.min(input.camera_poses.len()));
+    let boxes: Vec<_> = input.boxes.iter().filter(|b| (b.frame as usize) < n).copied().collect();
+    let dt = 1.0 / f64::from(PAPER_FRAME_RATE_HZ);
+    let spec = SimSpec::kitti(input.intrinsics, KITTI_IMAGE_SIZE, dt, 1);
+    let sim = simulate(&input.camera_poses[..n], &boxes, &spec);
+    let camera = camera_info(&input.intrinsics, PAPER_FRAME_RATE_HZ);
+    let frames = sim
+        .iter()
+        .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame)))
+        .collect::<anyhow::Result<_>>()?;
+    Ok(Tracks { camera, frames })
 }
