@@ -43,7 +43,8 @@ export DYNOTRAJ_SKIP_LOG
 DYNOTRAJ_SKIP_LOG=$(mktemp)
 trap 'rm -f "$log" "$DYNOTRAJ_SKIP_LOG"' EXIT
 status=0
-cargo test --locked --workspace 2>&1 | tee "$log" || status=$?
+# --no-fail-fast: a failing test binary must not hide what the others would say.
+cargo test --locked --workspace --no-fail-fast 2>&1 | tee "$log" || status=$?
 # One closing line for the whole suite (cargo prints one per test binary, the last often a
 # doc-test run with nothing in it). A test that skips (no real data here, say) returns early
 # and cargo counts it as passed; it is counted as skipped instead, and named.

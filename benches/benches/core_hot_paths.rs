@@ -13,7 +13,7 @@ use dynotraj_core::estimate::{
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::model::blob::{ModelBlob, Precision};
 use dynotraj_core::model::{Dims, LearnedPredictor};
-use dynotraj_core::predict::{Context, Forecast};
+use dynotraj_core::predict::{Context, Forecast, Predictor as _};
 use dynotraj_core::wire::FrameDecoder;
 use dynotraj_core::{BevState, Point2};
 

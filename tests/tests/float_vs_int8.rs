@@ -6,6 +6,7 @@
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::metrics::ade;
 use dynotraj_core::model::blob::Precision;
+use dynotraj_core::predict::Predictor as _;
 use dynotraj_core::{BevState, Point2};
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::model_file::ModelFile;

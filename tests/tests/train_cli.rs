@@ -2,6 +2,7 @@
 //! drive: it trains, writes the f32 blob, the int8 blob and the checkpoint, and what it wrote
 //! is a model core can run.
 
+use dynotraj_core::predict::Predictor as _;
 use std::fs;
 
 use clap::Parser as _;

@@ -181,6 +181,7 @@ mod tests {
     use super::*;
     use crate::batch::Batch;
     use dynotraj_core::model::features::FeatureScales;
+    use dynotraj_core::predict::Predictor as _;
 
     use crate::dataset::sample_over;
     use crate::synthetic::constant_control_runs;

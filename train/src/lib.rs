@@ -323,12 +323,17 @@ impl TrainedModel {
         };
         let files =
             SavedFiles { f32_blob: path.to_path_buf(), int8_blob: with(".int8"), checkpoint: with(".safetensors") };
-        std::fs::write(&files.f32_blob, self.blob(Precision::F32)?)
+        // Each file under a temporary name, renamed when whole: an interrupted save leaves no
+        // blob that looks complete.
+        dynotraj_formats::atomic::write_file(&files.f32_blob, self.blob(Precision::F32)?)
             .with_context(|| format!("writing {}", files.f32_blob.display()))?;
-        std::fs::write(&files.int8_blob, self.blob(Precision::Int8)?)
+        dynotraj_formats::atomic::write_file(&files.int8_blob, self.blob(Precision::Int8)?)
             .with_context(|| format!("writing {}", files.int8_blob.display()))?;
-        export::save_checkpoint(&self.network, &self.vars, self.dt, &self.prior, &files.checkpoint)
-            .with_context(|| format!("writing {}", files.checkpoint.display()))?;
+        let partial = dynotraj_formats::atomic::partial_path(&files.checkpoint);
+        export::save_checkpoint(&self.network, &self.vars, self.dt, &self.prior, &partial)
+            .with_context(|| format!("writing {}", partial.display()))?;
+        std::fs::rename(&partial, &files.checkpoint)
+            .with_context(|| format!("renaming {} to {}", partial.display(), files.checkpoint.display()))?;
         Ok(files)
     }
 

@@ -89,30 +89,14 @@ impl<'a, D: Int8Dot> LearnedPredictor<'a, D> {
     pub const fn blob(&self) -> &ModelBlob<'a> {
         self.kernel.blob()
     }
-
-    /// Forecasts from `history` (oldest first, current last, clipped at its run's start: its
-    /// length is the track's age) in `context` (the other objects, each a history ending at the
-    /// same current frame; the observer). `dt` must be the frame period the model was trained at.
-    ///
-    /// # Errors
-    /// See [`PredictError`]; a frame period that differs from the model's is `BadFramePeriod`.
-    pub fn predict_in_context(
-        &mut self,
-        history: &[BevState],
-        context: &Context<'_>,
-        dt: f32,
-        out: &mut Forecast,
-    ) -> Result<(), PredictError> {
-        forecast(&self.kernel, &mut self.scratch, history, context, dt, out)
-    }
 }
 
-/// [`LearnedPredictor::predict_in_context`] over a kernel and working memory held apart: an
-/// edge keeps its [`Scratch`] in its static state and only the small kernel changes with the
-/// model.
+/// A learned model's forecast ([`Predictor::predict_in_context`] of [`LearnedPredictor`]) over a
+/// kernel and working memory held apart: an edge keeps its [`Scratch`] in its static state and
+/// only the small kernel changes with the model.
 ///
 /// # Errors
-/// See [`LearnedPredictor::predict_in_context`].
+/// See [`PredictError`]; a frame period that differs from the model's is `BadFramePeriod`.
 pub fn forecast<D: Int8Dot>(
     kernel: &Kernel<'_, D>,
     s: &mut Scratch,
@@ -145,9 +129,12 @@ pub fn forecast<D: Int8Dot>(
     if out.iter().all(|p| p.x.is_finite() && p.y.is_finite()) { Ok(()) } else { Err(PredictError::NonFinite) }
 }
 
+/// Forecasts from a history (oldest first, current last, clipped at its run's start: its length
+/// is the track's age) in a context (the other objects, each a history ending at the same
+/// current frame; the observer), at the frame period the model was trained at.
 impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
     fn predict(&mut self, history: &[BevState], dt: f32, out: &mut Forecast) -> Result<(), PredictError> {
-        LearnedPredictor::predict_in_context(self, history, &Context::NONE, dt, out)
+        self.predict_in_context(history, &Context::NONE, dt, out)
     }
 
     fn predict_in_context(
@@ -157,7 +144,7 @@ impl<D: Int8Dot> Predictor for LearnedPredictor<'_, D> {
         dt: f32,
         out: &mut Forecast,
     ) -> Result<(), PredictError> {
-        LearnedPredictor::predict_in_context(self, history, context, dt, out)
+        forecast(&self.kernel, &mut self.scratch, history, context, dt, out)
     }
 
     fn carry(&self) -> crate::predict::Carry {

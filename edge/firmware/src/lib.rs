@@ -1,9 +1,11 @@
 //! What the firmware's programs share on QEMU's mps2-an386: the instruction clock, stack
-//! painting, the semihosting logger, UART0's registers, and the semihosting exit (a panic or a HardFault is exit status 1).
+//! painting, the semihosting logger, UART0's registers, the device interrupt vectors, and the
+//! semihosting exit (a panic or a HardFault is exit status 1).
 #![no_std]
 
 pub mod clock;
 pub mod exit;
+pub mod interrupts;
 pub mod logger;
 pub mod session;
 pub mod stack;

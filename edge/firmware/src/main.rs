@@ -19,14 +19,8 @@ use dynotraj_edge::{ModelStatus, Session};
 use dynotraj_firmware::{clock, logger, session, stack};
 use static_cell::ConstStaticCell;
 
-/// The device interrupt vectors: only UART0 RX (IRQ 0) is used; IRQ 1 (UART0 TX) is not.
-#[unsafe(link_section = ".vector_table.interrupts")]
-#[unsafe(no_mangle)]
-static __INTERRUPTS: [unsafe extern "C" fn(); 2] = [uart0_rx, DefaultHandler];
-
-unsafe extern "C" {
-    fn DefaultHandler();
-}
+// The device interrupt vectors: UART0 RX (IRQ 0) only.
+dynotraj_firmware::device_interrupts!(uart0_rx);
 
 unsafe extern "C" fn uart0_rx() {
     uart::uart0_rx();

@@ -39,14 +39,8 @@ static HIGH_WATER: AtomicUsize = AtomicUsize::new(0);
 static SESSION: ConstStaticCell<Session<'static>> = ConstStaticCell::new(Session::new());
 static EXECUTOR: StaticCell<Executor> = StaticCell::new();
 
-/// The device interrupt vectors: only UART0 RX (IRQ 0) is used; IRQ 1 (UART0 TX) is not.
-#[unsafe(link_section = ".vector_table.interrupts")]
-#[unsafe(no_mangle)]
-static __INTERRUPTS: [unsafe extern "C" fn(); 2] = [uart0_rx, DefaultHandler];
-
-unsafe extern "C" {
-    fn DefaultHandler();
-}
+// The device interrupt vectors: UART0 RX (IRQ 0) only.
+dynotraj_firmware::device_interrupts!(uart0_rx);
 
 /// UART0's receive interrupt: every received byte into the pipe (which wakes the task); on a
 /// full pipe it pauses, leaving the byte in the UART, until the task has read.

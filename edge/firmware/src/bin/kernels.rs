@@ -14,19 +14,13 @@ use dynotraj_core::model::blob::{ModelBlob, Precision, blob_len};
 use dynotraj_core::model::kernel::MAX_AFFINE_IN;
 use dynotraj_core::model::stand_in::{STAND_IN_SEED, write_stand_in_blob};
 use dynotraj_core::model::{Dims, Int8Dot, LearnedPredictor, PortableDot};
-use dynotraj_core::predict::{Context, Dynamics};
+use dynotraj_core::predict::{Context, Dynamics, Predictor as _};
 use dynotraj_dsp::DspDot;
 use dynotraj_firmware::clock;
 use dynotraj_firmware::exit::{fail, fail_with, succeed};
 
-/// The device interrupt vectors: none is used.
-#[unsafe(link_section = ".vector_table.interrupts")]
-#[unsafe(no_mangle)]
-static __INTERRUPTS: [unsafe extern "C" fn(); 2] = [DefaultHandler, DefaultHandler];
-
-unsafe extern "C" {
-    fn DefaultHandler();
-}
+// The device interrupt vectors: none is used.
+dynotraj_firmware::device_interrupts!();
 
 /// The widths timed: the ECU default, its one-mode variant, and the 16-wide network of the size
 /// study. Wider ones do not fit their f32 blob in the board's 128 KiB of RAM.

@@ -14,14 +14,8 @@ use cortex_m_semihosting::hprintln;
 use dynotraj_firmware::exit::{fail, on_hard_fault};
 use dynotraj_firmware::stack;
 
-/// The device interrupt vectors: none is used.
-#[unsafe(link_section = ".vector_table.interrupts")]
-#[unsafe(no_mangle)]
-static __INTERRUPTS: [unsafe extern "C" fn(); 2] = [DefaultHandler, DefaultHandler];
-
-unsafe extern "C" {
-    fn DefaultHandler();
-}
+// The device interrupt vectors: none is used.
+dynotraj_firmware::device_interrupts!();
 
 /// Words of each guarded static.
 const WORDS: usize = 256;
