@@ -13,19 +13,28 @@
 # (reports/kitti-paper9, docs/cli.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/phases.sh
+# The phase table on stderr, apart from the results.
+trap 'phase_table >&2' EXIT
+phase "set-up (scripts/setup.sh)" >&2
 bash scripts/setup.sh
 source scripts/env.sh
+phase "build (release)" >&2
 cargo build --locked --release -p dynotraj-cli --bin dynotraj
 bin="$CARGO_TARGET_DIR/release/dynotraj"
 out="${DYNOTRAJ_OUT:-reports/kitti}"
+phase "experiment (rendering, tracking, training, report)" >&2
 echo "## Learned predictor, leave-one-sequence-out (Table IV layout)"
 "$bin" experiment --kitti "$DYNOTRAJ_KITTI" --arms estimated,gt,gt-ekf --out "$out" "$@"
 echo
+phase "dataset (Table I)" >&2
 echo "## Eligible objects and test instances (Table I layout)"
 "$bin" dataset --kitti "$DYNOTRAJ_KITTI" --source gt,estimated --estimate-cache "$out/cache" "$@"
 echo
+phase "estimate (Table III)" >&2
 echo "## The estimator from the renderings, host and edge profiles (Table III layout, restarts by cause)"
 "$bin" estimate --kitti "$DYNOTRAJ_KITTI" --profile host,edge --estimate-cache "$out/cache" "$@"
 echo
+phase "eval (baselines)" >&2
 echo "## Baselines on the paper's test sequences (Table IV layout)"
 "$bin" eval --kitti "$DYNOTRAJ_KITTI" --source gt,gt-ekf,gt-rts,estimated,estimated-smoothed --predictor cv,cv-fit,ctra --estimate-cache "$out/cache" "$@"

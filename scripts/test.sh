@@ -5,43 +5,46 @@
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
+source scripts/phases.sh
+trap phase_table EXIT
+phase "set-up (scripts/setup.sh)"
 bash scripts/setup.sh
 source scripts/env.sh
 
-echo "== rustfmt (workspace, firmware, fuzz)"
+phase "rustfmt (workspace, firmware, fuzz)"
 cargo fmt --all --check
 (cd edge/firmware && cargo fmt --all --check)
-echo "== lock files current (workspace, firmware, fuzz)"
+phase "lock files current (workspace, firmware, fuzz)"
 cargo metadata --locked --format-version 1 >/dev/null
 (cd edge/firmware && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo fmt --all --check)
-echo "== dependency audit (cargo-deny: licences, bans, sources, advisories)"
+phase "dependency audit (cargo-deny: licences, bans, sources, advisories)"
 audit_line=$(bash scripts/audit.sh | tee /dev/stderr | tail -1)
-echo "== the ffi crate's C header is current"
+phase "the ffi crate's C header is current"
 bash scripts/gen-header.sh --check
-echo "== core for thumbv7em-none-eabihf"
+phase "core for thumbv7em-none-eabihf"
 cargo build --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thumbv7em-none-eabihf --release
-echo "== edge firmware for QEMU mps2-an386 (Cortex-M4F)"
+phase "edge firmware for QEMU mps2-an386 (Cortex-M4F)"
 bash scripts/build-firmware.sh
 cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
 cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml --features embassy -- -D warnings
-echo "== clippy (core: no unwrap/expect/panic/indexing)"
+phase "clippy (core: no unwrap/expect/panic/indexing)"
 cargo clippy --locked -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy --locked -p dynotraj-edge --lib --features async -- -D warnings
 cargo clippy --locked -p dynotraj-ffi --all-targets -- -D warnings
 cargo clippy --locked -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
 cargo clippy --locked --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
-echo "== the host without the image front-end (no OpenCV): builds, and says what it lacks"
+phase "the host without the image front-end (no OpenCV): builds, and says what it lacks"
 cargo clippy --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
 cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
-echo "== cargo doc (core, edge, ffi): no warnings"
+phase "cargo doc (core, edge, ffi): no warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
-echo "== tests"
+phase "tests"
 log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG
 DYNOTRAJ_SKIP_LOG=$(mktemp)
-trap 'rm -f "$log" "$DYNOTRAJ_SKIP_LOG"' EXIT
+trap 'rm -f "$log" "$DYNOTRAJ_SKIP_LOG"; phase_table' EXIT
 status=0
 # --no-fail-fast: a failing test binary must not hide what the others would say.
 cargo test --locked --workspace --no-fail-fast 2>&1 | tee "$log" || status=$?

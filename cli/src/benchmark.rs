@@ -53,6 +53,11 @@ pub fn run(args: &BenchmarkArgs) -> anyhow::Result<()> {
     args.run.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     args.run.check_table(&["weighted", "goal"])?;
     args.run.check(&args.data, &args.arms)?;
+    // Before the (possibly long) loading: a shard's folds go nowhere without a fold cache.
+    anyhow::ensure!(
+        args.shard.is_none() || (args.run.out.is_some() && !args.run.no_cache),
+        "--shard: needs a fold cache (--out DIR, without --no-cache): it is where the shards' folds meet"
+    );
     let start = std::time::Instant::now();
     let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
     let loaded_s = start.elapsed().as_secs_f64();

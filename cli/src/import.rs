@@ -58,8 +58,8 @@ pub struct ImportArgs {
     /// Stereo baseline in metres, where the right CameraInfo's projection does not carry it.
     #[arg(long, value_parser = positive, value_name = "METRES")]
     pub baseline: Option<f64>,
-    /// Only the first N frames.
-    #[arg(long, value_name = "N")]
+    /// Only the first N frames (at least 1).
+    #[arg(long, value_parser = crate::numbers::at_least_one, value_name = "N")]
     pub frames: Option<usize>,
 }
 

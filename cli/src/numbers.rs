@@ -159,6 +159,19 @@ pub fn choices<T: Copy + Send + Sync + 'static>(
         .map(move |name: String| table.iter().find(|(_, n, _)| *n == name).map_or(table[0].0, |(v, _, _)| *v))
 }
 
+/// Parses a count that must be at least 1 (`--frames` of a command for which none is nothing
+/// to do).
+///
+/// # Errors
+/// Not a whole number, or 0, with what was expected.
+pub fn at_least_one(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(0) => Err("expected a count of at least 1, found 0".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("expected a count of at least 1, found `{text}`")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -373,3 +373,27 @@ fn an_outlier_share_that_swamps_the_tracks_is_warned_about() {
     assert_eq!(code, 0, "{err}");
     assert!(!err.contains("warning: --outliers"), "{err}");
 }
+
+/// Flags that need no data are checked before any: a bad one must not cost the loading (or the
+/// decoding of a bag) first.
+#[test]
+fn flags_are_checked_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    write_sequence(dir.path(), "0000", &generate(&DriveSpec { frames: 30, ..DriveSpec::default() })).unwrap();
+    let kitti = dir.path().to_str().unwrap();
+    let bag = dir.path().join("missing.mcap");
+    let out = dir.path().join("out");
+    refused(
+        &["import", "--bag", bag.to_str().unwrap(), "--out", out.to_str().unwrap(), "--frames", "0"],
+        2,
+        "expected a count of at least 1, found 0",
+    );
+    let started = std::time::Instant::now();
+    refused(
+        &["benchmark", "--kitti", kitti, "--arms", "gt", "--ours-input", "tracks", "--shard", "0/2"],
+        1,
+        "--shard: needs a fold cache (--out DIR, without --no-cache)",
+    );
+    assert!(!out.exists(), "nothing written");
+    println!("benchmark --shard without --out refused in {:.2} s", started.elapsed().as_secs_f64());
+}

@@ -14,12 +14,43 @@ pub fn partial_path(path: &Path) -> PathBuf {
     path.with_file_name(name)
 }
 
+/// Checks that an output may be written at `path` by [`write_file`]'s rename: nothing is there
+/// yet, or a regular file is. A device, a FIFO, a socket, a folder or a symbolic link is never
+/// replaced by a regular file (as root, `--record /dev/null` turned the device into a file): the
+/// rule is to refuse, naming what is there.
+///
+/// # Errors
+/// `path` is something other than a regular file, named.
+pub fn replaceable(path: &Path) -> std::io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        // Nothing there, or nothing that can be looked at (a parent that is a file): the write
+        // itself then says what is wrong, naming its file.
+        Err(_) => Ok(()),
+        Ok(m) if m.file_type().is_file() => Ok(()),
+        Ok(m) => {
+            let what = if m.file_type().is_symlink() {
+                "a symbolic link"
+            } else if m.is_dir() {
+                "a folder"
+            } else {
+                "a device, FIFO or socket"
+            };
+            Err(std::io::Error::other(format!(
+                "{}: {what} is there; an output replaces only a regular file (give another path)",
+                path.display()
+            )))
+        }
+    }
+}
+
 /// Writes `bytes` as the file `path`: to [`partial_path`], then renamed. On an error the
 /// temporary file is removed.
 ///
 /// # Errors
-/// The write or the rename failed.
+/// Something other than a regular file at `path` ([`replaceable`]), or the write or the rename
+/// failed.
 pub fn write_file(path: &Path, bytes: impl AsRef<[u8]>) -> std::io::Result<()> {
+    replaceable(path)?;
     let partial = partial_path(path);
     let written = std::fs::write(&partial, bytes).and_then(|()| std::fs::rename(&partial, path));
     if written.is_err() {
@@ -53,6 +84,29 @@ pub fn output_folder(flag: &str, dir: &std::path::Path) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_a_regular_file_is_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("out.mcap");
+        write_file(&file, b"one").unwrap();
+        write_file(&file, b"two").unwrap();
+        assert_eq!(std::fs::read(&file).unwrap(), b"two");
+        let link = dir.path().join("link.mcap");
+        std::os::unix::fs::symlink(&file, &link).unwrap();
+        let socket = dir.path().join("socket.mcap");
+        let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        for (path, what) in
+            [(&link, "a symbolic link"), (&socket, "a device, FIFO or socket"), (&dir.path().to_path_buf(), "a folder")]
+        {
+            let e = write_file(path, b"three").unwrap_err().to_string();
+            assert!(e.contains(what) && e.contains("replaces only a regular file"), "{e}");
+        }
+        assert_eq!(std::fs::read(&file).unwrap(), b"two", "the link's target is untouched");
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        let e = replaceable(Path::new("/dev/null")).unwrap_err().to_string();
+        assert!(e.starts_with("/dev/null: a device, FIFO or socket"), "{e}");
+    }
 
     #[test]
     fn a_file_is_there_whole_or_not_at_all() {

@@ -2,6 +2,7 @@
 //! naming the file, line (or byte offset) and field.
 //!
 //! - [`atomic`]: output files written whole or not at all.
+//! - [`bounded`]: input files read up to a limit the format sets.
 //! - [`eth_ucy`]: the ETH/UCY pedestrian recordings (the field's forecasting benchmark).
 //! - [`kitti`]: the KITTI tracking layout (labels, calibration, pose files, GPS/IMU).
 //! - [`line_file`]: the error of a line-oriented text file, naming file and line.
@@ -13,6 +14,7 @@
 //! these parsers build without the image and learning stacks.
 
 pub mod atomic;
+pub mod bounded;
 pub mod eth_ucy;
 pub mod kitti;
 pub mod line_file;

@@ -58,6 +58,8 @@ pub fn read_manifest(path: &Path) -> Result<Vec<ManifestEntry>, ManifestError> {
 /// # Errors
 /// The line number and what is wrong with it.
 pub fn parse_manifest(text: &str, base: &Path) -> Result<Option<Vec<ManifestEntry>>, (usize, String)> {
+    // A byte-order mark (editors on some systems write one) is no part of the first path.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut out = Vec::new();
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
@@ -120,6 +122,13 @@ mod tests {
                 ManifestEntry { line: 4, path: PathBuf::from("/data/run7.mcap"), sequences: vec![] },
             ]
         );
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_no_part_of_the_first_path() {
+        let got = parse_manifest("\u{feff}kA 0000\r\nkB\r\n", Path::new("/m")).unwrap().unwrap();
+        let paths: Vec<_> = got.iter().map(|e| e.path.clone()).collect();
+        assert_eq!(paths, [PathBuf::from("/m/kA"), PathBuf::from("/m/kB")]);
     }
 
     #[test]

@@ -14,19 +14,17 @@ pub const MAX_MODEL_FILE_BYTES: usize =
     blob_len(&Dims { enc: MAX_ENC, edge: MAX_EDGE, k: MAX_K, dec: MAX_DEC }, Precision::F32) + TRAILER_LEN;
 
 /// Reads a model file (a blob or a signed blob), refusing one larger than any model can be
-/// before reading it: a wrong path to a large file must not fill memory.
+/// after at most that many bytes: a wrong path to a large file, a device or a pipe must not fill
+/// memory.
 ///
 /// # Errors
 /// A missing or unreadable file, or one over [`MAX_MODEL_FILE_BYTES`], with the path named.
 pub fn read_model_file(path: &Path) -> anyhow::Result<Vec<u8>> {
-    let len = std::fs::metadata(path).with_context(|| format!("reading {}", path.display()))?.len();
-    anyhow::ensure!(
-        len <= MAX_MODEL_FILE_BYTES as u64,
-        "{}: expected a model file of at most {MAX_MODEL_FILE_BYTES} bytes (the largest model this build runs, \
-         signed), found {len}",
-        path.display()
-    );
-    std::fs::read(path).with_context(|| format!("reading {}", path.display()))
+    crate::bounded::read_at_most(
+        path,
+        MAX_MODEL_FILE_BYTES as u64,
+        "a model file (the largest model this build runs, signed)",
+    )
 }
 
 /// A model blob read from a file and validated.
@@ -104,18 +102,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_file_larger_than_any_model_is_refused_before_it_is_read() {
+    fn a_file_larger_than_any_model_or_an_endless_device_is_refused_after_the_limit() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("huge.blob");
         // Sparse: 1 GiB on paper, nothing on disk or in memory.
         std::fs::File::create(&path).unwrap().set_len(1 << 30).unwrap();
-        for e in
-            [format!("{:#}", read_model_file(&path).unwrap_err()), format!("{:#}", ModelFile::load(&path).unwrap_err())]
-        {
-            assert!(
-                e.contains("huge.blob") && e.contains("expected a model file of at most") && e.contains("1073741824"),
-                "{e}"
-            );
+        for path in [path.as_path(), Path::new("/dev/zero")] {
+            for e in [
+                format!("{:#}", read_model_file(path).unwrap_err()),
+                format!("{:#}", ModelFile::load(path).unwrap_err()),
+            ] {
+                let expected = format!(
+                    "expected a model file (the largest model this build runs, signed) of at most {MAX_MODEL_FILE_BYTES} bytes, found more"
+                );
+                assert!(e.contains(&path.display().to_string()) && e.contains(&expected), "{e}");
+            }
         }
     }
 }

@@ -114,9 +114,11 @@ impl TracksWriter {
     /// [`Self::finish`]) and writes the camera model.
     ///
     /// # Errors
-    /// When the file cannot be created or written.
+    /// Something other than a regular file at `path` ([`crate::atomic::replaceable`]), or the
+    /// file cannot be created or written.
     pub fn create(path: &Path, camera: &CameraInfo) -> Result<Self, TracksFileError> {
         let io = |source| TracksFileError::Io { path: path.to_path_buf(), cause: source };
+        crate::atomic::replaceable(path).map_err(io)?;
         let out = BufWriter::new(File::create(crate::atomic::partial_path(path)).map_err(io)?);
         let mut w = Self { path: path.to_path_buf(), out, buf: [0; MAX_FRAME_LEN], written: 0 };
         w.write_message(&Message::CameraInfo(*camera))?;
@@ -159,14 +161,38 @@ impl TracksWriter {
     }
 }
 
-/// Reads and checks a whole tracks file.
+/// The largest tracks file this build reads, bytes: about three hours of a KITTI drive's
+/// tracks at 10 Hz. A larger file, or a device or pipe that never ends, is refused once this
+/// much has been read; the file is parsed as it is read, so memory holds its frames, not its
+/// bytes.
+pub const MAX_TRACKS_FILE_BYTES: u64 = 1 << 31;
+
+/// Reads and checks a whole tracks file, wire frame by wire frame.
 ///
 /// # Errors
-/// An unreadable file, or content that is not a tracks file (see the module docs).
+/// An unreadable file, one over [`MAX_TRACKS_FILE_BYTES`], or content that is not a tracks file
+/// (see the module docs).
 pub fn read(path: &Path) -> Result<Tracks, TracksFileError> {
-    let bytes =
-        std::fs::read(path).map_err(|source| TracksFileError::Io { path: path.to_path_buf(), cause: source })?;
-    parse(path, &bytes)
+    use std::io::{BufRead as _, Read as _};
+    let io = |source| TracksFileError::Io { path: path.to_path_buf(), cause: source };
+    let mut reader = std::io::BufReader::new(File::open(path).map_err(io)?).take(MAX_TRACKS_FILE_BYTES + 1);
+    let mut parser = Parser::new(path);
+    let mut chunk = Vec::new();
+    loop {
+        chunk.clear();
+        // At most one wire frame and its delimiter: a longer run is a damaged frame, and the
+        // decoder says so without this buffer growing.
+        let n = (&mut reader).take(MAX_FRAME_LEN as u64 + 1).read_until(wire::DELIMITER, &mut chunk).map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        parser.chunk(&chunk)?;
+    }
+    if parser.offset as u64 > MAX_TRACKS_FILE_BYTES {
+        return Err(parser
+            .fail(format!("more than {MAX_TRACKS_FILE_BYTES} bytes: longer than any tracks file this build reads")));
+    }
+    parser.finish()
 }
 
 /// Parses the bytes of a tracks file; `path` only names it in errors.
@@ -174,85 +200,121 @@ pub fn read(path: &Path) -> Result<Tracks, TracksFileError> {
 /// # Errors
 /// Content that is not a tracks file (see the module docs).
 pub fn parse(path: &Path, bytes: &[u8]) -> Result<Tracks, TracksFileError> {
-    let fail = |offset: usize, what: String| TracksFileError::Format { path: path.to_path_buf(), offset, what };
-    let mut decoder = FrameDecoder::new();
-    let mut camera = None;
-    let mut frames: Vec<TracksFrame> = Vec::new();
-    // Wire frames read, and where the end mark ended.
-    let mut read = 0u32;
-    let mut end_mark = None;
-    // Feed one byte range at a time so an error can name where it happened.
-    let mut offset = 0;
+    let mut parser = Parser::new(path);
     for chunk in bytes.split_inclusive(|&b| b == wire::DELIMITER) {
-        offset += chunk.len();
-        let before = decoder.stats();
-        let msg = decoder.feed(chunk).next();
-        let after = decoder.stats();
+        parser.chunk(chunk)?;
+    }
+    parser.finish()
+}
+
+/// A tracks file being parsed, one delimited wire frame at a time.
+struct Parser<'p> {
+    path: &'p Path,
+    decoder: FrameDecoder,
+    camera: Option<CameraInfo>,
+    frames: Vec<TracksFrame>,
+    /// Wire frames read.
+    read: u32,
+    /// Where the end mark ended.
+    end_mark: Option<usize>,
+    /// Bytes read so far: where an error is.
+    offset: usize,
+    /// Delimiters in a row with no frame between them.
+    empty_run: u32,
+}
+
+impl<'p> Parser<'p> {
+    fn new(path: &'p Path) -> Self {
+        Self {
+            path,
+            decoder: FrameDecoder::new(),
+            camera: None,
+            frames: Vec::new(),
+            read: 0,
+            end_mark: None,
+            offset: 0,
+            empty_run: 0,
+        }
+    }
+
+    fn fail(&self, what: String) -> TracksFileError {
+        TracksFileError::Format { path: self.path.to_path_buf(), offset: self.offset, what }
+    }
+
+    /// One byte range ending in a delimiter (or the file's last bytes).
+    fn chunk(&mut self, chunk: &[u8]) -> Result<(), TracksFileError> {
+        self.offset += chunk.len();
+        // The writer puts a delimiter before and after each frame, so at most two stand in a
+        // row; more (a device of zeros, say) is no tracks file, said at once.
+        self.empty_run = if chunk == [wire::DELIMITER] { self.empty_run.saturating_add(1) } else { 0 };
+        if self.empty_run > 2 {
+            return Err(self.fail("delimiters in a row with no wire frame between them: not a tracks file".into()));
+        }
+        let before = self.decoder.stats();
+        let msg = self.decoder.feed(chunk).next();
+        let after = self.decoder.stats();
         if after != before && msg.is_none() {
-            return Err(fail(offset, format!("a damaged wire frame ({after:?})")));
+            return Err(self.fail(format!("a damaged wire frame ({after:?})")));
         }
         if msg.is_some() {
-            if let Some(at) = end_mark {
-                return Err(fail(offset, format!("a wire frame after the end-of-recording mark (at byte {at})")));
+            if let Some(at) = self.end_mark {
+                return Err(self.fail(format!("a wire frame after the end-of-recording mark (at byte {at})")));
             }
-            read = read.saturating_add(1);
+            self.read = self.read.saturating_add(1);
         }
         match msg {
             None => {}
             Some(Message::LinkStats(mark)) => {
-                if mark.frames_sent != read {
-                    return Err(fail(
-                        offset,
-                        format!(
-                            "the end-of-recording mark counts {} wire frames, the file holds {read}: frames are \
-                                missing",
-                            mark.frames_sent
-                        ),
-                    ));
+                if mark.frames_sent != self.read {
+                    return Err(self.fail(format!(
+                        "the end-of-recording mark counts {} wire frames, the file holds {}: frames are missing",
+                        mark.frames_sent, self.read
+                    )));
                 }
-                end_mark = Some(offset);
+                self.end_mark = Some(self.offset);
             }
             Some(Message::CameraInfo(info)) => {
-                if camera.is_some() || !frames.is_empty() {
-                    return Err(fail(offset, "a second camera model; expected one, first".into()));
+                if self.camera.is_some() || !self.frames.is_empty() {
+                    return Err(self.fail("a second camera model; expected one, first".into()));
                 }
-                camera = Some(info);
+                self.camera = Some(info);
             }
             Some(Message::FrameTracks(part)) => {
-                if camera.is_none() {
-                    return Err(fail(offset, "tracks before the camera model".into()));
+                if self.camera.is_none() {
+                    return Err(self.fail("tracks before the camera model".into()));
                 }
-                push_part(&mut frames, part).map_err(|what| fail(offset, what))?;
+                push_part(&mut self.frames, part).map_err(|what| self.fail(what))?;
             }
             Some(other) => {
-                return Err(fail(
-                    offset,
-                    format!("a {} message; expected camera model, tracks or the end mark", kind(&other)),
-                ));
+                return Err(
+                    self.fail(format!("a {} message; expected camera model, tracks or the end mark", kind(&other)))
+                );
             }
         }
+        Ok(())
     }
-    if decoder.pending_len() > 0 {
-        return Err(fail(offset, "a truncated last wire frame".into()));
-    }
-    if let Some(last) = frames.last() {
-        let want = last.parts.first().map_or(1, |p| usize::from(p.parts));
-        if last.parts.len() != want {
-            return Err(fail(offset, format!("frame {} ends after {} of {want} parts", last.frame, last.parts.len())));
+
+    /// The tracks, once the whole file has been fed.
+    fn finish(self) -> Result<Tracks, TracksFileError> {
+        if self.decoder.pending_len() > 0 {
+            return Err(self.fail("a truncated last wire frame".into()));
         }
-    }
-    let camera = camera.ok_or_else(|| fail(offset, "no camera model; expected one first".into()))?;
-    if end_mark.is_none() {
-        return Err(fail(
-            offset,
-            format!(
+        if let Some(last) = self.frames.last() {
+            let want = last.parts.first().map_or(1, |p| usize::from(p.parts));
+            if last.parts.len() != want {
+                return Err(self.fail(format!("frame {} ends after {} of {want} parts", last.frame, last.parts.len())));
+            }
+        }
+        let Some(camera) = self.camera else { return Err(self.fail("no camera model; expected one first".into())) };
+        if self.end_mark.is_none() {
+            return Err(self.fail(format!(
                 "no end-of-recording mark after {} frames: the file was cut (at a frame boundary), or written by a \
-                    dynotraj from before the mark (record it again)",
-                frames.len()
-            ),
-        ));
+                 dynotraj from before the mark (record it again)",
+                self.frames.len()
+            )));
+        }
+        Ok(Tracks { camera, frames: self.frames })
     }
-    Ok(Tracks { camera, frames })
 }
 
 /// Appends `part` to the frame it belongs to, checking the parts' order.
@@ -366,6 +428,21 @@ mod tests {
         assert!(err.contains("t.dtt: byte") && err.contains("damaged"), "{err}");
         let err = parse(&path, &bytes[..bytes.len() - 5]).unwrap_err().to_string();
         assert!(err.contains("truncated") || err.contains("damaged"), "{err}");
+    }
+
+    #[test]
+    fn an_endless_device_or_random_bytes_are_refused_at_once_and_reading_streams() {
+        // /dev/zero reads as delimiters without end; random bytes are damaged frames.
+        let err = read(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(err.starts_with("/dev/zero: byte 3:") && err.contains("not a tracks file"), "{err}");
+        let err = read(Path::new("/dev/urandom")).unwrap_err().to_string();
+        assert!(err.starts_with("/dev/urandom: byte") && err.contains("damaged"), "{err}");
+        // Read as a stream or parsed whole, a file gives the same tracks.
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(dir.path(), &[(0, 3), (1, 200), (2, 7)]);
+        let whole = parse(&path, &std::fs::read(&path).unwrap()).unwrap();
+        let streamed = read(&path).unwrap();
+        assert_eq!((streamed.camera, streamed.frames), (whole.camera, whole.frames));
     }
 
     #[test]

@@ -228,6 +228,7 @@ impl Recorder {
     /// The folder or the temporary file cannot be created, named.
     pub fn create(path: &Path) -> anyhow::Result<Recorder> {
         anyhow::ensure!(path.file_name().is_some(), "recording {}: expected a file name", path.display());
+        dynotraj_formats::atomic::replaceable(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("recording {}: creating its folder {}", path.display(), dir.display()))?;

@@ -218,3 +218,19 @@ fn camera_world_poses_turn_so_that_z_is_up() {
     let axis = [2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)];
     assert!((axis[0]).abs() < 1e-12 && (axis[1] - 1.0).abs() < 1e-12 && axis[2].abs() < 1e-12, "{axis:?}");
 }
+
+#[test]
+fn a_recording_never_replaces_a_device_or_a_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("target.mcap");
+    std::fs::write(&target, b"kept").unwrap();
+    let link = dir.path().join("link.mcap");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    for path in [link.as_path(), Path::new("/dev/null")] {
+        let e = Recorder::create(path).unwrap_err().to_string();
+        assert!(e.contains("an output replaces only a regular file"), "{e}");
+    }
+    assert_eq!(std::fs::read(&target).unwrap(), b"kept");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    assert!(!dir.path().join("link.mcap.partial").exists(), "nothing left behind");
+}

@@ -1,5 +1,6 @@
 //! The host's byte links as edge transports: a TCP client, a serial port, stdin/stdout. Reads
-//! wake every [`POLL`] so that a stop request or an idle link is noticed while waiting.
+//! and writes wake every [`POLL`] so that a stop request or an idle link is noticed while
+//! waiting.
 
 use std::io::{ErrorKind, Read, Write};
 use std::sync::Arc;
@@ -95,9 +96,7 @@ impl<R: Read, W, P: OnPoll> embedded_io::Read for Link<R, W, P> {
         let quiet_since = Instant::now();
         loop {
             match self.rx.read(buf) {
-                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {
-                    self.poll.on_poll(quiet_since.elapsed())?;
-                }
+                Err(e) if waited(&e) => self.poll.on_poll(quiet_since.elapsed())?,
                 Ok(n) => {
                     self.poll.on_bytes()?;
                     return Ok(n);
@@ -108,15 +107,44 @@ impl<R: Read, W, P: OnPoll> embedded_io::Read for Link<R, W, P> {
     }
 }
 
-impl<R, W: Write, P> embedded_io::Write for Link<R, W, P> {
+/// Whether `e` is a timed-out (or interrupted) wait, after which the link polls and tries again.
+fn waited(e: &std::io::Error) -> bool {
+    matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted)
+}
+
+/// Writes wake every [`POLL`] as reads do (the writer must time out: a socket write timeout),
+/// so that a host that sends and never reads cannot hold the edge: the idle limit, a stop
+/// request and waiting clients are seen while a write waits.
+impl<R, W: Write, P: OnPoll> embedded_io::Write for Link<R, W, P> {
     fn write(&mut self, bytes: &[u8]) -> Result<usize, Self::Error> {
-        self.tx.write(bytes).map_err(LinkError::Io)
+        let blocked_since = Instant::now();
+        loop {
+            match self.tx.write(bytes) {
+                Err(e) if waited(&e) => self.poll.on_poll(blocked_since.elapsed())?,
+                other => return other.map_err(LinkError::Io),
+            }
+        }
     }
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
-        self.tx.write_all(bytes).map_err(LinkError::Io)
+
+    fn write_all(&mut self, mut bytes: &[u8]) -> Result<(), Self::Error> {
+        while !bytes.is_empty() {
+            let n = embedded_io::Write::write(self, bytes)?;
+            if n == 0 {
+                return Err(LinkError::Io(ErrorKind::WriteZero.into()));
+            }
+            bytes = bytes.get(n..).unwrap_or_default();
+        }
+        Ok(())
     }
+
     fn flush(&mut self) -> Result<(), Self::Error> {
-        self.tx.flush().map_err(LinkError::Io)
+        let blocked_since = Instant::now();
+        loop {
+            match self.tx.flush() {
+                Err(e) if waited(&e) => self.poll.on_poll(blocked_since.elapsed())?,
+                other => return other.map_err(LinkError::Io),
+            }
+        }
     }
 }
 

@@ -119,7 +119,8 @@ fn main() -> ExitCode {
 
 /// The model file of `--model`, checked, and the agent type it forecasts.
 fn model_file(path: &std::path::Path) -> Result<(&'static [u8], Dynamics), String> {
-    let bytes: &'static [u8] = std::fs::read(path).map_err(|e| format!("--model {}: {e}", path.display()))?.leak();
+    let bytes: &'static [u8] =
+        dynotraj_formats::model_file::read_model_file(path).map_err(|e| format!("--model {e:#}"))?.leak();
     let blob = ModelBlob::parse(bytes)
         .map_err(|e| format!("--model {}: not a model blob this edge runs: {e}", path.display()))?;
     Ok((bytes, blob.dynamics()))

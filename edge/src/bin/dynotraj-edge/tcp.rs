@@ -132,6 +132,8 @@ pub fn session_link<'a>(
 ) -> std::io::Result<TcpLink<'a>> {
     client.set_nonblocking(false)?;
     client.set_read_timeout(Some(POLL))?;
+    // Writes time out too: a client that sends and never reads fills the socket's buffer.
+    client.set_write_timeout(Some(POLL))?;
     client.set_nodelay(true)?;
     let rx = client.try_clone()?;
     let now = Instant::now();
