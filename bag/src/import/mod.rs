@@ -27,6 +27,7 @@ use pixels::{compressed_pixels, raw_pixels};
 pub use topics::bag_files;
 use topics::{Chosen, choose_topics, for_each_message, topics};
 
+mod container;
 mod pixels;
 #[cfg(test)]
 mod tests;
@@ -359,8 +360,26 @@ fn import_into(
     };
     let right_topic = chosen.right_info.clone().unwrap_or_default();
     write("calib", &calib_text(left_info, right_info, opt.baseline_m, &right_topic)?)?;
+    // What is written is read back by the reader that consumes it, under its rules: a layout
+    // that a later command would refuse fails the import, not that command.
+    dynotraj_formats::kitti::read_calib(dir.join("calib").join(format!("{seq}.txt"))).map_err(|e| {
+        anyhow::anyhow!(
+            "camera info of {} (and of the right camera): field `p` makes a calibration the layout's reader \
+             refuses: {e}",
+            chosen.left_info
+        )
+    })?;
     let t0 = frames.first().map_or(0, |(l, _)| l.stamp);
-    let times: String = frames.iter().map(|(l, _)| format!("{:.9}\n", (l.stamp - t0) as f64 / 1e9)).collect();
+    let mut times = String::new();
+    for (l, _) in &frames {
+        let since = l.stamp.checked_sub(t0).filter(|d| *d >= 0).with_context(|| {
+            format!(
+                "{left_topic}: message {}: header stamp {} ns is before the first frame's {t0} ns or too far from it",
+                l.index, l.stamp
+            )
+        })?;
+        times.push_str(&format!("{:.9}\n", since as f64 / 1e9));
+    }
     write("times", &times)?;
     let mut periods: Vec<i64> =
         frames.windows(2).filter_map(|p| Some(p.get(1)?.0.stamp - p.first()?.0.stamp)).collect();
@@ -415,6 +434,12 @@ fn import_into(
         let path = dir.join("label_02").join(format!("{seq}.txt"));
         std::fs::create_dir_all(dir.join("label_02")).with_context(|| format!("creating {}", dir.display()))?;
         write_labels(&path, &rows)?;
+        dynotraj_formats::kitti::read_labels(&path).map_err(|e| {
+            anyhow::anyhow!(
+                "detections of {}: they make labels the layout's reader refuses: {e}",
+                chosen.detections.as_deref().unwrap_or_default()
+            )
+        })?;
     }
     let mut topics = vec![];
     for (role, t) in &chosen.images {

@@ -117,6 +117,24 @@ pub(super) fn ensure_field(ok: bool, message: impl FnOnce() -> String) -> Result
     if ok { Ok(()) } else { Err(message()) }
 }
 
+/// The widest and tallest image this build decodes, pixels: an 8K camera's, with room to spare.
+pub const MAX_IMAGE_SIDE: u32 = 8192;
+
+/// The most memory one decoded image may take, bytes (an 8192 x 8192 RGBA image at 16 bits).
+const MAX_IMAGE_ALLOC: u64 = 8192 * 8192 * 8;
+
+/// Decodes a PNG or JPEG after its header's size is checked against [`MAX_IMAGE_SIDE`]: a 4 KB
+/// file can claim 20000 x 20000 pixels, which would be allocated before anything is refused.
+fn decode_bounded(bytes: &[u8]) -> image::ImageResult<DynamicImage> {
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    limits.max_alloc = Some(MAX_IMAGE_ALLOC);
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format()?;
+    reader.limits(limits);
+    reader.decode()
+}
+
 /// A compressed image's pixels for `role`; errors name the field.
 pub(super) fn compressed_pixels(m: &CompressedImage, role: Role) -> Result<Pixels, String> {
     let format = m.format.to_lowercase();
@@ -129,8 +147,7 @@ pub(super) fn compressed_pixels(m: &CompressedImage, role: Role) -> Result<Pixel
     ensure_field(format.contains("png") || format.contains("jpeg") || format.contains("jpg"), || {
         format!("field `format`: `{}`: expected png or jpeg", m.format)
     })?;
-    let decoded =
-        image::load_from_memory(&m.data).map_err(|e| format!("field `data`: not a {} image: {e}", m.format))?;
+    let decoded = decode_bounded(&m.data).map_err(|e| format!("field `data`: not a {} image: {e}", m.format))?;
     Ok(match role {
         Role::Left | Role::Right => Pixels::Rgb(decoded.to_rgb8()),
         Role::Mask => Pixels::Wide(decoded.to_luma16()),

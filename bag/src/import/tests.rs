@@ -158,7 +158,7 @@ fn bad_bags_are_named_by_file_topic_message_and_field() {
     let bytes = std::fs::read(&good).unwrap();
     dynotraj_formats::atomic::write_file(&cut, &bytes[..bytes.len() / 2]).unwrap();
     let e = error(&cut, &options());
-    assert!(e.contains("cut.mcap: not a readable MCAP file after") && e.contains("truncated"), "{e}");
+    assert!(e.contains("cut.mcap: byte") && e.contains("truncated"), "{e}");
     // A topic that is not there, and one of the wrong type.
     let e = error(&good, &ImportOptions { left: Some("/nope".into()), ..options() });
     assert!(
@@ -232,4 +232,95 @@ fn bad_bags_are_named_by_file_topic_message_and_field() {
     });
     let e = error(&b, &options());
     assert!(e.contains("message 0: field `data`: 100 bytes, expected step 1491 x height 150"), "{e}");
+}
+
+/// The byte offset of the first chunk record of an MCAP file's bytes.
+fn first_chunk(bytes: &[u8]) -> usize {
+    let mut at = 8;
+    while bytes[at] != 0x06 {
+        at += 9 + u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+    }
+    at
+}
+
+#[test]
+fn lengths_the_container_claims_are_checked_before_anything_is_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A 66-byte bag whose record claims 4 GiB, and one whose schema claims 2^50 bytes: refused
+    // at once (they took 4.25 GB, or aborted the process, before).
+    for (name, opcode, claim) in [("claims-4g.mcap", 0x05u8, 4u64 << 30), ("schema.mcap", 0x03, 1 << 50)] {
+        let mut bytes = b"\x89MCAP0\r\n".to_vec();
+        bytes.push(opcode);
+        bytes.extend(claim.to_le_bytes());
+        bytes.resize(66, 7);
+        let path = tmp.path().join(name);
+        std::fs::write(&path, &bytes).unwrap();
+        let e = error(&path, &options());
+        assert!(
+            e.contains(name) && e.contains(&format!("claims {claim} bytes")) && e.contains("truncated or damaged"),
+            "{e}"
+        );
+    }
+    // A whole bag whose chunk says it decompresses to 2 GiB.
+    let good = bag(tmp.path(), |_, p| Some(p));
+    let mut bytes = std::fs::read(&good).unwrap();
+    let at = first_chunk(&bytes);
+    bytes[at + 9 + 16..at + 9 + 24].copy_from_slice(&(2u64 << 30).to_le_bytes());
+    let bomb = tmp.path().join("bomb.mcap");
+    std::fs::write(&bomb, &bytes).unwrap();
+    let e = error(&bomb, &options());
+    assert!(e.contains("bomb.mcap") && e.contains("a chunk that decompresses to 2147483648 bytes"), "{e}");
+}
+
+#[test]
+fn an_image_whose_header_claims_a_huge_size_is_refused_before_it_is_decoded() {
+    // A 1 x 1 PNG whose header is made to say 20000 x 20000 (with its CRC mended).
+    let mut png = Vec::new();
+    RgbImage::new(1, 1).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    png[16..20].copy_from_slice(&20_000u32.to_be_bytes());
+    png[20..24].copy_from_slice(&20_000u32.to_be_bytes());
+    let crc = dynotraj_core::crc::crc32(&png[12..29]);
+    png[29..33].copy_from_slice(&crc.to_be_bytes());
+    let m = CompressedImage { header: ros2::Header::default(), format: "png".into(), data: png };
+    let started = std::time::Instant::now();
+    let Err(e) = super::pixels::compressed_pixels(&m, Role::Left) else { panic!("a 20000 x 20000 image was decoded") };
+    assert!(e.starts_with("field `data`: not a png image") && e.contains("limit"), "{e}");
+    assert!(started.elapsed() < std::time::Duration::from_secs(2), "refused from its header");
+}
+
+#[test]
+fn an_import_that_its_readers_would_refuse_fails() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A camera info whose focal length no single-precision camera holds.
+    let dir = tmp.path().join("fx");
+    std::fs::create_dir(&dir).unwrap();
+    let b = bag(&dir, |t, p| {
+        if !t.ends_with("camera_info") {
+            return Some(p);
+        }
+        let mut m: CameraInfo = ros2::decode(&p).unwrap();
+        m.p[0] = 1e39;
+        Some(ros2::encode(&m).unwrap())
+    });
+    let e = error(&b, &options());
+    assert!(
+        e.contains("field `p` makes a calibration the layout's reader refuses")
+            && e.contains("found focal lengths 1000000000000000000000000000000000000000"),
+        "{e}"
+    );
+    // Detections that label one object twice in a frame.
+    let dir = tmp.path().join("twice");
+    std::fs::create_dir(&dir).unwrap();
+    let b = bag(&dir, |t, p| {
+        if t != DETECTIONS {
+            return Some(p);
+        }
+        let mut m: Detection2DArray = ros2::decode(&p).unwrap();
+        if let Some(first) = m.detections.first().cloned() {
+            m.detections.push(first);
+        }
+        Some(ros2::encode(&m).unwrap())
+    });
+    let e = error(&b, &options());
+    assert!(e.contains("detections of") && e.contains("labels the layout's reader refuses"), "{e}");
 }
