@@ -20,6 +20,8 @@ checksum and its key when reading). At the end a table says where the time went.
 """
 import argparse
 import os
+import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -80,6 +82,36 @@ def wait_all(refs, what):
     return results
 
 
+def at_least_one(text):
+    """A count of at least 1 (`--units`)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a count of at least 1, found `{text}`")
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a count of at least 1, found {value}")
+    return value
+
+
+def check_inputs(p, a, data, extra):
+    """What can be checked before the cluster is used: the binary runs, the benchmark flags
+    parse, and the cluster's address answers. Each failure is one line and exit 2."""
+    binary = a.dynotraj if os.sep in a.dynotraj else shutil.which(a.dynotraj)
+    if not binary or not os.access(binary, os.X_OK):
+        p.error(f"--dynotraj {a.dynotraj}: no such program (build it with `cargo build --release --bins`)")
+    # clap checks every flag given before --help, and then prints the help instead of running.
+    flags = subprocess.run([binary, "benchmark"] + data + extra + ["--help"], capture_output=True, text=True)
+    if flags.returncode != 0:
+        p.error(f"the benchmark flags {' '.join(extra) or '(none)'}: {flags.stderr.strip().splitlines()[0]}")
+    host_port = a.address.removeprefix("ray://")
+    if host_port not in ("auto", "local") and ":" in host_port:
+        host, port = host_port.rsplit(":", 1)
+        try:
+            socket.create_connection((host, int(port)), timeout=5).close()
+        except (OSError, ValueError) as e:
+            p.error(f"--address {a.address}: no Ray cluster answers there ({e})")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--address", default="auto", help="Ray cluster address (auto: the local cluster)")
@@ -90,7 +122,7 @@ def main():
     p.add_argument("--store", required=True, help="the shared estimate cache")
     p.add_argument("--out", required=True, help="the report folder (its cache/ holds the folds)")
     p.add_argument("--sequences", help="drives, comma-separated (default: every drive)")
-    p.add_argument("--units", type=int, help="training units (default: arms x folds x seeds)")
+    p.add_argument("--units", type=at_least_one, help="training units (default: 12)")
     p.add_argument("--drive-flags", default="", help="data flags a drive's estimate depends on (--rate, --ours-input, --render-scale, --classes, "
                    "--min-step): given to every stage, so the units find the drives' estimates")
     p.add_argument("benchmark", nargs=argparse.REMAINDER, help="flags after -- go to every benchmark")
@@ -104,10 +136,11 @@ def main():
     extra = [f for f in a.benchmark if f != "--"]
     drive_extra = a.drive_flags.split()
     data = ["--kitti", a.kitti] if a.kitti else ["--drives", a.drives]
+    check_inputs(p, a, data, extra + drive_extra)
     sequences = a.sequences.split(",") if a.sequences else drive_names(a.dynotraj, data)
     if a.sequences:
         extra = ["--sequences", a.sequences] + extra
-    units = a.units or 12
+    units = a.units if a.units is not None else 12
     os.makedirs(a.store, exist_ok=True)
     ray.init(address=a.address, log_to_driver=False)
     start = time.monotonic()

@@ -118,80 +118,117 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
     let file = File::create(&partial).with_context(|| format!("creating {}", partial.display()))?;
     let mut bag =
         BagWriter { writer: mcap::Writer::new(BufWriter::new(file))?, channels: BTreeMap::new(), sequence: 0 };
-    let mut frames = 0;
-    loop {
-        let name = format!("{frames:06}.png");
-        let left = dir.join("image_02").join(seq).join(&name);
-        if !left.is_file() {
-            break;
-        }
-        let stamp = Time::from_nanos(START_NS + (frames as f64 * 1e9 / rate_hz).round() as i64);
-        for (ns, folder, cam) in [(LEFT, "image_02", 2), (RIGHT, "image_03", 3)] {
-            let header =
-                Header { stamp, frame_id: format!("{}_optical", ns.trim_start_matches('/').replace('/', "_")) };
-            let img = image_message(&dir.join(folder).join(seq).join(&name), header.clone(), Kind::Colour)?;
-            let p = calib.p.get(cam).copied().unwrap_or_default();
-            let info = CameraInfo {
-                header: header.clone(),
-                height: img.height,
-                width: img.width,
-                distortion_model: "plumb_bob".into(),
-                d: vec![0.0; 5],
-                k: [p[(0, 0)], p[(0, 1)], p[(0, 2)], p[(1, 0)], p[(1, 1)], p[(1, 2)], 0.0, 0.0, 1.0],
-                r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
-                p: std::array::from_fn(|i| p[(i / 4, i % 4)]),
-                ..CameraInfo::default()
-            };
-            bag.write(&format!("{ns}/image_raw"), IMAGE, stamp, &ros2::encode(&img)?)?;
-            bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, stamp, &ros2::encode(&info)?)?;
-            for (folder, topic, kind) in [("instance_02", "instances", Kind::Mask), ("depth_02", "depth", Kind::Depth)]
-            {
-                let file = dir.join(folder).join(seq).join(&name);
-                if cam == 2 && file.is_file() {
-                    let msg = image_message(&file, header.clone(), kind)?;
-                    bag.write(&format!("{ns}/{topic}"), IMAGE, stamp, &ros2::encode(&msg)?)?;
+    let mut write_all = || -> anyhow::Result<usize> {
+        let mut frames = 0;
+        loop {
+            let name = format!("{frames:06}.png");
+            let left = dir.join("image_02").join(seq).join(&name);
+            if !left.is_file() {
+                break;
+            }
+            let stamp = Time::from_nanos(START_NS + (frames as f64 * 1e9 / rate_hz).round() as i64);
+            for (ns, folder, cam) in [(LEFT, "image_02", 2), (RIGHT, "image_03", 3)] {
+                let header =
+                    Header { stamp, frame_id: format!("{}_optical", ns.trim_start_matches('/').replace('/', "_")) };
+                let img = image_message(&dir.join(folder).join(seq).join(&name), header.clone(), Kind::Colour)?;
+                let p = calib.p.get(cam).copied().unwrap_or_default();
+                let info = CameraInfo {
+                    header: header.clone(),
+                    height: img.height,
+                    width: img.width,
+                    distortion_model: "plumb_bob".into(),
+                    d: vec![0.0; 5],
+                    k: [p[(0, 0)], p[(0, 1)], p[(0, 2)], p[(1, 0)], p[(1, 1)], p[(1, 2)], 0.0, 0.0, 1.0],
+                    r: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+                    p: std::array::from_fn(|i| p[(i / 4, i % 4)]),
+                    ..CameraInfo::default()
+                };
+                bag.write(&format!("{ns}/image_raw"), IMAGE, stamp, &ros2::encode(&img)?)?;
+                bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, stamp, &ros2::encode(&info)?)?;
+                for (folder, topic, kind) in
+                    [("instance_02", "instances", Kind::Mask), ("depth_02", "depth", Kind::Depth)]
+                {
+                    let file = dir.join(folder).join(seq).join(&name);
+                    if cam == 2 && file.is_file() {
+                        let msg = image_message(&file, header.clone(), kind)?;
+                        bag.write(&format!("{ns}/{topic}"), IMAGE, stamp, &ros2::encode(&msg)?)?;
+                    }
                 }
             }
-        }
-        if !labels.is_empty() {
-            let detections = labels
-                .iter()
-                .filter(|r| r.frame == frames && !r.is_dont_care())
-                .map(|r| Detection2D {
-                    results: vec![ObjectHypothesisWithPose {
-                        hypothesis: ObjectHypothesis {
-                            class_id: r.object_type.to_lowercase(),
-                            score: r.score.unwrap_or(1.0),
-                        },
-                        ..ObjectHypothesisWithPose::default()
-                    }],
-                    bbox: BoundingBox2D {
-                        center: Pose2D {
-                            position: Point2D {
-                                x: (r.bbox_left + r.bbox_right) / 2.0,
-                                y: (r.bbox_top + r.bbox_bottom) / 2.0,
+            if !labels.is_empty() {
+                let detections = labels
+                    .iter()
+                    .filter(|r| r.frame == frames && !r.is_dont_care())
+                    .map(|r| Detection2D {
+                        results: vec![ObjectHypothesisWithPose {
+                            hypothesis: ObjectHypothesis {
+                                class_id: r.object_type.to_lowercase(),
+                                score: r.score.unwrap_or(1.0),
                             },
-                            theta: 0.0,
+                            ..ObjectHypothesisWithPose::default()
+                        }],
+                        bbox: BoundingBox2D {
+                            center: Pose2D {
+                                position: Point2D {
+                                    x: (r.bbox_left + r.bbox_right) / 2.0,
+                                    y: (r.bbox_top + r.bbox_bottom) / 2.0,
+                                },
+                                theta: 0.0,
+                            },
+                            size_x: r.bbox_right - r.bbox_left,
+                            size_y: r.bbox_bottom - r.bbox_top,
                         },
-                        size_x: r.bbox_right - r.bbox_left,
-                        size_y: r.bbox_bottom - r.bbox_top,
-                    },
-                    id: r.track_id.to_string(),
-                    ..Detection2D::default()
-                })
-                .collect();
-            let msg = Detection2DArray { header: Header { stamp, frame_id: "stereo_left_optical".into() }, detections };
-            bag.write(DETECTIONS, DETECTION_2D_ARRAY, stamp, &ros2::encode(&msg)?)?;
+                        id: r.track_id.to_string(),
+                        ..Detection2D::default()
+                    })
+                    .collect();
+                let msg =
+                    Detection2DArray { header: Header { stamp, frame_id: "stereo_left_optical".into() }, detections };
+                bag.write(DETECTIONS, DETECTION_2D_ARRAY, stamp, &ros2::encode(&msg)?)?;
+            }
+            frames += 1;
         }
-        frames += 1;
-    }
-    if frames == 0 {
-        drop(bag);
-        let _ = std::fs::remove_file(&partial);
-        anyhow::bail!("{}: no left images 000000.png ...", dir.join("image_02").join(seq).display());
-    }
-    bag.writer.finish().with_context(|| format!("finishing {}", partial.display()))?;
+        if frames == 0 {
+            anyhow::bail!("{}: no left images 000000.png ...", dir.join("image_02").join(seq).display());
+        }
+        Ok(frames)
+    };
+    // Whatever fails (a full disk, a bad image), the temporary file goes and the error names
+    // the bag being written.
+    let written = write_all().and_then(|frames| {
+        bag.writer.finish().with_context(|| format!("finishing {}", partial.display()))?;
+        Ok(frames)
+    });
     drop(bag);
+    let frames = match written {
+        Ok(frames) => frames,
+        Err(e) => {
+            let _ = std::fs::remove_file(&partial);
+            return Err(e.context(format!("writing {}", out.display())));
+        }
+    };
     std::fs::rename(&partial, out).with_context(|| format!("renaming {} to {}", partial.display(), out.display()))?;
     Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynotraj_sim::drive::{DriveSpec, generate};
+    use dynotraj_sim::image_sim::{Camera, ImageSim};
+    use dynotraj_sim::track_sim::LabelBox;
+
+    #[test]
+    fn a_bag_that_cannot_be_written_whole_is_named_and_leaves_nothing() {
+        let tmp = tempfile::tempdir().unwrap();
+        let d = generate(&DriveSpec { frames: 3, seed: 1, ..DriveSpec::default() });
+        let sim = ImageSim::new(Camera { noise: 0, ..Camera::kitti(0.1) }, &d.camera_poses, &LabelBox::of_drive(&d), 1);
+        crate::sim_layout::write_sequence(tmp.path(), "0000", &sim, 3).unwrap();
+        std::fs::write(tmp.path().join("image_02/0000/000001.png"), b"not a png").unwrap();
+        let out = tmp.path().join("bags/0000.mcap");
+        std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+        let e = format!("{:#}", layout_to_bag(tmp.path(), "0000", &out, 10.0).unwrap_err());
+        assert!(e.starts_with(&format!("writing {}", out.display())) && e.contains("000001.png"), "{e}");
+        assert_eq!(std::fs::read_dir(out.parent().unwrap()).unwrap().count(), 0, "no bag and no temporary file");
+    }
 }

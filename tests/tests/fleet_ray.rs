@@ -54,7 +54,8 @@ fn start_cluster(python: &Path) -> (Cluster, String) {
     let ray = python.parent().unwrap().join("ray");
     let cluster = Cluster { ray: ray.clone() };
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port().to_string();
-    let common = ["--num-cpus", "1", "--disable-usage-stats"];
+    // Every process of the local cluster on loopback (Ray's services bind the node's address).
+    let common = ["--num-cpus", "1", "--disable-usage-stats", "--node-ip-address", "127.0.0.1"];
     ok(
         Command::new(&ray).args(["start", "--head", "--port", &port, "--include-dashboard", "false"]).args(common),
         "ray start --head",
@@ -196,4 +197,54 @@ fn a_worker_killed_mid_task_costs_a_retry_and_the_report_is_the_same() {
     assert!(attempts.lines().any(|l| l.ends_with(&format!(" {pid}"))), "{pid} not in\n{attempts}");
     drop(cluster);
     same_tables(&one, &out);
+}
+
+/// What the driver can check without a cluster is checked first, each in one line and exit 2:
+/// a missing binary (a Python traceback before), a count of units below 1 (`--units 0` became
+/// 12, `--units -1` ran everything and then failed), a benchmark flag the binary refuses (found
+/// after the whole drive stage before), an address where no cluster answers (retried for over
+/// two minutes before).
+#[test]
+fn the_drivers_arguments_are_checked_before_the_cluster_is_used() {
+    let Some(python) = ray_or_skip("fleet_ray arguments") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let kitti = drives(dir.path());
+    let data = ["--kitti", kitti.to_str().unwrap()];
+    let out = dir.path().join("out");
+    let closed = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
+    // The driver's arguments with `change` applied to each.
+    let with = |address: &str, flags: &[&str], change: &dyn Fn(std::ffi::OsString) -> std::ffi::OsString| {
+        let args: Vec<std::ffi::OsString> = driver(&python, address, data, dir.path(), &out, flags)
+            .get_args()
+            .map(std::ffi::OsStr::to_os_string)
+            .collect();
+        let mut next_is_binary = false;
+        let args: Vec<_> = args
+            .into_iter()
+            .map(|a| {
+                // The binary (the value after --dynotraj) and the units (`8`) are what `change`
+                // may replace.
+                let is_binary = std::mem::replace(&mut next_is_binary, a == "--dynotraj");
+                if is_binary || a == "8" { change(a) } else { a }
+            })
+            .collect();
+        let started = std::time::Instant::now();
+        let o = Command::new(&python).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(started.elapsed() < std::time::Duration::from_secs(60), "{err}");
+        (o.status.code(), err)
+    };
+    let keep = |a| a;
+    let missing = dir.path().join("no-such-dynotraj");
+    let (code, err) = with("auto", &BENCHMARK, &|a| if a == "8" { a } else { missing.clone().into() });
+    assert!(code == Some(2) && err.contains("no such program") && !err.contains("Traceback"), "{err}");
+    for units in ["0", "-1"] {
+        let (code, err) = with("auto", &BENCHMARK, &|a| if a == "8" { units.into() } else { a });
+        assert!(code == Some(2) && err.contains("--units") && err.contains(&format!("found {units}")), "{err}");
+    }
+    let (code, err) = with("auto", &["--arms", "bogus"], &keep);
+    assert!(code == Some(2) && err.contains("the benchmark flags --arms bogus"), "{err}");
+    let (code, err) = with(&closed, &BENCHMARK, &keep);
+    assert!(code == Some(2) && err.contains("no Ray cluster answers there"), "{err}");
+    assert!(!out.exists(), "nothing written");
 }

@@ -186,17 +186,36 @@ pub fn import(bag: &Path, seq: &str, out: &Path, opt: &ImportOptions) -> anyhow:
     if staging.exists() {
         std::fs::remove_dir_all(&staging).with_context(|| format!("removing {}", staging.display()))?;
     }
-    let result = import_into(&files, seq, &staging, &chosen, opt);
-    match result {
-        Ok(summary) => {
-            std::fs::rename(&staging, out)
-                .with_context(|| format!("renaming {} to {}", staging.display(), out.display()))?;
-            Ok(summary)
-        }
-        Err(e) => {
-            // Best effort: the error says what failed; a staging folder left behind is hidden.
-            let _ = std::fs::remove_dir_all(&staging);
-            Err(e)
+    remove_abandoned_staging(out);
+    let result = import_into(&files, seq, &staging, &chosen, opt).and_then(|summary| {
+        // Another process importing the same bag may have renamed its folder first: this one
+        // then fails, and its copy goes.
+        std::fs::rename(&staging, out)
+            .with_context(|| format!("renaming {} to {}", staging.display(), out.display()))?;
+        Ok(summary)
+    });
+    if result.is_err() {
+        // Best effort: the error says what failed.
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    result
+}
+
+/// Removes the staging folders of `out` (`.<name>.partial-<pid>`) whose process is gone: what an
+/// interrupted import left. Where processes cannot be looked up (no /proc), nothing is removed.
+fn remove_abandoned_staging(out: &Path) {
+    let (Some(parent), Some(name)) = (out.parent(), out.file_name().and_then(|n| n.to_str())) else { return };
+    let parent = if parent.as_os_str().is_empty() { Path::new(".") } else { parent };
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let prefix = format!(".{name}.partial-");
+    let Ok(entries) = std::fs::read_dir(parent) else { return };
+    for entry in entries.filter_map(Result::ok) {
+        let file_name = entry.file_name();
+        let Some(pid) = file_name.to_str().and_then(|n| n.strip_prefix(&prefix)) else { continue };
+        if pid.parse::<u32>().is_ok() && !Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_dir_all(entry.path());
         }
     }
 }

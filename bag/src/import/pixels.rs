@@ -42,6 +42,12 @@ pub(super) fn depth_units(metres: f64) -> u16 {
 /// A raw image's pixels for `role`; errors name the field.
 pub(super) fn raw_pixels(m: &Image, role: Role) -> Result<Pixels, String> {
     let (w, h) = (m.width as usize, m.height as usize);
+    ensure_field(w > 0 && h > 0, || {
+        format!("fields `width`, `height`: {w} x {h}: expected an image of at least one pixel")
+    })?;
+    ensure_field(m.width <= MAX_IMAGE_SIDE && m.height <= MAX_IMAGE_SIDE, || {
+        format!("fields `width`, `height`: {w} x {h}: expected at most {MAX_IMAGE_SIDE} pixels a side")
+    })?;
     let bytes_per_pixel = match m.encoding.as_str() {
         "rgb8" | "bgr8" => 3,
         "rgba8" | "bgra8" => 4,
@@ -148,6 +154,9 @@ pub(super) fn compressed_pixels(m: &CompressedImage, role: Role) -> Result<Pixel
         format!("field `format`: `{}`: expected png or jpeg", m.format)
     })?;
     let decoded = decode_bounded(&m.data).map_err(|e| format!("field `data`: not a {} image: {e}", m.format))?;
+    ensure_field(decoded.width() > 0 && decoded.height() > 0, || {
+        format!("field `data`: a {} x {} image: expected at least one pixel", decoded.width(), decoded.height())
+    })?;
     Ok(match role {
         Role::Left | Role::Right => Pixels::Rgb(decoded.to_rgb8()),
         Role::Mask => Pixels::Wide(decoded.to_luma16()),

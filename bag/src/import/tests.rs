@@ -324,3 +324,25 @@ fn an_import_that_its_readers_would_refuse_fails() {
     let e = error(&b, &options());
     assert!(e.contains("detections of") && e.contains("labels the layout's reader refuses"), "{e}");
 }
+
+#[test]
+fn an_import_leaves_no_staging_copy_and_clears_those_of_interrupted_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let good = bag(tmp.path(), |_, p| Some(p));
+    // What an interrupted import (a process long gone) left beside the output.
+    let abandoned = tmp.path().join(".out.partial-4194304999");
+    std::fs::create_dir_all(abandoned.join("image_02")).unwrap();
+    import(&good, "0000", &tmp.path().join("out"), &options()).unwrap();
+    let left: Vec<String> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".partial"))
+        .collect();
+    assert!(left.is_empty(), "staging copies left: {left:?}");
+    // A second import of the same output: refused, and nothing of it stays.
+    let e = format!("{:#}", import(&good, "0000", &tmp.path().join("out"), &options()).unwrap_err());
+    assert!(e.contains("already exists"), "{e}");
+    assert!(
+        std::fs::read_dir(tmp.path()).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains(".partial"))
+    );
+}

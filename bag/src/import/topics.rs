@@ -83,6 +83,9 @@ pub(super) fn topics(files: &[PathBuf]) -> anyhow::Result<Vec<(Topic, usize)>> {
 }
 
 pub(super) fn listing(topics: &[(Topic, usize)]) -> String {
+    if topics.is_empty() {
+        return "no topic with messages".into();
+    }
     topics.iter().map(|(t, n)| format!("{} ({}, {n} messages)", t.name, t.schema)).collect::<Vec<_>>().join(", ")
 }
 
@@ -140,6 +143,10 @@ pub(super) struct Chosen {
 }
 
 pub(super) fn choose_topics(all: &[(Topic, usize)], opt: &ImportOptions) -> anyhow::Result<Chosen> {
+    ensure!(
+        !all.is_empty(),
+        "the bag holds no message (expected camera images, their camera info and optionally detections)"
+    );
     let images = [IMAGE, COMPRESSED_IMAGE];
     let is_depth = |n: &str| n.contains("depth");
     let is_mask = |n: &str| n.contains("mask") || n.contains("instance") || n.contains("segment");
