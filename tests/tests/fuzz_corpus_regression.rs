@@ -25,7 +25,7 @@ use dynotraj_sources::estimation::{cache as estimate_cache, rendered_cache};
 use dynotraj_tests::synthetic_kitti::write_sequence;
 
 /// The fuzz targets, as folder names.
-const TARGETS: [&str; 10] = [
+const TARGETS: [&str; 12] = [
     "wire_decoder",
     "model_blob",
     "model_signature",
@@ -36,6 +36,8 @@ const TARGETS: [&str; 10] = [
     "tracks_file",
     "cache_file",
     "ros2_messages",
+    "mcap_container",
+    "image_decode",
 ];
 
 fn fuzz_dir() -> PathBuf {
@@ -104,6 +106,8 @@ fn run_target(target: &str, data: &[u8]) {
             drop(ros2::decode::<ros2::CameraInfo>(data));
             drop(ros2::decode::<ros2::Detection2DArray>(data));
         }
+        "mcap_container" => drop(dynotraj_bag::import::container::check_bytes(data)),
+        "image_decode" => drop(dynotraj_bag::import::decode_compressed_image(data)),
         other => panic!("unknown fuzz target {other}"),
     }
 }

@@ -5,7 +5,7 @@
 //! record or chunk may hold more than [`MAX_RECORD_BYTES`].
 
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use anyhow::{Context as _, bail, ensure};
@@ -31,52 +31,97 @@ const FOOTER: u8 = 0x02;
 pub fn check_lengths(path: &Path) -> anyhow::Result<()> {
     let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let size = file.metadata().with_context(|| format!("reading {}", path.display()))?.len();
-    let mut r = BufReader::new(file);
+    walk(BufReader::new(file), size, &path.display().to_string())
+}
+
+/// [`check_lengths`] of an MCAP file's bytes (named `bytes` in errors).
+///
+/// # Errors
+/// As [`check_lengths`].
+pub fn check_bytes(bytes: &[u8]) -> anyhow::Result<()> {
+    walk(std::io::Cursor::new(bytes), bytes.len() as u64, "bytes")
+}
+
+/// Walks the records of `size` bytes read from `r`, `name` naming them in errors.
+fn walk(mut r: impl Read + Seek, size: u64, name: &str) -> anyhow::Result<()> {
     let mut magic = [0u8; 8];
-    let read = r.read(&mut magic).with_context(|| format!("reading {}", path.display()))?;
-    ensure!(read == 8 && &magic == MAGIC, "{}: not an MCAP file (no MCAP magic at its start)", path.display());
+    let read = r.read(&mut magic).with_context(|| format!("reading {name}"))?;
+    ensure!(read == 8 && &magic == MAGIC, "{name}: not an MCAP file (no MCAP magic at its start)");
     let mut at: u64 = 8;
     loop {
         let mut head = [0u8; 9];
         if size.saturating_sub(at) < 9 {
-            bail!("{}: byte {at}: the file ends before its footer (truncated?)", path.display());
+            bail!("{name}: byte {at}: the file ends before its footer (truncated?)");
         }
-        r.read_exact(&mut head).with_context(|| format!("reading {} at byte {at}", path.display()))?;
+        r.read_exact(&mut head).with_context(|| format!("reading {name} at byte {at}"))?;
         let [opcode, length @ ..] = head;
         let length = u64::from_le_bytes(length);
         let left = size - at - 9;
         ensure!(
             length <= left,
-            "{}: byte {at}: a record (opcode {opcode:#04x}) claims {length} bytes, the file has {left} left (truncated \
-             or damaged)",
-            path.display()
+            "{name}: byte {at}: a record (opcode {opcode:#04x}) claims {length} bytes, the file has {left} left \
+             (truncated or damaged)"
         );
         ensure!(
             length <= MAX_RECORD_BYTES,
-            "{}: byte {at}: a record (opcode {opcode:#04x}) of {length} bytes, over the {MAX_RECORD_BYTES} bytes this \
-             build reads in one record",
-            path.display()
+            "{name}: byte {at}: a record (opcode {opcode:#04x}) of {length} bytes, over the {MAX_RECORD_BYTES} bytes \
+             this build reads in one record"
         );
+        let mut skip = length;
         if opcode == CHUNK && length >= 24 {
             // message_start_time, message_end_time, uncompressed_size.
             let mut fields = [0u8; 24];
-            r.read_exact(&mut fields).with_context(|| format!("reading {} at byte {at}", path.display()))?;
+            r.read_exact(&mut fields).with_context(|| format!("reading {name} at byte {at}"))?;
             let uncompressed = u64::from_le_bytes(fields[16..24].try_into().unwrap_or_default());
             ensure!(
                 uncompressed <= MAX_RECORD_BYTES,
-                "{}: byte {at}: a chunk that decompresses to {uncompressed} bytes, over the {MAX_RECORD_BYTES} bytes \
-                 this build reads in one chunk",
-                path.display()
+                "{name}: byte {at}: a chunk that decompresses to {uncompressed} bytes, over the {MAX_RECORD_BYTES} \
+                 bytes this build reads in one chunk"
             );
-            r.seek_relative(i64::try_from(length - 24).unwrap_or(i64::MAX))
-                .with_context(|| format!("reading {} at byte {at}", path.display()))?;
-        } else {
-            r.seek_relative(i64::try_from(length).unwrap_or(i64::MAX))
-                .with_context(|| format!("reading {} at byte {at}", path.display()))?;
+            skip -= 24;
         }
+        r.seek(SeekFrom::Current(i64::try_from(skip).unwrap_or(i64::MAX)))
+            .with_context(|| format!("reading {name} at byte {at}"))?;
         at += 9 + length;
         if opcode == FOOTER {
             return Ok(());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small MCAP file: one channel, `n` messages, in chunks.
+    fn small_mcap(n: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut w = mcap::Writer::new(std::io::Cursor::new(&mut out)).unwrap();
+        let schema = w.add_schema("std_msgs/msg/String", "ros2msg", b"string data").unwrap();
+        let channel = w.add_channel(schema, "/t", "cdr", &std::collections::BTreeMap::new()).unwrap();
+        for k in 0..n {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: k,
+                log_time: u64::from(k),
+                publish_time: 0,
+            };
+            w.write_to_known_channel(&header, &[0, 1, 0, 0, 3, 0, 0, 0, b'h', b'i', 0]).unwrap();
+        }
+        w.finish().unwrap();
+        drop(w);
+        out
+    }
+
+    #[test]
+    fn a_whole_file_passes_and_any_cut_of_it_is_named() {
+        let bytes = small_mcap(20);
+        check_bytes(&bytes).unwrap();
+        for cut in [8, 9, 20, bytes.len() / 2, bytes.len() - 9] {
+            let e = check_bytes(&bytes[..cut]).unwrap_err().to_string();
+            assert!(e.starts_with("bytes: byte") && e.contains("truncated"), "cut at {cut}: {e}");
+        }
+        let e = check_bytes(b"not mcap").unwrap_err().to_string();
+        assert!(e.contains("not an MCAP file"), "{e}");
     }
 }

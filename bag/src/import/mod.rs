@@ -27,7 +27,7 @@ use pixels::{compressed_pixels, raw_pixels};
 pub use topics::bag_files;
 use topics::{Chosen, choose_topics, for_each_message, topics};
 
-mod container;
+pub mod container;
 mod pixels;
 #[cfg(test)]
 mod tests;
@@ -165,6 +165,16 @@ fn kitti_type(class_id: &str) -> &'static str {
         "person" | "pedestrian" | "0" => "Pedestrian",
         _ => "Misc",
     }
+}
+
+/// The size of a compressed image (PNG or JPEG) as the import decodes it, within its limits
+/// (8192 pixels a side): what a bag's `CompressedImage` data must pass.
+///
+/// # Errors
+/// Bytes that are no image, or one over the limits, in words.
+pub fn decode_compressed_image(bytes: &[u8]) -> Result<(u32, u32), String> {
+    let image = pixels::decode_bounded(bytes).map_err(|e| e.to_string())?;
+    Ok((image.width(), image.height()))
 }
 
 /// Imports the bag at `bag` as sequence `seq` into the new folder `out`.

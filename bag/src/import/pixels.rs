@@ -131,7 +131,7 @@ const MAX_IMAGE_ALLOC: u64 = 8192 * 8192 * 8;
 
 /// Decodes a PNG or JPEG after its header's size is checked against [`MAX_IMAGE_SIDE`]: a 4 KB
 /// file can claim 20000 x 20000 pixels, which would be allocated before anything is refused.
-fn decode_bounded(bytes: &[u8]) -> image::ImageResult<DynamicImage> {
+pub(super) fn decode_bounded(bytes: &[u8]) -> image::ImageResult<DynamicImage> {
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
