@@ -220,6 +220,14 @@ impl EstimateArgs {
         Ok(EvalOptions { joint_sweeps: self.joint_sweeps.unwrap_or(opt.joint_sweeps), ..opt })
     }
 
+    /// The evaluation options of every profile asked for, in order.
+    ///
+    /// # Errors
+    /// A bad class name, rate or profile.
+    pub fn profile_options(&self) -> anyhow::Result<Vec<EvalOptions>> {
+        self.profiles()?.into_iter().map(|p| self.options_for(p)).collect()
+    }
+
     /// The evaluation options with the first profile asked for.
     ///
     /// # Errors
@@ -234,8 +242,16 @@ impl EstimateArgs {
 /// # Errors
 /// Bad options, loading, estimating or writing errors, named.
 pub fn run(args: &EstimateArgs) -> anyhow::Result<()> {
-    let options = args.profiles()?.into_iter().map(|p| args.options_for(p)).collect::<anyhow::Result<Vec<_>>>()?;
+    let options = args.profile_options()?;
     let request = args.request(&options)?;
+    if matches!(request.job, EstimateJob::Sequences { .. }) && !args.noise_free && args.outliers >= OUTLIERS_WARNING {
+        eprintln!(
+            "warning: --outliers {}: at least {:.0} % of every frame's simulated tracks are outliers; expect the \
+             estimate to fail",
+            args.outliers,
+            OUTLIERS_WARNING * 100.0
+        );
+    }
     let output = if matches!(request.job, EstimateJob::Sequences { .. }) {
         let label = if args.ours.ours_input == SimulatedInput::Rendered {
             "rendering, tracking, estimating"
@@ -291,14 +307,6 @@ impl EstimateArgs {
             let options = options.first().cloned().context("--profile: no profile")?;
             EstimateJob::Replay { tracks, options, max_frames: self.frames }
         } else {
-            if !self.noise_free && self.outliers >= OUTLIERS_WARNING {
-                eprintln!(
-                    "warning: --outliers {}: at least {:.0} % of every frame's simulated tracks are outliers; expect \
-                     the estimate to fail",
-                    self.outliers,
-                    OUTLIERS_WARNING * 100.0
-                );
-            }
             let kitti = self.kitti.as_ref().context("--kitti: the KITTI tracking folder is needed")?;
             let request = SequencesRequest {
                 kitti,
@@ -331,7 +339,7 @@ impl EstimateArgs {
 /// # Errors
 /// Bad options, loading, rendering or cache errors, named.
 pub fn estimate_sequences(args: &EstimateArgs) -> anyhow::Result<Vec<SequenceResult>> {
-    let options = args.profiles()?.into_iter().map(|p| args.options_for(p)).collect::<anyhow::Result<Vec<_>>>()?;
+    let options = args.profile_options()?;
     match args.request(&options)?.job {
         EstimateJob::Sequences { request, .. } => dynotraj_eval::estimation::estimate_sequences(&request, &|_, _| {}),
         _ => anyhow::bail!("--cost and --tracks estimate no sequences"),

@@ -186,6 +186,10 @@ pub fn decode_compressed_image(bytes: &[u8]) -> Result<(u32, u32), String> {
 pub fn import(bag: &Path, seq: &str, out: &Path, opt: &ImportOptions) -> anyhow::Result<ImportSummary> {
     ensure!(!out.exists(), "--out {}: already exists (an import writes a new folder)", out.display());
     let files = bag_files(bag)?;
+    // Once per file, before either pass over its messages reads a record.
+    for file in &files {
+        container::check_lengths(file)?;
+    }
     let all = topics(&files)?;
     let chosen = choose_topics(&all, opt)?;
     let staging = out.with_file_name(format!(

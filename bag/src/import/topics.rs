@@ -50,7 +50,6 @@ pub(super) fn for_each_message(
 ) -> anyhow::Result<()> {
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     for file in files {
-        super::container::check_lengths(file)?;
         let f = File::open(file).with_context(|| format!("opening {}", file.display()))?;
         for (read, m) in mcap::io::MessageReader::new(BufReader::new(f)).enumerate() {
             let m = m.map_err(|e| {
