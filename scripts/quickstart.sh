@@ -23,7 +23,7 @@ rm -rf "$out"
 echo "## 1. Your drive in: the committed rendering written as a ROS 2 bag (MCAP), as a stereo rig"
 echo "##    and a detector record it, then imported to the KITTI layout the front-end reads"
 "$bin" export-bag --kitti "$fixture" --sequences 0000 --out "$out/bags"
-"$bin" import --bag "$out/bags/0000.mcap" --out "$out/imported"
+"$bin" import --bag "$out/bags/0000" --out "$out/imported"
 echo
 echo "## 2. The image front-end on the imported drive -> a tracks file (frame rate from the bag's stamps)"
 "$bin" track --kitti "$out/imported" --sequences 0000 --out "$out/tracks"

@@ -1,6 +1,6 @@
-//! A sequence in the KITTI tracking layout written as a ROS 2 bag in MCAP, as a stereo rig's
-//! driver and a detector would record it: the bag the import reads back, for the import's
-//! tests and for trying the import without a robot.
+//! A sequence in the KITTI tracking layout written as a ROS 2 bag (a rosbag2 folder in MCAP
+//! storage, [`crate::rosbag2`]), as a stereo rig's driver and a detector would record it: the
+//! bag the import reads back, for the import's tests and for trying the import without a robot.
 //!
 //! Topics: `/stereo/left/image_raw`, `/stereo/right/image_raw` (`sensor_msgs/Image`, rgb8),
 //! `/stereo/left/camera_info`, `/stereo/right/camera_info` (once per frame, the right camera's
@@ -9,9 +9,6 @@
 //! `/detections` (`vision_msgs/Detection2DArray`, where it has label_02/).
 //! Header stamps are `start + k / rate`.
 
-use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 
 use anyhow::{Context as _, ensure};
@@ -21,6 +18,7 @@ use crate::ros2::{
     self, BoundingBox2D, CAMERA_INFO, CameraInfo, DETECTION_2D_ARRAY, Detection2D, Detection2DArray, Header, IMAGE,
     Image, ObjectHypothesis, ObjectHypothesisWithPose, Point2D, Pose2D, Time,
 };
+use crate::rosbag2::Rosbag2Writer;
 
 /// The stamp of the first frame: an arbitrary, recognisable time (2024-01-01 00:00:00 UTC).
 pub const START_NS: i64 = 1_704_067_200_000_000_000;
@@ -31,36 +29,6 @@ pub const LEFT: &str = "/stereo/left";
 pub const RIGHT: &str = "/stereo/right";
 /// The detections' topic.
 pub const DETECTIONS: &str = "/detections";
-
-/// An MCAP writer with ROS 2 channels by topic.
-struct BagWriter {
-    writer: mcap::Writer<BufWriter<File>>,
-    channels: BTreeMap<String, u16>,
-    sequence: u32,
-}
-
-impl BagWriter {
-    fn channel(&mut self, topic: &str, schema: &str) -> anyhow::Result<u16> {
-        if let Some(&id) = self.channels.get(topic) {
-            return Ok(id);
-        }
-        // The definition text as rosbag2 writes it, so that ROS 2 tools decode the payloads.
-        let text = ros2::schema_text(schema).with_context(|| format!("no message definition of {schema}"))?;
-        let schema_id = self.writer.add_schema(schema, "ros2msg", text.as_bytes())?;
-        let id = self.writer.add_channel(schema_id, topic, ros2::CDR, &BTreeMap::new())?;
-        self.channels.insert(topic.to_string(), id);
-        Ok(id)
-    }
-
-    fn write(&mut self, topic: &str, schema: &str, stamp: Time, payload: &[u8]) -> anyhow::Result<()> {
-        let channel_id = self.channel(topic, schema)?;
-        let t = u64::try_from(stamp.nanos()).unwrap_or(0);
-        self.sequence += 1;
-        let header = mcap::records::MessageHeader { channel_id, sequence: self.sequence, log_time: t, publish_time: t };
-        self.writer.write_to_known_channel(&header, payload)?;
-        Ok(())
-    }
-}
 
 /// What a layout image becomes in the bag.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -102,7 +70,7 @@ fn image_message(path: &Path, header: Header, kind: Kind) -> anyhow::Result<Imag
 }
 
 /// Writes sequence `seq` of the layout at `dir` (frames 0.. while image_02 has them) as the bag
-/// `out` at `rate_hz`; returns the frames written.
+/// folder `out` at `rate_hz`; returns the frames written.
 ///
 /// # Errors
 /// A missing or unreadable file of the layout, named; an output that cannot be written.
@@ -112,12 +80,9 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
     let calib = read_calib(&calib_path).with_context(|| format!("reading {}", calib_path.display()))?;
     let labels_path = dir.join("label_02").join(format!("{seq}.txt"));
     let labels = if labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
-    // Written under a temporary name and renamed when finished: a bag cut short is not left
+    // Written under a staging name and renamed when finished: a bag cut short is not left
     // under the name of a complete one.
-    let partial = dynotraj_formats::atomic::partial_path(out);
-    let file = File::create(&partial).with_context(|| format!("creating {}", partial.display()))?;
-    let mut bag =
-        BagWriter { writer: mcap::Writer::new(BufWriter::new(file))?, channels: BTreeMap::new(), sequence: 0 };
+    let mut bag = Rosbag2Writer::create(out).with_context(|| format!("writing {}", out.display()))?;
     let mut write_all = || -> anyhow::Result<usize> {
         let mut frames = 0;
         loop {
@@ -127,6 +92,7 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
                 break;
             }
             let stamp = Time::from_nanos(START_NS + (frames as f64 * 1e9 / rate_hz).round() as i64);
+            let log_ns = u64::try_from(stamp.nanos()).unwrap_or(0);
             for (ns, folder, cam) in [(LEFT, "image_02", 2), (RIGHT, "image_03", 3)] {
                 let header =
                     Header { stamp, frame_id: format!("{}_optical", ns.trim_start_matches('/').replace('/', "_")) };
@@ -143,15 +109,15 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
                     p: std::array::from_fn(|i| p[(i / 4, i % 4)]),
                     ..CameraInfo::default()
                 };
-                bag.write(&format!("{ns}/image_raw"), IMAGE, stamp, &ros2::encode(&img)?)?;
-                bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, stamp, &ros2::encode(&info)?)?;
+                bag.write(&format!("{ns}/image_raw"), IMAGE, log_ns, &ros2::encode(&img)?)?;
+                bag.write(&format!("{ns}/camera_info"), CAMERA_INFO, log_ns, &ros2::encode(&info)?)?;
                 for (folder, topic, kind) in
                     [("instance_02", "instances", Kind::Mask), ("depth_02", "depth", Kind::Depth)]
                 {
                     let file = dir.join(folder).join(seq).join(&name);
                     if cam == 2 && file.is_file() {
                         let msg = image_message(&file, header.clone(), kind)?;
-                        bag.write(&format!("{ns}/{topic}"), IMAGE, stamp, &ros2::encode(&msg)?)?;
+                        bag.write(&format!("{ns}/{topic}"), IMAGE, log_ns, &ros2::encode(&msg)?)?;
                     }
                 }
             }
@@ -184,7 +150,7 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
                     .collect();
                 let msg =
                     Detection2DArray { header: Header { stamp, frame_id: "stereo_left_optical".into() }, detections };
-                bag.write(DETECTIONS, DETECTION_2D_ARRAY, stamp, &ros2::encode(&msg)?)?;
+                bag.write(DETECTIONS, DETECTION_2D_ARRAY, log_ns, &ros2::encode(&msg)?)?;
             }
             frames += 1;
         }
@@ -193,22 +159,9 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
         }
         Ok(frames)
     };
-    // Whatever fails (a full disk, a bad image), the temporary file goes and the error names
+    // Whatever fails (a full disk, a bad image), the staging folder goes and the error names
     // the bag being written.
-    let written = write_all().and_then(|frames| {
-        bag.writer.finish().with_context(|| format!("finishing {}", partial.display()))?;
-        Ok(frames)
-    });
-    drop(bag);
-    let frames = match written {
-        Ok(frames) => frames,
-        Err(e) => {
-            let _ = std::fs::remove_file(&partial);
-            return Err(e.context(format!("writing {}", out.display())));
-        }
-    };
-    std::fs::rename(&partial, out).with_context(|| format!("renaming {} to {}", partial.display(), out.display()))?;
-    Ok(frames)
+    write_all().and_then(|frames| bag.finish().map(|_| frames)).with_context(|| format!("writing {}", out.display()))
 }
 
 #[cfg(test)]
@@ -225,7 +178,7 @@ mod tests {
         let sim = ImageSim::new(Camera { noise: 0, ..Camera::kitti(0.1) }, &d.camera_poses, &LabelBox::of_drive(&d), 1);
         crate::sim_layout::write_sequence(tmp.path(), "0000", &sim, 3).unwrap();
         std::fs::write(tmp.path().join("image_02/0000/000001.png"), b"not a png").unwrap();
-        let out = tmp.path().join("bags/0000.mcap");
+        let out = tmp.path().join("bags/0000");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
         let e = format!("{:#}", layout_to_bag(tmp.path(), "0000", &out, 10.0).unwrap_err());
         assert!(e.starts_with(&format!("writing {}", out.display())) && e.contains("000001.png"), "{e}");

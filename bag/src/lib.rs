@@ -2,6 +2,8 @@
 //!
 //! - [`ros2`]: the ROS 2 messages a bag brings (images, camera info, 2D detections) and their
 //!   CDR decoding.
+//! - [`rosbag2`]: rosbag2's bag folder (`metadata.yaml` beside the MCAP files), written and
+//!   described.
 //! - [`from_layout`]: a sequence in the KITTI tracking layout written as such a bag.
 //! - [`import`]: a bag (an `.mcap` file, or a ROS 2 bag folder of them) to a folder in the KITTI
 //!   tracking layout that the rest of the pipeline reads.
@@ -16,4 +18,5 @@ pub mod import;
 pub mod png;
 pub mod record;
 pub mod ros2;
+pub mod rosbag2;
 pub mod sim_layout;

@@ -128,7 +128,8 @@ pub struct ExportBagArgs {
     /// Frame rate of the stamps, Hz.
     #[arg(long, default_value_t = 10.0, value_parser = frame_rate, value_name = "HZ")]
     pub rate: f64,
-    /// Folder for the bags, `<DIR>/<sequence>.mcap`.
+    /// Folder for the bags: one rosbag2 bag folder each, `<DIR>/<sequence>/` (metadata.yaml
+    /// and `<sequence>_0.mcap`).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
 }
@@ -141,7 +142,7 @@ pub fn export_bag(args: &ExportBagArgs) -> anyhow::Result<()> {
     dynotraj_formats::atomic::output_folder("--out", &args.out)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     for seq in &args.sequences {
-        let bag = args.out.join(format!("{seq}.mcap"));
+        let bag = args.out.join(seq);
         let frames = dynotraj_bag::from_layout::layout_to_bag(&args.kitti, seq, &bag, args.rate)?;
         println!("wrote {frames} frames of sequence {seq} as a ROS 2 bag to {}", bag.display());
     }

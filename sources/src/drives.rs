@@ -240,13 +240,18 @@ fn layout_sequences(p: &Path) -> anyhow::Result<Vec<String>> {
 }
 
 /// Whether `p` is a ROS 2 bag: an .mcap file, or a bag folder as `ros2 bag record` writes it
-/// (its `metadata.yaml` beside .mcap files; a folder of .mcap files without one is a folder of
+/// (its `metadata.yaml` beside its files: .mcap, .mcap.zstd when compressed whole, .db3 in
+/// sqlite3 storage, which the import names; a folder of .mcap files without one is a folder of
 /// bags, each its own drive).
 fn is_bag(p: &Path) -> bool {
     let mcap = |q: &Path| q.is_file() && q.extension().is_some_and(|x| x == "mcap");
+    let stored = |q: &Path| {
+        let name = q.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+        q.is_file() && [".mcap", ".mcap.zstd", ".db3"].iter().any(|end| name.ends_with(end))
+    };
     mcap(p)
         || (p.join("metadata.yaml").is_file()
-            && std::fs::read_dir(p).is_ok_and(|mut r| r.any(|c| c.is_ok_and(|c| mcap(&c.path())))))
+            && std::fs::read_dir(p).is_ok_and(|mut r| r.any(|c| c.is_ok_and(|c| stored(&c.path())))))
 }
 
 /// Sequence `id` of the layout folder `root`: labelled when it has ego poses.
@@ -470,14 +475,16 @@ mod tests {
         touch(&d.join("bags/run7.mcap"));
         touch(&d.join("bags/run8/run8_0.mcap"));
         touch(&d.join("bags/run8/metadata.yaml"));
+        touch(&d.join("bags/run9/run9_0.mcap.zstd"));
+        touch(&d.join("bags/run9/metadata.yaml"));
         touch(&d.join("bags/notes.txt"));
         std::fs::write(d.join("drives.txt"), "kitti 0003  # one of two\nimported\nbags\n").unwrap();
         let drives = manifest_drives(&d.join("drives.txt")).unwrap();
         let got: Vec<(&str, &str)> = drives.iter().map(|x| (x.name.as_str(), x.kind())).collect();
-        assert_eq!(got, [("0003", "labelled"), ("run1", "images"), ("run7", "bag"), ("run8", "bag")]);
+        assert_eq!(got, [("0003", "labelled"), ("run1", "images"), ("run7", "bag"), ("run8", "bag"), ("run9", "bag")]);
         assert!(drives[2].listed.ends_with("drives.txt line 3"), "{}", drives[2].listed);
         let folder = manifest_drives(&d.join("bags")).unwrap();
-        assert_eq!(folder.iter().map(|x| x.name.as_str()).collect::<Vec<_>>(), ["run7", "run8"]);
+        assert_eq!(folder.iter().map(|x| x.name.as_str()).collect::<Vec<_>>(), ["run7", "run8", "run9"]);
         let picked = select_drives(drives, &["run7".into(), "0003".into()]).unwrap();
         assert_eq!(picked.iter().map(|x| x.name.as_str()).collect::<Vec<_>>(), ["run7", "0003"]);
     }

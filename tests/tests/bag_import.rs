@@ -24,8 +24,8 @@ fn a_bag_of_the_fixture_imports_and_tracks_to_the_same_tracks() {
     let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
     let said = run(&["export-bag", "--kitti", fixture, "--sequences", "0000", "--out", &p("bags")]);
     assert!(said.contains("wrote 24 frames"), "{said}");
-    ros2_tools_read(Path::new(&p("bags/0000.mcap")));
-    let said = run(&["import", "--bag", &p("bags/0000.mcap"), "--out", &p("layout")]);
+    ros2_tools_read(Path::new(&p("bags/0000/0000_0.mcap")));
+    let said = run(&["import", "--bag", &p("bags/0000"), "--out", &p("layout")]);
     assert!(said.contains("imported 24 frames at 10.00 Hz") && said.contains("66 detection boxes"), "{said}");
     assert!(said.contains("next: dynotraj track --kitti") && said.contains("--masks png"), "{said}");
     for masks in ["png", "detections"] {
@@ -79,4 +79,72 @@ fn a_bag_that_is_not_there_or_an_out_that_exists_is_refused() {
         .unwrap();
     let e = String::from_utf8_lossy(&out.stderr);
     assert!(e.contains("already exists (an import writes a new folder)"), "{e}");
+}
+
+/// What rosbags' own tools make of an exported bag: AnyReader reads it as a rosbag2 bag
+/// (tests/python/read_rosbag2.py), and rosbags-convert's copies of it (plain, zstd per file,
+/// zstd per message) import with no flags to the layout the exported bag imports to. Skipped,
+/// and said so, without Python.
+#[test]
+fn rosbags_reads_the_exported_bag_and_its_conversions_import_alike() {
+    let python = match python() {
+        Ok(p) => p,
+        Err(why) => {
+            dynotraj_testkit::skipped("rosbags_reads_the_exported_bag", &format!("no Python environment: {why}"));
+            return;
+        }
+    };
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/data/image_sim");
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
+    run(&["export-bag", "--kitti", fixture.to_str().unwrap(), "--sequences", "0000", "--out", &p("bags")]);
+    let out = std::process::Command::new(&python)
+        .arg(manifest_dir().join("python/read_rosbag2.py"))
+        .arg(p("bags/0000"))
+        .output()
+        .unwrap();
+    let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    eprintln!("{said}");
+    assert!(out.status.success(), "read_rosbag2.py: {said}");
+    for line in [
+        "/detections: vision_msgs/msg/Detection2DArray, 24 messages",
+        "/stereo/left/camera_info: sensor_msgs/msg/CameraInfo, 24 messages",
+        "/stereo/left/image_raw: sensor_msgs/msg/Image, 24 messages",
+        "/stereo/right/image_raw: sensor_msgs/msg/Image, 24 messages",
+        "messages: 168",
+    ] {
+        assert!(said.contains(line), "missing `{line}`:\n{said}");
+    }
+    let layout = |bag: &str, name: &str| {
+        let said = run(&["import", "--bag", bag, "--out", &p(name)]);
+        assert!(said.contains("imported 24 frames at 10.00 Hz"), "{said}");
+        let labels = std::fs::read(tmp.path().join(name).join("label_02/0000.txt")).unwrap();
+        let left = std::fs::read(tmp.path().join(name).join("image_02/0000/000023.png")).unwrap();
+        (labels, left)
+    };
+    let exported = layout(&p("bags/0000"), "from-export");
+    let convert = python.with_file_name("rosbags-convert");
+    for (name, extra) in [
+        ("copy", &[][..]),
+        ("zstd-file", &["--compress", "zstd", "--compress-mode", "file"][..]),
+        ("zstd-message", &["--compress", "zstd", "--compress-mode", "message"][..]),
+    ] {
+        let out = std::process::Command::new(&convert)
+            .args(["--src", &p("bags/0000"), "--dst", &p(name), "--dst-storage", "mcap"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "rosbags-convert {name}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(layout(&p(name), &format!("from-{name}")) == exported, "{name}: imports differently");
+    }
+    // rosbags' sqlite3 storage is named, with the conversion to use.
+    let out = std::process::Command::new(&convert)
+        .args(["--src", &p("bags/0000"), "--dst", &p("sqlite"), "--dst-storage", "sqlite3"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "rosbags-convert sqlite3: {}", String::from_utf8_lossy(&out.stderr));
+    let out = dynotraj_command().args(["import", "--bag", &p("sqlite"), "--out", &p("from-sqlite")]).output().unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{e}");
+    assert!(e.contains("a rosbag2 bag in sqlite3 storage: convert it to MCAP first"), "{e}");
 }

@@ -140,7 +140,7 @@ fn a_bag_in_a_manifest_is_imported_and_estimated_from_its_images() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     run(&["export-bag", "--kitti", s(&fixture), "--sequences", "0000", "--out", s(&d.join("bags"))]);
-    std::fs::rename(d.join("bags/0000.mcap"), d.join("bags/run7.mcap")).unwrap();
+    std::fs::rename(d.join("bags/0000"), d.join("bags/run7")).unwrap();
     let manifest = d.join("drives.txt");
     std::fs::write(&manifest, format!("{} 0000\nbags\n", fixture.display())).unwrap();
     let listed = run(&["drives", s(&manifest)]);

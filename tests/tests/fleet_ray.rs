@@ -124,11 +124,11 @@ fn a_local_ray_cluster_gathers_the_one_machine_report() {
         dynotraj_command().args(["export-bag", "--sequences", "0000", "--kitti"]).arg(&fixture).arg("--out").arg(&bags),
         "export-bag",
     );
-    std::fs::rename(bags.join("0000.mcap"), bags.join("run7.mcap")).unwrap();
+    std::fs::rename(bags.join("0000"), bags.join("run7")).unwrap();
     let manifest = dir.path().join("drives.txt");
     std::fs::write(&manifest, "part-a\npart-b 0002,0003\nbags\n").unwrap();
     let one_folder = dir.path().join("one-folder.txt");
-    std::fs::write(&one_folder, "kitti\nbags/run7.mcap\n").unwrap();
+    std::fs::write(&one_folder, "kitti\nbags/run7\n").unwrap();
     let one = dir.path().join("one");
     one_machine(["--drives", one_folder.to_str().unwrap()], &one, &BENCHMARK);
     let (cluster, address) = start_cluster(&python);

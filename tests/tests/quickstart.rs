@@ -20,7 +20,7 @@ fn the_quickstart_runs_on_a_fresh_clone_and_says_where_everything_went() {
     let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "{said}");
     for (what, path) in [
-        ("the bag", "bags/0000.mcap"),
+        ("the bag", "bags/0000/metadata.yaml"),
         ("the imported layout", "imported/image_02/0000/000023.png"),
         ("the tracks", "tracks/0000.dtt"),
         ("the estimate with truth", "estimate-truth.mcap"),

@@ -3,7 +3,12 @@
 //! claims 4 GiB would take 4 GiB before it is found truncated, and a small chunk can claim a
 //! decompressed size of gigabytes. Every record must fit in what is left of the file, and no
 //! record or chunk may hold more than [`MAX_RECORD_BYTES`].
+//!
+//! rosbag2 also compresses whole files (`<name>_0.mcap.zstd`) and single messages with zstd:
+//! [`open`] reads a file either way as a stream, and [`payload`] decompresses a message, both
+//! within the same limit.
 
+use std::borrow::Cow;
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
@@ -16,6 +21,71 @@ pub const MAX_RECORD_BYTES: u64 = 512 << 20;
 
 /// The magic that opens and closes an MCAP file.
 const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
+/// The magic that opens a zstd frame.
+const ZSTD_MAGIC: [u8; 4] = [0x28, 0xb5, 0x2f, 0xfd];
+/// The header that opens an SQLite database (rosbag2's older `.db3` storage).
+const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
+
+/// The first bytes of the file at `path`, at most `N`.
+fn head<const N: usize>(path: &Path) -> anyhow::Result<([u8; N], usize)> {
+    let mut file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let mut bytes = [0u8; N];
+    let mut read = 0;
+    while read < N {
+        let n = file
+            .read(bytes.get_mut(read..).unwrap_or_default())
+            .with_context(|| format!("reading {}", path.display()))?;
+        if n == 0 {
+            break;
+        }
+        read += n;
+    }
+    Ok((bytes, read))
+}
+
+/// Whether the file at `path` is compressed whole with zstd (rosbag2's `compression_mode: file`).
+///
+/// # Errors
+/// The file cannot be read.
+pub fn is_compressed(path: &Path) -> anyhow::Result<bool> {
+    let (bytes, read) = head::<4>(path)?;
+    Ok(read == 4 && bytes == ZSTD_MAGIC)
+}
+
+/// The MCAP bytes of the file at `path` as a stream: the file, or its zstd decompression.
+///
+/// # Errors
+/// The file cannot be opened.
+pub fn open(path: &Path) -> anyhow::Result<Box<dyn Read>> {
+    let file = BufReader::new(File::open(path).with_context(|| format!("opening {}", path.display()))?);
+    if is_compressed(path)? {
+        let decoder = zstd::stream::read::Decoder::with_buffer(file)
+            .with_context(|| format!("{}: starting zstd decompression", path.display()))?;
+        return Ok(Box::new(decoder));
+    }
+    Ok(Box::new(file))
+}
+
+/// A message's CDR payload: as it is, or decompressed when rosbag2 compressed it alone
+/// (`compression_mode: message`), within [`MAX_RECORD_BYTES`].
+///
+/// # Errors
+/// A zstd frame that does not decompress, or decompresses to more than the limit.
+pub fn payload(data: &[u8]) -> Result<Cow<'_, [u8]>, String> {
+    if !data.starts_with(&ZSTD_MAGIC) {
+        return Ok(Cow::Borrowed(data));
+    }
+    let mut out = Vec::new();
+    zstd::stream::read::Decoder::new(data)
+        .and_then(|d| d.take(MAX_RECORD_BYTES + 1).read_to_end(&mut out))
+        .map_err(|e| format!("a zstd-compressed message that does not decompress: {e}"))?;
+    if out.len() as u64 > MAX_RECORD_BYTES {
+        return Err(format!(
+            "a zstd-compressed message of over {MAX_RECORD_BYTES} bytes decompressed, the most this build reads"
+        ));
+    }
+    Ok(Cow::Owned(out))
+}
 /// The opcode of a chunk record.
 const CHUNK: u8 = 0x06;
 /// The opcode of the footer, the last record.
@@ -29,9 +99,45 @@ const FOOTER: u8 = 0x02;
 /// damaged) or than the limit, or a chunk whose decompressed size is over the limit; each named
 /// with the file and the record's byte offset.
 pub fn check_lengths(path: &Path) -> anyhow::Result<()> {
+    let name = path.display().to_string();
+    let (bytes, read) = head::<16>(path)?;
+    ensure!(
+        read < 16 || &bytes != SQLITE_MAGIC,
+        "{name}: a rosbag2 bag in sqlite3 storage, not MCAP: convert it first (`ros2 bag convert`, or \
+         `rosbags-convert --src BAG_FOLDER --dst NEW_FOLDER --dst-storage mcap`)"
+    );
+    if is_compressed(path)? {
+        // Decompressed as a stream: the size is not known before the end, so each record is
+        // bounded by the limit alone, and a cut stream is found where it ends.
+        return walk(Stream(open(path)?), u64::MAX, &name);
+    }
     let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let size = file.metadata().with_context(|| format!("reading {}", path.display()))?.len();
-    walk(BufReader::new(file), size, &path.display().to_string())
+    walk(BufReader::new(file), size, &name)
+}
+
+/// A stream that skips forward by reading: a decompression cannot seek.
+struct Stream(Box<dyn Read>);
+
+impl Read for Stream {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl Seek for Stream {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        let SeekFrom::Current(skip) = pos else {
+            return Err(std::io::Error::other("a decompressed stream only skips forward"));
+        };
+        let skip =
+            u64::try_from(skip).map_err(|_| std::io::Error::other("a decompressed stream only skips forward"))?;
+        let skipped = std::io::copy(&mut self.0.by_ref().take(skip), &mut std::io::sink())?;
+        if skipped < skip {
+            return Err(std::io::Error::new(std::io::ErrorKind::UnexpectedEof, "the stream ends inside a record"));
+        }
+        Ok(0)
+    }
 }
 
 /// [`check_lengths`] of an MCAP file's bytes (named `bytes` in errors).
@@ -45,8 +151,8 @@ pub fn check_bytes(bytes: &[u8]) -> anyhow::Result<()> {
 /// Walks the records of `size` bytes read from `r`, `name` naming them in errors.
 fn walk(mut r: impl Read + Seek, size: u64, name: &str) -> anyhow::Result<()> {
     let mut magic = [0u8; 8];
-    let read = r.read(&mut magic).with_context(|| format!("reading {name}"))?;
-    ensure!(read == 8 && &magic == MAGIC, "{name}: not an MCAP file (no MCAP magic at its start)");
+    let read = r.read_exact(&mut magic).is_ok();
+    ensure!(read && &magic == MAGIC, "{name}: not an MCAP file (no MCAP magic at its start)");
     let mut at: u64 = 8;
     loop {
         let mut head = [0u8; 9];

@@ -265,12 +265,13 @@ fn import_into(
             at(),
             topic.encoding
         );
+        let data = container::payload(&m.data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
         if let Some(&role) = role_of.get(name) {
             let (header, pixels) = if topic.schema == IMAGE {
-                let img: Image = ros2::decode(&m.data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
+                let img: Image = ros2::decode(&data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
                 (img.header.clone(), raw_pixels(&img, role))
             } else {
-                let img: CompressedImage = ros2::decode(&m.data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
+                let img: CompressedImage = ros2::decode(&data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
                 (img.header.clone(), compressed_pixels(&img, role))
             };
             let pixels = pixels.map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
@@ -284,11 +285,11 @@ fn import_into(
             });
         } else if topic.schema == CAMERA_INFO {
             if !infos.contains_key(name) {
-                let info: CameraInfo = ros2::decode(&m.data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
+                let info: CameraInfo = ros2::decode(&data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
                 infos.insert(name.to_string(), info);
             }
         } else {
-            let d: Detection2DArray = ros2::decode(&m.data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
+            let d: Detection2DArray = ros2::decode(&data).map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
             detections.push((stamp_of(&d.header, m.log_time), d));
         }
         Ok(())

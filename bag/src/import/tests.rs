@@ -21,24 +21,25 @@ fn options() -> ImportOptions {
 /// The fixture as a bag in `dir`, each message passed through `edit` (topic, payload ->
 /// payload, or `None` to leave it out).
 fn bag(dir: &Path, mut edit: impl FnMut(&str, Vec<u8>) -> Option<Vec<u8>>) -> PathBuf {
-    bag_with(dir, |topic, schema, p| edit(topic, p).map(|p| (schema.to_string(), p)))
+    bag_with(dir, |topic, schema, p| edit(topic, p).map(|p| (topic.to_string(), schema.to_string(), p)))
 }
 
-/// As [`bag`], `edit` also choosing each message's schema name.
-fn bag_with(dir: &Path, mut edit: impl FnMut(&str, &str, Vec<u8>) -> Option<(String, Vec<u8>)>) -> PathBuf {
-    let plain = dir.join("plain.mcap");
+/// As [`bag`], `edit` also choosing each message's topic and schema name.
+fn bag_with(dir: &Path, mut edit: impl FnMut(&str, &str, Vec<u8>) -> Option<(String, String, Vec<u8>)>) -> PathBuf {
+    let plain = dir.join("plain");
     layout_to_bag(&fixture(), "0000", &plain, 10.0).unwrap();
+    let files = bag_files(&plain).unwrap();
     let out = dir.join("edited.mcap");
     let mut w = mcap::Writer::new(BufWriter::new(File::create(&out).unwrap())).unwrap();
     let mut channels: BTreeMap<String, u16> = BTreeMap::new();
-    for_each_message(&[plain], |t, _, m| {
-        let Some((schema_name, payload)) = edit(&t.name, &t.schema, m.data.to_vec()) else { return Ok(()) };
-        let id = match channels.get(&t.name) {
+    for_each_message(&files, |t, _, m| {
+        let Some((topic, schema_name, payload)) = edit(&t.name, &t.schema, m.data.to_vec()) else { return Ok(()) };
+        let id = match channels.get(&topic) {
             Some(&id) => id,
             None => {
                 let schema = w.add_schema(&schema_name, "ros2msg", b"")?;
-                let id = w.add_channel(schema, &t.name, &t.encoding, &BTreeMap::new())?;
-                channels.insert(t.name.clone(), id);
+                let id = w.add_channel(schema, &topic, &t.encoding, &BTreeMap::new())?;
+                channels.insert(topic, id);
                 id
             }
         };
@@ -122,20 +123,22 @@ fn an_rgbd_bag_with_compressed_images_imports_the_same_pixels_and_depth() {
             return None;
         }
         if topic != left {
-            return Some((schema.to_string(), p));
+            return Some((topic.to_string(), schema.to_string(), p));
         }
-        // The left camera as image_transport's compressed PNG.
+        // The left camera as image_transport's compressed PNG, under image_transport's name:
+        // its CameraInfo is found one level up, beside `image_raw`.
         let m: Image = ros2::decode(&p).unwrap();
         let rgb = RgbImage::from_raw(m.width, m.height, m.data).unwrap();
         let mut png = Vec::new();
         rgb.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
         let c = CompressedImage { header: m.header, format: "rgb8; png compressed rgb8".into(), data: png };
-        Some((COMPRESSED_IMAGE.to_string(), ros2::encode(&c).unwrap()))
+        Some((format!("{left}/compressed"), COMPRESSED_IMAGE.to_string(), ros2::encode(&c).unwrap()))
     });
     let out = tmp.path().join("layout");
     let s = import(&b, "0000", &out, &ImportOptions { rgbd: true, ..options() }).unwrap();
     assert_eq!(s.frames, 24);
     assert!(s.topics.iter().any(|(r, t)| r == "depth" && t == "/stereo/left/depth"), "{:?}", s.topics);
+    assert!(s.topics.iter().any(|(_, t)| t == "/stereo/left/image_raw/compressed"), "{:?}", s.topics);
     assert!(!out.join("image_03").exists(), "an RGB-D import has no right images");
     for folder in ["image_02", "depth_02"] {
         same_pixels(&format!("{folder}/0000/000011.png"), &out);
@@ -345,4 +348,60 @@ fn an_import_leaves_no_staging_copy_and_clears_those_of_interrupted_ones() {
     assert!(
         std::fs::read_dir(tmp.path()).unwrap().all(|e| !e.unwrap().file_name().to_string_lossy().contains(".partial"))
     );
+}
+
+/// Every file of the folder `dir`, by path within it, with its bytes.
+fn folder_bytes(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.insert(p.strip_prefix(dir).unwrap().to_path_buf(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn bags_compressed_as_rosbag2_compresses_them_import_as_the_plain_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plain = bag(tmp.path(), |_, p| Some(p));
+    let imported = |b: &Path, name: &str| {
+        let out = tmp.path().join(name);
+        import(b, "0000", &out, &options()).unwrap();
+        folder_bytes(&out)
+    };
+    let expected = imported(&plain, "plain-layout");
+    // compression_mode: file, the file compressed whole.
+    let whole = tmp.path().join("whole/whole_0.mcap.zstd");
+    std::fs::create_dir(whole.parent().unwrap()).unwrap();
+    std::fs::write(&whole, zstd::encode_all(std::fs::read(&plain).unwrap().as_slice(), 3).unwrap()).unwrap();
+    assert!(expected == imported(&whole, "whole-layout"), "a .mcap.zstd file imports as its MCAP");
+    assert!(expected == imported(whole.parent().unwrap(), "folder-layout"), "so does a folder of them");
+    // compression_mode: message, each payload compressed alone.
+    let dir = tmp.path().join("per-message");
+    std::fs::create_dir(&dir).unwrap();
+    let each = bag(&dir, |_, p| Some(zstd::encode_all(p.as_slice(), 3).unwrap()));
+    assert!(expected == imported(&each, "message-layout"), "compressed messages import as plain ones");
+    // A cut compressed file is named as such; a payload that is not zstd past its magic too.
+    let cut = tmp.path().join("cut.mcap.zstd");
+    let bytes = std::fs::read(&whole).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = error(&cut, &options());
+    assert!(e.contains("cut.mcap.zstd"), "{e}");
+    let dir = tmp.path().join("bad-frames");
+    std::fs::create_dir(&dir).unwrap();
+    let bad = bag(&dir, |_, p| Some([&[0x28, 0xb5, 0x2f, 0xfd][..], &p].concat()));
+    let e = error(&bad, &options());
+    assert!(e.contains("message 0: a zstd-compressed message that does not decompress"), "{e}");
+    // An sqlite3 bag is named, with the conversion to use.
+    let db3 = tmp.path().join("old.db3");
+    std::fs::write(&db3, b"SQLite format 3\0and more").unwrap();
+    let e = error(&db3, &options());
+    assert!(e.contains("old.db3: a rosbag2 bag in sqlite3 storage, not MCAP: convert it first"), "{e}");
 }

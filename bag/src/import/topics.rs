@@ -2,8 +2,6 @@
 //! role (by flag, or by message type and name).
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail, ensure};
@@ -19,20 +17,39 @@ pub(super) struct Topic {
     pub(super) encoding: String,
 }
 
-/// The `.mcap` files of a bag: the file itself, or a ROS 2 bag folder's files by name.
+/// The `.mcap` files of a bag: the file itself, or a ROS 2 bag folder's files: those its
+/// `metadata.yaml` lists, in its order, or else its `.mcap` files by name.
 ///
 /// # Errors
-/// A path that is neither, or a folder without `.mcap` files.
+/// A path that is neither, a folder without `.mcap` files, or a bag in another storage, named
+/// with the conversion to use.
 pub fn bag_files(path: &Path) -> anyhow::Result<Vec<PathBuf>> {
     if path.is_file() {
         return Ok(vec![path.to_path_buf()]);
     }
     ensure!(path.is_dir(), "{}: no such file or folder (expected an .mcap file or a ROS 2 bag folder)", path.display());
+    if let Some(description) = crate::rosbag2::read_description(path)? {
+        ensure!(
+            description.storage == "mcap",
+            "{}: a rosbag2 bag in {} storage: convert it to MCAP first (`ros2 bag convert`, or \
+                `rosbags-convert --src {} --dst BAG_MCAP --dst-storage mcap`)",
+            path.display(),
+            description.storage,
+            path.display()
+        );
+        for file in &description.files {
+            ensure!(file.is_file(), "{}: listed in metadata.yaml, not in the folder", file.display());
+        }
+        ensure!(!description.files.is_empty(), "{}: metadata.yaml lists no file", path.display());
+        return Ok(description.files);
+    }
     let mut files: Vec<PathBuf> = std::fs::read_dir(path)
         .with_context(|| format!("reading {}", path.display()))?
         .filter_map(Result::ok)
         .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .filter(|p| {
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.ends_with(".mcap") || n.ends_with(".mcap.zstd"))
+        })
         .collect();
     files.sort();
     ensure!(
@@ -50,8 +67,8 @@ pub(super) fn for_each_message(
 ) -> anyhow::Result<()> {
     let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     for file in files {
-        let f = File::open(file).with_context(|| format!("opening {}", file.display()))?;
-        for (read, m) in mcap::io::MessageReader::new(BufReader::new(f)).enumerate() {
+        let stream = super::container::open(file)?;
+        for (read, m) in mcap::io::MessageReader::new(stream).enumerate() {
             let m = m.map_err(|e| {
                 anyhow::anyhow!(
                     "{}: not a readable MCAP file after {read} messages: {e} (truncated or damaged?)",
@@ -132,6 +149,20 @@ pub(super) fn namespace(topic: &str) -> &str {
     topic.rsplit_once('/').map_or("", |(ns, _)| ns)
 }
 
+/// image_transport's transports, which publish under the raw topic's name plus their own
+/// (`/cam/left/image_raw/compressed`).
+const TRANSPORTS: [&str; 5] = ["compressed", "compresseddepth", "theora", "zstd", "ffmpeg"];
+
+/// The camera's namespace of an image topic, where its CameraInfo is: the topic's namespace,
+/// one level further up for an image_transport topic (`/cam/left/image_raw/compressed` ->
+/// `/cam/left`).
+pub(super) fn camera_namespace(topic: &str) -> &str {
+    match topic.rsplit_once('/') {
+        Some((raw, transport)) if TRANSPORTS.contains(&transport.to_lowercase().as_str()) => namespace(raw),
+        _ => namespace(topic),
+    }
+}
+
 /// The topics of every role, chosen as the module docs say.
 #[derive(Debug, Clone)]
 pub(super) struct Chosen {
@@ -171,7 +202,7 @@ pub(super) fn choose_topics(all: &[(Topic, usize)], opt: &ImportOptions) -> anyh
         listing(all)
     );
     let info_of = |image: &str, given: Option<&str>, flag: &str, required: bool| {
-        let ns = namespace(image).to_lowercase();
+        let ns = camera_namespace(image).to_lowercase();
         choose(all, given, &[CAMERA_INFO], |n| namespace(n) == ns, flag, required)
     };
     let left_info = info_of(&left, opt.left_info.as_deref(), "--left-info", true)?.unwrap_or_default();
