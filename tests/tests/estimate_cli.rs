@@ -4,7 +4,7 @@
 use clap::Parser;
 use dynotraj_cli::estimate::estimate_sequences;
 use dynotraj_cli::{Cli, Command};
-use dynotraj_eval::estimation::pose_files::write_run;
+use dynotraj_eval::estimation::pose_files::{FileClock, write_run};
 use dynotraj_eval::report::estimator_tables::tables;
 
 #[test]
@@ -35,20 +35,26 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
         assert!(table.rows[2][2].parse::<f64>().expect("camera RPE_t") < 0.05);
     }
     let seq = out.path().join("0003");
-    write_run(&seq, &results[0].sim, &results[0].run).expect("writes");
+    write_run(&seq, &results[0].sim, &results[0].run, FileClock::KITTI).expect("writes");
     for f in ["camera_truth.tum", "camera_smoothed.tum", "camera_f2f.kitti", "log.csv"] {
         assert!(seq.join(f).is_file(), "{f} missing");
     }
     let tum = std::fs::read_to_string(seq.join("camera_causal.tum")).expect("reads");
     assert_eq!(tum.lines().filter(|l| !l.starts_with('#')).count(), 120);
-    // The paper's 20 Hz unless --rate says otherwise: said in every pose file and docs/cli.md.
+    // KITTI's capture clock, 10 Hz, whatever rate the estimator ran at (the paper's 20 Hz by
+    // default): said in every pose file and the README.
     assert!(
-        tum.lines().any(|l| l.starts_with("# timestamps: seconds at 20.000 Hz (one frame every 0.0500 s)")),
+        tum.lines().any(|l| l
+            == "# timestamps: capture times, seconds at 10.000 Hz (one frame every 0.1000 s); the estimator ran at \
+                20.000 Hz"),
         "{tum}"
     );
+    let frame_times: Vec<f64> =
+        tum.lines().filter(|l| !l.starts_with('#')).map(|l| l.split(' ').next().unwrap().parse().unwrap()).collect();
+    assert!((frame_times[1] - frame_times[0] - 0.1).abs() < 1e-9, "{:?}", &frame_times[..2]);
     let readme = std::fs::read_to_string(seq.join("README.txt")).expect("a README beside the pose files");
     assert!(
-        readme.contains("20.000 Hz") && readme.contains("evo_rpe tum camera_truth.tum camera_smoothed.tum"),
+        readme.contains("10.000 Hz") && readme.contains("evo_rpe tum camera_truth.tum camera_smoothed.tum"),
         "{readme}"
     );
     let objects = std::fs::read_dir(seq.join("objects")).expect("objects folder").count();
@@ -65,13 +71,24 @@ fn object_files_give_the_printed_rpe(
     result: &dynotraj_sources::estimation::simulated::SequenceResult,
 ) {
     use dynotraj_core::metrics::RpeAccumulator;
-    use dynotraj_formats::kitti::read_tum;
+    use dynotraj_formats::kitti::{read_poses, read_tum};
     use dynotraj_sources::estimation::runner::Kind;
     use dynotraj_sources::estimation::score::moving_objects;
 
     let micros = |t: f64| (t * 1e6).round() as i64;
     let moving = moving_objects(&result.sim, result.min_step_m);
     let mut files = 0;
+    // objects/runs.csv: each run's RPE as dynotraj scores it, by (object, kind, run).
+    let runs_csv = std::fs::read_to_string(seq.join("objects/runs.csv")).expect("runs.csv");
+    let listed: std::collections::HashMap<(String, String, String), (f64, f64)> = runs_csv
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            Some(((c[0].into(), c[1].into(), c[2].into()), (c[6].parse().ok()?, c[7].parse().ok()?)))
+        })
+        .collect();
+    let mut kitti_runs = 0;
     for (kind, printed) in Kind::ALL.iter().zip(&result.scores.kinds) {
         let mut all = RpeAccumulator::new();
         for id in &moving {
@@ -91,6 +108,29 @@ fn object_files_give_the_printed_rpe(
                     acc.push(&q.cast::<f32>(), &p.cast::<f32>());
                 }
                 all.merge(&acc);
+                // The run's row in runs.csv is this file's RPE.
+                let key = (id.to_string(), kind.name().to_string(), n.to_string());
+                let (t_m, r_deg) = listed[&key];
+                let got = acc.result().expect("a run has a pair");
+                assert!((got.translation - t_m).abs() <= 1e-4 * t_m + 1e-6, "{key:?}: {} vs {t_m}", got.translation);
+                assert!((got.rotation.to_degrees() - r_deg).abs() <= 1e-4 * r_deg + 1e-5, "{key:?}");
+                // The smoothed runs also as KITTI files, paired by line: the same RPE.
+                if *kind == Kind::Smoothed {
+                    let est = read_poses(seq.join(format!("objects/{id}_smoothed_{n}.kitti"))).expect("kitti run");
+                    let tru = read_poses(seq.join(format!("objects/{id}_truth_{n}.kitti"))).expect("kitti truth");
+                    assert_eq!(est.len(), tru.len());
+                    let mut by_line = RpeAccumulator::new();
+                    for (q, p) in tru.iter().zip(&est) {
+                        by_line.push(&q.cast::<f32>(), &p.cast::<f32>());
+                    }
+                    let k = by_line.result().expect("pairs");
+                    assert!(
+                        (k.translation - t_m).abs() <= 1e-4 * t_m + 1e-6,
+                        "{key:?}: kitti {} vs {t_m}",
+                        k.translation
+                    );
+                    kitti_runs += 1;
+                }
             }
         }
         let (got, want) = (all.result(), printed.object);
@@ -101,7 +141,7 @@ fn object_files_give_the_printed_rpe(
             }
         }
     }
-    assert!(files > 0, "object files were written and read");
+    assert!(files > 0 && kitti_runs > 0, "object files were written and read");
     println!("{files} object run files scored against their truth files: the printed RPE");
 }
 

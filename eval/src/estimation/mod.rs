@@ -188,7 +188,9 @@ pub fn write_sequence_poses(
     let mut dirs = Vec::new();
     for r in results {
         let dir = if several_profiles { out.join(r.profile).join(&r.id) } else { out.join(&r.id) };
-        pose_files::write_run(&dir, &r.sim, &r.run)?;
+        // The renderings are of KITTI drives: the files keep KITTI's capture clock whatever
+        // rate the estimator ran at.
+        pose_files::write_run(&dir, &r.sim, &r.run, pose_files::FileClock::KITTI)?;
         dirs.push(dir);
     }
     Ok(dirs)
@@ -405,7 +407,7 @@ pub fn estimate(
         EstimateJob::Replay { tracks, options, max_frames } => {
             let r = estimate_tracks(tracks, options.clone(), *max_frames)?;
             if let Some(dir) = request.out {
-                pose_files::write_estimates(dir, &r.frames, &r.run)?;
+                pose_files::write_estimates(dir, &r.frames, &r.run, pose_files::FileClock { rate_hz: r.rate_hz })?;
                 out.before.push(format!("wrote {}", dir.display()));
             }
             if let Some(target) = request.record {
