@@ -59,7 +59,7 @@ pub struct EstimateArgs {
     /// `--tracks`: the folder itself).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas, JSON) with, per
+    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas; --record-encoding) with, per
     /// frame, the estimated camera (`/tf`: world to camera; `/camera/path`), each object's
     /// estimated trajectory so far (`/objects/estimated`, causal estimates), with simulated input
     /// the simulator's truth (`/objects/truth`, `/camera/truth`), and the frame's measured
@@ -69,6 +69,9 @@ pub struct EstimateArgs {
     /// profiles; the tracks file's name with --tracks).
     #[arg(long, value_name = "FILE", conflicts_with = "cost")]
     pub record: Option<PathBuf>,
+    /// The recordings' encoding.
+    #[command(flatten)]
+    pub record_encoding: crate::record_args::RecordEncodingArgs,
     /// The frame rate.
     #[command(flatten)]
     pub rate: FrameRateArg,
@@ -326,6 +329,7 @@ impl EstimateArgs {
             machine_tables: self.format != Format::Md,
             out: self.out.as_deref(),
             record: self.record.as_deref(),
+            record_encoding: self.record_encoding.into(),
             several_profiles: self.profiles.len() > 1,
         };
         check_table(self.format, self.table.as_deref(), &request.table_names())?;

@@ -44,6 +44,9 @@ pub struct ExperimentArgs {
     /// models are read from its models/).
     #[arg(long, value_name = "DIR", requires = "out")]
     pub record: Option<PathBuf>,
+    /// The recordings' encoding.
+    #[command(flatten)]
+    pub record_encoding: crate::record_args::RecordEncodingArgs,
     /// Widths, training settings, report folder and format.
     #[command(flatten)]
     pub run: FoldRunArgs,
@@ -143,8 +146,14 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
             history_frames: args.run.hyper.prior_choice().history_frames(),
         };
         let tests = test_ids(args)?;
-        let folder =
-            ReportFolder { dir, record: args.record.as_deref(), command, objects: &args.objects, tests: &tests };
+        let folder = ReportFolder {
+            dir,
+            record: args.record.as_deref(),
+            record_encoding: args.record_encoding.into(),
+            command,
+            objects: &args.objects,
+            tests: &tests,
+        };
         for said in write_report_folder(&folder, &run, &result, &sequences, &args.data.rule()?)? {
             eprintln!("{said}");
         }

@@ -36,12 +36,15 @@ pub struct ForecastArgs {
     /// frames).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Also write a recording to look at in Foxglove: an MCAP file (Foxglove's schemas, JSON)
+    /// Also write a recording to look at in Foxglove: an MCAP file (Foxglove's schemas; --record-encoding)
     /// with, per frame, each object's history (`/objects/tracks`), its constant-velocity
     /// forecast (`/forecasts/cv`), with --model also the model's (`/forecasts/learned`), and the
     /// camera (`/tf`). A forecast is one sequence, so FILE is the recording itself.
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
+    /// The recordings' encoding.
+    #[command(flatten)]
+    pub record_encoding: crate::record_args::RecordEncodingArgs,
 }
 
 /// Runs `dynotraj forecast`.
@@ -59,7 +62,8 @@ pub fn run(args: &ForecastArgs) -> anyhow::Result<()> {
         .with_context(|| format!("--out: writing {}", path.display()))?;
     if let Some(file) = &args.record {
         let forecaster = if args.model.is_some() { Forecaster::Learned } else { Forecaster::ConstantVelocity };
-        let written = record_forecasts(file, &tracks, &out.result, forecaster).context("--record")?;
+        let written = record_forecasts(file, args.record_encoding.into(), &tracks, &out.result, forecaster)
+            .context("--record")?;
         eprintln!("{}", recorded(&written));
     }
     let forecasts = out.result.replies.iter().filter(|m| matches!(m, Message::Prediction(_))).count();

@@ -17,6 +17,7 @@ pub mod model_cost;
 pub mod numbers;
 pub mod pedestrians;
 pub mod progress;
+pub mod record_args;
 pub mod sign;
 #[cfg(feature = "images")]
 pub mod simulate;

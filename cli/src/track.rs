@@ -55,7 +55,7 @@ pub struct TrackArgs {
     /// Print the front-end's counters.
     #[arg(long)]
     pub counters: bool,
-    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas, JSON) with, per
+    /// Also write recordings to look at in Foxglove: MCAP (Foxglove's schemas; --record-encoding) with, per
     /// frame at its capture time, the left image as it is on disk (`/camera/left/compressed`),
     /// the frame's tracks back-projected into the camera frame (`/tracks/static`;
     /// `/tracks/objects` with each point's `object_id`) and drawn over the image
@@ -63,6 +63,9 @@ pub struct TrackArgs {
     /// existing folder: FILE is a folder of `<sequence>.mcap`.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["cost", "check"])]
     pub record: Option<PathBuf>,
+    /// The recordings' encoding.
+    #[command(flatten)]
+    pub record_encoding: crate::record_args::RecordEncodingArgs,
     /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead; with
     /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth.
     #[arg(long, alias = "bench")]
@@ -136,6 +139,7 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         rate_hz: args.rate.hz,
         stereo,
         tracker: args.tracker(),
+        record_encoding: args.record_encoding.into(),
     };
     for id in &ids {
         let file = tracks_path(out, id);

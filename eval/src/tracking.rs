@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context as _;
-use dynotraj_bag::record::RecordingSummary;
+use dynotraj_bag::record::{RecordingEncoding, RecordingSummary};
 use dynotraj_core::wire::CameraInfo;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_formats::tracks_file::TracksWriter;
@@ -38,6 +38,8 @@ pub struct TrackSettings {
     pub stereo: StereoParams,
     /// The tracker's settings.
     pub tracker: TrackerParams,
+    /// The encoding of recordings.
+    pub record_encoding: RecordingEncoding,
 }
 
 /// What tracking a sequence gave.
@@ -119,7 +121,10 @@ pub fn track_sequence(
     let mut fe = FrontEnd::new(settings.stereo, settings.tracker, s.fb as f32)?;
     let mut w = TracksWriter::create(out, &camera)?;
     let mut rec = record
-        .map(|path| TrackRecorder::create(path, dir.join("image_02").join(seq), &camera).context("--record"))
+        .map(|path| {
+            TrackRecorder::create(path, settings.record_encoding, dir.join("image_02").join(seq), &camera)
+                .context("--record")
+        })
         .transpose()?;
     let n = s.track(&mut fe, settings.frames.unwrap_or(usize::MAX), f64::from(rate_hz), |frame, t_us, tracks| {
         w.write_frame(frame, t_us, tracks)?;

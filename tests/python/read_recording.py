@@ -1,12 +1,21 @@
 """Reads a `dynotraj forecast|estimate|track --record` recording with Python's `mcap` package,
 as any user's tool would, prints a summary (channels, schema names, messages per topic, first
 and last log time) and exits non-zero when something expected is missing: a Foxglove schema
-name, a message that does not decode as JSON or does not match its channel's JSON schema, a
-topic without exactly one message per frame, an image that is not a PNG.
+name, a message that does not decode (Protobuf, with the FileDescriptorSet the file carries, or
+JSON) or does not match its channel's JSON schema or Foxglove's official JSON Schema, a topic
+without exactly one message per frame, an image that is not a PNG.
+
+Protobuf messages are turned into Foxglove's JSON encoding (times as {sec, nsec}, enums as
+numbers, bytes as base64) before they are checked, so both encodings pass the same checks.
 
     python read_recording.py forecast FILE --frames N [--predictor cv|learned ...]
     python read_recording.py estimate FILE --frames N [--no-truth]
     python read_recording.py track FILE --frames N
+    ... [--encoding protobuf|json] [--official-schemas DIR]
+
+DIR holds Foxglove's official JSON Schemas, one `<Name>.json` per type (from the npm package
+@foxglove/schemas); each message is validated against its type's, and a line per channel says
+how many were checked and how many failed.
 """
 
 import argparse
@@ -16,7 +25,9 @@ import sys
 from collections import Counter
 
 import jsonschema
+from google.protobuf.descriptor import FieldDescriptor
 from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
 
 FOXGLOVE = {
     "foxglove.SceneUpdate",
@@ -83,6 +94,26 @@ def stamp_ns(msg, schema_name):
     return t["sec"] * 1_000_000_000 + t["nsec"]
 
 
+def foxglove_json(message):
+    """A decoded Protobuf message in Foxglove's JSON encoding."""
+    if message.DESCRIPTOR.full_name in ("google.protobuf.Timestamp", "google.protobuf.Duration"):
+        return {"sec": message.seconds, "nsec": message.nanos}
+    out = {}
+    for field in message.DESCRIPTOR.fields:
+        value = getattr(message, field.name)
+
+        def one(x, field=field):
+            if field.type == FieldDescriptor.TYPE_MESSAGE:
+                return foxglove_json(x)
+            if field.type == FieldDescriptor.TYPE_BYTES:
+                return base64.b64encode(x).decode()
+            return x
+
+        repeated = field.is_repeated if hasattr(field, "is_repeated") else field.label == FieldDescriptor.LABEL_REPEATED
+        out[field.name] = [one(x) for x in value] if repeated else one(value)
+    return out
+
+
 def check_message(msg, schema_name):
     """Content checks beyond the schema; returns problems."""
     problems = []
@@ -119,7 +150,17 @@ def main():
     parser.add_argument("--frames", type=int, required=True, help="frames the run had")
     parser.add_argument("--predictor", action="append", help="a forecast topic expected (repeat; default cv)")
     parser.add_argument("--no-truth", action="store_true", help="a run without the simulator's truth")
+    parser.add_argument("--encoding", choices=["protobuf", "json"], default="protobuf")
+    parser.add_argument("--official-schemas", help="a folder of Foxglove's official JSON Schemas")
     args = parser.parse_args()
+    official = {}
+    if args.official_schemas:
+        for name in FOXGLOVE:
+            with open(f"{args.official_schemas}/{name.split('.')[1]}.json") as f:
+                official[name] = jsonschema.Draft7Validator(json.load(f))
+    checked = Counter()
+    failed = Counter()
+    decoders = DecoderFactory()
 
     problems = []
     counts = Counter()
@@ -138,25 +179,47 @@ def main():
             if schema is None:
                 problems.append(f"{channel.topic}: no schema")
                 continue
-            text = json.loads(schema.data)
-            jsonschema.Draft202012Validator.check_schema(text)
-            channels[channel.topic] = (schema.name, schema.encoding, channel.message_encoding,
-                                       jsonschema.Draft202012Validator(text))
+            if schema.encoding == "jsonschema":
+                text = json.loads(schema.data)
+                jsonschema.Draft202012Validator.check_schema(text)
+                check = jsonschema.Draft202012Validator(text)
+            else:
+                check = decoders.decoder_for(channel.message_encoding, schema)
+                if check is None:
+                    problems.append(f"{channel.topic}: no decoder for {schema.encoding}/{channel.message_encoding}")
+                    continue
+            channels[channel.topic] = (schema.name, schema.encoding, channel.message_encoding, check)
         for schema, channel, message in reader.iter_messages():
             counts[channel.topic] += 1
             first = message.log_time if first is None else min(first, message.log_time)
             last = message.log_time if last is None else max(last, message.log_time)
             where = f"{channel.topic} at {message.log_time} ns"
-            try:
-                msg = json.loads(message.data)
-            except ValueError as e:
-                problems.append(f"{where}: not JSON: {e}")
+            if channel.topic not in channels:
                 continue
-            validator = channels[channel.topic][3]
-            errors = sorted(validator.iter_errors(msg), key=str)
-            if errors:
-                problems.append(f"{where}: does not match its schema: {errors[0].message}")
-                continue
+            check = channels[channel.topic][3]
+            if schema.encoding == "jsonschema":
+                try:
+                    msg = json.loads(message.data)
+                except ValueError as e:
+                    problems.append(f"{where}: not JSON: {e}")
+                    continue
+                errors = sorted(check.iter_errors(msg), key=str)
+                if errors:
+                    problems.append(f"{where}: does not match its schema: {errors[0].message}")
+                    continue
+            else:
+                try:
+                    msg = foxglove_json(check(message.data))
+                except Exception as e:  # any decoding failure is reported, not raised
+                    problems.append(f"{where}: does not decode as {schema.name}: {e}")
+                    continue
+            if schema.name in official:
+                checked[channel.topic] += 1
+                errors = sorted(official[schema.name].iter_errors(msg), key=str)
+                if errors:
+                    failed[channel.topic] += 1
+                    if failed[channel.topic] == 1:
+                        problems.append(f"{where}: fails Foxglove's {schema.name} schema: {errors[0].message}")
             stamp = stamp_ns(msg, schema.name)
             if stamp is not None and stamp != message.log_time:
                 problems.append(f"{where}: stamped {stamp} ns")
@@ -180,12 +243,16 @@ def main():
         elif name == "foxglove.ImageAnnotations":
             extra = f", {points[topic]} points drawn"
         print(f"  {topic}: {name} ({encoding}/{message_encoding}), {counts[topic]} messages{extra}")
+    if official:
+        for topic in sorted(channels):
+            print(f"  official schema {topic}: {checked[topic]} checked, {failed[topic]} failed")
 
     for topic, (name, encoding, message_encoding, _) in channels.items():
         if name not in FOXGLOVE:
             problems.append(f"{topic}: schema {name} is not one of Foxglove's")
-        if (encoding, message_encoding) != ("jsonschema", "json"):
-            problems.append(f"{topic}: encodings {encoding}/{message_encoding}, expected jsonschema/json")
+        want = ("jsonschema", "json") if args.encoding == "json" else ("protobuf", "protobuf")
+        if (encoding, message_encoding) != want:
+            problems.append(f"{topic}: encodings {encoding}/{message_encoding}, expected {want[0]}/{want[1]}")
     for topic, (name, per_frame) in expected_topics(args).items():
         if topic not in channels:
             problems.append(f"{topic}: missing")

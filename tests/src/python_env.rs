@@ -71,3 +71,47 @@ fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, Stri
     std::fs::write(&stamp, wanted).map_err(|e| format!("{}: {e}", stamp.display()))?;
     Ok(python)
 }
+
+/// The version of Foxglove's official schemas (the npm package `@foxglove/schemas`) that
+/// recordings are validated against.
+pub const FOXGLOVE_SCHEMAS_VERSION: &str = "2.1.0";
+
+/// A folder of Foxglove's official JSON Schemas, `<Name>.json` per type, made on first use
+/// from the npm package (`npm pack`, then `node` writes each exported schema) and kept beside
+/// the virtual environments; `Err` says why there is none (no npm or node, no network).
+///
+/// # Errors
+/// Why there are no schemas, for the test to say it skipped.
+pub fn foxglove_json_schemas() -> Result<PathBuf, String> {
+    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(make_foxglove_schemas).clone()
+}
+
+fn make_foxglove_schemas() -> Result<PathBuf, String> {
+    let home = std::env::var_os("HOME").ok_or("HOME is not set")?;
+    let dir = PathBuf::from(home).join(".cache").join(format!("dynotraj-foxglove-schemas-{FOXGLOVE_SCHEMAS_VERSION}"));
+    if dir.join("SceneUpdate.json").is_file() {
+        return Ok(dir);
+    }
+    let staging = dir.with_extension(format!("partial-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&staging);
+    std::fs::create_dir_all(&staging).map_err(|e| format!("{}: {e}", staging.display()))?;
+    let run = |cmd: &mut Command, what: &str| -> Result<(), String> {
+        let out = cmd.current_dir(&staging).output().map_err(|e| format!("{what}: {e}"))?;
+        if out.status.success() {
+            Ok(())
+        } else {
+            Err(format!("{what}: {}\n{}", out.status, String::from_utf8_lossy(&out.stderr).trim()))
+        }
+    };
+    let package = format!("@foxglove/schemas@{FOXGLOVE_SCHEMAS_VERSION}");
+    run(Command::new("npm").args(["pack", "--silent", &package]), "npm pack")?;
+    let tarball = format!("foxglove-schemas-{FOXGLOVE_SCHEMAS_VERSION}.tgz");
+    run(Command::new("tar").args(["xzf", &tarball]), "tar")?;
+    let dump = "const s = require('./package/dist/jsonschema/index.js'); const fs = require('fs'); \
+        for (const [name, schema] of Object.entries(s)) fs.writeFileSync(name + '.json', JSON.stringify(schema));";
+    run(Command::new("node").args(["-e", dump]), "node")?;
+    std::fs::rename(&staging, &dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    Ok(dir)
+}

@@ -50,10 +50,10 @@ fn the_report_folder_and_a_cached_rerun() {
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         assert_eq!(m.channel.schema.as_ref().unwrap().name, "foxglove.SceneUpdate");
-        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        let update = <foxglove::messages::SceneUpdate as foxglove::Decode>::decode(&m.data[..]).unwrap();
         let e = per_topic.entry(m.channel.topic.clone()).or_default();
         e.0 += 1;
-        e.1 += v["entities"].as_array().unwrap().len();
+        e.1 += update.entities.len();
     }
     let topics: Vec<&str> = per_topic.keys().map(String::as_str).collect();
     assert_eq!(

@@ -1,7 +1,9 @@
 //! `dynotraj forecast --record`, `dynotraj estimate --record` and `dynotraj track --record` on
-//! the committed image-sim fixture, read back by Python's `mcap` package (tests/python/read_recording.py), as a user's
-//! tools outside this workspace would: Foxglove's schema names, every message JSON matching its
-//! channel's schema, the expected topics with one message per frame.
+//! the committed image-sim fixture, in both encodings, read back by Python's `mcap` package
+//! (tests/python/read_recording.py), as a user's tools outside this workspace would: Foxglove's
+//! schema names, every message decoded (Protobuf with the file's descriptors, or JSON matching
+//! its channel's schema) and valid against Foxglove's official JSON Schema (npm
+//! `@foxglove/schemas`), the expected topics with one message per frame.
 //!
 //! Needs `cargo build -p dynotraj-cli` first. The Python packages live in a virtual environment
 //! outside the repository (`$DYNOTRAJ_VENV`, else `$HOME/.cache/dynotraj-venv`), made once from
@@ -22,7 +24,7 @@ use dynotraj_link::in_process::forecast;
 use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{dynotraj_command, scene_tracks};
 use dynotraj_tests::manifest_dir;
-use dynotraj_tests::python_env::python;
+use dynotraj_tests::python_env::{foxglove_json_schemas, python};
 
 /// Frames of the fixture's sequence 0000.
 const FIXTURE_FRAMES: usize = 24;
@@ -47,7 +49,8 @@ fn dynotraj(args: &[&str]) -> String {
 }
 
 /// Checks the recording at `path` is complete and reads it back with the Python script
-/// (`script_args` after the file); prints the script's summary.
+/// (`script_args` after the file), against Foxglove's official schemas when npm can fetch
+/// them (said when not); prints the script's summary.
 fn read_back(path: &Path, command: &str, script_args: &[&str]) {
     assert!(path.is_file(), "{} was not written", path.display());
     assert!(!partial_path(path).exists(), "the temporary file of {} is left", path.display());
@@ -61,11 +64,29 @@ fn read_back(path: &Path, command: &str, script_args: &[&str]) {
         }
     };
     let script = manifest_dir().join("python/read_recording.py");
-    let out = Command::new(python).arg(script).arg(command).arg(path).args(script_args).output().unwrap();
+    let mut cmd = Command::new(python);
+    cmd.arg(script).arg(command).arg(path).args(script_args);
+    let official = foxglove_json_schemas();
+    match &official {
+        Ok(dir) => {
+            cmd.arg("--official-schemas").arg(dir);
+        }
+        Err(why) => dynotraj_testkit::skipped("recording_official_schemas", &format!("no official schemas: {why}")),
+    }
+    let out = cmd.output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     let stderr = String::from_utf8_lossy(&out.stderr);
     eprintln!("{stdout}");
     assert!(out.status.success(), "read_recording.py {command} {}: {}\n{stderr}", path.display(), out.status);
+    if official.is_ok() {
+        let checked: Vec<&str> = stdout.lines().filter(|l| l.contains("official schema")).collect();
+        assert!(!checked.is_empty() && checked.iter().all(|l| l.ends_with(", 0 failed")), "{stdout}");
+    }
+}
+
+/// [`read_back`] of the same run recorded in Foxglove's JSON encoding.
+fn read_back_json(path: &Path, command: &str, script_args: &[&str]) {
+    read_back(path, command, &[script_args, &["--encoding", "json"]].concat());
 }
 
 #[test]
@@ -77,6 +98,10 @@ fn forecast_records_histories_and_forecasts() {
     assert!(stderr.contains("recorded"), "{stderr}");
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "forecast", &["--frames", &frames, "--predictor", "cv"]);
+    let json = out.join("rec-json.mcap");
+    let args = ["--out", out.to_str().unwrap(), "--record", json.to_str().unwrap(), "--record-encoding", "json"];
+    on_fixture("forecast", &args);
+    read_back_json(&json, "forecast", &["--frames", &frames, "--predictor", "cv"]);
 }
 
 #[test]
@@ -137,6 +162,10 @@ fn track_records_images_tracks_and_annotations() {
     assert!(out.join("0000.dtt").is_file(), "the tracks file is still written");
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "track", &["--frames", &frames]);
+    let json = dir.path().join("rec-json.mcap");
+    let args = ["--out", out.to_str().unwrap(), "--record", json.to_str().unwrap(), "--record-encoding", "json"];
+    on_fixture("track", &args);
+    read_back_json(&json, "track", &["--frames", &frames]);
 }
 
 #[test]
@@ -162,6 +191,12 @@ fn estimate_records_camera_objects_truth_and_points() {
     );
     let frames = FIXTURE_FRAMES.to_string();
     read_back(&rec, "estimate", &["--frames", &frames]);
+    let json = dir.path().join("rec-json.mcap");
+    on_fixture(
+        "estimate",
+        &["--ours-input", "tracks", "--record", json.to_str().unwrap(), "--record-encoding", "json"],
+    );
+    read_back_json(&json, "estimate", &["--frames", &frames]);
 }
 
 #[test]

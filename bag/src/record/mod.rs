@@ -1,9 +1,11 @@
 //! Recordings of what the pipeline computed, for a standard viewer: MCAP files whose messages
 //! use Foxglove's well-known schemas (`foxglove.SceneUpdate`, `foxglove.FrameTransform`,
 //! `foxglove.PosesInFrame`, `foxglove.PointCloud`, `foxglove.CompressedImage`,
-//! `foxglove.ImageAnnotations`) in the JSON
-//! encoding (schema encoding `jsonschema`, message encoding `json`), so that Foxglove, the
-//! `mcap` tool and Python's `mcap` package all read them without code of ours.
+//! `foxglove.ImageAnnotations`), so that Foxglove, rerun, the `mcap` tool and Python's `mcap`
+//! package all read them without code of ours. [`RecordingEncoding::Protobuf`] (the default)
+//! writes them as Foxglove's SDKs do, with the schemas as Protobuf FileDescriptorSets (from
+//! the `foxglove` crate): Foxglove and rerun both display it. [`RecordingEncoding::Json`]
+//! writes Foxglove's JSON encoding, every field of the schema present.
 //!
 //! [`Recorder`] writes one file: each method adds one message at a log time (nanoseconds,
 //! also the message's `timestamp`), creating its topic on first use.
@@ -15,9 +17,9 @@
 //! [`CAMERA_FRAME`] is the camera, in the camera convention (x right, y down, z forward).
 //! [`Pose::from_camera_world`] turns a camera-convention world pose into [`WORLD_FRAME`].
 //!
-//! The schemas are written here, compact and fully inlined (Foxglove's JSON-schema reader does
-//! not follow `$ref`); bytes fields are base64 strings with `contentEncoding: base64`, which is
-//! how Foxglove knows to decode them.
+//! The JSON schemas are written here, compact and fully inlined (Foxglove's JSON-schema reader
+//! does not follow `$ref`); bytes fields are base64 strings with `contentEncoding: base64`,
+//! which is how Foxglove knows to decode them.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -25,12 +27,18 @@ use std::io::{BufWriter, Write as _};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use base64::Engine as _;
-use serde_json::{Value, json};
+use foxglove::Encode;
+use foxglove::messages::{
+    self as fg, CompressedImage, FrameTransform, ImageAnnotations, KeyValuePair, LinePrimitive, PackedElementField,
+    PointCloud, PointsAnnotation, PosesInFrame, SceneEntity, SceneEntityDeletion, SceneUpdate, Timestamp,
+};
 
+use fg::packed_element_field::NumericType;
+use json::ToJson;
 pub use lines::{FORECAST_THICKNESS, TRAIL_THICKNESS, Trails, forecast_line, meta, trail_line};
 use schemas::schema_of;
 
+mod json;
 mod lines;
 mod schemas;
 #[cfg(test)]
@@ -54,21 +62,37 @@ pub const COMPRESSED_IMAGE: &str = "foxglove.CompressedImage";
 /// Schema name of 2D annotations drawn over an image.
 pub const IMAGE_ANNOTATIONS: &str = "foxglove.ImageAnnotations";
 
-/// The MCAP schema encoding of every schema written.
-pub const SCHEMA_ENCODING: &str = "jsonschema";
-/// The MCAP message encoding of every channel written.
-pub const MESSAGE_ENCODING: &str = "json";
+/// How a recording's messages are encoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RecordingEncoding {
+    /// Protobuf, the schemas as FileDescriptorSets: what Foxglove's SDKs write, displayed by
+    /// Foxglove and by rerun.
+    #[default]
+    Protobuf,
+    /// JSON, the schemas as JSON Schemas: readable without a Protobuf library; Foxglove displays
+    /// it, rerun does not.
+    Json,
+}
 
-/// The `foxglove.PointCloud` numeric type of a 32-bit float field (its `NumericType` enum).
-const FLOAT32: u32 = 7;
-/// The `foxglove.PointCloud` numeric type of an unsigned 32-bit integer field.
-const UINT32: u32 = 5;
-/// `foxglove.PointsAnnotation` type: each point drawn on its own.
-const POINTS: u32 = 1;
-/// `foxglove.LinePrimitive` type: a polyline through the points in order.
-const LINE_STRIP: u32 = 0;
-/// `foxglove.SceneEntityDeletion` type: every entity older than the deletion's timestamp.
-const DELETE_ALL: u32 = 1;
+impl RecordingEncoding {
+    /// The MCAP schema encoding (`protobuf` or `jsonschema`).
+    #[must_use]
+    pub const fn schema_encoding(self) -> &'static str {
+        match self {
+            Self::Protobuf => "protobuf",
+            Self::Json => "jsonschema",
+        }
+    }
+
+    /// The MCAP message encoding (`protobuf` or `json`).
+    #[must_use]
+    pub const fn message_encoding(self) -> &'static str {
+        match self {
+            Self::Protobuf => "protobuf",
+            Self::Json => "json",
+        }
+    }
+}
 
 /// A pose: position, metres, and orientation as a unit quaternion `[x, y, z, w]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,13 +120,13 @@ impl Pose {
         Pose { position: [x, z, -y], orientation: quaternion_product(turn, rotation) }
     }
 
-    fn to_json(self) -> Value {
+    fn message(self) -> fg::Pose {
         let [x, y, z] = self.position;
         let [qx, qy, qz, qw] = self.orientation;
-        json!({
-            "position": {"x": x, "y": y, "z": z},
-            "orientation": {"x": qx, "y": qy, "z": qz, "w": qw},
-        })
+        fg::Pose {
+            position: Some(fg::Vector3 { x, y, z }),
+            orientation: Some(fg::Quaternion { x: qx, y: qy, z: qz, w: qw }),
+        }
     }
 }
 
@@ -138,8 +162,8 @@ impl Rgba {
         Rgba { r, g, b, a: 1.0 }
     }
 
-    fn to_json(self) -> Value {
-        json!({"r": self.r, "g": self.g, "b": self.b, "a": self.a})
+    fn message(self) -> fg::Color {
+        fg::Color { r: self.r, g: self.g, b: self.b, a: self.a }
     }
 }
 
@@ -207,6 +231,7 @@ pub use dynotraj_formats::atomic::partial_path;
 pub struct Recorder {
     path: PathBuf,
     partial: PathBuf,
+    encoding: RecordingEncoding,
     writer: Option<mcap::Writer<BufWriter<File>>>,
     schemas: BTreeMap<&'static str, u16>,
     /// Topic -> (channel id, schema name).
@@ -222,11 +247,21 @@ impl std::fmt::Debug for Recorder {
 }
 
 impl Recorder {
-    /// Starts a recording to be written to `path` (its folder is created if needed).
+    /// Starts a recording to be written to `path` (its folder is created if needed) in the
+    /// default encoding.
     ///
     /// # Errors
     /// The folder or the temporary file cannot be created, named.
     pub fn create(path: &Path) -> anyhow::Result<Recorder> {
+        Self::create_with(path, RecordingEncoding::default())
+    }
+
+    /// Starts a recording to be written to `path` (its folder is created if needed) in
+    /// `encoding`.
+    ///
+    /// # Errors
+    /// The folder or the temporary file cannot be created, named.
+    pub fn create_with(path: &Path, encoding: RecordingEncoding) -> anyhow::Result<Recorder> {
         anyhow::ensure!(path.file_name().is_some(), "recording {}: expected a file name", path.display());
         dynotraj_formats::atomic::replaceable(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -243,6 +278,7 @@ impl Recorder {
         Ok(Recorder {
             path: path.to_path_buf(),
             partial,
+            encoding,
             writer: Some(writer),
             schemas: BTreeMap::new(),
             channels: BTreeMap::new(),
@@ -272,14 +308,14 @@ impl Recorder {
     /// # Errors
     /// Writing errors, or `topic` already used with another schema; named.
     pub fn camera_transform(&mut self, topic: &str, time_ns: u64, camera: &Pose) -> anyhow::Result<()> {
-        let p = camera.to_json();
-        let message = json!({
-            "timestamp": time(time_ns),
-            "parent_frame_id": WORLD_FRAME,
-            "child_frame_id": CAMERA_FRAME,
-            "translation": p["position"],
-            "rotation": p["orientation"],
-        });
+        let p = camera.message();
+        let message = FrameTransform {
+            timestamp: Some(time(time_ns)),
+            parent_frame_id: WORLD_FRAME.into(),
+            child_frame_id: CAMERA_FRAME.into(),
+            translation: p.position,
+            rotation: p.orientation,
+        };
         self.write(topic, FRAME_TRANSFORM, time_ns, &message)
     }
 
@@ -288,11 +324,11 @@ impl Recorder {
     /// # Errors
     /// Writing errors, or `topic` already used with another schema; named.
     pub fn poses(&mut self, topic: &str, time_ns: u64, frame_id: &str, poses: &[Pose]) -> anyhow::Result<()> {
-        let message = json!({
-            "timestamp": time(time_ns),
-            "frame_id": frame_id,
-            "poses": poses.iter().map(|p| p.to_json()).collect::<Vec<_>>(),
-        });
+        let message = PosesInFrame {
+            timestamp: Some(time(time_ns)),
+            frame_id: frame_id.into(),
+            poses: poses.iter().map(|p| p.message()).collect(),
+        };
         self.write(topic, POSES_IN_FRAME, time_ns, &message)
     }
 
@@ -304,33 +340,36 @@ impl Recorder {
     /// # Errors
     /// Writing errors, or `topic` already used with another schema; named.
     pub fn lines(&mut self, topic: &str, time_ns: u64, lines: &[Line]) -> anyhow::Result<()> {
-        let entities: Vec<Value> = lines
+        let entities = lines
             .iter()
-            .map(|l| {
-                json!({
-                    "timestamp": time(time_ns),
-                    "frame_id": WORLD_FRAME,
-                    "id": l.id,
-                    "lifetime": time(0),
-                    "frame_locked": false,
-                    "metadata": l.metadata.iter().map(|(k, v)| json!({"key": k, "value": v})).collect::<Vec<_>>(),
-                    "lines": [{
-                        "type": LINE_STRIP,
-                        "pose": Pose::IDENTITY.to_json(),
-                        "thickness": l.thickness,
-                        "scale_invariant": false,
-                        "points": l.points.iter().map(|&[x, y, z]| json!({"x": x, "y": y, "z": z})).collect::<Vec<_>>(),
-                        "color": l.color.to_json(),
-                        "colors": [],
-                        "indices": [],
-                    }],
-                })
+            .map(|l| SceneEntity {
+                timestamp: Some(time(time_ns)),
+                frame_id: WORLD_FRAME.into(),
+                id: l.id.clone(),
+                lifetime: Some(fg::Duration::new(0, 0)),
+                frame_locked: false,
+                metadata: l.metadata.iter().map(|(k, v)| KeyValuePair { key: k.clone(), value: v.clone() }).collect(),
+                lines: vec![LinePrimitive {
+                    r#type: fg::line_primitive::Type::LineStrip as i32,
+                    pose: Some(Pose::IDENTITY.message()),
+                    thickness: l.thickness,
+                    scale_invariant: false,
+                    points: l.points.iter().map(|&[x, y, z]| fg::Point3 { x, y, z }).collect(),
+                    color: Some(l.color.message()),
+                    colors: Vec::new(),
+                    indices: Vec::new(),
+                }],
+                ..SceneEntity::default()
             })
             .collect();
-        let message = json!({
-            "deletions": [{"timestamp": time(time_ns), "type": DELETE_ALL, "id": ""}],
-            "entities": entities,
-        });
+        let message = SceneUpdate {
+            deletions: vec![SceneEntityDeletion {
+                timestamp: Some(time(time_ns)),
+                r#type: fg::scene_entity_deletion::Type::All as i32,
+                id: String::new(),
+            }],
+            entities,
+        };
         self.write(topic, SCENE_UPDATE, time_ns, &message)
     }
 
@@ -342,7 +381,7 @@ impl Recorder {
     pub fn points(&mut self, topic: &str, time_ns: u64, frame_id: &str, points: &[[f32; 3]]) -> anyhow::Result<()> {
         let data: Vec<u8> = points.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
         let fields = [float_field("x", 0), float_field("y", 4), float_field("z", 8)];
-        self.point_cloud(topic, time_ns, frame_id, 12, &fields, &data)
+        self.point_cloud(topic, time_ns, frame_id, 12, &fields, data)
     }
 
     /// Points each carrying an unsigned integer (e.g. the object id) as a `foxglove.PointCloud`
@@ -370,9 +409,9 @@ impl Recorder {
             float_field("x", 0),
             float_field("y", 4),
             float_field("z", 8),
-            json!({"name": label, "offset": 12, "type": UINT32}),
+            PackedElementField { name: label.into(), offset: 12, r#type: NumericType::Uint32 as i32 },
         ];
-        self.point_cloud(topic, time_ns, frame_id, 16, &fields, &data)
+        self.point_cloud(topic, time_ns, frame_id, 16, &fields, data)
     }
 
     /// A `foxglove.PointCloud` of packed points `data`, `stride` bytes each, laid out as `fields`.
@@ -382,17 +421,17 @@ impl Recorder {
         time_ns: u64,
         frame_id: &str,
         stride: u32,
-        fields: &[Value],
-        data: &[u8],
+        fields: &[PackedElementField],
+        data: Vec<u8>,
     ) -> anyhow::Result<()> {
-        let message = json!({
-            "timestamp": time(time_ns),
-            "frame_id": frame_id,
-            "pose": Pose::IDENTITY.to_json(),
-            "point_stride": stride,
-            "fields": fields,
-            "data": base64::engine::general_purpose::STANDARD.encode(data),
-        });
+        let message = PointCloud {
+            timestamp: Some(time(time_ns)),
+            frame_id: frame_id.into(),
+            pose: Some(Pose::IDENTITY.message()),
+            point_stride: stride,
+            fields: fields.to_vec(),
+            data: data.into(),
+        };
         self.write(topic, POINT_CLOUD, time_ns, &message)
     }
 
@@ -404,23 +443,20 @@ impl Recorder {
     /// # Errors
     /// Writing errors, or `topic` already used with another schema; named.
     pub fn image_points(&mut self, topic: &str, time_ns: u64, groups: &[ImagePoints]) -> anyhow::Result<()> {
-        let annotations: Vec<Value> = groups
+        let points = groups
             .iter()
-            .map(|g| {
-                json!({
-                    "timestamp": time(time_ns),
-                    "type": POINTS,
-                    "points": g.points.iter().map(|&[x, y]| json!({"x": x + 0.5, "y": y + 0.5})).collect::<Vec<_>>(),
-                    "outline_color": g.color.to_json(),
-                    "outline_colors": [],
-                    "fill_color": g.color.to_json(),
-                    "thickness": g.size,
-                })
+            .map(|g| PointsAnnotation {
+                timestamp: Some(time(time_ns)),
+                r#type: fg::points_annotation::Type::Points as i32,
+                points: g.points.iter().map(|&[x, y]| fg::Point2 { x: x + 0.5, y: y + 0.5 }).collect(),
+                outline_color: Some(g.color.message()),
+                outline_colors: Vec::new(),
+                fill_color: Some(g.color.message()),
+                thickness: g.size,
+                metadata: Vec::new(),
             })
             .collect();
-        // Circles and texts are written empty rather than left out: every field of the schema
-        // is there, as Foxglove's own writers do.
-        let message = json!({"circles": [], "points": annotations, "texts": []});
+        let message = ImageAnnotations { timestamp: Some(time(time_ns)), points, ..ImageAnnotations::default() };
         self.write(topic, IMAGE_ANNOTATIONS, time_ns, &message)
     }
 
@@ -437,12 +473,12 @@ impl Recorder {
         format: &str,
         data: &[u8],
     ) -> anyhow::Result<()> {
-        let message = json!({
-            "timestamp": time(time_ns),
-            "frame_id": frame_id,
-            "data": base64::engine::general_purpose::STANDARD.encode(data),
-            "format": format,
-        });
+        let message = CompressedImage {
+            timestamp: Some(time(time_ns)),
+            frame_id: frame_id.into(),
+            data: data.to_vec().into(),
+            format: format.into(),
+        };
         self.write(topic, COMPRESSED_IMAGE, time_ns, &message)
     }
 
@@ -470,8 +506,15 @@ impl Recorder {
         Ok(RecordingSummary { path: self.path.clone(), bytes, messages: std::mem::take(&mut self.counts) })
     }
 
-    /// Writes `message` on `topic` (schema `schema`) at `time_ns`.
-    fn write(&mut self, topic: &str, schema: &'static str, time_ns: u64, message: &Value) -> anyhow::Result<()> {
+    /// Writes `message` on `topic` (schema `schema`) at `time_ns`, in the recording's encoding.
+    fn write<M: Encode + ToJson>(
+        &mut self,
+        topic: &str,
+        schema: &'static str,
+        time_ns: u64,
+        message: &M,
+    ) -> anyhow::Result<()> {
+        let encoding = self.encoding;
         let partial = &self.partial;
         let name = || format!("recording {}: topic {topic}", partial.display());
         let writer = self.writer.as_mut().with_context(|| format!("{}: already finished", name()))?;
@@ -482,18 +525,35 @@ impl Recorder {
                 let schema_id = match self.schemas.get(schema) {
                     Some(&id) => id,
                     None => {
-                        let text = serde_json::to_vec(&schema_of(schema)?).with_context(name)?;
-                        let id = writer.add_schema(schema, SCHEMA_ENCODING, &text).with_context(name)?;
+                        let text = match encoding {
+                            RecordingEncoding::Json => serde_json::to_vec(&schema_of(schema)?).with_context(name)?,
+                            RecordingEncoding::Protobuf => {
+                                let s =
+                                    M::get_schema().with_context(|| format!("{}: no schema of {schema}", name()))?;
+                                anyhow::ensure!(s.name == schema, "{}: schema {} for {schema}", name(), s.name);
+                                s.data.to_vec()
+                            }
+                        };
+                        let id = writer.add_schema(schema, encoding.schema_encoding(), &text).with_context(name)?;
                         self.schemas.insert(schema, id);
                         id
                     }
                 };
-                let id = writer.add_channel(schema_id, topic, MESSAGE_ENCODING, &BTreeMap::new()).with_context(name)?;
+                let id = writer
+                    .add_channel(schema_id, topic, encoding.message_encoding(), &BTreeMap::new())
+                    .with_context(name)?;
                 self.channels.insert(topic.to_string(), (id, schema));
                 id
             }
         };
-        let data = serde_json::to_vec(message).with_context(name)?;
+        let data = match encoding {
+            RecordingEncoding::Json => serde_json::to_vec(&message.to_json()).with_context(name)?,
+            RecordingEncoding::Protobuf => {
+                let mut buf = Vec::with_capacity(message.encoded_len().unwrap_or(0));
+                message.encode(&mut buf).map_err(|e| anyhow::anyhow!("{}: {e}", name()))?;
+                buf
+            }
+        };
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: self.sequence,
@@ -519,11 +579,13 @@ impl Drop for Recorder {
 }
 
 /// A 32-bit float field of a `foxglove.PointCloud` at byte `offset` of each point.
-fn float_field(name: &str, offset: u32) -> Value {
-    json!({"name": name, "offset": offset, "type": FLOAT32})
+fn float_field(name: &str, offset: u32) -> PackedElementField {
+    PackedElementField { name: name.into(), offset, r#type: NumericType::Float32 as i32 }
 }
 
-/// A `Time` (or `Duration`) of `ns` nanoseconds.
-fn time(ns: u64) -> Value {
-    json!({"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000})
+/// The time `ns` nanoseconds after the epoch (saturating past 2106).
+fn time(ns: u64) -> Timestamp {
+    let sec = u32::try_from(ns / 1_000_000_000).unwrap_or(u32::MAX);
+    // The remainder is below 10^9, which fits.
+    Timestamp::new(sec, u32::try_from(ns % 1_000_000_000).unwrap_or(0))
 }

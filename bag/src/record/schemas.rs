@@ -31,9 +31,11 @@ pub(super) fn schema_of(name: &str) -> anyhow::Result<Value> {
             object(&[("timestamp", time_schema()), ("frame_id", string()), ("data", bytes()), ("format", string())])
         }
         IMAGE_ANNOTATIONS => object(&[
+            ("timestamp", time_schema()),
             ("circles", array(circle_annotation())),
             ("points", array(points_annotation())),
             ("texts", array(text_annotation())),
+            ("metadata", array(key_value())),
         ]),
         _ => anyhow::bail!("no schema for {name}"),
     };
@@ -124,6 +126,7 @@ fn points_annotation() -> Value {
         ("outline_colors", array(color())),
         ("fill_color", color()),
         ("thickness", number()),
+        ("metadata", array(key_value())),
     ])
 }
 
@@ -156,7 +159,20 @@ fn entity() -> Value {
         ("id", string()),
         ("lifetime", time_schema()),
         ("frame_locked", boolean()),
-        ("metadata", array(object(&[("key", string()), ("value", string())]))),
+        ("metadata", array(key_value())),
+        // The primitives the recordings do not draw: always empty, present as the schema
+        // requires.
+        ("arrows", array(json!({"type": "object"}))),
+        ("cubes", array(json!({"type": "object"}))),
+        ("spheres", array(json!({"type": "object"}))),
+        ("cylinders", array(json!({"type": "object"}))),
         ("lines", array(line_primitive())),
+        ("triangles", array(json!({"type": "object"}))),
+        ("texts", array(json!({"type": "object"}))),
+        ("models", array(json!({"type": "object"}))),
     ])
+}
+
+fn key_value() -> Value {
+    object(&[("key", string()), ("value", string())])
 }

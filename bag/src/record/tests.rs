@@ -1,6 +1,8 @@
 //! Recordings written and read back with the mcap crate, checked against their schemas.
 
 use super::*;
+use base64::Engine as _;
+use serde_json::{Value, json};
 
 /// Checks `value` against the subset of JSON Schema written here (type, properties,
 /// required, items, enum, minimum, maximum), naming the path of the first mismatch.
@@ -64,8 +66,8 @@ fn line(id: &str, n: usize) -> Line {
 }
 
 /// Writes three frames on every kind of topic.
-fn write_sample(path: &Path) -> RecordingSummary {
-    let mut rec = Recorder::create(path).unwrap();
+fn write_sample(path: &Path, encoding: RecordingEncoding) -> RecordingSummary {
+    let mut rec = Recorder::create_with(path, encoding).unwrap();
     for frame in 0..3u32 {
         let t = frame_time_ns(frame, 20.0).unwrap();
         let camera = Pose::from_camera_world([0.0, 0.0, f64::from(frame)], [0.0, 0.0, 0.0, 1.0]);
@@ -88,7 +90,7 @@ fn write_sample(path: &Path) -> RecordingSummary {
 fn a_recording_reads_back_with_foxglove_schemas_and_json_messages() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("sub").join("rec.mcap");
-    let summary = write_sample(&path);
+    let summary = write_sample(&path, RecordingEncoding::Json);
     assert_eq!(summary.path, path);
     assert!(!partial_path(&path).exists(), "the temporary file is renamed");
     let bytes = std::fs::read(&path).unwrap();
@@ -115,20 +117,14 @@ fn a_recording_reads_back_with_foxglove_schemas_and_json_messages() {
         let schema = m.channel.schema.as_ref().expect("every channel has a schema");
         let want = expected.iter().find(|(t, _)| *t == m.channel.topic).expect("a known topic").1;
         assert_eq!(schema.name, want, "{}", m.channel.topic);
-        assert_eq!(schema.encoding, SCHEMA_ENCODING);
-        assert_eq!(m.channel.message_encoding, MESSAGE_ENCODING);
+        assert_eq!(schema.encoding, "jsonschema");
+        assert_eq!(m.channel.message_encoding, "json");
         assert_eq!(m.log_time, m.publish_time);
         let schema: Value = serde_json::from_slice(&schema.data).unwrap();
         let msg: Value = serde_json::from_slice(&m.data).unwrap();
         conforms(&schema, &msg, &m.channel.topic).unwrap();
         // The stamp inside is the log time.
-        let stamp = if schema["title"] == SCENE_UPDATE {
-            &msg["deletions"][0]["timestamp"]
-        } else if schema["title"] == IMAGE_ANNOTATIONS {
-            &msg["points"][0]["timestamp"]
-        } else {
-            &msg["timestamp"]
-        };
+        let stamp = if schema["title"] == SCENE_UPDATE { &msg["deletions"][0]["timestamp"] } else { &msg["timestamp"] };
         assert_eq!(stamp["sec"].as_u64().unwrap() * 1_000_000_000 + stamp["nsec"].as_u64().unwrap(), m.log_time);
         match m.channel.topic.as_str() {
             "/tf" => {
@@ -158,12 +154,12 @@ fn a_recording_reads_back_with_foxglove_schemas_and_json_messages() {
                 assert_eq!(f32::from_le_bytes(data[16..20].try_into().unwrap()), 4.0);
                 assert_eq!(u32::from_le_bytes(data[12..16].try_into().unwrap()), 7);
                 assert_eq!(u32::from_le_bytes(data[28..32].try_into().unwrap()), 65_535);
-                assert_eq!(msg["fields"][3], json!({"name": "object_id", "offset": 12, "type": UINT32}));
+                assert_eq!(msg["fields"][3], json!({"name": "object_id", "offset": 12, "type": 5}));
             }
             "/camera/annotations" => {
                 let groups = msg["points"].as_array().unwrap();
                 assert_eq!(groups.len(), 2);
-                assert_eq!(groups[1]["type"], POINTS);
+                assert_eq!(groups[1]["type"], 1, "POINTS");
                 // Shifted half a pixel: Foxglove's origin is the top-left pixel's corner.
                 assert_eq!(groups[1]["points"][1], json!({"x": 10.5, "y": 149.5}));
                 assert_eq!(groups[1]["outline_color"]["r"], 1.0);
@@ -233,4 +229,57 @@ fn a_recording_never_replaces_a_device_or_a_link() {
     assert_eq!(std::fs::read(&target).unwrap(), b"kept");
     assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
     assert!(!dir.path().join("link.mcap.partial").exists(), "nothing left behind");
+}
+
+/// The Protobuf recording holds what the JSON one does: every message decoded with the schema
+/// types of the `foxglove` crate, written out in the JSON encoding, is the JSON recording's
+/// message; each schema is the FileDescriptorSet of its type.
+#[test]
+fn a_protobuf_recording_holds_the_json_recordings_messages() {
+    use foxglove::Decode;
+
+    fn json_of<M: Decode + ToJson>(data: &[u8]) -> Value
+    where
+        M::Error: std::fmt::Debug,
+    {
+        M::decode(data).unwrap().to_json()
+    }
+
+    let dir = tempfile::tempdir().unwrap();
+    let (pb, js) = (dir.path().join("pb.mcap"), dir.path().join("js.mcap"));
+    assert_eq!(
+        write_sample(&pb, RecordingEncoding::Protobuf).messages,
+        write_sample(&js, RecordingEncoding::Json).messages
+    );
+    let (pb, js) = (std::fs::read(&pb).unwrap(), std::fs::read(&js).unwrap());
+    let pairs = mcap::MessageStream::new(&pb).unwrap().zip(mcap::MessageStream::new(&js).unwrap());
+    let mut n = 0;
+    for (p, j) in pairs {
+        let (p, j) = (p.unwrap(), j.unwrap());
+        assert_eq!((&p.channel.topic, p.log_time), (&j.channel.topic, j.log_time));
+        let schema = p.channel.schema.as_ref().unwrap();
+        assert_eq!((schema.encoding.as_str(), p.channel.message_encoding.as_str()), ("protobuf", "protobuf"));
+        let decoded = match schema.name.as_str() {
+            SCENE_UPDATE => json_of::<SceneUpdate>(&p.data),
+            FRAME_TRANSFORM => json_of::<FrameTransform>(&p.data),
+            POSES_IN_FRAME => json_of::<PosesInFrame>(&p.data),
+            POINT_CLOUD => json_of::<PointCloud>(&p.data),
+            COMPRESSED_IMAGE => json_of::<CompressedImage>(&p.data),
+            IMAGE_ANNOTATIONS => json_of::<ImageAnnotations>(&p.data),
+            other => panic!("unexpected schema {other}"),
+        };
+        let expected: Value = serde_json::from_slice(&j.data).unwrap();
+        assert_eq!(decoded, expected, "{} at {}", p.channel.topic, p.log_time);
+        let descriptor = match schema.name.as_str() {
+            SCENE_UPDATE => SceneUpdate::get_schema(),
+            FRAME_TRANSFORM => FrameTransform::get_schema(),
+            POSES_IN_FRAME => PosesInFrame::get_schema(),
+            POINT_CLOUD => PointCloud::get_schema(),
+            COMPRESSED_IMAGE => CompressedImage::get_schema(),
+            _ => ImageAnnotations::get_schema(),
+        };
+        assert_eq!(schema.data.as_ref(), descriptor.unwrap().data.as_ref(), "{}", schema.name);
+        n += 1;
+    }
+    assert_eq!(n, 24);
 }

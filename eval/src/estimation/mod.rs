@@ -30,6 +30,7 @@ use crate::report::Table;
 use crate::report::estimator_tables::{
     cost_table, counters_table, data_tables, per_object_table, replay_tables, rpe_sources_table, tables,
 };
+use dynotraj_bag::record::RecordingEncoding;
 
 /// An `--outliers` share from which most of the simulated tracks lie: the estimate is then
 /// expected to fail, which deserves a word before it does.
@@ -206,13 +207,14 @@ pub fn record_sequences(
     results: &[SequenceResult],
     several_profiles: bool,
     rate_hz: f64,
+    encoding: RecordingEncoding,
 ) -> anyhow::Result<Vec<String>> {
     let mut said = Vec::new();
     for r in results {
         let path = record_path(target, results.len() > 1, several_profiles.then_some(r.profile), &r.id);
         let frames: Vec<(u32, &[Track])> = r.sim.iter().map(|f| (f.frame, f.tracks.as_slice())).collect();
         let input = RecordInput { frames: &frames, run: &r.run, truth: &r.sim, intrinsics: r.intrinsics, rate_hz };
-        said.push(recorded(&record_estimate(&path, &input).context("--record")?));
+        said.push(recorded(&record_estimate(&path, encoding, &input).context("--record")?));
     }
     Ok(said)
 }
@@ -274,7 +276,7 @@ impl Replay {
     ///
     /// # Errors
     /// Writing errors, named.
-    pub fn record(&self, source: &Path, target: &Path) -> anyhow::Result<String> {
+    pub fn record(&self, source: &Path, target: &Path, encoding: RecordingEncoding) -> anyhow::Result<String> {
         let stem = source.file_stem().map_or_else(|| "replay".into(), |s| s.to_string_lossy().into_owned());
         let file = record_path(target, false, None, &stem);
         let frames: Vec<(u32, &[Track])> =
@@ -286,7 +288,7 @@ impl Replay {
             intrinsics: self.intrinsics,
             rate_hz: self.rate_hz,
         };
-        Ok(recorded(&record_estimate(&file, &input).context("--record")?))
+        Ok(recorded(&record_estimate(&file, encoding, &input).context("--record")?))
     }
 }
 
@@ -347,6 +349,8 @@ pub struct EstimateRequest<'a> {
     pub out: Option<&'a Path>,
     /// Where recordings go.
     pub record: Option<&'a Path>,
+    /// The encoding of recordings.
+    pub record_encoding: RecordingEncoding,
     /// Whether more than one profile is run (results then go in a folder per profile).
     pub several_profiles: bool,
 }
@@ -411,7 +415,7 @@ pub fn estimate(
                 out.before.push(format!("wrote {}", dir.display()));
             }
             if let Some(target) = request.record {
-                out.before.push(r.record(tracks, target)?);
+                out.before.push(r.record(tracks, target, request.record_encoding)?);
             }
             let (t, counters) =
                 replay_tables(&tracks.display().to_string(), r.frames.len(), &r.run, r.estimate_seconds);
@@ -448,7 +452,13 @@ pub fn estimate(
                 }
             }
             if let Some(target) = request.record {
-                out.after.extend(record_sequences(target, &results, request.several_profiles, f64::from(*rate_hz))?);
+                out.after.extend(record_sequences(
+                    target,
+                    &results,
+                    request.several_profiles,
+                    f64::from(*rate_hz),
+                    request.record_encoding,
+                )?);
             }
         }
     }

@@ -289,6 +289,8 @@ pub struct ReportFolder<'a> {
     pub dir: &'a Path,
     /// Where the test sequences' recordings go, if anywhere.
     pub record: Option<&'a Path>,
+    /// The encoding of recordings.
+    pub record_encoding: dynotraj_bag::record::RecordingEncoding,
     /// The command line the report names.
     pub command: String,
     /// The objects the per-object figures draw.
@@ -319,7 +321,7 @@ pub fn write_report_folder(
     if let Some(record) = folder.record {
         let tests: Vec<&SequenceTracks> = sequences.iter().filter(|s| folder.tests.contains(&s.id)).collect();
         let fold_models = FoldModels::load(&models, run.arms, sequences)?;
-        for w in write_recordings(record, &tests, run.arms, &fold_models, &shown, run.dt)? {
+        for w in write_recordings(record, folder.record_encoding, &tests, run.arms, &fold_models, &shown, run.dt)? {
             said.push(crate::recording::recorded(&w));
         }
     }

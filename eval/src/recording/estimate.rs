@@ -1,7 +1,9 @@
 //! The recording of an estimator run: the camera's path, the objects' estimated (and true)
 //! trails, and the tracks the estimator measured, back-projected.
 
-use dynotraj_bag::record::{CAMERA_FRAME, Pose, Recorder, RecordingSummary, Rgba, Trails, WORLD_FRAME, meta};
+use dynotraj_bag::record::{
+    CAMERA_FRAME, Pose, Recorder, RecordingEncoding, RecordingSummary, Rgba, Trails, WORLD_FRAME, meta,
+};
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::Track;
 use dynotraj_sim::track_sim::SimFrame;
@@ -37,8 +39,12 @@ const TRUTH_COLOR: Rgba = Rgba::opaque(0.2, 0.85, 0.3);
 ///
 /// # Errors
 /// Writing errors, named.
-pub fn record_estimate(path: &std::path::Path, input: &RecordInput<'_>) -> anyhow::Result<RecordingSummary> {
-    let mut rec = Recorder::create(path)?;
+pub fn record_estimate(
+    path: &std::path::Path,
+    encoding: RecordingEncoding,
+    input: &RecordInput<'_>,
+) -> anyhow::Result<RecordingSummary> {
+    let mut rec = Recorder::create_with(path, encoding)?;
     let mut camera_path: Vec<Pose> = Vec::new();
     let mut truth_path: Vec<Pose> = Vec::new();
     let mut estimated = Trails::new(ESTIMATED_COLOR);

@@ -7,7 +7,8 @@ use std::path::Path;
 
 use anyhow::Context as _;
 use dynotraj_bag::record::{
-    Line, Recorder, RecordingSummary, Rgba, forecast_line as forecast_entity, ground, meta, trail_line,
+    Line, Recorder, RecordingEncoding, RecordingSummary, Rgba, forecast_line as forecast_entity, ground, meta,
+    trail_line,
 };
 use dynotraj_core::limits::HORIZON;
 use dynotraj_core::predict::{Baseline, Predictor};
@@ -55,6 +56,7 @@ fn forecast_line(
 /// A recording that cannot be written, named.
 pub fn write_recordings(
     dir: &Path,
+    encoding: RecordingEncoding,
     tests: &[&SequenceTracks],
     arms: &[Source],
     models: &FoldModels,
@@ -66,7 +68,7 @@ pub fn write_recordings(
     let mut out = Vec::new();
     for seq in tests {
         let path = dir.join(format!("{}.mcap", seq.id));
-        let mut rec = Recorder::create(&path)?;
+        let mut rec = Recorder::create_with(&path, encoding)?;
         let arms: Vec<Source> = arms.iter().copied().filter(|a| seq.has(*a)).collect();
         let prepared: Vec<ArmRuns> = arms
             .iter()

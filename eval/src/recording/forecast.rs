@@ -4,7 +4,9 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use dynotraj_bag::record::{Line, Pose, Recorder, RecordingSummary, Rgba, Trails, forecast_line, ground, meta};
+use dynotraj_bag::record::{
+    Line, Pose, Recorder, RecordingEncoding, RecordingSummary, Rgba, Trails, forecast_line, ground, meta,
+};
 use dynotraj_core::geometry::{BevState, Point2};
 use dynotraj_core::limits::{HORIZON, MAX_HISTORY};
 use dynotraj_core::predict::{Forecast, constant_velocity};
@@ -42,6 +44,7 @@ pub enum Forecaster {
 /// Writing errors, named.
 pub fn record_forecasts(
     path: &Path,
+    encoding: RecordingEncoding,
     tracks: &Tracks,
     result: &StreamResult,
     forecaster: Forecaster,
@@ -63,7 +66,7 @@ pub fn record_forecasts(
         // The edge's frame period, 1 / the camera model's rate: its forecasts' dt too.
         Forecaster::Learned => Some(cv_forecasts(&states, &predictions, 1.0 / tracks.camera.frame_rate_hz)),
     };
-    let mut rec = Recorder::create(path)?;
+    let mut rec = Recorder::create_with(path, encoding)?;
     let mut history = Trails::new(HISTORY_COLOR);
     for frame in &tracks.frames {
         let t = rec.frame_time(frame.frame, rate)?;

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingSummary, Rgba};
+use dynotraj_bag::record::{CAMERA_FRAME, ImagePoints, Recorder, RecordingEncoding, RecordingSummary, Rgba};
 use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::{CameraInfo, Track};
 
@@ -40,8 +40,13 @@ impl TrackRecorder {
     ///
     /// # Errors
     /// The recording cannot be created, named.
-    pub fn create(path: &Path, left_dir: PathBuf, camera: &CameraInfo) -> anyhow::Result<Self> {
-        Ok(Self { rec: Recorder::create(path)?, left_dir, camera: Intrinsics::from(camera) })
+    pub fn create(
+        path: &Path,
+        encoding: RecordingEncoding,
+        left_dir: PathBuf,
+        camera: &CameraInfo,
+    ) -> anyhow::Result<Self> {
+        Ok(Self { rec: Recorder::create_with(path, encoding)?, left_dir, camera: Intrinsics::from(camera) })
     }
 
     /// Ends the recording.
