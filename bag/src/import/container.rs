@@ -148,6 +148,22 @@ pub fn check_bytes(bytes: &[u8]) -> anyhow::Result<()> {
     walk(std::io::Cursor::new(bytes), bytes.len() as u64, "bytes")
 }
 
+/// What the import does with a file's bytes, on bytes in memory: [`check_bytes`], then every
+/// message read in file order and its payload taken ([`payload`]); returns the messages read.
+///
+/// # Errors
+/// As [`check_bytes`], a record the MCAP reader refuses, or a payload that does not decompress.
+pub fn read_messages(bytes: &[u8]) -> anyhow::Result<usize> {
+    check_bytes(bytes)?;
+    let mut n = 0;
+    for m in mcap::io::MessageReader::new(std::io::Cursor::new(bytes)) {
+        let m = m.map_err(|e| anyhow::anyhow!("bytes: not a readable MCAP file after {n} messages: {e}"))?;
+        payload(&m.data).map_err(|e| anyhow::anyhow!("bytes: message {n}: {e}"))?;
+        n += 1;
+    }
+    Ok(n)
+}
+
 /// Walks the records of `size` bytes read from `r`, `name` naming them in errors.
 fn walk(mut r: impl Read + Seek, size: u64, name: &str) -> anyhow::Result<()> {
     let mut magic = [0u8; 8];
@@ -229,5 +245,6 @@ mod tests {
         }
         let e = check_bytes(b"not mcap").unwrap_err().to_string();
         assert!(e.contains("not an MCAP file"), "{e}");
+        assert_eq!(read_messages(&bytes).unwrap(), 20);
     }
 }
