@@ -34,6 +34,17 @@ pub fn ray_python() -> Result<PathBuf, String> {
         .clone()
 }
 
+/// The Python of rerun's environment (tests/python/rerun-requirements.txt), made on first use.
+///
+/// # Errors
+/// Why there is no environment, for the test to say it skipped.
+pub fn rerun_python() -> Result<PathBuf, String> {
+    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(|| make_venv(&manifest_dir().join("python/rerun-requirements.txt"), "dynotraj-rerun-venv"))
+        .clone()
+}
+
 fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, String> {
     let wanted = std::fs::read_to_string(requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
     let home_cache = std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache"));

@@ -210,3 +210,59 @@ fn estimate_with_several_profiles_records_a_folder() {
         assert!(!partial_path(&path).exists());
     }
 }
+
+/// rerun's own converter (`rerun mcap convert`, rerun-sdk 0.41) turns every channel of the
+/// Protobuf recordings into typed data: rerun's archetypes (Transform3D, InstancePoses3D,
+/// Points3D, EncodedImage) or, for the schemas rerun has no archetype of (SceneUpdate,
+/// ImageAnnotations), the decoded message; never `McapMessage:data`, the opaque blob that JSON
+/// channels become. Skipped, and said so, without rerun's environment.
+#[test]
+fn rerun_reads_every_recording_channel_as_typed_data() {
+    let python = match dynotraj_tests::python_env::rerun_python() {
+        Ok(p) => p,
+        Err(why) => {
+            dynotraj_testkit::skipped("rerun_reads_every_recording_channel", &format!("no rerun environment: {why}"));
+            return;
+        }
+    };
+    let rerun = python.with_file_name("rerun");
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    on_fixture("track", &["--frames", "6", "--out", &p("t"), "--record", &p("track.mcap")]);
+    on_fixture("estimate", &["--ours-input", "tracks", "--record", &p("estimate.mcap")]);
+    dynotraj(&["forecast", "--tracks", &p("t/0000.dtt"), "--out", &p("f"), "--record", &p("forecast.mcap")]);
+    let rerun_run = |args: &[&str]| {
+        let out = Command::new(&rerun).args(args).env("RERUN_ANALYTICS", "0").output().unwrap();
+        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        assert!(out.status.success(), "rerun {args:?}: {said}");
+        said
+    };
+    for name in ["track", "estimate", "forecast"] {
+        let (mcap, rrd) = (p(&format!("{name}.mcap")), p(&format!("{name}.rrd")));
+        rerun_run(&["mcap", "convert", "--disable-raw-fallback", &mcap, "-o", &rrd]);
+        let printed = rerun_run(&["rrd", "print", &rrd]);
+        // Each data chunk: "... - /topic - data columns: [Column:name ...]".
+        let mut typed: BTreeMap<String, String> = BTreeMap::new();
+        for line in printed.lines().filter(|l| l.contains(" - data columns: [")) {
+            let (head, columns) = line.split_once(" - data columns: [").unwrap();
+            let topic = head.rsplit(" - ").next().unwrap().to_string();
+            if topic.starts_with("/__") || columns.starts_with("McapChannel:") {
+                continue;
+            }
+            assert!(!columns.contains("McapMessage:data"), "{name}: {topic} is an opaque blob: {columns}");
+            typed.insert(topic, columns.trim_end_matches(']').to_string());
+        }
+        let summary = read_summary(&mcap);
+        for topic in &summary {
+            assert!(typed.contains_key(topic), "{name}: {topic} has no typed data in rerun:\n{printed}");
+        }
+        eprintln!("{name}: {typed:#?}");
+    }
+}
+
+/// The topics of the recording at `path`.
+fn read_summary(path: &str) -> Vec<String> {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    summary.channels.values().map(|c| c.topic.clone()).collect()
+}
