@@ -75,6 +75,14 @@ pub fn payload(data: &[u8]) -> Result<Cow<'_, [u8]>, String> {
     if !data.starts_with(&ZSTD_MAGIC) {
         return Ok(Cow::Borrowed(data));
     }
+    // A frame that declares its size is refused before anything is decompressed.
+    if let Ok(Some(size)) = zstd::zstd_safe::get_frame_content_size(data)
+        && size > MAX_RECORD_BYTES
+    {
+        return Err(format!(
+            "a zstd-compressed message that declares {size} bytes, over the {MAX_RECORD_BYTES} bytes this build reads"
+        ));
+    }
     let mut out = Vec::new();
     zstd::stream::read::Decoder::new(data)
         .and_then(|d| d.take(MAX_RECORD_BYTES + 1).read_to_end(&mut out))
@@ -246,5 +254,22 @@ mod tests {
         let e = check_bytes(b"not mcap").unwrap_err().to_string();
         assert!(e.contains("not an MCAP file"), "{e}");
         assert_eq!(read_messages(&bytes).unwrap(), 20);
+    }
+
+    #[test]
+    fn a_compressed_message_over_the_limit_is_refused_before_it_is_decompressed() {
+        // 600 MiB of zeros compress to a few kilobytes, and the frame says how many there are.
+        let mut enc = zstd::stream::write::Encoder::new(Vec::new(), 3).unwrap();
+        enc.set_pledged_src_size(Some(600 << 20)).unwrap();
+        let chunk = vec![0u8; 1 << 20];
+        for _ in 0..600 {
+            std::io::Write::write_all(&mut enc, &chunk).unwrap();
+        }
+        let bomb = enc.finish().unwrap();
+        assert!(bomb.len() < 1 << 20, "{} bytes", bomb.len());
+        let e = payload(&bomb).unwrap_err();
+        assert!(e.contains("declares 629145600 bytes, over the 536870912"), "{e}");
+        let small = zstd::encode_all(&b"cdr"[..], 3).unwrap();
+        assert_eq!(payload(&small).unwrap().as_ref(), b"cdr");
     }
 }
