@@ -106,7 +106,7 @@ fn run_target(target: &str, data: &[u8]) {
             drop(ros2::decode::<ros2::CameraInfo>(data));
             drop(ros2::decode::<ros2::Detection2DArray>(data));
         }
-        "mcap_container" => drop(dynotraj_bag::import::container::check_bytes(data)),
+        "mcap_container" => drop(dynotraj_bag::import::container::read_messages(data)),
         "image_decode" => drop(dynotraj_bag::import::decode_compressed_image(data)),
         other => panic!("unknown fuzz target {other}"),
     }

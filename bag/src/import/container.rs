@@ -172,6 +172,63 @@ pub fn read_messages(bytes: &[u8]) -> anyhow::Result<usize> {
     Ok(n)
 }
 
+/// Reads a chunk's fields after its sizes (CRC, compression, records' length), `left` bytes
+/// of the chunk remaining, and, when the records are stored uncompressed, walks them: each must
+/// end within the chunk (the MCAP reader subtracts a record's length from what the chunk has
+/// left without checking, and wraps past its end). Returns the bytes read.
+fn check_chunk_records(r: &mut impl Read, left: u64, name: &str) -> anyhow::Result<u64> {
+    let mut chunk = ChunkReader { r, read: 0, left, name };
+    let head = chunk.take(8, "CRC and compression")?;
+    let compression_len =
+        u64::from(u32::from_le_bytes(head.get(4..8).and_then(|b| b.try_into().ok()).unwrap_or_default()));
+    // A compression name is a word (`zstd`, `lz4`); anything longer is damage.
+    ensure!(compression_len <= 64, "{name}: a compression name of {compression_len} bytes (damaged)");
+    let compression = chunk.take(compression_len, "compression")?;
+    let records_len = u64::from_le_bytes(chunk.take(8, "records' length")?.try_into().unwrap_or_default());
+    let rest = left - chunk.read;
+    ensure!(records_len <= rest, "{name} claims {records_len} bytes of records, it has {rest} left (damaged)");
+    if !compression.is_empty() {
+        return Ok(chunk.read);
+    }
+    let mut inner = records_len;
+    while inner > 0 {
+        ensure!(inner >= 9, "{name} ends its records inside a record's header (damaged)");
+        let head = chunk.take(9, "records")?;
+        let length = u64::from_le_bytes(head.get(1..9).and_then(|b| b.try_into().ok()).unwrap_or_default());
+        inner -= 9;
+        ensure!(length <= inner, "{name} holds a record of {length} bytes with {inner} left in it (damaged)");
+        chunk.skip(length)?;
+        inner -= length;
+    }
+    Ok(chunk.read)
+}
+
+/// Reads within a chunk of `left` bytes, counting what it read.
+struct ChunkReader<'a, R> {
+    r: &'a mut R,
+    read: u64,
+    left: u64,
+    name: &'a str,
+}
+
+impl<R: Read> ChunkReader<'_, R> {
+    fn take(&mut self, n: u64, what: &str) -> anyhow::Result<Vec<u8>> {
+        ensure!(self.read + n <= self.left, "{} ends inside its {what} (damaged)", self.name);
+        let mut bytes = vec![0u8; usize::try_from(n).unwrap_or(usize::MAX)];
+        self.r.read_exact(&mut bytes).with_context(|| format!("{}: reading its {what}", self.name))?;
+        self.read += n;
+        Ok(bytes)
+    }
+
+    fn skip(&mut self, n: u64) -> anyhow::Result<()> {
+        let skipped = std::io::copy(&mut self.r.by_ref().take(n), &mut std::io::sink())
+            .with_context(|| format!("{}: reading its records", self.name))?;
+        ensure!(skipped == n, "{} ends inside its records (truncated)", self.name);
+        self.read += n;
+        Ok(())
+    }
+}
+
 /// Walks the records of `size` bytes read from `r`, `name` naming them in errors.
 fn walk(mut r: impl Read + Seek, size: u64, name: &str) -> anyhow::Result<()> {
     let mut magic = [0u8; 8];
@@ -209,6 +266,7 @@ fn walk(mut r: impl Read + Seek, size: u64, name: &str) -> anyhow::Result<()> {
                  bytes this build reads in one chunk"
             );
             skip -= 24;
+            skip -= check_chunk_records(&mut r, skip, &format!("{name}: byte {at}: a chunk"))?;
         }
         r.seek(SeekFrom::Current(i64::try_from(skip).unwrap_or(i64::MAX)))
             .with_context(|| format!("reading {name} at byte {at}"))?;
@@ -254,6 +312,32 @@ mod tests {
         let e = check_bytes(b"not mcap").unwrap_err().to_string();
         assert!(e.contains("not an MCAP file"), "{e}");
         assert_eq!(read_messages(&bytes).unwrap(), 20);
+    }
+
+    /// An uncompressed chunk whose inner record claims more than the chunk holds (found by the
+    /// fuzzer: the MCAP reader's count of the chunk's bytes went below zero).
+    #[test]
+    fn a_record_longer_than_its_chunk_is_refused() {
+        let mut out = Vec::new();
+        let options = mcap::WriteOptions::new().compression(None);
+        let mut w = options.create(std::io::Cursor::new(&mut out)).unwrap();
+        let schema = w.add_schema("s", "ros2msg", b"").unwrap();
+        let channel = w.add_channel(schema, "/t", "cdr", &std::collections::BTreeMap::new()).unwrap();
+        let header = mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: 0, publish_time: 0 };
+        w.write_to_known_channel(&header, b"abcd").unwrap();
+        w.finish().unwrap();
+        drop(w);
+        read_messages(&out).unwrap();
+        // The chunk's first inner record: grow its length past the chunk's end.
+        let chunk = (8..out.len()).find(|&i| out[i] == CHUNK && out[i + 1..i + 9] != [0; 8]).unwrap();
+        let records = chunk + 9 + 24 + 4 + 4 + 8;
+        let len = u64::from_le_bytes(out[records + 1..records + 9].try_into().unwrap());
+        out[records + 1..records + 9].copy_from_slice(&(len + 1000).to_le_bytes());
+        let e = read_messages(&out).unwrap_err().to_string();
+        assert!(e.contains("a chunk holds a record of") && e.contains("(damaged)"), "{e}");
+        let crash = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fuzz/regressions/mcap_container/crash-252c1f3457c36f5804e4a59c9be347a798645de0");
+        assert!(read_messages(&std::fs::read(crash).unwrap()).is_err());
     }
 
     #[test]
