@@ -4,7 +4,7 @@
 //! to the renderer can be timed and checked for identical output.
 //!
 //! `cargo run --release -p dynotraj-sim --example render_speed -- DIR [SEQS] [FRAMES] [OPTICS] [THREADS] [SCALE]`
-//! DIR: a KITTI tracking split (label_02/, calib/, poses); SEQS: comma-separated ids (default
+//! DIR: a KITTI tracking split (label_02/, calib/, poses; default `$DYNOTRAJ_KITTI`); SEQS: comma-separated ids (default
 //! 0000); FRAMES: frames per sequence, `all` for every frame (default 50); OPTICS: `ideal` (the
 //! reports' renderings, default) or `camera`; THREADS: render threads (default: the cores);
 //! SCALE: image scale (default 1). The sequence id `drive` is the built-in synthetic drive.
@@ -16,7 +16,6 @@ use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim, Optics};
 use dynotraj_sim::track_sim::LabelBox;
-use nalgebra::Point3;
 
 /// FNV-1a, 64 bits: stable across platforms and releases, unlike std's hasher.
 struct Fnv(u64);
@@ -38,32 +37,16 @@ fn image_sim(dir: &TrackingDir, id: &str, frames: Option<usize>, camera: Camera)
     let data = dir.load_sequence(id)?;
     let classes = ObjectClass::FORECAST;
     let n = frames.map_or(data.poses.len(), |m| m.min(data.poses.len()));
-    let boxes: Vec<LabelBox> = data
-        .labels
-        .iter()
-        .filter(|r| !r.is_dont_care() && !r.is_box_only())
-        .filter_map(|r| {
-            let class = ObjectClass::from_kitti_name(&r.object_type)?;
-            if !classes.contains(&class) {
-                return None;
-            }
-            Some(LabelBox {
-                frame: u32::try_from(r.frame).ok()?,
-                object_id: u16::try_from(r.track_id + 1).ok()?,
-                class,
-                size: [r.height, r.width, r.length],
-                bottom_centre: Point3::new(r.x, r.y, r.z),
-                rotation_y: r.rotation_y,
-            })
-        })
-        .filter(|b| (b.frame as usize) < n)
-        .collect();
+    let boxes: Vec<LabelBox> =
+        LabelBox::of_labels(&data.labels, &classes).into_iter().filter(|b| (b.frame as usize) < n).collect();
     Ok(ImageSim::new(camera, &data.poses[..n], &boxes, 1))
 }
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = TrackingDir::open(args.first().map_or("/work/shared/kitti/tracking/training", String::as_str))?;
+    let dir = args.first().cloned().or_else(|| std::env::var("DYNOTRAJ_KITTI").ok());
+    let dir = dir.ok_or_else(|| anyhow::anyhow!("give DIR, a KITTI tracking split (or set DYNOTRAJ_KITTI)"))?;
+    let dir = TrackingDir::open(&dir)?;
     let seqs: Vec<&str> = args.get(1).map_or("0000", String::as_str).split(',').collect();
     let frames = match args.get(2).map(String::as_str) {
         Some("all") => None,

@@ -8,7 +8,7 @@ use dynotraj_core::wire::ObjectClass;
 use dynotraj_sim::drive::{DriveSpec, generate};
 use dynotraj_sim::image_sim::{Camera, ImageSim};
 use dynotraj_sim::track_sim::LabelBox;
-use nalgebra::{Isometry3, Point3};
+use nalgebra::Isometry3;
 
 use dynotraj_formats::kitti::{SequenceData, TrackingDir};
 
@@ -41,25 +41,7 @@ pub fn sim_input(data: &SequenceData, classes: &[ObjectClass]) -> SimInput {
         cy: p0[(1, 2)] as f32,
         stereo_fb: (p0[(0, 3)] - p1[(0, 3)]) as f32,
     };
-    let boxes = data
-        .labels
-        .iter()
-        .filter(|r| !r.is_dont_care() && !r.is_box_only())
-        .filter_map(|r| {
-            let class = ObjectClass::from_kitti_name(&r.object_type)?;
-            if !classes.contains(&class) {
-                return None;
-            }
-            Some(LabelBox {
-                frame: u32::try_from(r.frame).ok()?,
-                object_id: u16::try_from(r.track_id + 1).ok()?,
-                class,
-                size: [r.height, r.width, r.length],
-                bottom_centre: Point3::new(r.x, r.y, r.z),
-                rotation_y: r.rotation_y,
-            })
-        })
-        .collect();
+    let boxes = LabelBox::of_labels(&data.labels, classes);
     SimInput { camera_poses: data.poses.clone(), boxes, intrinsics }
 }
 
