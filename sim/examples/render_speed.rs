@@ -6,7 +6,7 @@
 //! `cargo run --release -p dynotraj-sim --example render_speed -- DIR [SEQS] [FRAMES] [OPTICS] [THREADS] [SCALE]`
 //! DIR: a KITTI tracking split (label_02/, calib/, poses; default `$DYNOTRAJ_KITTI`); SEQS: comma-separated ids (default
 //! 0000); FRAMES: frames per sequence, `all` for every frame (default 50); OPTICS: `ideal` (the
-//! reports' renderings, default) or `camera`; THREADS: render threads (default: the cores);
+//! reports' renderings, default) or `camera`; THREADS: render threads (default 1);
 //! SCALE: image scale (default 1). The sequence id `drive` is the built-in synthetic drive.
 
 use std::time::{Duration, Instant};
