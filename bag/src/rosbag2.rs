@@ -244,7 +244,7 @@ impl Rosbag2Writer {
         drop(writer);
         let yaml = format!("rosbag2_bagfile_information:\n{}", self.description(2));
         let meta = self.staging.join(METADATA_FILE);
-        std::fs::write(&meta, yaml).with_context(|| format!("writing {}", meta.display()))?;
+        dynotraj_formats::atomic::write_file(&meta, yaml).with_context(|| format!("writing {}", meta.display()))?;
         replaceable_bag(&self.folder)?;
         if self.folder.exists() {
             std::fs::remove_dir_all(&self.folder)

@@ -45,8 +45,8 @@ fn estimate_prints_table_iii_and_writes_pose_files() {
     // default): said in every pose file and the README.
     assert!(
         tum.lines().any(|l| l
-            == "# timestamps: capture times, seconds at 10.000 Hz (one frame every 0.1000 s); the estimator ran at \
-                20.000 Hz"),
+            == "# timestamps: seconds at the camera's rate, 10.000 Hz (one frame every 0.1000 s); the estimator \
+                ran at 20.000 Hz"),
         "{tum}"
     );
     let frame_times: Vec<f64> =

@@ -186,7 +186,7 @@ impl RateNote {
         };
         let ran = span.map_or(String::new(), |dt| format!("; the estimator ran at {:.3} Hz", 1.0 / dt));
         Self(format!(
-            "timestamps: capture times, seconds at {:.3} Hz (one frame every {:.4} s){ran}",
+            "timestamps: seconds at the camera's rate, {:.3} Hz (one frame every {:.4} s){ran}",
             clock.rate_hz,
             1.0 / clock.rate_hz
         ))
