@@ -10,7 +10,7 @@
 
 use std::borrow::Cow;
 use std::fs::File;
-use std::io::{BufReader, Read, Seek, SeekFrom};
+use std::io::{BufRead as _, BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use anyhow::{Context as _, bail, ensure};
@@ -26,30 +26,24 @@ const ZSTD_MAGIC: [u8; 4] = [0x28, 0xb5, 0x2f, 0xfd];
 /// The header that opens an SQLite database (rosbag2's older `.db3` storage).
 const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
 
-/// The first bytes of the file at `path`, at most `N`.
-fn head<const N: usize>(path: &Path) -> anyhow::Result<([u8; N], usize)> {
-    let mut file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let mut bytes = [0u8; N];
-    let mut read = 0;
-    while read < N {
-        let n = file
-            .read(bytes.get_mut(read..).unwrap_or_default())
-            .with_context(|| format!("reading {}", path.display()))?;
-        if n == 0 {
-            break;
-        }
-        read += n;
-    }
-    Ok((bytes, read))
+/// The file at `path`, buffered, with its first bytes looked at (not consumed): a regular
+/// file's first read fills the buffer, so they hold every magic checked here.
+fn peeked(path: &Path) -> anyhow::Result<(BufReader<File>, Vec<u8>)> {
+    let mut file = BufReader::new(File::open(path).with_context(|| format!("opening {}", path.display()))?);
+    let head = file.fill_buf().with_context(|| format!("reading {}", path.display()))?;
+    let head = head.get(..head.len().min(SQLITE_MAGIC.len())).unwrap_or_default().to_vec();
+    Ok((file, head))
 }
 
-/// Whether the file at `path` is compressed whole with zstd (rosbag2's `compression_mode: file`).
-///
-/// # Errors
-/// The file cannot be read.
-pub fn is_compressed(path: &Path) -> anyhow::Result<bool> {
-    let (bytes, read) = head::<4>(path)?;
-    Ok(read == 4 && bytes == ZSTD_MAGIC)
+/// `file` as a stream of MCAP bytes: as it is, or decompressed when its first bytes `head`
+/// are zstd's magic (rosbag2's `compression_mode: file`).
+fn stream(file: BufReader<File>, head: &[u8], path: &Path) -> anyhow::Result<Box<dyn Read>> {
+    if head.starts_with(&ZSTD_MAGIC) {
+        let decoder = zstd::stream::read::Decoder::with_buffer(file)
+            .with_context(|| format!("{}: starting zstd decompression", path.display()))?;
+        return Ok(Box::new(decoder));
+    }
+    Ok(Box::new(file))
 }
 
 /// The MCAP bytes of the file at `path` as a stream: the file, or its zstd decompression.
@@ -57,13 +51,8 @@ pub fn is_compressed(path: &Path) -> anyhow::Result<bool> {
 /// # Errors
 /// The file cannot be opened.
 pub fn open(path: &Path) -> anyhow::Result<Box<dyn Read>> {
-    let file = BufReader::new(File::open(path).with_context(|| format!("opening {}", path.display()))?);
-    if is_compressed(path)? {
-        let decoder = zstd::stream::read::Decoder::with_buffer(file)
-            .with_context(|| format!("{}: starting zstd decompression", path.display()))?;
-        return Ok(Box::new(decoder));
-    }
-    Ok(Box::new(file))
+    let (file, head) = peeked(path)?;
+    stream(file, &head, path)
 }
 
 /// A message's CDR payload: as it is, or decompressed when rosbag2 compressed it alone
@@ -108,20 +97,19 @@ const FOOTER: u8 = 0x02;
 /// with the file and the record's byte offset.
 pub fn check_lengths(path: &Path) -> anyhow::Result<()> {
     let name = path.display().to_string();
-    let (bytes, read) = head::<16>(path)?;
+    let (file, head) = peeked(path)?;
     ensure!(
-        read < 16 || &bytes != SQLITE_MAGIC,
+        head != SQLITE_MAGIC,
         "{name}: a rosbag2 bag in sqlite3 storage, not MCAP: convert it first (`ros2 bag convert`, or \
          `rosbags-convert --src BAG_FOLDER --dst NEW_FOLDER --dst-storage mcap`)"
     );
-    if is_compressed(path)? {
+    if head.starts_with(&ZSTD_MAGIC) {
         // Decompressed as a stream: the size is not known before the end, so each record is
         // bounded by the limit alone, and a cut stream is found where it ends.
-        return walk(Stream(open(path)?), u64::MAX, &name);
+        return walk(Stream(stream(file, &head, path)?), u64::MAX, &name);
     }
-    let file = File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let size = file.metadata().with_context(|| format!("reading {}", path.display()))?.len();
-    walk(BufReader::new(file), size, &name)
+    let size = file.get_ref().metadata().with_context(|| format!("reading {}", path.display()))?.len();
+    walk(file, size, &name)
 }
 
 /// A stream that skips forward by reading: a decompression cannot seek.

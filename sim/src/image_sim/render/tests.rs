@@ -1,0 +1,251 @@
+//! The renderer against its first version, kept here as the reference: bit for bit on any
+//! number of threads and with either optics.
+
+use super::*;
+use crate::image_sim::Optics;
+use crate::image_sim::scene::GroundPlane;
+use crate::image_sim::texture::intensity;
+use nalgebra::Translation3;
+
+/// The renderer as first written: ground and sky everywhere, then every box over them.
+fn reference(
+    cam: &Camera,
+    pose: &Isometry3<f64>,
+    scene: &StaticScene,
+    objects: &[(u16, Cuboid)],
+    frame_seed: u32,
+) -> View {
+    let (w, h) = (cam.width, cam.height);
+    let n = w * h;
+    let mut depth = vec![f64::INFINITY; n];
+    // Radiance in grey levels before the sensor: optics, then noise and quantisation, apply
+    // once every surface has been drawn.
+    let mut rgb = vec![0f32; 3 * n];
+    let mut ids = vec![0u16; n];
+    let world_to_cam = pose.inverse();
+    let rot = pose.rotation;
+    let area = cam.optics.pixel_area;
+    let ray = |u: usize, v: usize| Vector3::new((u as f64 - cam.cx) / cam.fx, (v as f64 - cam.cy) / cam.fy, 1.0);
+    let put = |rgb: &mut [f32], i: usize, colour: [f32; 3], shade: f32, t: f32| {
+        for c in 0..3 {
+            rgb[3 * i + c] = 255.0 * colour[c] * shade * (0.25 + 0.75 * t);
+        }
+    };
+    // Sky and ground.
+    let footprint = |z: f64| z / cam.fx;
+    for v in 0..h {
+        for u in 0..w {
+            let i = v * w + u;
+            let d = ray(u, v);
+            let dw = rot * d;
+            // The ray o + z dw meets the plane y - bx x - bz z = height where z is the depth.
+            let g = &scene.ground;
+            let o = pose.translation.vector;
+            let down = dw.y - g.slope_x * dw.x - g.slope_z * dw.z;
+            let z = if down > 1e-9 { (g.height - (o.y - g.slope_x * o.x - g.slope_z * o.z)) / down } else { -1.0 };
+            if z > 0.0 && z < FAR {
+                let p = pose.translation.vector + dw * z;
+                let t = intensity(scene.ground_texture, p.x, p.z, footprint(z), 1.0, area);
+                depth[i] = z;
+                put(&mut rgb, i, [0.55, 0.55, 0.52], 0.9, t);
+            } else {
+                // Sky: flat colour, no texture (a textureless region for the front-end).
+                put(&mut rgb, i, [0.55, 0.7, 0.95], 1.0, 1.0);
+            }
+        }
+    }
+    // Boxes: static structures (id 0), then objects.
+    let placed: Vec<Placed<'_>> = scene
+        .structures
+        .iter()
+        .filter_map(|c| place(cam, &world_to_cam, c, 0))
+        .chain(objects.iter().filter_map(|(id, c)| place(cam, &world_to_cam, c, *id)))
+        .collect();
+    for b in &placed {
+        let origin = b.origin;
+        for v in b.rect.1..=b.rect.3 {
+            for u in b.rect.0..=b.rect.2 {
+                let i = v * w + u;
+                let dir = b.to_local.rotation * ray(u, v);
+                let Some((t, p, axis, sign)) = hit_box(&origin, &dir, &b.cuboid.half) else { continue };
+                // The ray's z component is 1 in the camera, so `t` is the depth.
+                if t >= depth[i] || t < 0.05 {
+                    continue;
+                }
+                depth[i] = t;
+                ids[i] = b.id;
+                let (a, c) = match axis {
+                    0 => (p.z, p.y),
+                    1 => (p.x, p.z),
+                    _ => (p.x, p.y),
+                };
+                let tex = b.cuboid.texture ^ (axis as u32 * 0x51ed_270b) ^ if sign > 0.0 { 0x2545_f491 } else { 0 };
+                let t = intensity(tex, a, c, footprint(t), b.cuboid.texture_scale, area);
+                put(&mut rgb, i, b.cuboid.colour, face_shade(axis, sign), t);
+            }
+        }
+    }
+    let depth = depth.into_iter().map(|z| if z.is_finite() { z as f32 } else { 0.0 }).collect();
+    if !cam.optics.is_ideal() {
+        reference_optics(&mut rgb, cam, frame_seed);
+    }
+    let rgb = rgb
+        .chunks_exact(3)
+        .enumerate()
+        .flat_map(|(i, px)| {
+            let noise = if cam.noise > 0 {
+                (hash(frame_seed ^ hash(i as u32)) % (2 * cam.noise as u32 + 1)) as i32 - cam.noise
+            } else {
+                0
+            };
+            px.iter().map(move |x| (*x as i32 + noise).clamp(0, 255) as u8)
+        })
+        .collect();
+    View { rgb, depth, ids }
+}
+
+/// One pass of a separable blur of an RGB image of `(w, h)` pixels from `src` into `dst`, along
+/// rows (`along_rows`) or columns; the border repeats the edge pixel.
+fn reference_blur_pass(src: &[f32], dst: &mut [f32], (w, h): (usize, usize), kernel: &[f32], along_rows: bool) {
+    let radius = kernel.len() / 2;
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                dst[3 * (y * w + x) + c] = kernel
+                    .iter()
+                    .enumerate()
+                    .map(|(k, g)| {
+                        let (sx, sy) = if along_rows {
+                            ((x + k).saturating_sub(radius).min(w - 1), y)
+                        } else {
+                            (x, (y + k).saturating_sub(radius).min(h - 1))
+                        };
+                        g * src[3 * (sy * w + sx) + c]
+                    })
+                    .sum();
+            }
+        }
+    }
+}
+
+/// The lens's blur, vignetting and the exposure's gain on a radiance image (RGB, row-major).
+fn reference_optics(rgb: &mut [f32], cam: &Camera, frame_seed: u32) {
+    let Optics { blur_sigma, vignetting, gain_jitter, .. } = cam.optics;
+    let (w, h) = (cam.width, cam.height);
+    if blur_sigma > 0.0 {
+        let radius = (3.0 * blur_sigma).ceil() as usize;
+        let kernel: Vec<f32> = (0..=2 * radius)
+            .map(|k| (-((k as f32 - radius as f32).powi(2)) / (2.0 * blur_sigma * blur_sigma)).exp())
+            .collect();
+        let total: f32 = kernel.iter().sum();
+        let kernel: Vec<f32> = kernel.iter().map(|k| k / total).collect();
+        // Separable: rows, then columns; the border repeats the edge pixel.
+        let mut tmp = vec![0f32; rgb.len()];
+        reference_blur_pass(rgb, &mut tmp, (w, h), &kernel, true);
+        reference_blur_pass(&tmp, rgb, (w, h), &kernel, false);
+    }
+    let gain = 1.0 + gain_jitter * (2.0 * (hash(frame_seed ^ 0x6a09_e667) >> 8) as f32 / (1u32 << 24) as f32 - 1.0);
+    let corner2 = ((w * w + h * h) as f32 / 4.0).max(1.0);
+    for y in 0..h {
+        for x in 0..w {
+            let (dx, dy) = (x as f32 - cam.cx as f32, y as f32 - cam.cy as f32);
+            let fall = 1.0 - vignetting * ((dx * dx + dy * dy) / corner2).min(1.0);
+            for c in 0..3 {
+                rgb[3 * (y * w + x) + c] *= gain * fall;
+            }
+        }
+    }
+}
+
+#[test]
+fn a_box_ahead_occludes_the_ground_at_its_depth() {
+    let cam = Camera {
+        fx: 100.0,
+        fy: 100.0,
+        cx: 50.0,
+        cy: 30.0,
+        width: 100,
+        height: 60,
+        baseline_m: 0.5,
+        noise: 2,
+        optics: Optics::IDEAL,
+    };
+    let scene = StaticScene { ground: GroundPlane::level(1.65), ground_texture: 1, structures: Vec::new() };
+    let b = Cuboid {
+        pose: Isometry3::from_parts(Translation3::new(0.0, 0.9, 10.0), nalgebra::UnitQuaternion::identity()),
+        half: Vector3::new(1.0, 0.75, 1.0),
+        texture: 3,
+        colour: [0.8, 0.2, 0.2],
+        texture_scale: 1.0,
+    };
+    let view = render(&cam, &Isometry3::identity(), &scene, &[(7, b)], 0);
+    let i = 35 * 100 + 50;
+    assert_eq!(view.ids[i], 7);
+    assert!((view.depth[i] - 9.0).abs() < 1e-3, "{}", view.depth[i]);
+    // Below the box: ground at z = 1.65 * fy / (v - cy).
+    let g = 55 * 100 + 5;
+    assert_eq!(view.ids[g], 0);
+    assert!((f64::from(view.depth[g]) - 1.65 * 100.0 / 25.0).abs() < 1e-3);
+    // Above the horizon: sky, no depth.
+    assert_eq!(view.depth[5 * 100 + 5], 0.0);
+}
+
+/// The boxes of frame `k` of a short synthetic drive, as [`super::super::ImageSim::frame`]
+/// makes them.
+fn drive_scene(k: usize) -> (Camera, Isometry3<f64>, StaticScene, Vec<(u16, Cuboid)>) {
+    use crate::drive::{DriveSpec, generate};
+    use crate::image_sim::scene::{colour_of, object_cuboid};
+    use crate::track_sim::LabelBox;
+    let d = generate(&DriveSpec { frames: 4, ..DriveSpec::default() });
+    let sim = crate::image_sim::ImageSim::new(Camera::kitti(0.2), &d.camera_poses, &LabelBox::of_drive(&d), 5);
+    let boxes = sim.truth[k]
+        .iter()
+        .map(|o| (o.object_id, object_cuboid(o, 17 + u32::from(o.object_id), colour_of(3))))
+        .collect();
+    (sim.camera, sim.poses[k], sim.scene, boxes)
+}
+
+#[test]
+fn tiles_on_any_number_of_threads_give_the_reference_view() {
+    for optics in [Optics::IDEAL, Optics::CAMERA] {
+        for k in [0, 3] {
+            let (cam, pose, scene, boxes) = drive_scene(k);
+            let cam = Camera { optics, ..cam };
+            let want = reference(&cam, &pose, &scene, &boxes, 9);
+            assert!(want.ids.iter().any(|&id| id != 0), "an object in view");
+            for threads in [1, 2, 3, 64] {
+                let view = render_with_threads(&cam, &pose, &scene, &boxes, 9, threads);
+                let bits = |v: &View| v.depth.iter().map(|z| z.to_bits()).collect::<Vec<_>>();
+                assert!(view.rgb == want.rgb && view.ids == want.ids, "{optics:?} frame {k}, {threads} threads");
+                assert_eq!(bits(&view), bits(&want), "{optics:?} frame {k}, {threads} threads");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_sensor_remainder_is_the_remainder() {
+    let mut a = 1u32;
+    for noise in [0, 1, 2, 3, 7, 50, 1000, 1 << 20, i32::MAX] {
+        let cam = Camera { noise, ..Camera::kitti(0.1) };
+        let sensor = Sensor::new(&cam, 0);
+        for edge in [0, 1, u32::MAX, u32::MAX - 1, sensor.levels, sensor.levels - 1, sensor.levels.wrapping_mul(3)] {
+            assert_eq!(sensor.remainder(edge), edge % sensor.levels, "{edge} % {}", sensor.levels);
+        }
+        for _ in 0..100_000 {
+            a = hash(a);
+            assert_eq!(sensor.remainder(a), a % sensor.levels, "{a} % {}", sensor.levels);
+        }
+    }
+}
+
+#[test]
+fn an_empty_image_renders_empty() {
+    // Boxes in view of an image without pixels have no rectangle: none here.
+    let (cam, pose, scene, _) = drive_scene(0);
+    let scene = StaticScene { structures: Vec::new(), ..scene };
+    for (width, height) in [(0, 5), (5, 0), (0, 0)] {
+        let view = render_with_threads(&Camera { width, height, ..cam }, &pose, &scene, &[], 1, 2);
+        assert!(view.rgb.is_empty() && view.depth.is_empty() && view.ids.is_empty());
+    }
+}
