@@ -8,16 +8,12 @@ use dynotraj_core::limits::PAPER_FRAME_RATE_HZ;
 use dynotraj_core::wire::ObjectClass;
 
 use super::estimated_args::EstimatedSourceArgs;
-use super::progress::progress;
-use dynotraj_eval::loading::load_drives;
-use dynotraj_sources::drives::{Drive, distinct_ids, kitti_drives, manifest_drives, select_drives};
+use super::progress::LoadBar;
+use dynotraj_eval::loading::{DataRequest, DriveSet};
 use dynotraj_sources::estimation::settings::EstimateSettings;
 use dynotraj_sources::estimation::simulated::EvalOptions;
 use dynotraj_sources::sequence::SequenceTracks;
 use dynotraj_sources::trajectory::{EligibilityRule, MovingRule, Source};
-
-/// The paper's test sequences (Table IV).
-pub const PAPER_TEST_SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
 
 /// `--classes`' default: the classes forecast ([`ObjectClass::FORECAST`]; a test holds the two
 /// together).
@@ -164,46 +160,26 @@ impl DataArgs {
         Ok(EligibilityRule { classes, moving: MovingRule { min_step_m }, ..EligibilityRule::default() })
     }
 
-    /// Opens the folder and loads `sequences` (all present when empty), with a progress bar;
-    /// when one of `sources` is an estimated one, also runs the estimator over each sequence
-    /// (on its images, its rendering or the track-level simulator: `--ours-input`), keeping
-    /// the tracks in `--estimate-cache` when given.
+    /// Where the drives are, how to read them and how the estimated sources are made.
     ///
     /// # Errors
-    /// A missing folder, a missing sequence or a bad file, named.
-    pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
-        self.load_cached(sequences, sources, self.ours.estimate_cache.clone())
-    }
-
-    /// As [`DataArgs::load_for`], keeping estimated tracks in `cache` between runs.
-    ///
-    /// # Errors
-    /// A missing folder, a missing sequence or a bad file, named.
-    pub fn load_cached(
-        &self,
-        sequences: &[String],
-        sources: &[Source],
-        cache: Option<std::path::PathBuf>,
-    ) -> anyhow::Result<Vec<SequenceTracks>> {
-        self.load_drives(&self.drives(sequences)?, sources, cache)
-    }
-
-    /// Loads `drives` for `sources`, as [`DataArgs::load_cached`] does the drives it names
-    /// ([`dynotraj_eval::loading::load_drives`]), with a progress bar.
-    ///
-    /// # Errors
-    /// A missing or bad file, named.
-    pub fn load_drives(
-        &self,
-        drives: &[Drive],
-        sources: &[Source],
-        cache: Option<std::path::PathBuf>,
-    ) -> anyhow::Result<Vec<SequenceTracks>> {
+    /// A bad rate or threshold, or neither --kitti, --drives nor `$DYNOTRAJ_KITTI`, named.
+    pub fn request(&self) -> anyhow::Result<DataRequest> {
+        let drives = if let Some(path) = &self.drives {
+            DriveSet::Manifest(path.clone())
+        } else if let Some(kitti) = kitti_or_env(self.kitti.as_deref()) {
+            DriveSet::Kitti(kitti)
+        } else {
+            anyhow::bail!(
+                "--kitti or --drives: expected where the drives are (a KITTI tracking folder, also read from \
+                 ${KITTI_ENV}, or a drive manifest)"
+            )
+        };
         let dt = self.dt()?;
         let estimate = EstimateSettings {
             input: self.ours.ours_input,
             render_scale: self.ours.render_scale,
-            cache,
+            cache: self.ours.estimate_cache.clone(),
             ..EstimateSettings::tracks(EvalOptions {
                 object_variants: self.ours.object_variants(),
                 render_optics: self.ours.render_optics.optics(),
@@ -211,32 +187,17 @@ impl DataArgs {
                 ..EvalOptions::kitti(dt)
             })
         };
-        let estimating = sources.iter().any(Source::is_estimated);
-        let bar = progress(drives.len() as u64, if estimating { "loading and estimating" } else { "loading" });
-        let out = load_drives(drives, sources, dt, &estimate, self.ours.jobs, &|name, ok| {
-            bar.set_message(format!("sequence {name} {}", if ok { "loaded" } else { "failed" }));
-            bar.inc(1);
-        });
-        bar.finish_and_clear();
-        out
+        Ok(DataRequest { drives, dt, rule: self.rule()?, estimate, jobs: self.ours.jobs })
     }
 
-    /// The drives `sequences` names (all when empty) of --kitti or --drives.
+    /// Loads `sequences` (all present when empty) for `sources` with a progress bar, keeping
+    /// estimated tracks in `--estimate-cache` ([`DataRequest::load`]).
     ///
     /// # Errors
-    /// A folder or manifest that cannot be read, a name given twice or that no drive has.
-    pub fn drives(&self, sequences: &[String]) -> anyhow::Result<Vec<Drive>> {
-        if let Some(path) = &self.drives {
-            let names = distinct_ids("--sequences", sequences.to_vec())?;
-            return select_drives(manifest_drives(path)?, &names);
-        }
-        let Some(kitti) = kitti_or_env(self.kitti.as_deref()) else {
-            anyhow::bail!(
-                "--kitti or --drives: expected where the drives are (a KITTI tracking folder, also read from \
-                 ${KITTI_ENV}, or a drive manifest)"
-            )
-        };
-        kitti_drives(&kitti, sequences)
+    /// A missing folder, a missing sequence or a bad file, named.
+    pub fn load_for(&self, sequences: &[String], sources: &[Source]) -> anyhow::Result<Vec<SequenceTracks>> {
+        let request = self.request()?;
+        request.load(sequences, sources, request.estimate.cache.clone(), &LoadBar::default())
     }
 }
 

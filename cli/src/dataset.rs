@@ -3,6 +3,7 @@
 use clap::Args;
 
 use super::data_args::DataArgs;
+use super::progress::LoadBar;
 use dynotraj_eval::experiment::benchmark::Shard;
 use dynotraj_eval::experiment::budget::{budget_instances, budget_table};
 use dynotraj_eval::report::{Format, Table, instances_table};
@@ -73,19 +74,20 @@ pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
     if args.budget && !args.source.contains(&Source::Estimated) {
         anyhow::bail!("--budget measures the estimated source: add estimated to --source");
     }
-    let rule = args.data.rule()?;
-    let mut drives = args.data.drives(&args.sequences)?;
+    let data = args.data.request()?;
+    let rule = &data.rule;
+    let mut drives = data.drives(&args.sequences)?;
     if let Some(shard) = args.shard {
         let all = drives.len();
         drives = drives.into_iter().enumerate().filter(|(k, _)| shard.takes(*k)).map(|(_, d)| d).collect();
         eprintln!("shard {}/{}: {} of {all} drives", shard.index, shard.count, drives.len());
         if drives.is_empty() {
-            return Ok((instances_table(&[], &args.source, &rule), None));
+            return Ok((instances_table(&[], &args.source, rule), None));
         }
     }
-    let seqs = args.data.load_drives(&drives, &args.source, args.data.ours.estimate_cache.clone())?;
+    let seqs = data.load_drives(&drives, &args.source, data.estimate.cache.clone(), &LoadBar::default())?;
     let budget = if args.budget {
-        let instances = budget_instances(&seqs, &rule, args.data.dt()?);
+        let instances = budget_instances(&seqs, rule, data.dt);
         if instances.is_empty() {
             anyhow::bail!(
                 "--budget: no test instance of the estimated source has the simulator's truth (real images have \
@@ -96,5 +98,5 @@ pub fn tables(args: &DatasetArgs) -> anyhow::Result<(Table, Option<Table>)> {
     } else {
         None
     };
-    Ok((instances_table(&seqs, &args.source, &rule), budget))
+    Ok((instances_table(&seqs, &args.source, rule), budget))
 }

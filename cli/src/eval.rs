@@ -2,7 +2,7 @@
 
 use clap::Args;
 
-use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::data_args::DataArgs;
 use super::progress::progress;
 use dynotraj_eval::predictors::PredictorSpec;
 use dynotraj_eval::report::{Format, Table};
@@ -58,11 +58,7 @@ pub fn run(args: &EvalArgs) -> anyhow::Result<()> {
 /// Loading errors, named.
 pub fn table(args: &EvalArgs) -> anyhow::Result<Table> {
     let rule = args.data.rule()?;
-    let ids: Vec<String> = if args.tests.is_empty() {
-        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
-    } else {
-        dynotraj_sources::drives::distinct_ids("--tests", args.tests.clone())?
-    };
+    let ids = dynotraj_eval::experiment::paper::test_sequences("--tests", &args.tests)?;
     let request = ScoresRequest {
         rule: &rule,
         dt: args.data.dt()?,

@@ -4,14 +4,13 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::data_args::{DataArgs, PAPER_TEST_SEQUENCES};
+use super::data_args::DataArgs;
 use super::fold_run::FoldRunArgs;
 use super::train_progress::TrainBars;
-use dynotraj_eval::experiment::figures::{ObjectChoice, parse_object_choice, subjects};
-use dynotraj_eval::experiment::sections::{ReportFolder, RunSettings, write_report_folder};
-use dynotraj_eval::experiment::{ExperimentConfig, ExperimentResult, run_experiment};
-use dynotraj_eval::report::{Format, Table};
-use dynotraj_sources::sequence::SequenceTracks;
+use dynotraj_eval::experiment::figures::{ObjectChoice, parse_object_choice};
+use dynotraj_eval::experiment::paper::test_sequences;
+use dynotraj_eval::experiment::request::{ExperimentOutput, ExperimentRequest, ReportRequest};
+use dynotraj_eval::report::Format;
 use dynotraj_sources::trajectory::Source;
 
 /// Options of `dynotraj experiment`.
@@ -52,65 +51,55 @@ pub struct ExperimentArgs {
     pub run: FoldRunArgs,
 }
 
-/// Runs the experiment and returns its table and a summary of the folds.
-///
-/// # Errors
-/// Loading, training or writing errors, named.
-pub fn table(args: &ExperimentArgs) -> anyhow::Result<(Table, String)> {
-    let (result, summary, _) = experiment(args)?;
-    Ok((result.table, summary))
+impl ExperimentArgs {
+    /// The request these options make, every flag checked before any work.
+    ///
+    /// # Errors
+    /// A flag out of range or a test sequence given twice, named.
+    pub fn request(&self) -> anyhow::Result<ExperimentRequest<'_>> {
+        let data = self.data.request()?;
+        let config = self.run.config(&data, &self.arms)?;
+        let report = self.run.out.as_deref().map(|dir| ReportRequest {
+            dir,
+            record: self.record.as_deref(),
+            record_encoding: self.record_encoding.into(),
+            command: FoldRunArgs::command_line("experiment"),
+        });
+        Ok(ExperimentRequest {
+            estimate_cache: self.run.estimate_cache(&data),
+            data,
+            sequences: &self.sequences,
+            tests: test_sequences("--tests", &self.tests)?,
+            objects: &self.objects,
+            config,
+            report,
+            stop_from_now: Some(crate::interrupt::stop_flag),
+        })
+    }
 }
 
-/// The test sequences: `--tests`, else the paper's five.
-fn test_ids(args: &ExperimentArgs) -> anyhow::Result<Vec<String>> {
-    Ok(if args.tests.is_empty() {
-        PAPER_TEST_SEQUENCES.iter().map(ToString::to_string).collect()
-    } else {
-        dynotraj_sources::drives::distinct_ids("--tests", args.tests.clone())?
-    })
-}
-
-/// Runs the experiment; returns its result, the fold summary and the loaded sequences.
+/// Runs the experiment ([`dynotraj_eval::experiment::request::experiment`]) with progress bars.
 ///
 /// # Errors
-/// Loading, training or writing errors, named.
-pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<(ExperimentResult, String, Vec<SequenceTracks>)> {
-    let start = std::time::Instant::now();
-    args.run.check(&args.data, &args.arms)?;
-    // Flags that need no data fail before the (possibly long) loading.
-    let test_sequences = test_ids(args)?;
-    let sequences = args.data.load_cached(&args.sequences, &args.arms, args.run.estimate_cache(&args.data))?;
-    // A bad --object fails before the folds are trained, not after.
-    subjects(&args.objects, &sequences, &args.data.rule()?)?;
-    let mut config = args
-        .run
-        .config(&args.data, &args.arms, ExperimentConfig::one_sequence_folds(&test_sequences))?
-        .with_present_agents(&sequences);
-    // From here on Ctrl-C or SIGTERM stops between folds, keeping what the fold cache holds.
-    config.stop = Some(crate::interrupt::stop_flag()?);
-    let loading_seconds = start.elapsed().as_secs_f64();
-    let bars = TrainBars::new(dynotraj_eval::experiment::fold_specs(&config, &[config.hyper.seed]).len());
-    let result = run_experiment(&sequences, &config, &bars);
+/// Bad flags, loading, training or writing errors, named.
+pub fn experiment(args: &ExperimentArgs) -> anyhow::Result<ExperimentOutput> {
+    let bars = TrainBars::default();
+    let output = dynotraj_eval::experiment::request::experiment(&args.request()?, &bars);
     bars.finish();
-    let mut result = result?;
-    // The whole command: loading and estimating the sequences too.
-    result.seconds = start.elapsed().as_secs_f64();
-    result.loading_seconds = loading_seconds;
-    let summary = result.fold_summary();
-    Ok((result, summary, sequences))
+    output
 }
 
 /// Prints the table and the fold summary.
 ///
 /// # Errors
-/// See [`table`].
+/// See [`experiment`].
 pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
     args.run.out.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--out", d)).transpose()?;
     args.record.as_deref().map(|d| dynotraj_formats::atomic::output_folder("--record", d)).transpose()?;
     let names: &[&str] =
         if args.arms.iter().any(Source::is_estimated) { &["table_iv", "table_iv_truth"] } else { &["table_iv"] };
     args.run.check_table(names)?;
-    let (result, summary, sequences) = experiment(args)?;
+    let ExperimentOutput { result, summary, report, .. } = experiment(args)?;
     // A table that cannot be printed (a --table the run did not make) fails the command only
     // once the report is written.
     let mut printed = Ok(());
@@ -132,31 +121,8 @@ pub fn run(args: &ExperimentArgs) -> anyhow::Result<()> {
         printed = args.run.print_machine(&named);
     }
     eprint!("{summary}");
-    if let Some(dir) = &args.run.out {
-        let mut command = String::from("dynotraj experiment");
-        for a in std::env::args().skip(2) {
-            command.push(' ');
-            command.push_str(&a);
-        }
-        let run = RunSettings {
-            arms: &args.arms,
-            render_scale: args.data.ours.render_scale,
-            jobs: args.data.ours.jobs,
-            dt: args.data.dt()?,
-            history_frames: args.run.hyper.prior_choice().history_frames(),
-        };
-        let tests = test_ids(args)?;
-        let folder = ReportFolder {
-            dir,
-            record: args.record.as_deref(),
-            record_encoding: args.record_encoding.into(),
-            command,
-            objects: &args.objects,
-            tests: &tests,
-        };
-        for said in write_report_folder(&folder, &run, &result, &sequences, &args.data.rule()?)? {
-            eprintln!("{said}");
-        }
+    for said in report? {
+        eprintln!("{said}");
     }
     printed
 }

@@ -5,11 +5,11 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::data_args::DataArgs;
 use super::model_args::DEFAULT_DIMS;
 use super::model_cost::parse_dims;
 use super::train::HyperArgs;
 use dynotraj_eval::experiment::ExperimentConfig;
+use dynotraj_eval::loading::DataRequest;
 use dynotraj_eval::report::{Format, check_table, render_tables};
 use dynotraj_sources::trajectory::Source;
 
@@ -72,44 +72,36 @@ impl FoldRunArgs {
     /// Where estimates are kept: `--estimate-cache`, else the report's cache; none with
     /// `--no-cache` (which recomputes the estimates too).
     #[must_use]
-    pub fn estimate_cache(&self, data: &DataArgs) -> Option<PathBuf> {
-        data.ours.estimate_cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
+    pub fn estimate_cache(&self, data: &DataRequest) -> Option<PathBuf> {
+        data.estimate.cache.clone().filter(|_| !self.no_cache).or_else(|| self.fold_cache())
     }
 
-    /// Checks every flag [`Self::config`] reads before a sequence is loaded: a value out of
-    /// range fails at once, not after the estimation.
+    /// The run's configuration for `arms` over `data`, without folds (the command makes them).
     ///
     /// # Errors
     /// A flag out of range, named.
-    pub fn check(&self, data: &DataArgs, arms: &[Source]) -> anyhow::Result<()> {
-        self.config(data, arms, Vec::new()).map(|_| ())
-    }
-
-    /// The run's configuration for `arms` and `folds`.
-    ///
-    /// # Errors
-    /// A flag out of range, named.
-    pub fn config(
-        &self,
-        data: &DataArgs,
-        arms: &[Source],
-        folds: Vec<Vec<String>>,
-    ) -> anyhow::Result<ExperimentConfig> {
+    pub fn config(&self, data: &DataRequest, arms: &[Source]) -> anyhow::Result<ExperimentConfig> {
         Ok(ExperimentConfig {
             arms: arms.to_vec(),
-            folds,
+            folds: Vec::new(),
             dims: parse_dims(&self.dims)?,
             hyper: self.hyper.hyper()?,
             validation_fraction: self.hyper.val_fraction,
             mirror: self.hyper.mirror,
             prior: self.hyper.prior_choice(),
             validate_on_sequences: self.hyper.val_sequences,
-            dt: data.dt()?,
-            rule: data.rule()?,
+            dt: data.dt,
+            rule: data.rule.clone(),
             out: self.out.as_ref().map(|d| d.join("models")),
             cache: self.fold_cache(),
-            jobs: data.ours.jobs,
+            jobs: data.jobs,
             stop: None,
         })
+    }
+
+    /// The command line a report names: `dynotraj <command>` and the arguments given.
+    #[must_use]
+    pub fn command_line(command: &str) -> String {
+        std::iter::once(format!("dynotraj {command}")).chain(std::env::args().skip(2)).collect::<Vec<_>>().join(" ")
     }
 }

@@ -8,7 +8,7 @@ use super::model_args::DynamicsArg;
 use super::train_progress::TrainBars;
 use dynotraj_core::model::arch::Dims;
 use dynotraj_eval::experiment::report::write_report;
-use dynotraj_eval::pedestrian_benchmark::{BenchmarkOptions, SCENES, ratio_table, report, run, scene_table};
+use dynotraj_eval::pedestrian_benchmark::{BenchmarkOptions, ratio_table, report, run, scene_table};
 use dynotraj_eval::report::Format;
 use dynotraj_train::Hyper;
 
@@ -61,8 +61,7 @@ pub fn run_command(args: &PedestriansArgs) -> anyhow::Result<()> {
         dynamics: args.dynamics.into(),
         train: !args.no_train,
     };
-    let scenes = if args.scenes.is_empty() { SCENES.len() } else { args.scenes.len() };
-    let bars = TrainBars::new(if args.no_train { 0 } else { scenes });
+    let bars = TrainBars::default();
     let results = run(&options, args.jobs.unwrap_or_else(dynotraj_eval::jobs::default_jobs), &bars)?;
     bars.finish();
     for (title, table) in [

@@ -4,11 +4,12 @@
 
 use std::io::IsTerminal as _;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use dynotraj_eval::loading::LoadProgress;
 use dynotraj_sources::on_step::OnStep;
 
 /// Least time between two plain lines (the last step always gets one).
@@ -132,6 +133,29 @@ impl Progress {
 #[must_use]
 pub fn progress(len: u64, what: &str) -> Progress {
     Progress::new(len, what)
+}
+
+/// The bar of a command's loading ([`LoadProgress`]), made when the loading starts.
+#[derive(Debug, Default)]
+pub struct LoadBar(OnceLock<Progress>);
+
+impl LoadProgress for LoadBar {
+    fn loading(&self, drives: usize, estimating: bool) {
+        let _ = self.0.set(progress(drives as u64, if estimating { "loading and estimating" } else { "loading" }));
+    }
+
+    fn loaded(&self, name: &str, ok: bool) {
+        if let Some(bar) = self.0.get() {
+            bar.set_message(format!("sequence {name} {}", if ok { "loaded" } else { "failed" }));
+            bar.inc(1);
+        }
+    }
+
+    fn finished(&self) {
+        if let Some(bar) = self.0.get() {
+            bar.finish_and_clear();
+        }
+    }
 }
 
 #[cfg(test)]

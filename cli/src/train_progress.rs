@@ -1,20 +1,30 @@
-//! Progress of a training stage with folds on several threads: one bar for the folds done and
-//! one per fold in training (on a terminal); on anything else, one line per finished fold with
-//! the elapsed time, so a log shows where a long run is.
+//! Progress of a run of folds: the loading's bar, then, for the training stage with folds on
+//! several threads, one bar for the folds done and one per fold in training (on a terminal); on
+//! anything else, one line per finished fold with the elapsed time, so a log shows where a long
+//! run is.
 
 use std::collections::BTreeMap;
 use std::io::IsTerminal as _;
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 
+use super::progress::LoadBar;
 use dynotraj_eval::experiment::FoldReport;
 use dynotraj_eval::experiment::folds::TrainProgress;
+use dynotraj_eval::loading::LoadProgress;
 use dynotraj_train::Event;
 
-/// The bars of one training stage.
+/// The bars of one run: its loading, then its training stage.
+#[derive(Default)]
 pub struct TrainBars {
+    loading: LoadBar,
+    training: OnceLock<Stage>,
+}
+
+/// The bars of the training stage, made when it starts.
+struct Stage {
     multi: MultiProgress,
     overall: ProgressBar,
     running: Mutex<BTreeMap<String, ProgressBar>>,
@@ -22,10 +32,8 @@ pub struct TrainBars {
     terminal: bool,
 }
 
-impl TrainBars {
-    /// Bars for `folds` folds.
-    #[must_use]
-    pub fn new(folds: usize) -> Self {
+impl Stage {
+    fn new(folds: usize) -> Self {
         let terminal = std::io::stderr().is_terminal();
         let multi = MultiProgress::with_draw_target(if terminal {
             ProgressDrawTarget::stderr()
@@ -39,20 +47,44 @@ impl TrainBars {
         );
         Self { multi, overall, running: Mutex::new(BTreeMap::new()), start: Instant::now(), terminal }
     }
+}
 
+impl TrainBars {
     /// Removes the bars.
     pub fn finish(&self) {
-        self.overall.finish_and_clear();
-        let _ = self.multi.clear();
+        self.loading.finished();
+        if let Some(stage) = self.training.get() {
+            stage.overall.finish_and_clear();
+            let _ = stage.multi.clear();
+        }
+    }
+}
+
+impl LoadProgress for TrainBars {
+    fn loading(&self, drives: usize, estimating: bool) {
+        self.loading.loading(drives, estimating);
+    }
+
+    fn loaded(&self, name: &str, ok: bool) {
+        self.loading.loaded(name, ok);
+    }
+
+    fn finished(&self) {
+        self.loading.finished();
     }
 }
 
 impl TrainProgress for TrainBars {
+    fn training(&self, folds: usize) {
+        let _ = self.training.set(Stage::new(folds));
+    }
+
     fn event(&self, label: &str, event: Event) {
         let Event::Step { step, total, loss } = event else { return };
-        let Ok(mut running) = self.running.lock() else { return };
+        let Some(stage) = self.training.get() else { return };
+        let Ok(mut running) = stage.running.lock() else { return };
         let bar = running.entry(label.to_string()).or_insert_with(|| {
-            let b = self.multi.add(ProgressBar::new(total as u64));
+            let b = stage.multi.add(ProgressBar::new(total as u64));
             b.set_style(
                 ProgressStyle::with_template("  {msg:32} {bar:30} {pos}/{len}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -65,13 +97,14 @@ impl TrainProgress for TrainBars {
     }
 
     fn done(&self, label: &str, r: &FoldReport) {
-        if let Ok(mut running) = self.running.lock()
+        let Some(stage) = self.training.get() else { return };
+        if let Ok(mut running) = stage.running.lock()
             && let Some(b) = running.remove(label)
         {
             b.finish_and_clear();
-            self.multi.remove(&b);
+            stage.multi.remove(&b);
         }
-        self.overall.inc(1);
+        stage.overall.inc(1);
         let line = format!(
             "{label}: epoch {}, val ADE {:.3} m (cv {:.3} m), {:.0} s{}",
             r.best_epoch,
@@ -80,14 +113,14 @@ impl TrainProgress for TrainBars {
             r.seconds,
             if r.cached { " (cached)" } else { "" }
         );
-        if self.terminal {
-            self.overall.set_message(line);
+        if stage.terminal {
+            stage.overall.set_message(line);
         } else {
             eprintln!(
                 "[{:>6.0} s] fold {}/{} {line}",
-                self.start.elapsed().as_secs_f64(),
-                self.overall.position(),
-                self.overall.length().unwrap_or(0)
+                stage.start.elapsed().as_secs_f64(),
+                stage.overall.position(),
+                stage.overall.length().unwrap_or(0)
             );
         }
     }

@@ -328,6 +328,7 @@ pub fn run_scene(
 /// An unknown scene; see [`run_scene`].
 pub fn run(options: &BenchmarkOptions, jobs: usize, progress: &dyn TrainProgress) -> anyhow::Result<Vec<SceneResult>> {
     let scenes = chosen_scenes(&options.scenes)?;
+    progress.training(if options.train { scenes.len() } else { 0 });
     map_jobs(&scenes, jobs, |scene| {
         let result = run_scene(*scene, options, &mut |e| progress.event(scene.name, e))?;
         if let Some(fold) = fold_reports(std::slice::from_ref(&result), options.hyper.seed).first() {

@@ -7,6 +7,7 @@ use std::fs;
 
 use clap::Parser as _;
 use dynotraj_cli::{Cli, Command, experiment};
+use dynotraj_eval::experiment::folds::Quiet;
 use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 #[test]
@@ -144,9 +145,9 @@ fn the_report_folder_and_a_cached_rerun() {
     assert!(counts.iter().all(|c| c.len() == 2 && c[0].parse::<u64>().is_ok_and(|n| n > 0)), "{truth}");
     assert!(md.contains("Against the simulator's truth: estimated against gt"), "{md}");
 
-    let (again, _, _) = experiment::experiment(&a).unwrap();
-    assert!(again.folds.iter().all(|f| f.cached), "{:?}", again.folds);
     let first = fs::read_to_string(out.join("table_iv.csv")).unwrap();
+    let again = dynotraj_eval::experiment::request::experiment(&a.request().unwrap(), &Quiet).unwrap().result;
+    assert!(again.folds.iter().all(|f| f.cached), "{:?}", again.folds);
     assert_eq!(
         again.table.render(dynotraj_eval::report::Format::Csv),
         first,

@@ -27,6 +27,10 @@ pub struct FoldSpec {
 
 /// What the training stage tells its caller while it runs; called from the worker threads.
 pub trait TrainProgress: Sync {
+    /// Training of `folds` folds starts.
+    fn training(&self, folds: usize) {
+        let _ = folds;
+    }
     /// A step or an epoch of the fold named `label` finished.
     fn event(&self, label: &str, event: Event);
     /// The fold named `label` is trained (or was read from the cache).
@@ -40,6 +44,12 @@ pub struct Quiet;
 impl TrainProgress for Quiet {
     fn event(&self, _: &str, _: Event) {}
     fn done(&self, _: &str, _: &FoldReport) {}
+}
+
+impl crate::loading::LoadProgress for Quiet {
+    fn loading(&self, _: usize, _: bool) {}
+    fn loaded(&self, _: &str, _: bool) {}
+    fn finished(&self) {}
 }
 
 impl FoldSpec {

@@ -9,6 +9,7 @@
 
 pub mod benchmark;
 pub mod benchmark_report;
+pub mod benchmark_request;
 pub mod budget;
 pub mod cache;
 pub mod figures;
@@ -16,6 +17,7 @@ pub mod findings;
 pub mod folds;
 pub mod paper;
 pub mod report;
+pub mod request;
 pub mod sections;
 
 use std::collections::BTreeSet;

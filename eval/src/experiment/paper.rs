@@ -6,6 +6,18 @@ use crate::report::ReferenceRow;
 /// The paper's test sequences, in its column order.
 pub const SEQUENCES: [&str; 5] = ["0000", "0003", "0005", "0018", "0020"];
 
+/// The test sequences of a command's `flag`: those `given`, each once, else [`SEQUENCES`].
+///
+/// # Errors
+/// A sequence given twice, named.
+pub fn test_sequences(flag: &str, given: &[String]) -> anyhow::Result<Vec<String>> {
+    if given.is_empty() {
+        Ok(SEQUENCES.iter().map(ToString::to_string).collect())
+    } else {
+        dynotraj_sources::drives::distinct_ids(flag, given.to_vec())
+    }
+}
+
 /// [ADE, FDE, ACE] of one sequence or of the average.
 type Scores = [f64; 3];
 
