@@ -15,6 +15,7 @@ use super::data_args::FrameRateArg;
 use super::estimated_args::{PointDepthArgs, RenderOptics};
 use super::progress::progress;
 use dynotraj_eval::jobs::{default_jobs, parse_jobs};
+use dynotraj_eval::motion_segmentation::motion_segmentation;
 use dynotraj_eval::report::Format;
 use dynotraj_eval::tracking::{
     DisparitySettings, TrackSettings, counters_table, disparity_error, image_sequences, real_image_checks, stage_times,
@@ -37,7 +38,7 @@ pub struct TrackArgs {
     #[arg(long = "sequences", visible_alias = "sequence", value_delimiter = ',', value_parser = crate::numbers::sequence_id, value_name = "LIST")]
     pub sequences: Vec<String>,
     /// Folder for the tracks files, one per sequence: `<DIR>/<sequence>.dtt`.
-    #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check", "disparity_error"])]
+    #[arg(long, value_name = "DIR", required_unless_present_any = ["cost", "check", "disparity_error", "segmentation"])]
     pub out: Option<PathBuf>,
     /// Depth from stereo matching or from the given depth maps (depth_02/).
     #[arg(long, value_parser = crate::numbers::choices(&DepthMode::CHOICES), default_value = "stereo")]
@@ -80,6 +81,12 @@ pub struct TrackArgs {
     /// --out, also as disparity_error.{md,csv,json} there.
     #[arg(long, conflicts_with_all = ["cost", "check", "record"])]
     pub disparity_error: bool,
+    /// Render the sequences of --kitti as --disparity-error does, track them with motion masks
+    /// and print how the masks find the moving objects against the renderings' truth: recall by
+    /// range band and class, precision of the segments, id switches, frames to the first
+    /// detection; with --out, also as segmentation_{recall,precision}.{md,csv,json} there.
+    #[arg(long, conflicts_with_all = ["cost", "check", "record", "disparity_error"])]
+    pub segmentation: bool,
     /// How sent points get their depth.
     #[command(flatten)]
     pub point_depth: PointDepthArgs,
@@ -115,9 +122,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         print!("{}", real_image_checks(root, stereo, args.tracker())?);
         return Ok(());
     }
-    if args.disparity_error {
-        let Some(dir) = &args.kitti else { anyhow::bail!("--disparity-error needs --kitti") };
-        return disparity(dir, args);
+    if args.disparity_error || args.segmentation {
+        let Some(dir) = &args.kitti else { anyhow::bail!("--disparity-error and --segmentation need --kitti") };
+        return rendered_measurement(dir, args);
     }
     if args.cost {
         let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
@@ -159,8 +166,9 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Prints (and with --out writes) the disparity error of the sequences of `dir`.
-fn disparity(dir: &std::path::Path, args: &TrackArgs) -> anyhow::Result<()> {
+/// Prints (and with --out writes) the disparity error or the motion masks' scores on the
+/// renderings of the sequences of `dir`.
+fn rendered_measurement(dir: &std::path::Path, args: &TrackArgs) -> anyhow::Result<()> {
     let settings = DisparitySettings {
         options: EvalOptions {
             max_frames: args.frames,
@@ -173,19 +181,29 @@ fn disparity(dir: &std::path::Path, args: &TrackArgs) -> anyhow::Result<()> {
         render_optics_name: format!("{:?}", args.render_optics),
     };
     let bar = progress(0, "sequences rendered and tracked");
-    let result = disparity_error(dir, &args.sequences, &settings, &|total| {
+    let on_sequence = |total: usize| {
         bar.set_length(total as u64);
         bar.inc(1);
-    });
+    };
+    let result = if args.segmentation {
+        motion_segmentation(dir, &args.sequences, &settings, &on_sequence)
+            .map(|r| (r.header, vec![("segmentation_recall", r.recall), ("segmentation_precision", r.precision)]))
+    } else {
+        disparity_error(dir, &args.sequences, &settings, &on_sequence).map(|(h, t)| (h, vec![("disparity_error", t)]))
+    };
     bar.finish_and_clear();
-    let (header, table) = result?;
+    let (header, tables) = result?;
     print!("{header}");
-    println!("{}", table.render(Format::Md));
+    for (_, table) in &tables {
+        println!("{}", table.render(Format::Md));
+    }
     if let Some(out) = &args.out {
-        for (format, ext) in [(Format::Md, "md"), (Format::Csv, "csv"), (Format::Json, "json")] {
-            let path = out.join(format!("disparity_error.{ext}"));
-            dynotraj_formats::atomic::write_file(&path, table.render(format).as_bytes())
-                .with_context(|| format!("writing {}", path.display()))?;
+        for (stem, table) in &tables {
+            for (format, ext) in [(Format::Md, "md"), (Format::Csv, "csv"), (Format::Json, "json")] {
+                let path = out.join(format!("{stem}.{ext}"));
+                dynotraj_formats::atomic::write_file(&path, table.render(format).as_bytes())
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
         }
     }
     Ok(())

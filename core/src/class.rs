@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 /// The variants are KITTI's object types plus [`ObjectClass::Background`] for the static scene.
 /// KITTI's `DontCare` regions are not objects and have no class. On the wire a class is its
 /// variant index (one byte), so variants may only ever be appended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, MaxSize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, MaxSize)]
 pub enum ObjectClass {
     /// The static scene: not an object (tracks with object id 0).
     Background,

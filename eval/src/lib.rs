@@ -9,6 +9,8 @@ pub mod forecast_eval;
 pub mod jobs;
 pub mod loading;
 pub mod model_cost;
+#[cfg(feature = "images")]
+pub mod motion_segmentation;
 pub mod pedestrian_benchmark;
 pub mod predictors;
 pub mod recording;

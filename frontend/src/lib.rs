@@ -9,7 +9,8 @@
 //!   KITTI's D1 error against ground-truth disparity; [`depth`]: depth per pixel from it or from
 //!   a given depth map;
 //! - [`masks`]: instance masks from mask PNGs or from 2D boxes refined by depth, and consistent
-//!   ids by IoU when boxes come without them;
+//!   ids by IoU when boxes come without them; [`motion`]: moving objects found by geometry
+//!   alone (motion segmentation), as boxes for the same refinement;
 //! - [`features`] + [`klt`] + [`tracker`]: static corners spread on a grid, dense object points,
 //!   pyramidal KLT with a forward-backward check, re-detection to hold the target counts, and the
 //!   emission of [`dynotraj_core::wire::Track`]s within the core's capacities;
@@ -27,6 +28,8 @@ pub mod features;
 pub mod image_io;
 pub mod klt;
 pub mod masks;
+pub mod motion;
+pub mod motion_scores;
 pub mod pipeline;
 pub mod rendered;
 pub mod sequence;
@@ -38,6 +41,7 @@ pub mod tracker;
 pub use depth::DepthMap;
 pub use error::FrontEndError;
 pub use masks::{Detection, IdAssigner, Instance, Instances};
+pub use motion::{MotionParams, MotionSegmenter, MotionStats};
 pub use pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 pub use stats::FrontEndStats;
 pub use stereo::{D1, DisparityMap, Stereo, StereoParams, d1_error};

@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
+use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::{ObjectClass, Track};
 use opencv::core::{CV_16UC1, Mat, Scalar};
 use opencv::prelude::*;
@@ -11,6 +12,7 @@ use opencv::prelude::*;
 use super::depth::DepthMap;
 use super::error::{FrontEndError, cv};
 use super::masks::{Detection, IdAssigner, Instances, from_boxes, from_label_image};
+use super::motion::{MotionParams, MotionSegmenter};
 use super::stereo::{Stereo, StereoParams};
 use super::tracker::{Tracker, TrackerParams};
 
@@ -30,6 +32,9 @@ pub enum MaskInput {
     Labels(Mat, BTreeMap<u16, ObjectClass>),
     /// 2D boxes, refined by depth into masks.
     Boxes(Vec<Detection>),
+    /// The moving objects the front-end finds itself ([`MotionSegmenter`]), seen by a camera
+    /// with these intrinsics; refined by depth into masks as boxes are.
+    Motion(Intrinsics),
     /// No objects: everything is background.
     None,
 }
@@ -96,9 +101,13 @@ pub struct FrontEnd {
     /// The tracking stage (its counters are the front-end's).
     pub tracker: Tracker,
     ids: IdAssigner,
+    /// The motion segmentation, for frames with [`MaskInput::Motion`].
+    pub motion: MotionSegmenter,
     fb: f32,
     /// Time per stage.
     pub times: StageTimes,
+    /// The last frame's instance label image (`CV_16UC1`, 0 background), for scoring masks.
+    pub last_masks: Mat,
 }
 
 impl FrontEnd {
@@ -111,8 +120,10 @@ impl FrontEnd {
             stereo: Stereo::new(stereo)?,
             tracker: Tracker::new(tracker),
             ids: IdAssigner::default(),
+            motion: MotionSegmenter::new(MotionParams::default()),
             fb,
             times: StageTimes::default(),
+            last_masks: Mat::default(),
         })
     }
 
@@ -130,14 +141,14 @@ impl FrontEnd {
     pub fn process(&mut self, input: FrameInput) -> Result<Vec<Track>, FrontEndError> {
         let (t0, c0) = (Instant::now(), process_cpu_seconds());
         let FrameInput { left, depth, masks } = input;
-        let (w, h) = (left.cols(), left.rows());
-        let Self { stereo, tracker, ids, fb, times } = self;
+        let Self { stereo, tracker, ids, motion, fb, times, last_masks } = self;
         let fb = *fb;
-        let rows = stereo.row_search().filter(|_| !matches!(masks, MaskInput::Boxes(_)));
-        let beside = rows.is_none() && !matches!(masks, MaskInput::Boxes(_)) && stereo.downscale() > 1;
+        let needs_depth = matches!(masks, MaskInput::Boxes(_) | MaskInput::Motion(_));
+        let rows = stereo.row_search().filter(|_| !needs_depth);
+        let beside = rows.is_none() && !needs_depth && stereo.downscale() > 1;
         let (tracks, cpu) = match depth {
             DepthInput::Right(right) if beside => {
-                let instances = instances_of(masks, ids, w, h, None)?;
+                let instances = instances_of(masks, (ids, motion), &left, None)?;
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
                 let (disparity, points) = std::thread::scope(|s| {
                     let matcher = s.spawn(|| {
@@ -154,6 +165,7 @@ impl FrontEnd {
                 let (t2, c2) = (Instant::now(), process_cpu_seconds());
                 let depth = DepthMap::Stereo { disparity, fb, pair: Some((left, right)) };
                 let tracks = tracker.finish(points, &depth, &instances);
+                *last_masks = instances.labels;
                 let (t3, c3) = (Instant::now(), process_cpu_seconds());
                 times.concurrent_frames += 1;
                 times.masks += (t1 - t0).as_secs_f64();
@@ -174,11 +186,12 @@ impl FrontEnd {
                     (DepthInput::Depth(d), _) => DepthMap::Given(d),
                 };
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
-                let instances = instances_of(masks, ids, w, h, Some(&depth))?;
+                let instances = instances_of(masks, (ids, motion), &left, Some(&depth))?;
                 let (t2, c2) = (Instant::now(), process_cpu_seconds());
                 let points = tracker.follow(&left, &instances)?;
                 let (t3, c3) = (Instant::now(), process_cpu_seconds());
                 let tracks = tracker.finish(points, &depth, &instances);
+                *last_masks = instances.labels;
                 let (t4, c4) = (Instant::now(), process_cpu_seconds());
                 times.stereo += (t1 - t0).as_secs_f64();
                 times.masks += (t2 - t1).as_secs_f64();
@@ -196,15 +209,15 @@ impl FrontEnd {
     }
 }
 
-/// The instance masks of `masks` for an image of `w` x `h`: boxes are refined by `depth` (which
-/// they need), labels and none are not.
+/// The instance masks of `masks` for the image `left`: boxes and moving objects are refined by
+/// `depth` (which they need), labels and none are not.
 fn instances_of(
     masks: MaskInput,
-    ids: &mut IdAssigner,
-    w: i32,
-    h: i32,
+    (ids, motion): (&mut IdAssigner, &mut MotionSegmenter),
+    left: &Mat,
     depth: Option<&DepthMap>,
 ) -> Result<Instances, FrontEndError> {
+    let (w, h) = (left.cols(), left.rows());
     match masks {
         MaskInput::Labels(labels, classes) => {
             from_label_image(labels, |id| classes.get(&id).copied().unwrap_or(ObjectClass::Misc))
@@ -212,6 +225,12 @@ fn instances_of(
         MaskInput::Boxes(dets) => {
             let depth = depth.ok_or(FrontEndError::Stage("masks from boxes need the depth map"))?;
             from_boxes(w, h, &ids.assign(&dets), depth)
+        }
+        MaskInput::Motion(intrinsics) => {
+            let depth = depth.ok_or(FrontEndError::Stage("motion segmentation needs the depth map"))?;
+            let found = motion.objects(left, depth, &intrinsics)?;
+            let boxes: Vec<(u16, Detection)> = found.into_iter().filter_map(|d| Some((d.object_id?, d))).collect();
+            from_boxes(w, h, &boxes, depth)
         }
         MaskInput::None => Ok(Instances {
             labels: Mat::new_rows_cols_with_default(h, w, CV_16UC1, Scalar::all(0.0)).map_err(cv("label image"))?,

@@ -1,13 +1,19 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are the host's `estimation::end_to_end`).
 
+use std::collections::BTreeMap;
+
+use dynotraj_core::wire::ObjectClass;
 use dynotraj_sim::image_sim::ImageSim;
-use dynotraj_sim::track_sim::SimFrame;
+use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
+use opencv::prelude::*;
 
 use super::cost::input_of;
 use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
-use super::error::FrontEndError;
-use super::pipeline::{FrontEnd, StageTimes};
+use super::error::{FrontEndError, cv};
+use super::motion::MotionStats;
+use super::motion_scores::{FrameSegments, MotionScores};
+use super::pipeline::{FrontEnd, MaskInput, StageTimes};
 use super::stats::FrontEndStats;
 use super::stereo::StereoParams;
 use super::tracker::TrackerParams;
@@ -70,4 +76,55 @@ pub fn track_measured(
         }
     }
     Ok(RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats })
+}
+
+/// The objects of `truth` (per frame) that move at least `min_step_m` a frame on average over
+/// the frames they are in, with their classes.
+#[must_use]
+pub fn moving_objects(truth: &[Vec<ObjectTruth>], min_step_m: f64) -> BTreeMap<u16, ObjectClass> {
+    let mut paths: BTreeMap<u16, (ObjectClass, Vec<nalgebra::Vector3<f64>>)> = BTreeMap::new();
+    for o in truth.iter().flatten() {
+        paths.entry(o.object_id).or_insert_with(|| (o.class, Vec::new())).1.push(o.pose.translation.vector);
+    }
+    paths
+        .into_iter()
+        .filter(|(_, (_, p))| {
+            let length: f64 = p.windows(2).filter_map(|w| Some((w.get(1)? - w.first()?).norm())).sum();
+            p.len() >= 2 && length / (p.len() - 1) as f64 >= min_step_m
+        })
+        .map(|(id, (class, _))| (id, class))
+        .collect()
+}
+
+/// The front-end with motion masks ([`MaskInput::Motion`]) over the first `frames` frames of
+/// `sim`, its masks scored into `scores` against the objects moving at least `min_step_m` a
+/// frame ([`moving_objects`]); with the segmentation's counters.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn track_motion_scored(
+    sim: &ImageSim,
+    frames: usize,
+    (stereo, tracker): (StereoParams, TrackerParams),
+    min_step_m: f64,
+    scores: &mut MotionScores,
+) -> Result<(RenderingTracked, MotionStats), FrontEndError> {
+    let cam = sim.camera;
+    let n = frames.min(sim.len());
+    let moving = moving_objects(sim.truth.get(..n).unwrap_or(&sim.truth), min_step_m);
+    let mut fe = FrontEnd::new(stereo, tracker, cam.fb() as f32)?;
+    let mut out = Vec::new();
+    for k in 0..n {
+        let Some(f) = sim.frame(k) else { break };
+        let mut input = input_of(&f, &cam)?;
+        input.masks = MaskInput::Motion(cam.intrinsics());
+        let tracks = fe.process(input)?;
+        let segments = fe.last_masks.data_typed::<u16>().map_err(cv("reading the masks"))?;
+        let frame = FrameSegments { frame: k, truth_ids: &f.ids, truth_depth: &f.depth, segments, moving: &moving };
+        scores.add_frame(&frame);
+        scores.add_residuals(&fe.motion.judged, &frame, cam.width);
+        out.push(SimFrame { frame: f.frame, timestamp_us: 0, tracks, camera: f.camera, objects: f.objects });
+    }
+    scores.end_sequence();
+    Ok((RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats }, fe.motion.stats))
 }

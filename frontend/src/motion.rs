@@ -1,0 +1,510 @@
+//! Moving objects found by geometry alone (motion segmentation from stereo scene flow), for
+//! drives that carry no masks, boxes or detections.
+//!
+//! Probe corners are followed over the left images (KLT with the forward-backward check) and
+//! given depth from the frame's depth map. The camera's motion between consecutive frames is the
+//! robust fit of the probes ([`dynotraj_core::estimate::fit_pose`]): the static scene is the
+//! majority. A probe is moving when its position now disagrees with where the camera's motion
+//! over the last [`MotionParams::baseline_frames`] frames puts its position then, by more than
+//! [`MotionParams::moving_sigmas`] standard deviations of the stereo point model: across the
+//! viewing ray in pixels, along it in disparity, so that far points, whose depth is poor, are
+//! judged on what their stereo can tell. A longer baseline lets slow and along-the-ray motion
+//! grow above the noise, which does not grow with it.
+//!
+//! Moving probes are linked in 3D (across the ray within [`MotionParams::link_m`], along it
+//! within that plus the stereo depth error) into clusters; a cluster of at least
+//! [`MotionParams::min_points`] probes is an object. Its id is the one most of its probes had in
+//! the previous frame, else a fresh one; its class (pedestrian or car) is read from its size and
+//! kept by its id. Each object becomes a box around its probes, grown by
+//! [`MotionParams::grow`], which [`super::masks::from_boxes`] then turns into a mask by depth
+//! consistency, as for detector boxes.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use dynotraj_core::estimate::fit::FitFailure;
+use dynotraj_core::estimate::{Correspondence, EstimatorParams, Intrinsics, Pcg32, PointModel, fit_pose};
+use dynotraj_core::geometry::Pose3;
+use dynotraj_core::wire::ObjectClass;
+use opencv::core::{CV_8UC1, Mat, Point2f, Scalar};
+use opencv::prelude::*;
+
+use super::depth::DepthMap;
+use super::error::{FrontEndError, cv};
+use super::features::{DetectParams, detect};
+use super::klt::{KltParams, Pyramid, Tracked, track};
+use super::masks::Detection;
+
+/// Settings of the motion segmentation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionParams {
+    /// Probe corners held.
+    pub probes: usize,
+    /// Probe detection (spread on a grid).
+    pub detect: DetectParams,
+    /// Probe tracking.
+    pub klt: KltParams,
+    /// Frames between the two positions a probe is judged on (fewer while it is younger).
+    pub baseline_frames: usize,
+    /// Standard deviation of a probe's image position, pixels.
+    pub pixel_sigma: f32,
+    /// Standard deviation of a probe's disparity, pixels.
+    pub disparity_sigma: f32,
+    /// A probe moves when its normalised residual exceeds this many standard deviations.
+    pub moving_sigmas: f32,
+    /// Farthest a probe is judged, metres (beyond, stereo cannot tell motion from noise).
+    pub max_depth_m: f32,
+    /// Largest gap between two probes of one object across the viewing ray, metres.
+    pub link_m: f32,
+    /// Fewest moving probes that make an object.
+    pub min_points: usize,
+    /// A box grows by this share of its size on each side.
+    pub grow: f32,
+    /// Frames an object must be found in a row before it is reported.
+    pub confirm_frames: u32,
+    /// Frames a probe must be judged moving in a row before it counts as moving.
+    pub probe_confirm_frames: u8,
+}
+
+impl Default for MotionParams {
+    fn default() -> Self {
+        Self {
+            probes: 1500,
+            detect: DetectParams { grid_cols: 16, grid_rows: 4, min_distance: 7.0, quality: 0.005 },
+            klt: KltParams::default(),
+            baseline_frames: 3,
+            pixel_sigma: 0.5,
+            disparity_sigma: 0.5,
+            moving_sigmas: 4.0,
+            max_depth_m: 80.0,
+            link_m: 1.5,
+            min_points: 5,
+            grow: 0.2,
+            confirm_frames: 2,
+            probe_confirm_frames: 2,
+        }
+    }
+}
+
+/// What the segmentation did, summed over frames.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MotionStats {
+    /// Frames segmented.
+    pub frames: usize,
+    /// Frames whose camera motion could not be fitted (no object found in them).
+    pub ego_failed: usize,
+    /// Probes judged (with a position `baseline_frames` or fewer frames back and depth).
+    pub judged: usize,
+    /// Probes judged moving.
+    pub moving: usize,
+    /// Moving probes in no cluster of [`MotionParams::min_points`].
+    pub unclustered: usize,
+    /// Objects reported.
+    pub objects: usize,
+}
+
+/// A probe judged in the last frame: where it is, how deep, and its residual against the
+/// camera's motion, pixels (the disparity part scaled as the point model does).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Judged {
+    /// Pixel column.
+    pub u: f32,
+    /// Pixel row.
+    pub v: f32,
+    /// Depth, metres.
+    pub depth: f32,
+    /// Residual across the viewing ray (image), pixels.
+    pub across_px: f32,
+    /// Residual along it (disparity, scaled), pixels.
+    pub along_px: f32,
+    /// The residual in standard deviations (Mahalanobis distance under both observations'
+    /// noise).
+    pub sigmas: f32,
+}
+
+/// One observation of a probe: pixel and depth (when the map has one).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Seen {
+    u: f32,
+    v: f32,
+    /// Depth, metres, when the map has one there and the depth around (within
+    /// [`EDGE_RADIUS_PX`]) agrees with it: at a depth edge a corner's depth is as often the
+    /// other surface's.
+    depth: Option<f32>,
+}
+
+/// How far around a probe its depth must agree, pixels.
+const EDGE_RADIUS_PX: f32 = 3.0;
+
+/// How much the depth around a probe may differ from its own, as a share of it.
+const EDGE_DEPTH_SHARE: f32 = 0.05;
+
+/// The depth of `depth` at `(u, v)` where the depth around it agrees ([`Seen::depth`]).
+fn smooth_depth(depth: &DepthMap, u: f32, v: f32) -> Option<f32> {
+    let z = depth.at(u, v)?;
+    let r = EDGE_RADIUS_PX;
+    for (du, dv) in [(-r, -r), (0.0, -r), (r, -r), (-r, 0.0), (r, 0.0), (-r, r), (0.0, r), (r, r)] {
+        let n = depth.at(u + du, v + dv)?;
+        if (n - z).abs() > EDGE_DEPTH_SHARE * z {
+            return None;
+        }
+    }
+    Some(z)
+}
+
+/// A probe corner with its recent observations, newest last.
+#[derive(Debug, Clone)]
+struct Probe {
+    seen: VecDeque<Seen>,
+    /// The object it belonged to in the previous frame.
+    object: Option<u16>,
+    /// Frames in a row it was judged moving, up to now.
+    streak: u8,
+}
+
+/// An object the segmentation follows.
+#[derive(Debug, Clone, Copy)]
+struct Followed {
+    class: ObjectClass,
+    /// Frames in a row it was found, up to now.
+    streak: u32,
+}
+
+/// The motion segmentation's state between frames.
+#[derive(Debug)]
+pub struct MotionSegmenter {
+    params: MotionParams,
+    previous: Option<Pyramid>,
+    probes: Vec<Probe>,
+    /// Camera motions `T_{k, k-1}` of the last frames, newest last.
+    motions: VecDeque<Pose3>,
+    objects: BTreeMap<u16, Followed>,
+    next_id: u16,
+    rng: Pcg32,
+    /// Counters.
+    pub stats: MotionStats,
+    /// The probes judged in the last frame.
+    pub judged: Vec<Judged>,
+}
+
+/// Fresh ids start here, apart from the ids labels give (KITTI track id + 1) and from those of
+/// [`super::masks::IdAssigner`].
+const FIRST_ID: u16 = 20_000;
+
+impl MotionSegmenter {
+    /// A segmenter with `params`, before its first frame.
+    #[must_use]
+    pub fn new(params: MotionParams) -> Self {
+        Self {
+            params,
+            previous: None,
+            probes: Vec::new(),
+            motions: VecDeque::new(),
+            objects: BTreeMap::new(),
+            next_id: FIRST_ID,
+            rng: Pcg32::new(0x6d6f_7469_6f6e),
+            stats: MotionStats::default(),
+            judged: Vec::new(),
+        }
+    }
+
+    /// The moving objects of the frame `grey` with depth `depth`, seen by a camera with
+    /// `intrinsics`, as boxes with their ids and classes.
+    ///
+    /// # Errors
+    /// An OpenCV failure.
+    pub fn objects(
+        &mut self,
+        grey: &Mat,
+        depth: &DepthMap,
+        intrinsics: &Intrinsics,
+    ) -> Result<Vec<Detection>, FrontEndError> {
+        let p = self.params;
+        let pyramid = Pyramid::new(grey, &p.klt)?;
+        if let Some(previous) = &self.previous {
+            let points: Vec<Point2f> =
+                self.probes.iter().filter_map(|q| q.seen.back().map(|s| Point2f::new(s.u, s.v))).collect();
+            let moved = track(previous, &pyramid, &points, &p.klt)?;
+            let mut kept = Vec::with_capacity(self.probes.len());
+            for (mut probe, t) in std::mem::take(&mut self.probes).into_iter().zip(moved) {
+                if let Tracked::At(at) = t {
+                    probe.seen.push_back(Seen { u: at.x, v: at.y, depth: smooth_depth(depth, at.x, at.y) });
+                    while probe.seen.len() > p.baseline_frames + 1 {
+                        probe.seen.pop_front();
+                    }
+                    kept.push(probe);
+                }
+            }
+            self.probes = kept;
+        }
+        self.stats.frames += 1;
+        self.judged.clear();
+        let model = point_model(intrinsics, &p);
+        let found = if self.previous.is_some() { self.segment(&model, intrinsics) } else { Vec::new() };
+        self.replenish(grey, depth)?;
+        self.previous = Some(pyramid);
+        Ok(found)
+    }
+
+    /// Fits the camera's motion, judges the probes and clusters the moving ones.
+    fn segment(&mut self, model: &PointModel, intrinsics: &Intrinsics) -> Vec<Detection> {
+        let p = self.params;
+        let corrs: Vec<Correspondence> = self.probes.iter().filter_map(|q| step(q, 1, model)).collect();
+        let fit_params = EstimatorParams::kitti(*intrinsics, 0.1).camera_fit;
+        let guess = self.motions.back().copied();
+        let motion = match fit_pose(&corrs, guess.as_ref(), &fit_params, model, &mut self.rng) {
+            Ok(fit) => fit.pose,
+            Err(FitFailure::TooFewPoints | FitFailure::TooFewInliers | FitFailure::Numerical) => {
+                self.stats.ego_failed += 1;
+                self.motions.clear();
+                for q in &mut self.probes {
+                    q.seen.drain(..q.seen.len().saturating_sub(1));
+                    q.object = None;
+                }
+                self.forget_unseen(&[]);
+                return Vec::new();
+            }
+        };
+        self.motions.push_back(motion);
+        while self.motions.len() > p.baseline_frames {
+            self.motions.pop_front();
+        }
+        // Camera motion from each of the last frames to now: `since[j - 1]` = T_{k, k-j}.
+        let mut since = Vec::with_capacity(self.motions.len());
+        let mut acc = Pose3::identity();
+        for m in self.motions.iter().rev() {
+            acc *= m;
+            since.push(acc);
+        }
+        let mut moving: Vec<(usize, nalgebra::Point3<f32>)> = Vec::new();
+        let mut streaks: Vec<(usize, bool)> = Vec::new();
+        for (i, q) in self.probes.iter().enumerate() {
+            let Some(now) = q.seen.back() else { continue };
+            let Some(z) = now.depth.filter(|z| *z <= p.max_depth_m) else { continue };
+            let back = (q.seen.len() - 1).min(since.len());
+            let Some(pose) = back.checked_sub(1).and_then(|j| since.get(j)) else { continue };
+            let Some(then) = q.seen.len().checked_sub(1 + back).and_then(|j| q.seen.get(j)) else { continue };
+            let Some((r, m2)) = normalised_residual(model, pose, (then, now), intrinsics.stereo_fb, &p) else {
+                continue;
+            };
+            self.stats.judged += 1;
+            self.judged.push(Judged {
+                u: now.u,
+                v: now.v,
+                depth: z,
+                across_px: r.x.hypot(r.y),
+                along_px: r.z.abs(),
+                sigmas: m2.sqrt(),
+            });
+            let is_moving = m2 > p.moving_sigmas * p.moving_sigmas;
+            streaks.push((i, is_moving));
+            if is_moving && q.streak + 1 >= p.probe_confirm_frames {
+                self.stats.moving += 1;
+                moving.push((i, model.back_project(now.u, now.v, z)));
+            }
+        }
+        let mut judged_moving = vec![false; self.probes.len()];
+        for (i, is_moving) in streaks {
+            if let Some(slot) = judged_moving.get_mut(i) {
+                *slot = is_moving;
+            }
+        }
+        for (q, is_moving) in self.probes.iter_mut().zip(judged_moving) {
+            q.streak = if is_moving { q.streak.saturating_add(1) } else { 0 };
+        }
+        let clusters = clusters(&moving, model, p.link_m);
+        let mut out = Vec::new();
+        let mut ids_now = Vec::new();
+        let mut members_of: Vec<(u16, Vec<usize>)> = Vec::new();
+        for members in clusters {
+            if members.len() < p.min_points {
+                self.stats.unclustered += members.len();
+                continue;
+            }
+            let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
+            let Some((bbox, size_m)) = self.extent(&probes, intrinsics) else { continue };
+            let id = self.id_of(&probes, &ids_now);
+            ids_now.push(id);
+            let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0 });
+            followed.streak += 1;
+            if followed.streak >= p.confirm_frames {
+                self.stats.objects += 1;
+                out.push(Detection { bbox, class: followed.class, object_id: Some(id) });
+            }
+            members_of.push((id, probes));
+        }
+        for q in &mut self.probes {
+            q.object = None;
+        }
+        for (id, probes) in members_of {
+            for i in probes {
+                if let Some(q) = self.probes.get_mut(i) {
+                    q.object = Some(id);
+                }
+            }
+        }
+        self.forget_unseen(&ids_now);
+        out
+    }
+
+    /// Drops the objects not found this frame (their streak starts again).
+    fn forget_unseen(&mut self, seen: &[u16]) {
+        self.objects.retain(|id, _| seen.contains(id));
+    }
+
+    /// The id of the cluster of `probes`: the one most of them had, when no cluster of this
+    /// frame took it already, else a fresh one.
+    fn id_of(&mut self, probes: &[usize], taken: &[u16]) -> u16 {
+        let mut votes: BTreeMap<u16, usize> = BTreeMap::new();
+        for q in probes.iter().filter_map(|&i| self.probes.get(i)) {
+            if let Some(id) = q.object {
+                *votes.entry(id).or_default() += 1;
+            }
+        }
+        let best = votes.into_iter().filter(|(id, _)| !taken.contains(id)).max_by_key(|&(id, n)| (n, u16::MAX - id));
+        best.map_or_else(
+            || {
+                let id = self.next_id;
+                self.next_id = self.next_id.checked_add(1).unwrap_or(FIRST_ID);
+                id
+            },
+            |(id, _)| id,
+        )
+    }
+
+    /// The grown box of `probes` and the object's width and height, metres.
+    fn extent(&self, probes: &[usize], intrinsics: &Intrinsics) -> Option<([f32; 4], (f32, f32))> {
+        let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+        let mut depths = Vec::with_capacity(probes.len());
+        for s in probes.iter().filter_map(|&i| self.probes.get(i)?.seen.back()) {
+            b = [b[0].min(s.u), b[1].min(s.v), b[2].max(s.u), b[3].max(s.v)];
+            depths.extend(s.depth);
+        }
+        depths.sort_by(f32::total_cmp);
+        let z = *depths.get(depths.len() / 2)?;
+        let (w, h) = (b[2] - b[0], b[3] - b[1]);
+        let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
+        let g = self.params.grow;
+        Some(([b[0] - g * w, b[1] - g * h, b[2] + g * w, b[3] + g * h], size_m))
+    }
+
+    /// New probes where there are none, up to [`MotionParams::probes`].
+    fn replenish(&mut self, grey: &Mat, depth: &DepthMap) -> Result<(), FrontEndError> {
+        let want = self.params.probes.saturating_sub(self.probes.len());
+        if want == 0 {
+            return Ok(());
+        }
+        let allowed = Mat::new_rows_cols_with_default(grey.rows(), grey.cols(), CV_8UC1, Scalar::all(255.0))
+            .map_err(cv("allocating a probe mask"))?;
+        let existing: Vec<Point2f> =
+            self.probes.iter().filter_map(|q| q.seen.back().map(|s| Point2f::new(s.u, s.v))).collect();
+        let found = detect(grey, &allowed, &existing, want, &self.params.detect)?;
+        self.probes.extend(found.points.into_iter().map(|at| Probe {
+            seen: VecDeque::from([Seen { u: at.x, v: at.y, depth: smooth_depth(depth, at.x, at.y) }]),
+            streak: 0,
+            object: None,
+        }));
+        Ok(())
+    }
+}
+
+/// The point model of probes seen by `intrinsics` with `p`'s noise.
+fn point_model(intrinsics: &Intrinsics, p: &MotionParams) -> PointModel {
+    let mut params = EstimatorParams::kitti(*intrinsics, 0.1);
+    params.pixel_sigma = p.pixel_sigma;
+    params.disparity_sigma = p.disparity_sigma;
+    PointModel::new(&params)
+}
+
+/// The residual of a probe seen at `then` and at `now` under the camera motion `pose` between
+/// them, and its squared Mahalanobis distance: both observations have pixel noise
+/// `pixel_sigma` and disparity noise `disparity_sigma` (with stereo `fb`), the older one's
+/// carried through the motion by finite differences. Along the epipolar line a wrong depth then
+/// moves the prediction as far as the stereo allows, across it only as far as the pixels do.
+fn normalised_residual(
+    model: &PointModel,
+    pose: &Pose3,
+    (then, now): (&Seen, &Seen),
+    fb: f32,
+    p: &MotionParams,
+) -> Option<(nalgebra::Vector3<f32>, f32)> {
+    let (z_then, z_now) = (then.depth?, now.depth?);
+    let residual_of = |u: f32, v: f32, z: f32| {
+        let src = model.back_project(u, v, z).coords;
+        model.residual(pose, &Correspondence { src, u: now.u, v: now.v, depth: z_now })
+    };
+    let r = residual_of(then.u, then.v, z_then)?;
+    let h = 0.5;
+    let du = (residual_of(then.u + h, then.v, z_then)? - r) / h;
+    let dv = (residual_of(then.u, then.v + h, z_then)? - r) / h;
+    let (sp, sd) = (p.pixel_sigma, p.disparity_sigma);
+    let mut cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(sp * sp, sp * sp, 0.0));
+    cov += du * du.transpose() * (sp * sp) + dv * dv.transpose() * (sp * sp);
+    if fb > 0.0 {
+        let d_then = fb / z_then;
+        let z_moved = fb / (d_then - h).max(0.05);
+        let dd = (residual_of(then.u, then.v, z_moved)? - r) / h;
+        cov += dd * dd.transpose() * (sd * sd);
+        // The disparity residual is scaled by pixel_sigma / disparity_sigma in the point model.
+        cov[(2, 2)] += sp * sp;
+    }
+    let info = cov.try_inverse()?;
+    let m2 = (r.transpose() * info * r).x;
+    m2.is_finite().then_some((r, m2))
+}
+
+/// The correspondence of a probe between `back` frames ago (its point there) and now (its pixel
+/// and depth), when it has both depths.
+fn step(q: &Probe, back: usize, model: &PointModel) -> Option<Correspondence> {
+    let now = q.seen.back()?;
+    let then = q.seen.get(q.seen.len().checked_sub(1 + back)?)?;
+    let (z_then, z_now) = (then.depth?, now.depth?);
+    let src = model.back_project(then.u, then.v, z_then).coords;
+    Some(Correspondence { src, u: now.u, v: now.v, depth: z_now })
+}
+
+/// Groups of `points` (indices into it) linked by distance: across the viewing ray within
+/// `link_m`, along it within `link_m` plus both points' stereo depth error at 1 px.
+fn clusters(points: &[(usize, nalgebra::Point3<f32>)], model: &PointModel, link_m: f32) -> Vec<Vec<usize>> {
+    let n = points.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while let Some(&p) = parent.get(i) {
+            if p == i {
+                break;
+            }
+            let grand = parent.get(p).copied().unwrap_or(p);
+            if let Some(slot) = parent.get_mut(i) {
+                *slot = grand;
+            }
+            i = p;
+        }
+        i
+    }
+    for (i, (_, a)) in points.iter().enumerate() {
+        for (j, (_, b)) in points.iter().enumerate().skip(i + 1) {
+            let across = (a.x - b.x).hypot(a.y - b.y);
+            let along = (a.z - b.z).abs();
+            let slack = model.depth_error(a.z, 1.0) + model.depth_error(b.z, 1.0);
+            if across < link_m && along < link_m + slack {
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                if ri != rj
+                    && let Some(slot) = parent.get_mut(ri)
+                {
+                    *slot = rj;
+                }
+            }
+        }
+    }
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    groups.into_values().collect()
+}
+
+/// A pedestrian is narrower than 1.2 m and taller than wide; anything else moving is taken for
+/// a vehicle.
+fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
+    if width_m < 1.2 && height_m > 0.8 && height_m > 1.2 * width_m { ObjectClass::Pedestrian } else { ObjectClass::Car }
+}
