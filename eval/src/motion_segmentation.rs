@@ -9,7 +9,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::motion_scores::{BANDS, MotionScores};
-use dynotraj_frontend::{MotionStats, StageTimes};
+use dynotraj_frontend::{FrontEndStats, StageTimes};
 use dynotraj_sources::estimation::from_images::motion_masks_scored;
 
 use crate::jobs::map_jobs;
@@ -53,7 +53,7 @@ pub fn motion_segmentation(
         out
     })?;
     let mut scores = MotionScores::default();
-    let mut stats = MotionStats::default();
+    let mut stats = FrontEndStats::default();
     let mut times = StageTimes::default();
     for r in per_drive {
         let (s, t, m) = r?;
@@ -61,7 +61,7 @@ pub fn motion_segmentation(
         times.frames += t.frames;
         times.masks += t.masks;
         times.wall += t.wall;
-        stats = plus(stats, m);
+        stats = stats.plus(&m);
     }
     let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
     let mut header = format!(
@@ -95,11 +95,11 @@ pub fn motion_segmentation(
         "segmentation: {} frames, camera motion not fitted in {}, probes judged {}, moving {}, in no object {}, \
          objects reported {}; masks {:.1} ms a frame of {:.1} ms\n",
         stats.frames,
-        stats.ego_failed,
-        stats.judged,
-        stats.moving,
-        stats.unclustered,
-        stats.objects,
+        stats.motion_ego_failed,
+        stats.motion_probes_judged,
+        stats.motion_probes_moving,
+        stats.motion_probes_unclustered,
+        stats.motion_objects,
         per_frame(times.masks),
         per_frame(times.wall),
     );
@@ -129,17 +129,6 @@ pub fn motion_segmentation(
     }
     header.push('\n');
     Ok(SegmentationReport { header, recall: recall_table(&scores), precision: precision_table(&scores), scores })
-}
-
-fn plus(a: MotionStats, b: MotionStats) -> MotionStats {
-    MotionStats {
-        frames: a.frames + b.frames,
-        ego_failed: a.ego_failed + b.ego_failed,
-        judged: a.judged + b.judged,
-        moving: a.moving + b.moving,
-        unclustered: a.unclustered + b.unclustered,
-        objects: a.objects + b.objects,
-    }
 }
 
 fn band_name(b: usize) -> String {

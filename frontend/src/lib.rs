@@ -41,7 +41,7 @@ pub mod tracker;
 pub use depth::DepthMap;
 pub use error::FrontEndError;
 pub use masks::{Detection, IdAssigner, Instance, Instances};
-pub use motion::{MotionParams, MotionSegmenter, MotionStats};
+pub use motion::{MotionParams, MotionSegmenter};
 pub use pipeline::{DepthInput, FrameInput, FrontEnd, MaskInput, StageTimes};
 pub use stats::FrontEndStats;
 pub use stereo::{D1, DisparityMap, Stereo, StereoParams, d1_error};

@@ -33,6 +33,7 @@ use super::error::{FrontEndError, cv};
 use super::features::{DetectParams, detect};
 use super::klt::{KltParams, Pyramid, Tracked, track};
 use super::masks::Detection;
+use super::stats::FrontEndStats;
 
 /// Settings of the motion segmentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,23 +84,6 @@ impl Default for MotionParams {
             probe_confirm_frames: 2,
         }
     }
-}
-
-/// What the segmentation did, summed over frames.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct MotionStats {
-    /// Frames segmented.
-    pub frames: usize,
-    /// Frames whose camera motion could not be fitted (no object found in them).
-    pub ego_failed: usize,
-    /// Probes judged (with a position `baseline_frames` or fewer frames back and depth).
-    pub judged: usize,
-    /// Probes judged moving.
-    pub moving: usize,
-    /// Moving probes in no cluster of [`MotionParams::min_points`].
-    pub unclustered: usize,
-    /// Objects reported.
-    pub objects: usize,
 }
 
 /// A probe judged in the last frame: where it is, how deep, and its residual against the
@@ -180,8 +164,6 @@ pub struct MotionSegmenter {
     objects: BTreeMap<u16, Followed>,
     next_id: u16,
     rng: Pcg32,
-    /// Counters.
-    pub stats: MotionStats,
     /// The probes judged in the last frame.
     pub judged: Vec<Judged>,
 }
@@ -202,7 +184,6 @@ impl MotionSegmenter {
             objects: BTreeMap::new(),
             next_id: FIRST_ID,
             rng: Pcg32::new(0x6d6f_7469_6f6e),
-            stats: MotionStats::default(),
             judged: Vec::new(),
         }
     }
@@ -217,6 +198,7 @@ impl MotionSegmenter {
         grey: &Mat,
         depth: &DepthMap,
         intrinsics: &Intrinsics,
+        stats: &mut FrontEndStats,
     ) -> Result<Vec<Detection>, FrontEndError> {
         let p = self.params;
         let pyramid = Pyramid::new(grey, &p.klt)?;
@@ -236,17 +218,16 @@ impl MotionSegmenter {
             }
             self.probes = kept;
         }
-        self.stats.frames += 1;
         self.judged.clear();
         let model = point_model(intrinsics, &p);
-        let found = if self.previous.is_some() { self.segment(&model, intrinsics) } else { Vec::new() };
+        let found = if self.previous.is_some() { self.segment(&model, intrinsics, stats) } else { Vec::new() };
         self.replenish(grey, depth)?;
         self.previous = Some(pyramid);
         Ok(found)
     }
 
     /// Fits the camera's motion, judges the probes and clusters the moving ones.
-    fn segment(&mut self, model: &PointModel, intrinsics: &Intrinsics) -> Vec<Detection> {
+    fn segment(&mut self, model: &PointModel, intrinsics: &Intrinsics, stats: &mut FrontEndStats) -> Vec<Detection> {
         let p = self.params;
         let corrs: Vec<Correspondence> = self.probes.iter().filter_map(|q| step(q, 1, model)).collect();
         let fit_params = EstimatorParams::kitti(*intrinsics, 0.1).camera_fit;
@@ -254,7 +235,7 @@ impl MotionSegmenter {
         let motion = match fit_pose(&corrs, guess.as_ref(), &fit_params, model, &mut self.rng) {
             Ok(fit) => fit.pose,
             Err(FitFailure::TooFewPoints | FitFailure::TooFewInliers | FitFailure::Numerical) => {
-                self.stats.ego_failed += 1;
+                stats.motion_ego_failed += 1;
                 self.motions.clear();
                 for q in &mut self.probes {
                     q.seen.drain(..q.seen.len().saturating_sub(1));
@@ -286,7 +267,7 @@ impl MotionSegmenter {
             let Some((r, m2)) = normalised_residual(model, pose, (then, now), intrinsics.stereo_fb, &p) else {
                 continue;
             };
-            self.stats.judged += 1;
+            stats.motion_probes_judged += 1;
             self.judged.push(Judged {
                 u: now.u,
                 v: now.v,
@@ -298,7 +279,7 @@ impl MotionSegmenter {
             let is_moving = m2 > p.moving_sigmas * p.moving_sigmas;
             streaks.push((i, is_moving));
             if is_moving && q.streak + 1 >= p.probe_confirm_frames {
-                self.stats.moving += 1;
+                stats.motion_probes_moving += 1;
                 moving.push((i, model.back_project(now.u, now.v, z)));
             }
         }
@@ -317,7 +298,7 @@ impl MotionSegmenter {
         let mut members_of: Vec<(u16, Vec<usize>)> = Vec::new();
         for members in clusters {
             if members.len() < p.min_points {
-                self.stats.unclustered += members.len();
+                stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
             let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
@@ -327,7 +308,7 @@ impl MotionSegmenter {
             let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0 });
             followed.streak += 1;
             if followed.streak >= p.confirm_frames {
-                self.stats.objects += 1;
+                stats.motion_objects += 1;
                 out.push(Detection { bbox, class: followed.class, object_id: Some(id) });
             }
             members_of.push((id, probes));

@@ -13,6 +13,7 @@ use super::depth::DepthMap;
 use super::error::{FrontEndError, cv};
 use super::masks::{Detection, IdAssigner, Instances, from_boxes, from_label_image};
 use super::motion::{MotionParams, MotionSegmenter};
+use super::stats::FrontEndStats;
 use super::stereo::{Stereo, StereoParams};
 use super::tracker::{Tracker, TrackerParams};
 
@@ -148,7 +149,7 @@ impl FrontEnd {
         let beside = rows.is_none() && !needs_depth && stereo.downscale() > 1;
         let (tracks, cpu) = match depth {
             DepthInput::Right(right) if beside => {
-                let instances = instances_of(masks, (ids, motion), &left, None)?;
+                let instances = instances_of(masks, (ids, motion, &mut tracker.stats), &left, None)?;
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
                 let (disparity, points) = std::thread::scope(|s| {
                     let matcher = s.spawn(|| {
@@ -186,7 +187,7 @@ impl FrontEnd {
                     (DepthInput::Depth(d), _) => DepthMap::Given(d),
                 };
                 let (t1, c1) = (Instant::now(), process_cpu_seconds());
-                let instances = instances_of(masks, (ids, motion), &left, Some(&depth))?;
+                let instances = instances_of(masks, (ids, motion, &mut tracker.stats), &left, Some(&depth))?;
                 let (t2, c2) = (Instant::now(), process_cpu_seconds());
                 let points = tracker.follow(&left, &instances)?;
                 let (t3, c3) = (Instant::now(), process_cpu_seconds());
@@ -213,7 +214,7 @@ impl FrontEnd {
 /// `depth` (which they need), labels and none are not.
 fn instances_of(
     masks: MaskInput,
-    (ids, motion): (&mut IdAssigner, &mut MotionSegmenter),
+    (ids, motion, stats): (&mut IdAssigner, &mut MotionSegmenter, &mut FrontEndStats),
     left: &Mat,
     depth: Option<&DepthMap>,
 ) -> Result<Instances, FrontEndError> {
@@ -228,7 +229,7 @@ fn instances_of(
         }
         MaskInput::Motion(intrinsics) => {
             let depth = depth.ok_or(FrontEndError::Stage("motion segmentation needs the depth map"))?;
-            let found = motion.objects(left, depth, &intrinsics)?;
+            let found = motion.objects(left, depth, &intrinsics, stats)?;
             let boxes: Vec<(u16, Detection)> = found.into_iter().filter_map(|d| Some((d.object_id?, d))).collect();
             from_boxes(w, h, &boxes, depth)
         }

@@ -11,7 +11,6 @@ use opencv::prelude::*;
 use super::cost::input_of;
 use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
 use super::error::{FrontEndError, cv};
-use super::motion::MotionStats;
 use super::motion_scores::{FrameSegments, MotionScores};
 use super::pipeline::{FrontEnd, MaskInput, StageTimes};
 use super::stats::FrontEndStats;
@@ -98,7 +97,7 @@ pub fn moving_objects(truth: &[Vec<ObjectTruth>], min_step_m: f64) -> BTreeMap<u
 
 /// The front-end with motion masks ([`MaskInput::Motion`]) over the first `frames` frames of
 /// `sim`, its masks scored into `scores` against the objects moving at least `min_step_m` a
-/// frame ([`moving_objects`]); with the segmentation's counters.
+/// frame ([`moving_objects`]).
 ///
 /// # Errors
 /// An OpenCV failure.
@@ -108,7 +107,7 @@ pub fn track_motion_scored(
     (stereo, tracker): (StereoParams, TrackerParams),
     min_step_m: f64,
     scores: &mut MotionScores,
-) -> Result<(RenderingTracked, MotionStats), FrontEndError> {
+) -> Result<RenderingTracked, FrontEndError> {
     let cam = sim.camera;
     let n = frames.min(sim.len());
     let moving = moving_objects(sim.truth.get(..n).unwrap_or(&sim.truth), min_step_m);
@@ -126,5 +125,5 @@ pub fn track_motion_scored(
         out.push(SimFrame { frame: f.frame, timestamp_us: 0, tracks, camera: f.camera, objects: f.objects });
     }
     scores.end_sequence();
-    Ok((RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats }, fe.motion.stats))
+    Ok(RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats })
 }

@@ -21,6 +21,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use dynotraj_core::estimate::Intrinsics;
 use dynotraj_core::wire::ObjectClass;
 use opencv::core::{CV_32F, Mat};
 use opencv::prelude::*;
@@ -52,7 +53,7 @@ impl DepthMode {
 /// How to get masks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MaskMode {
-    /// instance_02 when present, else the boxes of label_02, else none.
+    /// instance_02 when present, else the boxes of label_02, else motion segmentation.
     Auto,
     /// instance_02 PNGs.
     Png,
@@ -60,14 +61,17 @@ pub enum MaskMode {
     Boxes,
     /// label_02 2D boxes refined by depth, ids dropped and re-made by IoU association.
     Detections,
+    /// The moving objects the front-end finds itself ([`crate::motion`]): no labels, no
+    /// detector.
+    Motion,
     /// No objects.
     None,
 }
 
 impl MaskMode {
     /// Every mode with its name on the command line and what it does.
-    pub const CHOICES: [(Self, &'static str, &'static str); 5] = [
-        (Self::Auto, "auto", "instance_02 when present, else the boxes of label_02, else none"),
+    pub const CHOICES: [(Self, &'static str, &'static str); 6] = [
+        (Self::Auto, "auto", "instance_02 when present, else the boxes of label_02, else motion segmentation"),
         (Self::Png, "png", "instance_02 PNGs"),
         (Self::Boxes, "boxes", "label_02 2D boxes refined by depth (ids from the labels)"),
         (
@@ -75,6 +79,7 @@ impl MaskMode {
             "detections",
             "label_02 2D boxes refined by depth, ids dropped and re-made by IoU association",
         ),
+        (Self::Motion, "motion", "Moving objects found by motion segmentation (no labels, no detector)"),
         (Self::None, "none", "No objects"),
     ];
 }
@@ -181,7 +186,7 @@ impl ImageSequence {
         let masks = match masks {
             MaskMode::Auto if dir.join("instance_02").join(seq).is_dir() => MaskMode::Png,
             MaskMode::Auto if labels_path.is_file() => MaskMode::Boxes,
-            MaskMode::Auto => MaskMode::None,
+            MaskMode::Auto => MaskMode::Motion,
             m => m,
         };
         let times_s = read_times(&dir.join("times").join(format!("{seq}.txt")), frames.len())?;
@@ -211,6 +216,13 @@ impl ImageSequence {
 
     fn path(&self, folder: &str, frame: u32) -> PathBuf {
         self.dir.join(folder).join(&self.seq).join(format!("{frame:06}.png"))
+    }
+
+    /// The camera model of the left images.
+    #[must_use]
+    pub fn camera(&self) -> Intrinsics {
+        let [fx, fy, cx, cy] = self.intrinsics.map(|v| v as f32);
+        Intrinsics { fx, fy, cx, cy, stereo_fb: self.fb as f32 }
     }
 
     /// The mask mode in use.
@@ -300,6 +312,7 @@ impl ImageSequence {
                     })
                     .collect(),
             ),
+            MaskMode::Motion => MaskInput::Motion(self.camera()),
             MaskMode::None | MaskMode::Auto => MaskInput::None,
         };
         Ok(FrameInput { left, depth, masks })

@@ -45,12 +45,23 @@ pub struct FrontEndStats {
     pub subpixel_refused: u64,
     /// Points that kept the dense matcher's disparity (patch too flat or too small to refine).
     pub subpixel_kept_dense: u64,
+    /// Frames of motion segmentation whose camera motion could not be fitted (no object is
+    /// found in them).
+    pub motion_ego_failed: u64,
+    /// Probes the motion segmentation judged (with depth now and some frames back).
+    pub motion_probes_judged: u64,
+    /// Of those, moving (in as many frames in a row as it asks).
+    pub motion_probes_moving: u64,
+    /// Moving probes in no cluster large enough to be an object.
+    pub motion_probes_unclustered: u64,
+    /// Objects the motion segmentation reported, summed over frames.
+    pub motion_objects: u64,
 }
 
 impl FrontEndStats {
     /// Every counter with its name, in declaration order (for tables).
     #[must_use]
-    pub const fn named(&self) -> [(&'static str, u64); 20] {
+    pub const fn named(&self) -> [(&'static str, u64); 25] {
         [
             ("frames", self.frames),
             ("static_tracked", self.static_tracked),
@@ -72,6 +83,11 @@ impl FrontEndStats {
             ("subpixel_refined", self.subpixel_refined),
             ("subpixel_refused", self.subpixel_refused),
             ("subpixel_kept_dense", self.subpixel_kept_dense),
+            ("motion_ego_failed", self.motion_ego_failed),
+            ("motion_probes_judged", self.motion_probes_judged),
+            ("motion_probes_moving", self.motion_probes_moving),
+            ("motion_probes_unclustered", self.motion_probes_unclustered),
+            ("motion_objects", self.motion_objects),
         ]
     }
 
@@ -79,7 +95,7 @@ impl FrontEndStats {
     #[must_use]
     pub fn plus(&self, other: &Self) -> Self {
         let mut out = *self;
-        let pairs: [(&mut u64, u64); 20] = [
+        let pairs: [(&mut u64, u64); 25] = [
             (&mut out.frames, other.frames),
             (&mut out.static_tracked, other.static_tracked),
             (&mut out.static_lost, other.static_lost),
@@ -100,6 +116,11 @@ impl FrontEndStats {
             (&mut out.subpixel_refined, other.subpixel_refined),
             (&mut out.subpixel_refused, other.subpixel_refused),
             (&mut out.subpixel_kept_dense, other.subpixel_kept_dense),
+            (&mut out.motion_ego_failed, other.motion_ego_failed),
+            (&mut out.motion_probes_judged, other.motion_probes_judged),
+            (&mut out.motion_probes_moving, other.motion_probes_moving),
+            (&mut out.motion_probes_unclustered, other.motion_probes_unclustered),
+            (&mut out.motion_objects, other.motion_objects),
         ];
         for (a, b) in pairs {
             *a += b;

@@ -28,6 +28,8 @@ use dynotraj_formats::kitti::SequenceData;
 #[cfg(feature = "images")]
 use dynotraj_formats::tracks_file::TracksFrame;
 #[cfg(feature = "images")]
+use dynotraj_frontend::StageTimes;
+#[cfg(feature = "images")]
 use dynotraj_frontend::disparity_error::DisparityErrors;
 #[cfg(feature = "images")]
 use dynotraj_frontend::motion_scores::MotionScores;
@@ -35,8 +37,6 @@ use dynotraj_frontend::motion_scores::MotionScores;
 use dynotraj_frontend::sequence::{DepthMode, ImageSequence, MaskMode};
 #[cfg(feature = "images")]
 use dynotraj_frontend::{FrontEnd, FrontEndStats, rendered};
-#[cfg(feature = "images")]
-use dynotraj_frontend::{MotionStats, StageTimes};
 
 /// What a build without the image front-end says where it would be needed.
 pub const WITHOUT_IMAGES: &str = "this dynotraj was built without the image front-end (the cargo \
@@ -202,8 +202,8 @@ pub fn disparity_errors(
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) as
 /// [`disparity_errors`] does, tracks them with motion masks and scores the masks against the
-/// objects moving at least `opt.min_step_m` a frame; with the front-end's stage times and the
-/// segmentation's counters.
+/// objects moving at least `opt.min_step_m` a frame; with the front-end's stage times and
+/// counters.
 ///
 /// # Errors
 /// A front-end failure.
@@ -212,15 +212,15 @@ pub fn motion_masks_scored(
     id: &str,
     data: &SequenceData,
     opt: &EvalOptions,
-) -> anyhow::Result<(MotionScores, StageTimes, MotionStats)> {
+) -> anyhow::Result<(MotionScores, StageTimes, FrontEndStats)> {
     let (stereo, tracker) = (opt.point_depth.stereo(1.0), opt.point_depth.tracker());
     let input = sim_input(data, &opt.classes);
     let n = frames_rendered(&input, opt);
     let sim = image_sim(input, opt, 1.0, n);
     let mut scores = MotionScores::default();
-    let (tracked, stats) = rendered::track_motion_scored(&sim, n, (stereo, tracker), opt.min_step_m, &mut scores)
+    let tracked = rendered::track_motion_scored(&sim, n, (stereo, tracker), opt.min_step_m, &mut scores)
         .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
-    Ok((scores, tracked.times, stats))
+    Ok((scores, tracked.times, tracked.stats))
 }
 
 /// Without the front-end a rendering cannot be tracked.
