@@ -8,6 +8,7 @@ use std::path::Path;
 
 use anyhow::Context as _;
 use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_frontend::motion::Fate;
 use dynotraj_frontend::motion_scores::{BANDS, MotionScores};
 use dynotraj_frontend::{FrontEndStats, StageTimes};
 use dynotraj_sources::estimation::from_images::motion_masks_scored;
@@ -125,6 +126,26 @@ pub fn motion_segmentation(
             q(0),
             q(1),
             q(2)
+        );
+    }
+    header.push('\n');
+    let _ = writeln!(header, "probes on moving objects, by what became of them:\n");
+    let _ = writeln!(
+        header,
+        "| range | no depth | young | static | unconfirmed | unclustered | in an object |\n|---|---|---|---|---|---|---|"
+    );
+    for (b, _) in BANDS.iter().enumerate() {
+        let n = |f: Fate| scores.fates.get(&(b, f)).copied().unwrap_or(0);
+        let _ = writeln!(
+            header,
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            band_name(b),
+            n(Fate::NoDepth),
+            n(Fate::Young),
+            n(Fate::Static),
+            n(Fate::Unconfirmed),
+            n(Fate::Unclustered),
+            n(Fate::InObject)
         );
     }
     header.push('\n');

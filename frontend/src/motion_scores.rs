@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 
 use dynotraj_core::wire::ObjectClass;
 
-use super::motion::Judged;
+use super::motion::{Fate, Judged};
 
 /// Range bands, metres: an object's band is the median true depth of its visible pixels.
 pub const BANDS: [(f32, f32); 4] = [(0.0, 20.0), (20.0, 40.0), (40.0, 80.0), (80.0, f32::INFINITY)];
@@ -76,6 +76,8 @@ pub struct MotionScores {
     /// Residuals of judged probes (across, along the ray, pixels; in standard deviations) per (band, on a moving
     /// object), where the source of a false or missed detection shows.
     pub residuals: BTreeMap<(usize, bool, bool), Vec<[f32; 3]>>,
+    /// Probes on moving objects by band and fate, and the object frames they were on.
+    pub fates: BTreeMap<(usize, Fate), usize>,
     /// Per object of the sequence under way.
     objects: BTreeMap<u16, History>,
 }
@@ -181,6 +183,17 @@ impl MotionScores {
         }
     }
 
+    /// Adds where the probes on moving objects ended, by the band of the object.
+    pub fn add_fates(&mut self, fates: &[(f32, f32, Fate)], f: &FrameSegments<'_>, width: usize) {
+        for &(u, v, fate) in fates {
+            let at = (v.round() as usize) * width + u.round() as usize;
+            let (Some(&t), Some(&z)) = (f.truth_ids.get(at), f.truth_depth.get(at)) else { continue };
+            if f.moving.contains_key(&t) {
+                *self.fates.entry((band_of(z), fate)).or_default() += 1;
+            }
+        }
+    }
+
     /// Ends a sequence: its objects' delays, switches and misses are counted.
     pub fn end_sequence(&mut self) {
         for h in std::mem::take(&mut self.objects).into_values() {
@@ -209,6 +222,9 @@ impl MotionScores {
         self.id_switches += other.id_switches;
         self.delays.extend(other.delays);
         self.never_found += other.never_found;
+        for (k, v) in other.fates {
+            *self.fates.entry(k).or_default() += v;
+        }
         for (k, v) in other.residuals {
             self.residuals.entry(k).or_default().extend(v);
         }

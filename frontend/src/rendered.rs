@@ -122,6 +122,7 @@ pub fn track_motion_scored(
         let frame = FrameSegments { frame: k, truth_ids: &f.ids, truth_depth: &f.depth, segments, moving: &moving };
         scores.add_frame(&frame);
         scores.add_residuals(&fe.motion.judged, &frame, cam.width);
+        scores.add_fates(&fe.motion.fates, &frame, cam.width);
         out.push(SimFrame { frame: f.frame, timestamp_us: 0, tracks, camera: f.camera, objects: f.objects });
     }
     scores.end_sequence();
