@@ -39,5 +39,13 @@ echo
 echo "## 5. Forecasts from the edge's session in process (constant velocity without --model), recorded"
 "$bin" forecast --tracks "$out/tracks/0000.dtt" --out "$out/forecast" --record "$out/forecast.mcap"
 echo
-echo "quickstart: outputs in $out (bags/, imported/, tracks/, estimate-truth/, estimate/, forecast/forecasts.csv);"
+echo "## 6. The same drive as a camera driver records it (images and camera infos only: no masks, no"
+echo "##    detections): the front-end finds the moving objects itself (motion segmentation), then forecasts"
+"$bin" export-bag --kitti "$fixture" --sequences 0000 --camera-only --out "$out/camera-bags"
+"$bin" import --bag "$out/camera-bags/0000" --out "$out/camera-imported"
+"$bin" track --kitti "$out/camera-imported" --sequences 0000 --out "$out/camera-tracks"
+"$bin" forecast --tracks "$out/camera-tracks/0000.dtt" --out "$out/camera-forecast"
+echo
+echo "quickstart: outputs in $out (bags/, imported/, tracks/, estimate-truth/, estimate/, forecast/forecasts.csv;"
+echo "camera-bags/ ... camera-forecast/forecasts.csv from the bag without masks or detections);"
 echo "open $out/estimate-truth.mcap and $out/forecast.mcap in Foxglove (https://foxglove.dev) to scrub through them"

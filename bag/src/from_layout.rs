@@ -69,17 +69,30 @@ fn image_message(path: &Path, header: Header, kind: Kind) -> anyhow::Result<Imag
     })
 }
 
+/// What of a layout a bag carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BagContents {
+    /// Everything the layout has: images, camera infos, and depth, instance masks and
+    /// detections where it has them.
+    Everything,
+    /// The stereo images and their camera infos only, as a camera driver (or a converter such
+    /// as kitti2mcap) records a drive: what says where the objects are is left to the
+    /// front-end.
+    CameraOnly,
+}
+
 /// Writes sequence `seq` of the layout at `dir` (frames 0.. while image_02 has them) as the bag
-/// folder `out` at `rate_hz`; returns the frames written.
+/// folder `out` at `rate_hz` with `contents`; returns the frames written.
 ///
 /// # Errors
 /// A missing or unreadable file of the layout, named; an output that cannot be written.
-pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow::Result<usize> {
+pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64, contents: BagContents) -> anyhow::Result<usize> {
     ensure!(rate_hz.is_finite() && rate_hz > 0.0, "frame rate: expected Hz > 0, found {rate_hz}");
     let calib_path = dir.join("calib").join(format!("{seq}.txt"));
     let calib = read_calib(&calib_path).with_context(|| format!("reading {}", calib_path.display()))?;
     let labels_path = dir.join("label_02").join(format!("{seq}.txt"));
-    let labels = if labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
+    let everything = contents == BagContents::Everything;
+    let labels = if everything && labels_path.is_file() { read_labels(&labels_path)? } else { Vec::new() };
     // Written under a staging name and renamed when finished: a bag cut short is not left
     // under the name of a complete one.
     let mut bag = Rosbag2Writer::create(out).with_context(|| format!("writing {}", out.display()))?;
@@ -115,7 +128,7 @@ pub fn layout_to_bag(dir: &Path, seq: &str, out: &Path, rate_hz: f64) -> anyhow:
                     [("instance_02", "instances", Kind::Mask), ("depth_02", "depth", Kind::Depth)]
                 {
                     let file = dir.join(folder).join(seq).join(&name);
-                    if cam == 2 && file.is_file() {
+                    if everything && cam == 2 && file.is_file() {
                         let msg = image_message(&file, header.clone(), kind)?;
                         bag.write(&format!("{ns}/{topic}"), IMAGE, log_ns, &ros2::encode(&msg)?)?;
                     }
@@ -180,7 +193,7 @@ mod tests {
         std::fs::write(tmp.path().join("image_02/0000/000001.png"), b"not a png").unwrap();
         let out = tmp.path().join("bags/0000");
         std::fs::create_dir_all(out.parent().unwrap()).unwrap();
-        let e = format!("{:#}", layout_to_bag(tmp.path(), "0000", &out, 10.0).unwrap_err());
+        let e = format!("{:#}", layout_to_bag(tmp.path(), "0000", &out, 10.0, BagContents::Everything).unwrap_err());
         assert!(e.starts_with(&format!("writing {}", out.display())) && e.contains("000001.png"), "{e}");
         assert_eq!(std::fs::read_dir(out.parent().unwrap()).unwrap().count(), 0, "no bag and no temporary file");
     }

@@ -183,7 +183,7 @@ impl DataArgs {
             ..EstimateSettings::tracks(EvalOptions {
                 object_variants: self.ours.object_variants(),
                 render_optics: self.ours.render_optics.optics(),
-                point_depth: self.ours.point_depth.options(),
+                point_depth: self.ours.point_depth_options(),
                 ..EvalOptions::kitti(dt)
             })
         };

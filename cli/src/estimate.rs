@@ -215,7 +215,7 @@ impl EstimateArgs {
             max_frames: self.frames,
             object_variants: self.ours.object_variants(),
             render_optics: self.ours.render_optics.optics(),
-            point_depth: self.ours.point_depth.options(),
+            point_depth: self.ours.point_depth_options(),
             hybrid_object_smoother: self.hybrid_object_smoother,
             ..EvalOptions::kitti(self.rate.period())
         }

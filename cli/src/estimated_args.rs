@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use dynotraj_eval::jobs::{default_jobs, parse_jobs};
-use dynotraj_sim::image_sim::Optics;
+use dynotraj_sim::image_sim::{Optics, RenderedMasks};
 use dynotraj_sources::estimation::settings::SimulatedInput;
 use dynotraj_sources::estimation::simulated::{ObjectVariants, PointDepthOptions};
 
@@ -47,6 +47,7 @@ impl PointDepthArgs {
             object_edge_margin_px: self.object_edge_margin.max(0),
             stereo_downscale: self.stereo_downscale,
             row_match: self.point_depth == PointDepth::RowMatch,
+            ..PointDepthOptions::default()
         }
     }
 }
@@ -94,6 +95,9 @@ pub struct EstimatedSourceArgs {
     /// How the front-end gives points their depth on renderings.
     #[command(flatten)]
     pub point_depth: PointDepthArgs,
+    /// Where the front-end takes a rendering's object masks from (--ours-input rendered).
+    #[arg(long, value_parser = crate::numbers::choices(&RenderedMasks::CHOICES), default_value = "ids", value_name = "MASKS")]
+    pub ours_masks: RenderedMasks,
     /// A folder where the estimated sources' tracks (or, for renderings, the front-end's
     /// tracks) are kept between runs, keyed by every input (labels, poses, calibration, images,
     /// settings, estimator or renderer version): a rerun with the same inputs reads them back.
@@ -140,6 +144,12 @@ pub fn realign_degrees(text: &str) -> Result<Realign, String> {
 }
 
 impl EstimatedSourceArgs {
+    /// The front-end's options for renderings: point depth and masks.
+    #[must_use]
+    pub fn point_depth_options(&self) -> PointDepthOptions {
+        PointDepthOptions { masks: self.ours_masks, ..self.point_depth.options() }
+    }
+
     /// The estimator's object variants these options choose.
     #[must_use]
     pub fn object_variants(&self) -> ObjectVariants {

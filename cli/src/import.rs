@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 use clap::Args;
+use dynotraj_bag::from_layout::BagContents;
 use dynotraj_bag::import::{ImportOptions, import};
 
 use crate::numbers::{frame_rate, positive};
@@ -104,7 +105,7 @@ pub fn run(args: &ImportArgs) -> anyhow::Result<()> {
     } else if s.boxes > 0 {
         " --masks detections"
     } else {
-        " --masks none"
+        " --masks motion"
     };
     // track reads the capture times (times/) the import wrote: no --rate needed.
     println!(
@@ -132,6 +133,11 @@ pub struct ExportBagArgs {
     /// and `<sequence>_0.mcap`).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Write the stereo images and their camera infos only, as a camera driver (or a
+    /// converter such as kitti2mcap) records a drive: no depth, instance masks or detections,
+    /// so that the front-end finds the moving objects itself (`--masks motion`).
+    #[arg(long)]
+    pub camera_only: bool,
 }
 
 /// Writes the bags and says where.
@@ -143,7 +149,8 @@ pub fn export_bag(args: &ExportBagArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     for seq in &args.sequences {
         let bag = args.out.join(seq);
-        let frames = dynotraj_bag::from_layout::layout_to_bag(&args.kitti, seq, &bag, args.rate)?;
+        let contents = if args.camera_only { BagContents::CameraOnly } else { BagContents::Everything };
+        let frames = dynotraj_bag::from_layout::layout_to_bag(&args.kitti, seq, &bag, args.rate, contents)?;
         println!("wrote {frames} frames of sequence {seq} as a ROS 2 bag to {}", bag.display());
     }
     Ok(())

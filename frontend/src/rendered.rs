@@ -4,11 +4,11 @@
 use std::collections::BTreeMap;
 
 use dynotraj_core::wire::ObjectClass;
-use dynotraj_sim::image_sim::ImageSim;
+use dynotraj_sim::image_sim::{ImageSim, RenderedMasks};
 use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
 use opencv::prelude::*;
 
-use super::cost::input_of;
+use super::cost::{boxes_of, input_of};
 use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
 use super::error::{FrontEndError, cv};
 use super::motion_scores::{FrameSegments, MotionScores};
@@ -40,11 +40,11 @@ pub fn track_with(
     stereo: StereoParams,
     on_frame: Option<&dyn Fn(u64)>,
 ) -> Result<RenderingTracked, FrontEndError> {
-    track_measured(sim, frames, dt, (stereo, TrackerParams::default()), on_frame, None)
+    track_measured(sim, frames, dt, (stereo, TrackerParams::default(), RenderedMasks::Ids), on_frame, None)
 }
 
-/// [`track_with`] with the tracker's parameters, adding each frame's sent points, scored against
-/// the rendering's exact depth, to `errors`.
+/// [`track_with`] with the tracker's parameters and the masks `masks`, adding each frame's sent
+/// points, scored against the rendering's exact depth, to `errors`.
 ///
 /// # Errors
 /// An OpenCV failure.
@@ -52,7 +52,7 @@ pub fn track_measured(
     sim: &ImageSim,
     frames: usize,
     dt: f32,
-    (stereo, tracker): (StereoParams, TrackerParams),
+    (stereo, tracker, masks): (StereoParams, TrackerParams, RenderedMasks),
     on_frame: Option<&dyn Fn(u64)>,
     mut errors: Option<&mut DisparityErrors>,
 ) -> Result<RenderingTracked, FrontEndError> {
@@ -61,7 +61,13 @@ pub fn track_measured(
     let mut out = Vec::new();
     for k in 0..frames.min(sim.len()) {
         let Some(f) = sim.frame(k) else { break };
-        let tracks = fe.process(input_of(&f, &cam)?)?;
+        let mut input = input_of(&f, &cam)?;
+        match masks {
+            RenderedMasks::Ids => {}
+            RenderedMasks::Boxes => input.masks = MaskInput::Boxes(boxes_of(&f, &cam)),
+            RenderedMasks::Motion => input.masks = MaskInput::Motion(cam.intrinsics()),
+        }
+        let tracks = fe.process(input)?;
         if let Some(errors) = errors.as_deref_mut() {
             let truth = FrameTruth { depth: &f.depth, ids: &f.ids, width: cam.width, height: cam.height };
             let points: Vec<SentPoint> =

@@ -56,7 +56,8 @@ fn sub_pixel_point_depth_beats_the_dense_value_against_the_exact_depth() {
     let sim = ImageSim::new(camera, &d.camera_poses, &LabelBox::of_drive(&d), 1);
     let measure = |tracker: TrackerParams| {
         let mut errors = DisparityErrors::default();
-        track_measured(&sim, 16, 0.1, (StereoParams::kitti(), tracker), None, Some(&mut errors)).unwrap();
+        track_measured(&sim, 16, 0.1, (StereoParams::kitti(), tracker, Default::default()), None, Some(&mut errors))
+            .unwrap();
         errors.row("objects", |s| s.kind == PointKind::Object)
     };
     let dense = measure(TrackerParams { subpixel: None, object_edge_margin_px: 0, ..TrackerParams::default() });

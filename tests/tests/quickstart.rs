@@ -1,5 +1,6 @@
 //! The README's quickstart (scripts/quickstart.sh) runs on what the repository ships, with the
-//! suite's own `dynotraj`: a bag written and imported, tracked, estimated, forecast, recorded.
+//! suite's own `dynotraj`: a bag written and imported, tracked, estimated, forecast, recorded;
+//! and a bag with the cameras alone, whose moving objects the front-end finds itself.
 
 use std::path::Path;
 
@@ -26,8 +27,14 @@ fn the_quickstart_runs_on_a_fresh_clone_and_says_where_everything_went() {
         ("the estimate with truth", "estimate-truth.mcap"),
         ("the forecasts", "forecast/forecasts.csv"),
         ("the forecasts' recording", "forecast.mcap"),
+        ("the forecasts from the bag without masks or detections", "camera-forecast/forecasts.csv"),
     ] {
         assert!(tmp.path().join(path).is_file(), "{what}: {path} missing\n{said}");
     }
     assert!(said.contains("imported 24 frames at 10.00 Hz") && said.contains("24 frames,"), "{said}");
+    // The camera-only bag holds nothing that says where the objects are: the front-end found
+    // them itself, and the edge forecast them.
+    assert!(said.contains("--masks motion"), "{said}");
+    let forecasts = std::fs::read_to_string(tmp.path().join("camera-forecast/forecasts.csv")).unwrap();
+    assert!(forecasts.lines().count() > 1, "no forecast from motion masks:\n{forecasts}");
 }

@@ -27,7 +27,7 @@ fn bag(dir: &Path, mut edit: impl FnMut(&str, Vec<u8>) -> Option<Vec<u8>>) -> Pa
 /// As [`bag`], `edit` also choosing each message's topic and schema name.
 fn bag_with(dir: &Path, mut edit: impl FnMut(&str, &str, Vec<u8>) -> Option<(String, String, Vec<u8>)>) -> PathBuf {
     let plain = dir.join("plain");
-    layout_to_bag(&fixture(), "0000", &plain, 10.0).unwrap();
+    layout_to_bag(&fixture(), "0000", &plain, 10.0, crate::from_layout::BagContents::Everything).unwrap();
     let files = bag_files(&plain).unwrap();
     let out = dir.join("edited.mcap");
     let mut w = mcap::Writer::new(BufWriter::new(File::create(&out).unwrap())).unwrap();

@@ -175,7 +175,7 @@ fn image_sim(input: SimInput, opt: &EvalOptions, scale: f64, n: usize) -> ImageS
 #[cfg(feature = "images")]
 fn track_rendering(sim: &ImageSim, n: usize, opt: &EvalOptions, scale: f64) -> anyhow::Result<Vec<SimFrame>> {
     let (stereo, tracker) = (opt.point_depth.stereo(scale), opt.point_depth.tracker());
-    Ok(rendered::track_measured(sim, n, opt.dt, (stereo, tracker), None, None)?.frames)
+    Ok(rendered::track_measured(sim, n, opt.dt, (stereo, tracker, opt.point_depth.masks), None, None)?.frames)
 }
 
 /// Renders the first `opt.max_frames` frames of sequence `id` (`data`) at KITTI's resolution
@@ -195,8 +195,9 @@ pub fn disparity_errors(
     let n = frames_rendered(&input, opt);
     let sim = image_sim(input, opt, 1.0, n);
     let mut errors = DisparityErrors::default();
-    let tracked = rendered::track_measured(&sim, n, opt.dt, (stereo, tracker), None, Some(&mut errors))
-        .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
+    let tracked =
+        rendered::track_measured(&sim, n, opt.dt, (stereo, tracker, opt.point_depth.masks), None, Some(&mut errors))
+            .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
     Ok((errors, tracked.stats))
 }
 

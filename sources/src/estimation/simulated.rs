@@ -83,11 +83,19 @@ pub struct PointDepthOptions {
     /// No dense matcher where the masks need no depth: each point matched along its row
     /// ([`dynotraj_frontend::StereoParams::row_match`]).
     pub row_match: bool,
+    /// Where the front-end takes a rendering's object masks from.
+    pub masks: dynotraj_sim::image_sim::RenderedMasks,
 }
 
 impl Default for PointDepthOptions {
     fn default() -> Self {
-        Self { subpixel: true, object_edge_margin_px: 0, stereo_downscale: 1, row_match: false }
+        Self {
+            subpixel: true,
+            object_edge_margin_px: 0,
+            stereo_downscale: 1,
+            row_match: false,
+            masks: dynotraj_sim::image_sim::RenderedMasks::Ids,
+        }
     }
 }
 
@@ -101,6 +109,9 @@ impl std::fmt::Debug for PointDepthOptions {
             .field("stereo_downscale", &self.stereo_downscale);
         if self.row_match {
             s.field("row_match", &self.row_match);
+        }
+        if self.masks != dynotraj_sim::image_sim::RenderedMasks::Ids {
+            s.field("masks", &self.masks);
         }
         s.finish()
     }
