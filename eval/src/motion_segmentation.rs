@@ -6,17 +6,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Context as _;
-use dynotraj_formats::kitti::TrackingDir;
 use dynotraj_frontend::motion::Fate;
 use dynotraj_frontend::motion_scores::{BANDS, MotionScores};
 use dynotraj_frontend::{FrontEndStats, StageTimes};
 use dynotraj_sources::estimation::from_images::motion_masks_scored;
 
-use crate::jobs::map_jobs;
 use crate::report::Table;
 use crate::report::data::{Cell, ColumnKind, Data};
-use crate::tracking::DisparitySettings;
+use crate::tracking::{DisparitySettings, per_sequence};
 
 /// What the measurement shows: a header, the recall table and the precision table.
 #[derive(Debug, Clone)]
@@ -43,28 +40,19 @@ pub fn motion_segmentation(
     settings: &DisparitySettings,
     on_sequence: &(dyn Fn(usize) + Sync),
 ) -> anyhow::Result<SegmentationReport> {
-    let drives = dynotraj_sources::drives::kitti_drives(dir, sequences)?;
-    let tracking = TrackingDir::open(dir)?;
     let opt = &settings.options;
-    let per_drive = map_jobs(&drives, settings.jobs, |d| {
-        let data =
-            tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
-        let out = motion_masks_scored(&d.name, &data, opt);
-        on_sequence(drives.len());
-        out
-    })?;
+    let (names, per_drive) =
+        per_sequence(dir, sequences, settings.jobs, on_sequence, |id, data| motion_masks_scored(id, data, opt))?;
     let mut scores = MotionScores::default();
     let mut stats = FrontEndStats::default();
     let mut times = StageTimes::default();
-    for r in per_drive {
-        let (s, t, m) = r?;
+    for (s, t, m) in per_drive {
         scores.merge(s);
         times.frames += t.frames;
         times.masks += t.masks;
         times.wall += t.wall;
         stats = stats.plus(&m);
     }
-    let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
     let mut header = format!(
         "Motion masks against the renderings' truth: sequences {}, {} frames each at most, objects moving at least \
          {} m a frame counted as moving, point depth {}, render optics {}\n",

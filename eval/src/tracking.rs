@@ -9,7 +9,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use dynotraj_bag::record::{RecordingEncoding, RecordingSummary};
 use dynotraj_core::wire::CameraInfo;
-use dynotraj_formats::kitti::TrackingDir;
+use dynotraj_formats::kitti::{SequenceData, TrackingDir};
 use dynotraj_formats::tracks_file::TracksWriter;
 use dynotraj_frontend::check::{CAR_BOX_000046, odometry06, stereo2015_d1, stereo2015_points};
 use dynotraj_frontend::disparity_error::{DisparityErrors, ErrorRow};
@@ -187,24 +187,15 @@ pub fn disparity_error(
     settings: &DisparitySettings,
     on_sequence: &(dyn Fn(usize) + Sync),
 ) -> anyhow::Result<(String, Table)> {
-    let drives = dynotraj_sources::drives::kitti_drives(dir, sequences)?;
-    let tracking = TrackingDir::open(dir)?;
     let opt = &settings.options;
-    let per_drive = map_jobs(&drives, settings.jobs, |d| {
-        let data =
-            tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
-        let out = disparity_errors(&d.name, &data, opt);
-        on_sequence(drives.len());
-        out
-    })?;
+    let (names, per_drive) =
+        per_sequence(dir, sequences, settings.jobs, on_sequence, |id, data| disparity_errors(id, data, opt))?;
     let mut errors = DisparityErrors::default();
     let mut stats = FrontEndStats::default();
-    for r in per_drive {
-        let (e, s) = r?;
+    for (e, s) in per_drive {
         errors.merge(e);
         stats = stats.plus(&s);
     }
-    let names: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
     let mut header = format!(
         "Disparity of the sent points against the rendering's exact depth: sequences {}, {} frames each at most, \
          point depth {}, object points sampled {} px off the mask edge, render optics {}, stereo downscale {}",
@@ -228,6 +219,32 @@ pub fn disparity_error(
         stats.subpixel_refused
     );
     Ok((header, disparity_table(&errors.rows())))
+}
+
+/// `measure` run on each of the sequences `sequences` of the KITTI folder `dir` (all when
+/// empty), `jobs` at a time, `on_sequence` told how many there are after each; with their
+/// names, in order.
+///
+/// # Errors
+/// A sequence that cannot be loaded, or what `measure` returns, named.
+pub fn per_sequence<T: Send>(
+    dir: &Path,
+    sequences: &[String],
+    jobs: usize,
+    on_sequence: &(dyn Fn(usize) + Sync),
+    measure: impl Fn(&str, &SequenceData) -> anyhow::Result<T> + Sync,
+) -> anyhow::Result<(Vec<String>, Vec<T>)> {
+    let drives = dynotraj_sources::drives::kitti_drives(dir, sequences)?;
+    let tracking = TrackingDir::open(dir)?;
+    let per_drive = map_jobs(&drives, jobs, |d| {
+        let data =
+            tracking.load_sequence(&d.name).with_context(|| format!("loading KITTI tracking sequence {}", d.name))?;
+        let out = measure(&d.name, &data);
+        on_sequence(drives.len());
+        out
+    })?;
+    let out = per_drive.into_iter().collect::<anyhow::Result<Vec<T>>>()?;
+    Ok((drives.into_iter().map(|d| d.name).collect(), out))
 }
 
 /// The disparity-error rows as a table.
