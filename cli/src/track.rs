@@ -24,6 +24,7 @@ use dynotraj_eval::tracking::{
 use dynotraj_formats::tracks_file::tracks_path;
 use dynotraj_frontend::TrackerParams;
 use dynotraj_frontend::sequence::{DepthMode, MaskMode};
+use dynotraj_sim::image_sim::RenderedMasks;
 use dynotraj_sources::estimation::simulated::EvalOptions;
 
 /// Options of `dynotraj track`.
@@ -68,7 +69,8 @@ pub struct TrackArgs {
     #[command(flatten)]
     pub record_encoding: crate::record_args::RecordEncodingArgs,
     /// Time the stages on rendered frames at 1242 x 375 (the synthetic drive) instead; with
-    /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth.
+    /// `--masks boxes` (or detections) masks come from 2D boxes refined by depth, with `--masks
+    /// motion` from motion segmentation.
     #[arg(long, alias = "bench")]
     pub cost: bool,
     /// Measure the front-end on the real KITTI images of this folder (odometry/06,
@@ -127,9 +129,13 @@ pub fn run(args: &TrackArgs) -> anyhow::Result<()> {
         return rendered_measurement(dir, args);
     }
     if args.cost {
-        let boxes = matches!(args.masks, MaskMode::Boxes | MaskMode::Detections);
-        let (times, stats) = dynotraj_frontend::cost::run(args.frames.unwrap_or(30), (stereo, args.tracker()), boxes)?;
-        println!("masks: {}", if boxes { "2D boxes refined by depth, IoU ids" } else { "rendered instance ids" });
+        let (masks, said) = match args.masks {
+            MaskMode::Boxes | MaskMode::Detections => (RenderedMasks::Boxes, "2D boxes refined by depth, IoU ids"),
+            MaskMode::Motion => (RenderedMasks::Motion, "motion segmentation"),
+            MaskMode::Auto | MaskMode::Png | MaskMode::None => (RenderedMasks::Ids, "rendered instance ids"),
+        };
+        let (times, stats) = dynotraj_frontend::cost::run(args.frames.unwrap_or(30), (stereo, args.tracker()), masks)?;
+        println!("masks: {said}");
         print!("{}", stage_times(&times, &stereo));
         if args.counters {
             println!("{}", counters_table(&stats).render(Format::Md));

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use dynotraj_sim::drive::{DriveSpec, generate};
-use dynotraj_sim::image_sim::{Camera, ImageSim, RenderedFrame};
+use dynotraj_sim::image_sim::{Camera, ImageSim, RenderedFrame, RenderedMasks};
 use dynotraj_sim::track_sim::LabelBox;
 use opencv::core::Mat;
 use opencv::imgproc::{COLOR_BGR2GRAY, cvt_color};
@@ -43,6 +43,20 @@ pub fn input_of(f: &RenderedFrame, cam: &Camera) -> Result<FrameInput, FrontEndE
     })
 }
 
+/// The front-end input of a rendered frame with the masks `masks`.
+///
+/// # Errors
+/// An OpenCV failure.
+pub fn input_with(f: &RenderedFrame, cam: &Camera, masks: RenderedMasks) -> Result<FrameInput, FrontEndError> {
+    let mut input = input_of(f, cam)?;
+    match masks {
+        RenderedMasks::Ids => {}
+        RenderedMasks::Boxes => input.masks = MaskInput::Boxes(boxes_of(f, cam)),
+        RenderedMasks::Motion => input.masks = MaskInput::Motion(cam.intrinsics()),
+    }
+    Ok(input)
+}
+
 /// The rendered objects' 2D boxes (extent of their visible pixels), as a detector would give
 /// them, without ids.
 #[must_use]
@@ -61,26 +75,22 @@ pub fn boxes_of(f: &RenderedFrame, cam: &Camera) -> Vec<Detection> {
 }
 
 /// Times `frames` frames of the synthetic drive at KITTI resolution with `tracker`'s settings;
-/// masks from the rendered instance ids, or (`boxes`) from the objects' 2D boxes refined by
-/// depth with IoU ids.
+/// masks from the rendered instance ids, from the objects' 2D boxes refined by depth with IoU
+/// ids, or found by motion segmentation (`masks`).
 ///
 /// # Errors
 /// An OpenCV failure.
 pub fn run(
     frames: usize,
     (stereo, tracker): (StereoParams, TrackerParams),
-    boxes: bool,
+    masks: RenderedMasks,
 ) -> Result<(StageTimes, FrontEndStats), FrontEndError> {
     let drive = generate(&DriveSpec { frames: frames.max(2), ..DriveSpec::default() });
     let sim = ImageSim::new(Camera::kitti(1.0), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
     let mut fe = FrontEnd::new(stereo, tracker, sim.camera.fb() as f32)?;
     for k in 0..sim.len() {
         let Some(f) = sim.frame(k) else { break };
-        let mut input = input_of(&f, &sim.camera)?;
-        if boxes {
-            input.masks = MaskInput::Boxes(boxes_of(&f, &sim.camera));
-        }
-        fe.process(input)?;
+        fe.process(input_with(&f, &sim.camera, masks)?)?;
     }
     Ok((fe.times, fe.tracker.stats))
 }

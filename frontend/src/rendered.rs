@@ -8,11 +8,11 @@ use dynotraj_sim::image_sim::{ImageSim, RenderedMasks};
 use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
 use opencv::prelude::*;
 
-use super::cost::{boxes_of, input_of};
+use super::cost::input_with;
 use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
 use super::error::{FrontEndError, cv};
 use super::motion_scores::{FrameSegments, MotionScores};
-use super::pipeline::{FrontEnd, MaskInput, StageTimes};
+use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;
 use super::stereo::StereoParams;
 use super::tracker::TrackerParams;
@@ -61,13 +61,7 @@ pub fn track_measured(
     let mut out = Vec::new();
     for k in 0..frames.min(sim.len()) {
         let Some(f) = sim.frame(k) else { break };
-        let mut input = input_of(&f, &cam)?;
-        match masks {
-            RenderedMasks::Ids => {}
-            RenderedMasks::Boxes => input.masks = MaskInput::Boxes(boxes_of(&f, &cam)),
-            RenderedMasks::Motion => input.masks = MaskInput::Motion(cam.intrinsics()),
-        }
-        let tracks = fe.process(input)?;
+        let tracks = fe.process(input_with(&f, &cam, masks)?)?;
         if let Some(errors) = errors.as_deref_mut() {
             let truth = FrameTruth { depth: &f.depth, ids: &f.ids, width: cam.width, height: cam.height };
             let points: Vec<SentPoint> =
@@ -121,9 +115,7 @@ pub fn track_motion_scored(
     let mut out = Vec::new();
     for k in 0..n {
         let Some(f) = sim.frame(k) else { break };
-        let mut input = input_of(&f, &cam)?;
-        input.masks = MaskInput::Motion(cam.intrinsics());
-        let tracks = fe.process(input)?;
+        let tracks = fe.process(input_with(&f, &cam, RenderedMasks::Motion)?)?;
         let segments = fe.last_masks.data_typed::<u16>().map_err(cv("reading the masks"))?;
         let frame = FrameSegments { frame: k, truth_ids: &f.ids, truth_depth: &f.depth, segments, moving: &moving };
         scores.add_frame(&frame);
