@@ -69,6 +69,10 @@ pub struct MotionParams {
     pub edge_radius_px: f32,
     /// How much the depth around a probe may differ from its own, as a share of it.
     pub edge_share: f32,
+    /// Least length of the mean of a cluster's residual directions (1: all alike, 0: at
+    /// random): the probes of one rigid object disagree with the camera's motion alike, noise
+    /// does not.
+    pub min_coherence: f32,
 }
 
 impl Default for MotionParams {
@@ -89,6 +93,7 @@ impl Default for MotionParams {
             probe_confirm_frames: 2,
             edge_radius_px: 2.0,
             edge_share: 0.1,
+            min_coherence: 0.7,
         }
     }
 }
@@ -279,6 +284,7 @@ impl MotionSegmenter {
             since.push(acc);
         }
         let mut moving: Vec<(usize, nalgebra::Point3<f32>)> = Vec::new();
+        let mut directions: Vec<nalgebra::Vector3<f32>> = Vec::new();
         let mut streaks: Vec<(usize, bool)> = Vec::new();
         let mut fates = vec![Fate::NoDepth; self.probes.len()];
         for (i, q) in self.probes.iter().enumerate() {
@@ -312,6 +318,7 @@ impl MotionSegmenter {
             if is_moving && q.streak + 1 >= p.probe_confirm_frames {
                 stats.motion_probes_moving += 1;
                 moving.push((i, model.back_project(now.u, now.v, z)));
+                directions.push(r.try_normalize(1e-6).unwrap_or_else(nalgebra::Vector3::zeros));
                 if let Some(f) = fates.get_mut(i) {
                     *f = Fate::Unclustered;
                 }
@@ -332,6 +339,16 @@ impl MotionSegmenter {
         let mut members_of: Vec<(u16, Vec<usize>)> = Vec::new();
         for members in clusters {
             if members.len() < p.min_points {
+                stats.motion_probes_unclustered += members.len() as u64;
+                continue;
+            }
+            let coherence = members
+                .iter()
+                .filter_map(|&m| directions.get(m))
+                .fold(nalgebra::Vector3::<f32>::zeros(), |a, d| a + d)
+                .norm()
+                / members.len() as f32;
+            if coherence < p.min_coherence {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
