@@ -342,13 +342,7 @@ impl MotionSegmenter {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
-            let coherence = members
-                .iter()
-                .filter_map(|&m| directions.get(m))
-                .fold(nalgebra::Vector3::<f32>::zeros(), |a, d| a + d)
-                .norm()
-                / members.len() as f32;
-            if coherence < p.min_coherence {
+            if coherence(members.iter().filter_map(|&m| directions.get(m))) < p.min_coherence {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
@@ -540,6 +534,12 @@ fn clusters(points: &[(usize, nalgebra::Point3<f32>)], model: &PointModel, link_
     groups.into_values().collect()
 }
 
+/// The length of the mean of unit `directions` (1: all alike; near 0: spread every way).
+fn coherence<'a>(directions: impl Iterator<Item = &'a nalgebra::Vector3<f32>>) -> f32 {
+    let (sum, n) = directions.fold((nalgebra::Vector3::zeros(), 0usize), |(a, n), d| (a + d, n + 1));
+    if n == 0 { 0.0 } else { sum.norm() / n as f32 }
+}
+
 /// A pedestrian is narrower than 1.2 m and taller than wide; anything else moving is taken for
 /// a vehicle.
 fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
@@ -585,6 +585,10 @@ mod tests {
         groups.sort();
         assert_eq!(groups, vec![vec![0, 1], vec![2, 3], vec![4, 5]]);
         assert_eq!(class_of((0.6, 1.7)), ObjectClass::Pedestrian);
+        let (x, y) = (nalgebra::Vector3::x(), nalgebra::Vector3::y());
+        assert!((coherence([x, x, x].iter()) - 1.0).abs() < 1e-6, "one rigid motion");
+        assert!(coherence([x, -x, y, -y].iter()) < 1e-6, "noise every way");
+        assert!((coherence([x, y].iter()) - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
         assert_eq!(class_of((1.8, 1.5)), ObjectClass::Car);
     }
 }
