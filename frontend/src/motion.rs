@@ -139,9 +139,8 @@ pub enum Fate {
 struct Seen {
     u: f32,
     v: f32,
-    /// Depth, metres, when the map has one there and the depth around (within
-    /// [`EDGE_RADIUS_PX`]) agrees with it: at a depth edge a corner's depth is as often the
-    /// other surface's.
+    /// Depth, metres, when the map has one there and the depth around agrees with it
+    /// ([`smooth_depth`]).
     depth: Option<f32>,
 }
 
@@ -246,18 +245,21 @@ impl MotionSegmenter {
         }
         self.judged.clear();
         self.fates.clear();
-        let model = point_model(intrinsics, &p);
-        let found = if self.previous.is_some() { self.segment(&model, intrinsics, stats) } else { Vec::new() };
+        let found = if self.previous.is_some() { self.segment(intrinsics, stats) } else { Vec::new() };
         self.replenish(grey, depth)?;
         self.previous = Some(pyramid);
         Ok(found)
     }
 
     /// Fits the camera's motion, judges the probes and clusters the moving ones.
-    fn segment(&mut self, model: &PointModel, intrinsics: &Intrinsics, stats: &mut FrontEndStats) -> Vec<Detection> {
+    fn segment(&mut self, intrinsics: &Intrinsics, stats: &mut FrontEndStats) -> Vec<Detection> {
         let p = self.params;
+        let mut params = EstimatorParams::kitti(*intrinsics, 0.1);
+        params.pixel_sigma = p.pixel_sigma;
+        params.disparity_sigma = p.disparity_sigma;
+        let model = &PointModel::new(&params);
         let corrs: Vec<Correspondence> = self.probes.iter().filter_map(|q| step(q, 1, model)).collect();
-        let fit_params = EstimatorParams::kitti(*intrinsics, 0.1).camera_fit;
+        let fit_params = params.camera_fit;
         let guess = self.motions.back().copied();
         let motion = match fit_pose(&corrs, guess.as_ref(), &fit_params, model, &mut self.rng) {
             Ok(fit) => fit.pose,
@@ -268,7 +270,7 @@ impl MotionSegmenter {
                     q.seen.drain(..q.seen.len().saturating_sub(1));
                     q.object = None;
                 }
-                self.forget_unseen(&[]);
+                self.objects.clear();
                 return Vec::new();
             }
         };
@@ -285,7 +287,8 @@ impl MotionSegmenter {
         }
         let mut moving: Vec<(usize, nalgebra::Point3<f32>)> = Vec::new();
         let mut directions: Vec<nalgebra::Vector3<f32>> = Vec::new();
-        let mut streaks: Vec<(usize, bool)> = Vec::new();
+        // A probe not judged this frame starts its streak again.
+        let mut streaks = vec![0u8; self.probes.len()];
         let mut fates = vec![Fate::NoDepth; self.probes.len()];
         for (i, q) in self.probes.iter().enumerate() {
             let Some(now) = q.seen.back() else { continue };
@@ -311,11 +314,14 @@ impl MotionSegmenter {
                 sigmas: m2.sqrt(),
             });
             let is_moving = m2 > p.moving_sigmas * p.moving_sigmas;
-            streaks.push((i, is_moving));
+            let streak = if is_moving { q.streak.saturating_add(1) } else { 0 };
+            if let Some(slot) = streaks.get_mut(i) {
+                *slot = streak;
+            }
             if let Some(f) = fates.get_mut(i) {
                 *f = if is_moving { Fate::Unconfirmed } else { Fate::Static };
             }
-            if is_moving && q.streak + 1 >= p.probe_confirm_frames {
+            if is_moving && streak >= p.probe_confirm_frames {
                 stats.motion_probes_moving += 1;
                 moving.push((i, model.back_project(now.u, now.v, z)));
                 directions.push(r.try_normalize(1e-6).unwrap_or_else(nalgebra::Vector3::zeros));
@@ -324,14 +330,8 @@ impl MotionSegmenter {
                 }
             }
         }
-        let mut judged_moving = vec![false; self.probes.len()];
-        for (i, is_moving) in streaks {
-            if let Some(slot) = judged_moving.get_mut(i) {
-                *slot = is_moving;
-            }
-        }
-        for (q, is_moving) in self.probes.iter_mut().zip(judged_moving) {
-            q.streak = if is_moving { q.streak.saturating_add(1) } else { 0 };
+        for (q, streak) in self.probes.iter_mut().zip(streaks) {
+            q.streak = streak;
         }
         let clusters = clusters(&moving, model, p.link_m);
         let mut out = Vec::new();
@@ -438,14 +438,6 @@ impl MotionSegmenter {
     }
 }
 
-/// The point model of probes seen by `intrinsics` with `p`'s noise.
-fn point_model(intrinsics: &Intrinsics, p: &MotionParams) -> PointModel {
-    let mut params = EstimatorParams::kitti(*intrinsics, 0.1);
-    params.pixel_sigma = p.pixel_sigma;
-    params.disparity_sigma = p.disparity_sigma;
-    PointModel::new(&params)
-}
-
 /// The residual of a probe seen at `then` and at `now` under the camera motion `pose` between
 /// them, and its squared Mahalanobis distance: both observations have pixel noise
 /// `pixel_sigma` and disparity noise `disparity_sigma` (with stereo `fb`), the older one's
@@ -550,17 +542,17 @@ fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
 mod tests {
     use super::*;
     use crate::motion_scores::MotionScores;
-    use crate::rendered::{moving_objects, track_motion_scored};
+    use crate::rendered::track_motion_scored;
     use crate::{StereoParams, TrackerParams};
     use dynotraj_sim::drive::{DriveSpec, generate};
     use dynotraj_sim::image_sim::{Camera, ImageSim};
-    use dynotraj_sim::track_sim::LabelBox;
+    use dynotraj_sim::track_sim::{LabelBox, moving_objects};
 
     #[test]
     fn the_synthetic_drive_s_moving_objects_are_found_and_the_static_scene_is_not() {
         let drive = generate(&DriveSpec { frames: 16, ..DriveSpec::default() });
         let sim = ImageSim::new(Camera::kitti(1.0), &drive.camera_poses, &LabelBox::of_drive(&drive), 1);
-        let moving = moving_objects(&sim.truth, 0.1);
+        let moving = moving_objects(sim.truth.iter().map(Vec::as_slice), 0.1);
         assert!(!moving.is_empty(), "the drive has moving objects");
         let mut scores = MotionScores::default();
         let stereo = StereoParams { downscale: 2, ..StereoParams::kitti_at_scale(1.0) };

@@ -41,6 +41,8 @@ pub struct SegmentCount {
 pub struct FrameSegments<'a> {
     /// Frame index.
     pub frame: usize,
+    /// Image width, pixels.
+    pub width: usize,
     /// True instance id per pixel (0: static scene).
     pub truth_ids: &'a [u16],
     /// True depth per pixel, metres (0: none).
@@ -49,6 +51,15 @@ pub struct FrameSegments<'a> {
     pub segments: &'a [u16],
     /// The moving objects among the truth ids, with their classes.
     pub moving: &'a BTreeMap<u16, ObjectClass>,
+}
+
+impl FrameSegments<'_> {
+    /// The index of pixel `(x, y)`, when it lies in the image.
+    fn index(&self, x: i64, y: i64) -> Option<usize> {
+        let height = self.truth_ids.len() / self.width.max(1);
+        (x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < height)
+            .then(|| y as usize * self.width + x as usize)
+    }
 }
 
 /// An object's history over the frames.
@@ -156,20 +167,15 @@ impl MotionScores {
     /// Adds the residuals of one frame's judged probes, each placed by the truth under it: on a
     /// moving object or not, and at a depth edge (the truth within 3 pixels changes id or depth
     /// by more than 5 %) or not.
-    pub fn add_residuals(&mut self, judged: &[Judged], f: &FrameSegments<'_>, width: usize) {
-        let height = f.truth_ids.len() / width.max(1);
+    pub fn add_residuals(&mut self, judged: &[Judged], f: &FrameSegments<'_>) {
         for j in judged {
             let (x, y) = (j.u.round() as i64, j.v.round() as i64);
-            let at = |x: i64, y: i64| {
-                (x >= 0 && y >= 0 && (x as usize) < width && (y as usize) < height)
-                    .then(|| y as usize * width + x as usize)
-            };
-            let Some(i) = at(x, y) else { continue };
+            let Some(i) = f.index(x, y) else { continue };
             let (Some(&t), Some(&z)) = (f.truth_ids.get(i), f.truth_depth.get(i)) else { continue };
             let mut edge = false;
             for dy in -3..=3 {
                 for dx in -3..=3 {
-                    let Some(n) = at(x + dx, y + dy) else { continue };
+                    let Some(n) = f.index(x + dx, y + dy) else { continue };
                     let (nt, nz) = (f.truth_ids.get(n).copied(), f.truth_depth.get(n).copied().unwrap_or(0.0));
                     edge |= nt != Some(t) || (nz - z).abs() > 0.05 * z;
                 }
@@ -184,9 +190,9 @@ impl MotionScores {
     }
 
     /// Adds where the probes on moving objects ended, by the band of the object.
-    pub fn add_fates(&mut self, fates: &[(f32, f32, Fate)], f: &FrameSegments<'_>, width: usize) {
+    pub fn add_fates(&mut self, fates: &[(f32, f32, Fate)], f: &FrameSegments<'_>) {
         for &(u, v, fate) in fates {
-            let at = (v.round() as usize) * width + u.round() as usize;
+            let Some(at) = f.index(u.round() as i64, v.round() as i64) else { continue };
             let (Some(&t), Some(&z)) = (f.truth_ids.get(at), f.truth_depth.get(at)) else { continue };
             if f.moving.contains_key(&t) {
                 *self.fates.entry((band_of(z), fate)).or_default() += 1;
@@ -285,6 +291,7 @@ mod tests {
         for (frame, segments) in frames.iter().enumerate() {
             scores.add_frame(&FrameSegments {
                 frame,
+                width: w,
                 truth_ids: &truth_ids,
                 truth_depth: &truth_depth,
                 segments,

@@ -1,11 +1,8 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are the host's `estimation::end_to_end`).
 
-use std::collections::BTreeMap;
-
-use dynotraj_core::wire::ObjectClass;
 use dynotraj_sim::image_sim::{ImageSim, RenderedMasks};
-use dynotraj_sim::track_sim::{ObjectTruth, SimFrame};
+use dynotraj_sim::track_sim::{SimFrame, moving_objects};
 use opencv::prelude::*;
 
 use super::cost::input_with;
@@ -77,24 +74,6 @@ pub fn track_measured(
     Ok(RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats })
 }
 
-/// The objects of `truth` (per frame) that move at least `min_step_m` a frame on average over
-/// the frames they are in, with their classes.
-#[must_use]
-pub fn moving_objects(truth: &[Vec<ObjectTruth>], min_step_m: f64) -> BTreeMap<u16, ObjectClass> {
-    let mut paths: BTreeMap<u16, (ObjectClass, Vec<nalgebra::Vector3<f64>>)> = BTreeMap::new();
-    for o in truth.iter().flatten() {
-        paths.entry(o.object_id).or_insert_with(|| (o.class, Vec::new())).1.push(o.pose.translation.vector);
-    }
-    paths
-        .into_iter()
-        .filter(|(_, (_, p))| {
-            let length: f64 = p.windows(2).filter_map(|w| Some((w.get(1)? - w.first()?).norm())).sum();
-            p.len() >= 2 && length / (p.len() - 1) as f64 >= min_step_m
-        })
-        .map(|(id, (class, _))| (id, class))
-        .collect()
-}
-
 /// The front-end with motion masks ([`MaskInput::Motion`]) over the first `frames` frames of
 /// `sim`, its masks scored into `scores` against the objects moving at least `min_step_m` a
 /// frame ([`moving_objects`]).
@@ -110,17 +89,24 @@ pub fn track_motion_scored(
 ) -> Result<RenderingTracked, FrontEndError> {
     let cam = sim.camera;
     let n = frames.min(sim.len());
-    let moving = moving_objects(sim.truth.get(..n).unwrap_or(&sim.truth), min_step_m);
+    let moving = moving_objects(sim.truth.iter().take(n).map(Vec::as_slice), min_step_m);
     let mut fe = FrontEnd::new(stereo, tracker, cam.fb() as f32)?;
     let mut out = Vec::new();
     for k in 0..n {
         let Some(f) = sim.frame(k) else { break };
         let tracks = fe.process(input_with(&f, &cam, RenderedMasks::Motion)?)?;
         let segments = fe.last_masks.data_typed::<u16>().map_err(cv("reading the masks"))?;
-        let frame = FrameSegments { frame: k, truth_ids: &f.ids, truth_depth: &f.depth, segments, moving: &moving };
+        let frame = FrameSegments {
+            frame: k,
+            width: cam.width,
+            truth_ids: &f.ids,
+            truth_depth: &f.depth,
+            segments,
+            moving: &moving,
+        };
         scores.add_frame(&frame);
-        scores.add_residuals(&fe.motion.judged, &frame, cam.width);
-        scores.add_fates(&fe.motion.fates, &frame, cam.width);
+        scores.add_residuals(&fe.motion.judged, &frame);
+        scores.add_fates(&fe.motion.fates, &frame);
         out.push(SimFrame { frame: f.frame, timestamp_us: 0, tracks, camera: f.camera, objects: f.objects });
     }
     scores.end_sequence();

@@ -41,25 +41,8 @@ pub struct RunScores {
 /// Ids of the objects whose truth moves at least `min_step_m` per frame on average.
 #[must_use]
 pub fn moving_objects(frames: &[SimFrame], min_step_m: f64) -> BTreeSet<u16> {
-    /// Path length, steps, and the last (frame index, position) per object.
-    type PathSum = (f64, usize, Option<(usize, nalgebra::Vector3<f64>)>);
-    let mut path: BTreeMap<u16, PathSum> = BTreeMap::new();
-    for (i, f) in frames.iter().enumerate() {
-        for o in &f.objects {
-            let e = path.entry(o.object_id).or_insert((0.0, 0, None));
-            let p = o.pose.translation.vector;
-            if let Some((j, q)) = e.2
-                && j + 1 == i
-            {
-                e.0 += (p - q).norm();
-                e.1 += 1;
-            }
-            e.2 = Some((i, p));
-        }
-    }
-    path.into_iter()
-        .filter(|(_, (len, steps, _))| *steps > 0 && len / *steps as f64 >= min_step_m)
-        .map(|(id, _)| id)
+    dynotraj_sim::track_sim::moving_objects(frames.iter().map(|f| f.objects.as_slice()), min_step_m)
+        .into_keys()
         .collect()
 }
 
