@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use dynotraj_frontend::motion::Fate;
-use dynotraj_frontend::motion_scores::{BANDS, MotionScores};
+use dynotraj_frontend::motion_scores::{BANDS, MotionScores, PROBE_BUCKETS};
 use dynotraj_frontend::{FrontEndStats, StageTimes};
 use dynotraj_sources::estimation::from_images::motion_masks_scored;
 
@@ -135,6 +135,26 @@ pub fn motion_segmentation(
             n(Fate::Unclustered),
             n(Fate::InObject)
         );
+    }
+    header.push('\n');
+    let _ = writeln!(header, "moving objects' frames by the probes on them (found / frames):\n");
+    let buckets: Vec<String> = PROBE_BUCKETS
+        .iter()
+        .zip(PROBE_BUCKETS.iter().skip(1).map(|n| Some(n - 1)).chain([None]))
+        .map(|(lo, hi)| match hi {
+            Some(hi) if hi == *lo => format!("{lo} probes"),
+            Some(hi) => format!("{lo}-{hi} probes"),
+            None => format!("{lo}+ probes"),
+        })
+        .collect();
+    let _ = writeln!(header, "| range | {} |\n|---|{}", buckets.join(" | "), "---|".repeat(buckets.len()));
+    for (b, _) in BANDS.iter().enumerate() {
+        let cells: Vec<String> = (0..PROBE_BUCKETS.len())
+            .map(|k| {
+                scores.coverage.get(&(b, k)).map_or_else(|| "-".into(), |c| format!("{} / {}", c.found, c.visible))
+            })
+            .collect();
+        let _ = writeln!(header, "| {} | {} |", band_name(b), cells.join(" | "));
     }
     header.push('\n');
     Ok(SegmentationReport { header, recall: recall_table(&scores), precision: precision_table(&scores), scores })

@@ -16,6 +16,16 @@ pub const BANDS: [(f32, f32); 4] = [(0.0, 20.0), (20.0, 40.0), (40.0, 80.0), (80
 /// Fewest visible pixels for an object to count in a frame (smaller ones no stereo resolves).
 pub const MIN_VISIBLE_PX: usize = 50;
 
+/// Buckets of the probes on an object in a frame ([`MotionScores::coverage`]): the least count
+/// of each.
+pub const PROBE_BUCKETS: [usize; 5] = [0, 1, 5, 20, 50];
+
+/// The bucket index of `n` probes.
+#[must_use]
+pub fn probe_bucket(n: usize) -> usize {
+    PROBE_BUCKETS.iter().rposition(|&lo| n >= lo).unwrap_or(0)
+}
+
 /// Counts of one (band, class) cell.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FoundCount {
@@ -89,8 +99,13 @@ pub struct MotionScores {
     pub residuals: BTreeMap<(usize, bool, bool), Vec<[f32; 3]>>,
     /// Probes on moving objects by band and fate, and the object frames they were on.
     pub fates: BTreeMap<(usize, Fate), usize>,
+    /// Object frames (as counted for recall) per (band, [`probe_bucket`] of the probes on
+    /// them), and how many of those were found: whether a miss lacked probes or a verdict.
+    pub coverage: BTreeMap<(usize, usize), FoundCount>,
     /// Per object of the sequence under way.
     objects: BTreeMap<u16, History>,
+    /// The objects of the last frame added, as counted for recall: band and whether found.
+    last_frame: BTreeMap<u16, (usize, bool)>,
 }
 
 /// The band index of `depth`.
@@ -107,6 +122,7 @@ fn median(mut v: Vec<f32>) -> Option<f32> {
 impl MotionScores {
     /// Adds one frame.
     pub fn add_frame(&mut self, f: &FrameSegments<'_>) {
+        self.last_frame.clear();
         // Pixels per (truth id, segment id), and the truth depths per truth id and per segment.
         let mut overlap: BTreeMap<(u16, u16), usize> = BTreeMap::new();
         let mut depth_of_truth: BTreeMap<u16, Vec<f32>> = BTreeMap::new();
@@ -135,6 +151,7 @@ impl MotionScores {
                 .max_by_key(|(_, n)| **n)
                 .map(|((_, s), n)| (*s, *n));
             let found = best.filter(|(_, n)| 2 * n >= visible);
+            self.last_frame.insert(id, (band_of(z), found.is_some()));
             let cell = self.found.entry((band_of(z), class)).or_default();
             cell.visible += 1;
             cell.touched += usize::from(best.is_some());
@@ -190,13 +207,23 @@ impl MotionScores {
     }
 
     /// Adds where the probes on moving objects ended, by the band of the object.
+    /// Each object of that frame (after [`MotionScores::add_frame`]) is counted by the probes on
+    /// it.
     pub fn add_fates(&mut self, fates: &[(f32, f32, Fate)], f: &FrameSegments<'_>) {
+        let mut on: BTreeMap<u16, usize> = BTreeMap::new();
         for &(u, v, fate) in fates {
             let Some(at) = f.index(u.round() as i64, v.round() as i64) else { continue };
             let (Some(&t), Some(&z)) = (f.truth_ids.get(at), f.truth_depth.get(at)) else { continue };
             if f.moving.contains_key(&t) {
                 *self.fates.entry((band_of(z), fate)).or_default() += 1;
+                *on.entry(t).or_default() += 1;
             }
+        }
+        for (id, &(band, found)) in &self.last_frame {
+            let probes = on.get(id).copied().unwrap_or(0);
+            let cell = self.coverage.entry((band, probe_bucket(probes))).or_default();
+            cell.visible += 1;
+            cell.found += usize::from(found);
         }
     }
 
@@ -230,6 +257,11 @@ impl MotionScores {
         self.never_found += other.never_found;
         for (k, v) in other.fates {
             *self.fates.entry(k).or_default() += v;
+        }
+        for (k, c) in other.coverage {
+            let e = self.coverage.entry(k).or_default();
+            e.visible += c.visible;
+            e.found += c.found;
         }
         for (k, v) in other.residuals {
             self.residuals.entry(k).or_default().extend(v);

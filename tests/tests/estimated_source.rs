@@ -247,6 +247,41 @@ fn the_error_budget_of_a_synthetic_drive() {
     assert!(err.contains("--source"), "{err}");
 }
 
+#[test]
+fn the_error_budget_with_masks_the_front_end_names_itself() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_str().unwrap();
+    write_sequence(dir.path(), "0000", &generate(&DriveSpec::default()));
+    for masks in ["boxes", "motion"] {
+        let Command::Dataset(args) = cli(&[
+            "dataset",
+            "--kitti",
+            root,
+            "--source",
+            "gt,estimated",
+            "--ours-input",
+            "rendered",
+            "--render-scale",
+            "0.5",
+            "--ours-masks",
+            masks,
+            "--budget",
+        ]) else {
+            panic!()
+        };
+        // The front-end's own ids match no label: the truth is named after its objects, so
+        // the budget scores them against the true boxes they cover.
+        let (_, budget) = dataset::tables(&args).unwrap_or_else(|e| panic!("--ours-masks {masks}: {e:#}"));
+        let b = budget.expect("--budget gives the table");
+        println!("--ours-masks {masks}\n{}", b.render(dynotraj_eval::report::Format::Md));
+        let all = row(&b, "all", None);
+        let num = |h: &str| all[column(&b, h)].parse::<f64>().unwrap();
+        assert!(num("instances") > 0.0, "{masks}: {all:?}");
+        // Matched to the wrong object, positions would be off by the metres between objects.
+        assert!(num("position (m)") < 3.0, "{masks}: {all:?}");
+    }
+}
+
 /// The synthetic drive as a KITTI folder, estimated by the track-level simulator with `variants`.
 fn synthetic_drive_estimated(
     variants: dynotraj_sources::estimation::simulated::ObjectVariants,

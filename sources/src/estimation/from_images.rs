@@ -13,9 +13,10 @@ use std::path::Path;
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
 
-use dynotraj_sim::image_sim::{Camera, ImageSim};
+use dynotraj_sim::image_sim::{Camera, ImageSim, RenderedMasks};
 
 use dynotraj_sim::track_sim::SimFrame;
+use dynotraj_sim::track_sim::truth_association::{associate, name_truth_after};
 
 use super::input::{SimInput, sim_input};
 use super::rendered_cache::{self, RenderSettings};
@@ -114,8 +115,9 @@ pub struct RenderedRun {
 
 /// Renders sequence `id` (`data`) at `scale` of KITTI's resolution (1: 1242 x 375) with `opt`'s
 /// classes, seed, frame period and frame limit, and tracks the rendering with the front-end
-/// (SGBM stereo, the rendered instance masks, KLT); with `cache`, the frames are read from it
-/// when it holds this rendering, and stored there otherwise.
+/// (SGBM stereo, `opt`'s masks, KLT); with `cache`, the frames are read from it when it holds
+/// this rendering, and stored there otherwise. With masks other than the rendered ids, the
+/// truth is named after the front-end's objects ([`name_truth_after`]).
 ///
 /// # Errors
 /// A bad scale, a front-end failure, or a cache file that cannot be written, named.
@@ -145,14 +147,29 @@ pub fn render_and_track(
         Some(_) => Some(rendered_cache::rendered_key(id, data, &settings)?),
         None => None,
     };
-    if let Some(frames) = cache.zip(key).and_then(|(dir, key)| rendered_cache::load(dir, id, key)) {
+    let mut frames = if let Some(frames) = cache.zip(key).and_then(|(dir, key)| rendered_cache::load(dir, id, key)) {
         log::info!("sequence {id}: rendered front-end tracks read from the cache");
-        return Ok(frames);
-    }
-    let sim = image_sim(input, opt, scale, n);
-    let frames = track_rendering(&sim, n, opt, scale)?;
-    if let (Some(dir), Some(key)) = (cache, key) {
-        rendered_cache::store(dir, id, key, &frames)?;
+        frames
+    } else {
+        let sim = image_sim(input, opt, scale, n);
+        let frames = track_rendering(&sim, n, opt, scale)?;
+        if let (Some(dir), Some(key)) = (cache, key) {
+            rendered_cache::store(dir, id, key, &frames)?;
+        }
+        frames
+    };
+    if opt.point_depth.masks != RenderedMasks::Ids {
+        // The front-end named the objects itself: the truth is named after them.
+        let association = associate(&frames, &render_camera(scale).intrinsics());
+        log::info!(
+            "sequence {id}: {} front-end objects matched to a true object, {} not ({} of {} object points in \
+             their matched boxes)",
+            association.truth_of.len(),
+            association.unmatched.len(),
+            association.points_in_mapped_box,
+            association.points
+        );
+        name_truth_after(&mut frames, &association);
     }
     Ok(frames)
 }
