@@ -8,6 +8,7 @@ use opencv::prelude::*;
 use super::cost::input_with;
 use super::disparity_error::{DisparityErrors, FrameTruth, SentPoint};
 use super::error::{FrontEndError, cv};
+use super::motion::{MotionParams, MotionSegmenter};
 use super::motion_scores::{FrameSegments, MotionScores};
 use super::pipeline::{FrontEnd, StageTimes};
 use super::stats::FrontEndStats;
@@ -83,7 +84,7 @@ pub fn track_measured(
 pub fn track_motion_scored(
     sim: &ImageSim,
     frames: usize,
-    (stereo, tracker): (StereoParams, TrackerParams),
+    (stereo, tracker, motion): (StereoParams, TrackerParams, MotionParams),
     min_step_m: f64,
     scores: &mut MotionScores,
 ) -> Result<RenderingTracked, FrontEndError> {
@@ -91,6 +92,7 @@ pub fn track_motion_scored(
     let n = frames.min(sim.len());
     let moving = moving_objects(sim.truth.iter().take(n).map(Vec::as_slice), min_step_m);
     let mut fe = FrontEnd::new(stereo, tracker, cam.fb() as f32)?;
+    fe.motion = MotionSegmenter::new(motion);
     let mut out = Vec::new();
     for k in 0..n {
         let Some(f) = sim.frame(k) else { break };

@@ -70,6 +70,16 @@ impl SequenceTracks {
         self.estimated.as_ref().map(|e| &e.truth[..]).filter(|t| !t.is_empty())
     }
 
+    /// The true track id behind track `id` of `source` (see
+    /// [`EstimatedTracks::true_track_id`]); the labels' ids are the truth's.
+    #[must_use]
+    pub fn true_track_id(&self, source: Source, id: i32) -> Option<i32> {
+        match &self.estimated {
+            Some(e) if source.is_estimated() => e.true_track_id(id),
+            _ => Some(id),
+        }
+    }
+
     /// Whether the tracks of `source` are loaded.
     #[must_use]
     pub fn has(&self, source: Source) -> bool {

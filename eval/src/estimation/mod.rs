@@ -128,7 +128,7 @@ pub fn estimate_sequences(
                 (sim, Some(spec))
             }
             SimulatedInput::Rendered => {
-                let frames = render_and_track(id, &data, base, scale, request.cache)
+                let (frames, _) = render_and_track(id, &data, base, scale, request.cache)
                     .with_context(|| format!("sequence {id}: rendered front-end"))?;
                 (frames, None)
             }

@@ -407,11 +407,39 @@ fn score_agents(
         .iter()
         .map(|&a| tests.iter().map(|s| eligible_runs(s.tracks_for(a), &config.rule)).collect())
         .collect();
-    let common_keys: Vec<BTreeSet<(i32, u32)>> = (0..tests.len())
-        .map(|i| {
-            let mut sets = runs_by_arm.iter().filter_map(|per_test| per_test.get(i)).map(|r| instance_keys(r));
+    // The instances every arm has, named by the true object they follow (a front-end with box
+    // or motion masks names its objects itself), then each arm's share of them in its own ids.
+    let true_keys = |source: Source, test: &SequenceTracks, runs: &[EligibleRun]| -> BTreeSet<(i32, u32)> {
+        instance_keys(runs).into_iter().filter_map(|(id, f)| Some((test.true_track_id(source, id)?, f))).collect()
+    };
+    let common_true: Vec<BTreeSet<(i32, u32)>> = tests
+        .iter()
+        .enumerate()
+        .map(|(i, test)| {
+            let mut sets = config
+                .arms
+                .iter()
+                .zip(&runs_by_arm)
+                .filter_map(|(&a, per_test)| per_test.get(i).map(|r| true_keys(a, test, r)));
             let first = sets.next().unwrap_or_default();
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
+        })
+        .collect();
+    let common_keys: Vec<Vec<BTreeSet<(i32, u32)>>> = config
+        .arms
+        .iter()
+        .zip(&runs_by_arm)
+        .map(|(&a, per_test)| {
+            tests
+                .iter()
+                .zip(per_test)
+                .zip(&common_true)
+                .map(|((test, runs), common)| {
+                    let shared =
+                        |&(id, f): &(i32, u32)| test.true_track_id(a, id).is_some_and(|t| common.contains(&(t, f)));
+                    instance_keys(runs).into_iter().filter(shared).collect()
+                })
+                .collect()
         })
         .collect();
     let scenes_by_arm: Vec<Vec<Scene>> =
@@ -420,13 +448,15 @@ fn score_agents(
         .iter()
         .map(|t| t.estimated.as_ref().map(dynotraj_sources::estimation::EstimatedTracks::world_yaw))
         .collect();
+    let no_keys = BTreeSet::new();
     let references_for = |source: Source| -> Vec<Option<Reference<'_>>> {
+        let keys = config.arms.iter().position(|a| *a == source).and_then(|a| common_keys.get(a));
         (0..tests.len())
             .map(|i| {
                 let world_yaw = world_yaws[i].as_ref().filter(|_| source.is_estimated());
                 truths.as_ref().and_then(|t| t.get(i)).map(|truth| Reference::Common {
                     truth,
-                    only: &common_keys[i],
+                    only: keys.and_then(|k| k.get(i)).unwrap_or(&no_keys),
                     world_yaw,
                 })
             })

@@ -3,7 +3,7 @@
 //! A front-end given box or motion masks names objects its own way (by box overlap, by the
 //! probes they share), so its estimates cannot be matched to the simulator's truth by id. Each
 //! of its objects is mapped instead to the true box that holds most of its measured points over
-//! its whole life, and the truth is then named after the front-end's objects
+//! its whole life, and the truth is then also named after the front-end's objects
 //! ([`name_truth_after`]), so every score that matches estimates to truth by id works as it
 //! does for rendered ids.
 
@@ -93,18 +93,24 @@ pub fn associate(frames: &[SimFrame], intrinsics: &Intrinsics) -> Association {
     out
 }
 
-/// Renames the truth of `frames` after the front-end's objects of `association`: each frame's
-/// true objects become one copy per front-end object mapped to them, under that object's id (a
-/// true object followed under two ids appears twice); true objects no front-end object was
-/// mapped to are dropped, since nothing estimated is scored against them.
+/// Adds to the truth of `frames` a copy of each true object under the id of every front-end
+/// object of `association` mapped to it (a true object followed under two ids gets two), so
+/// that scores matching estimates to truth by id find it; the true objects keep their own ids
+/// too, for the sources that use them (the labels). A front-end id that is also a true id gets
+/// no copy: it would stand for two objects.
 pub fn name_truth_after(frames: &mut [SimFrame], association: &Association) {
+    let true_ids: std::collections::BTreeSet<u16> =
+        frames.iter().flat_map(|f| f.objects.iter().map(|o| o.object_id)).collect();
     for f in frames {
-        let truth = std::mem::take(&mut f.objects);
-        for (&object, &true_id) in &association.truth_of {
-            if let Some(o) = truth.iter().find(|o| o.object_id == true_id) {
-                f.objects.push(ObjectTruth { object_id: object, ..*o });
-            }
-        }
+        let copies: Vec<ObjectTruth> = association
+            .truth_of
+            .iter()
+            .filter(|(object, _)| !true_ids.contains(object))
+            .filter_map(|(&object, &true_id)| {
+                f.objects.iter().find(|o| o.object_id == true_id).map(|o| ObjectTruth { object_id: object, ..*o })
+            })
+            .collect();
+        f.objects.extend(copies);
     }
 }
 
@@ -156,7 +162,11 @@ mod tests {
         assert_eq!((a.points, a.points_in_mapped_box), (8, 5));
         name_truth_after(&mut frames, &a);
         let named: Vec<(u16, f64)> = frames[0].objects.iter().map(|o| (o.object_id, o.pose.translation.x)).collect();
-        assert_eq!(named, vec![(20001, -2.0), (20002, 3.0)]);
+        assert_eq!(named, vec![(3, -2.0), (7, 3.0), (20001, -2.0), (20002, 3.0)]);
+        // A front-end id that a true object has already is not given to another.
+        let before = frames[0].objects.len();
+        name_truth_after(&mut frames, &Association { truth_of: BTreeMap::from([(7, 3)]), ..Association::default() });
+        assert_eq!(frames[0].objects.len(), before);
     }
 
     #[test]

@@ -31,8 +31,9 @@ use dynotraj_formats::kitti::SequenceData;
 /// camera per frame, true and estimated; 7: the world yaw derived from those cameras, not kept;
 /// 8: files end in a checksum; 9: the causal camera is its current estimate, the pose the
 /// objects are placed against; 10: the causal camera's position on every input; 11: a
-/// vehicle's frame pointing backwards is turned onto its travel).
-pub const ESTIMATE_CACHE_VERSION: u32 = 11;
+/// vehicle's frame pointing backwards is turned onto its travel; 12: the true object of each
+/// object the front-end named itself).
+pub const ESTIMATE_CACHE_VERSION: u32 = 12;
 
 /// The key of sequence `id`'s estimation inputs.
 ///
@@ -134,6 +135,7 @@ mod tests {
             smoothed: vec![],
             rpe: Some(crate::estimation::RunScores::default()),
             truth: vec![track],
+            truth_of: [(20_000, 3)].into(),
             cameras: [(
                 4,
                 crate::estimation::CameraPair {
@@ -177,6 +179,7 @@ mod tests {
             smoothed: vec![track.clone()],
             rpe: None,
             truth: vec![track],
+            truth_of: std::collections::BTreeMap::new(),
             cameras: std::collections::BTreeMap::new(),
             observer: std::collections::BTreeMap::new(),
             rpe_frames: [vec![], vec![], vec![]],

@@ -9,6 +9,7 @@
 //! ground and static structures, from the real ego poses and calibration) and runs the same
 //! front-end and estimator on the rendering, with the simulator's truth kept for scoring.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
@@ -107,6 +108,9 @@ fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<Esti
 pub struct RenderedRun {
     /// The front-end's tracks with the simulator's truth, per frame.
     pub frames: Vec<SimFrame>,
+    /// The true object id of each object the front-end named itself (box or motion masks;
+    /// empty with the rendered ids, which are the truth's).
+    pub truth_of: BTreeMap<u16, u16>,
     /// The estimator's outputs.
     pub run: EstimatorRun,
     /// RPE per output kind.
@@ -117,7 +121,8 @@ pub struct RenderedRun {
 /// classes, seed, frame period and frame limit, and tracks the rendering with the front-end
 /// (SGBM stereo, `opt`'s masks, KLT); with `cache`, the frames are read from it when it holds
 /// this rendering, and stored there otherwise. With masks other than the rendered ids, the
-/// truth is named after the front-end's objects ([`name_truth_after`]).
+/// truth is also named after the front-end's objects ([`name_truth_after`]), and returned
+/// beside the frames is the true object id of each of them (empty with the rendered ids).
 ///
 /// # Errors
 /// A bad scale, a front-end failure, or a cache file that cannot be written, named.
@@ -127,7 +132,7 @@ pub fn render_and_track(
     opt: &EvalOptions,
     scale: f64,
     cache: Option<&Path>,
-) -> anyhow::Result<Vec<SimFrame>> {
+) -> anyhow::Result<(Vec<SimFrame>, BTreeMap<u16, u16>)> {
     anyhow::ensure!(
         scale.is_finite() && (0.05..=2.0).contains(&scale),
         "--render-scale: expected 0.05..=2, found {scale}"
@@ -158,20 +163,21 @@ pub fn render_and_track(
         }
         frames
     };
-    if opt.point_depth.masks != RenderedMasks::Ids {
-        // The front-end named the objects itself: the truth is named after them.
-        let association = associate(&frames, &render_camera(scale).intrinsics());
-        log::info!(
-            "sequence {id}: {} front-end objects matched to a true object, {} not ({} of {} object points in \
-             their matched boxes)",
-            association.truth_of.len(),
-            association.unmatched.len(),
-            association.points_in_mapped_box,
-            association.points
-        );
-        name_truth_after(&mut frames, &association);
+    if opt.point_depth.masks == RenderedMasks::Ids {
+        return Ok((frames, BTreeMap::new()));
     }
-    Ok(frames)
+    // The front-end named the objects itself: the truth is named after them too.
+    let association = associate(&frames, &render_camera(scale).intrinsics());
+    log::info!(
+        "sequence {id}: {} front-end objects matched to a true object, {} not ({} of {} object points in their \
+         matched boxes)",
+        association.truth_of.len(),
+        association.unmatched.len(),
+        association.points_in_mapped_box,
+        association.points
+    );
+    name_truth_after(&mut frames, &association);
+    Ok((frames, association.truth_of))
 }
 
 /// Frames of `input` rendered under `opt`'s frame limit.
@@ -236,8 +242,14 @@ pub fn motion_masks_scored(
     let n = frames_rendered(&input, opt);
     let sim = image_sim(input, opt, 1.0, n);
     let mut scores = MotionScores::default();
-    let tracked = rendered::track_motion_scored(&sim, n, (stereo, tracker), opt.min_step_m, &mut scores)
-        .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
+    let tracked = rendered::track_motion_scored(
+        &sim,
+        n,
+        (stereo, tracker, dynotraj_frontend::motion::MotionParams::default()),
+        opt.min_step_m,
+        &mut scores,
+    )
+    .map_err(|e| anyhow::anyhow!("sequence {id}: {e}"))?;
     Ok((scores, tracked.times, tracked.stats))
 }
 
@@ -281,11 +293,11 @@ pub fn estimate_rendered(
     scale: f64,
     cache: Option<&Path>,
 ) -> anyhow::Result<RenderedRun> {
-    let frames = render_and_track(id, data, opt, scale, cache)?;
+    let (frames, truth_of) = render_and_track(id, data, opt, scale, cache)?;
     let run = run_sim_with_window(&frames, rendered_params(scale, opt), opt);
     let moving = moving_objects(&frames, opt.min_step_m);
     let scores = score_run(&frames, &run, &moving);
-    Ok(RenderedRun { frames, run, scores })
+    Ok(RenderedRun { frames, truth_of, run, scores })
 }
 
 #[cfg(all(test, not(feature = "images")))]

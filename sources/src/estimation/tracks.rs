@@ -77,6 +77,10 @@ pub struct EstimatedTracks {
     /// speed 0: only positions are used), the common reference every arm can be scored
     /// against; empty on real images.
     pub truth: Vec<ObjectTrack>,
+    /// The true track id of each track whose id the front-end gave itself (box or motion
+    /// masks), the object holding most of its points; `truth` holds a copy of that object's
+    /// path under the track's own id too. Empty where the track ids are the truth's.
+    pub truth_of: BTreeMap<i32, i32>,
     /// Per frame: the camera on the bird's-eye plane, true and as the causal estimate has it
     /// (position and heading; speed 0), each in its own world: what turns the estimator's
     /// world into the truth's ([`EstimatedTracks::world_yaw`]) and places an object relative to
@@ -100,11 +104,18 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
     EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim, r.min_step_m)
 }
 
+/// Track id of wire object id `object` ([`truth_tracks`] and the estimates number them alike).
+fn track_id_of(object: u16) -> i32 {
+    i32::from(object) - 1
+}
+
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth;
 /// objects moving at least `min_step_m` per frame are scored (as for `e.scores`).
 #[must_use]
 pub fn rendered_estimated_tracks(e: &crate::estimation::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
-    EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m)
+    let mut tracks = EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m);
+    tracks.truth_of = e.truth_of.iter().map(|(&o, &t)| (track_id_of(o), track_id_of(t))).collect();
+    tracks
 }
 
 /// The tracks of an estimator run on real images (no truth, no RPE).
@@ -114,6 +125,14 @@ pub fn image_estimated_tracks(run: &EstimatorRun) -> EstimatedTracks {
 }
 
 impl EstimatedTracks {
+    /// The true track id behind track `id`: itself where the track ids are the truth's, else
+    /// the object [`EstimatedTracks::truth_of`] maps it to (`None`: it followed no true
+    /// object).
+    #[must_use]
+    pub fn true_track_id(&self, id: i32) -> Option<i32> {
+        if self.truth_of.is_empty() { Some(id) } else { self.truth_of.get(&id).copied() }
+    }
+
     /// Per frame, [`CameraPair::world_yaw`]. The estimator's world drifts from the truth's as
     /// camera errors accumulate; a displacement forecast at frame s is turned by this before it
     /// is held to the true one. Empty on real images.
@@ -156,6 +175,7 @@ impl EstimatedTracks {
             smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
             rpe,
             truth: truth_tracks(sim),
+            truth_of: BTreeMap::new(),
             cameras,
             observer,
             rpe_frames,
@@ -172,7 +192,7 @@ pub fn truth_tracks(sim: &[SimFrame]) -> Vec<ObjectTrack> {
     for f in sim {
         for o in &f.objects {
             let t = by_id.entry(o.object_id).or_insert_with(|| ObjectTrack {
-                track_id: i32::from(o.object_id) - 1,
+                track_id: track_id_of(o.object_id),
                 class: o.class,
                 frames: Vec::new(),
                 states: Vec::new(),
@@ -219,7 +239,7 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<ObjectTrac
     by_id
         .into_iter()
         .map(|(object_id, (class, rows))| ObjectTrack {
-            track_id: i32::from(object_id) - 1,
+            track_id: track_id_of(object_id),
             class,
             frames: rows.iter().map(|r| r.0).collect(),
             states: rows.iter().map(|r| r.2).collect(),
