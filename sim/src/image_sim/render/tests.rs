@@ -249,3 +249,38 @@ fn an_empty_image_renders_empty() {
         assert!(view.rgb.is_empty() && view.depth.is_empty() && view.ids.is_empty());
     }
 }
+
+#[test]
+fn the_sensor_gives_a_row_the_bytes_of_its_pixels() {
+    let mut a = 7u32;
+    let mut tame = vec![0.0f32, -0.0, 0.5, -0.5, 0.9999, -0.9999, 1.0, -1.0, 254.5, 255.0, 255.99, 256.0, 767.5];
+    tame.extend([1023.9, 1024.0, -1024.0, f32::NAN, f32::MIN_POSITIVE, -1e-40]);
+    for _ in 0..30_000 {
+        a = hash(a);
+        tame.push((f64::from(a) / f64::from(u32::MAX) * 2048.0 - 1024.0) as f32);
+    }
+    let wild = [1024.5, -1024.5, 1e9, -1e9, 2.2e9, f32::INFINITY, f32::NEG_INFINITY, 3e38];
+    for noise in [0, 1, 2, 255, 256, 1 << 20] {
+        let sensor = Sensor::new(&Camera { noise, ..Camera::kitti(0.1) }, 9);
+        // A whole row of tame values, then rows with one wild value each (where the cast plus
+        // the noise does not overflow).
+        let mut rows = vec![tame.clone()];
+        for w in
+            wild.into_iter().filter(|&w| (w as i32).checked_add(noise).and((w as i32).checked_sub(noise)).is_some())
+        {
+            let mut row = tame[..300].to_vec();
+            row[100] = w;
+            rows.push(row);
+        }
+        for row in &rows {
+            let n = row.len() / 3;
+            let mut out = vec![0u8; 3 * n];
+            sensor.row_bytes(1000, row, &mut Vec::new(), &mut out);
+            for k in 0..n {
+                let mut want = [0u8; 3];
+                sensor.bytes(1000 + k, [row[3 * k], row[3 * k + 1], row[3 * k + 2]], &mut want);
+                assert_eq!(out[3 * k..3 * k + 3], want, "{noise} {:?}", &row[3 * k..3 * k + 3]);
+            }
+        }
+    }
+}
