@@ -206,18 +206,24 @@ fn drive_scene(k: usize) -> (Camera, Isometry3<f64>, StaticScene, Vec<(u16, Cubo
 }
 
 #[test]
-fn tiles_on_any_number_of_threads_give_the_reference_view() {
+fn tiles_on_any_number_of_threads_with_either_instruction_set_give_the_reference_view() {
     for optics in [Optics::IDEAL, Optics::CAMERA] {
         for k in [0, 3] {
             let (cam, pose, scene, boxes) = drive_scene(k);
             let cam = Camera { optics, ..cam };
             let want = reference(&cam, &pose, &scene, &boxes, 9);
             assert!(want.ids.iter().any(|&id| id != 0), "an object in view");
-            for threads in [1, 2, 3, 64] {
-                let view = render_with_threads(&cam, &pose, &scene, &boxes, 9, threads);
+            // Both instruction sets where the CPU has AVX2.
+            #[cfg(target_arch = "x86_64")]
+            let sets = [false, std::arch::is_x86_feature_detected!("avx2")];
+            #[cfg(not(target_arch = "x86_64"))]
+            let sets = [false];
+            for (threads, avx2) in [1, 2, 3, 64].into_iter().flat_map(|t| sets.map(|a| (t, a))) {
+                let view = render_with(&cam, &pose, &scene, &boxes, 9, threads, avx2);
                 let bits = |v: &View| v.depth.iter().map(|z| z.to_bits()).collect::<Vec<_>>();
-                assert!(view.rgb == want.rgb && view.ids == want.ids, "{optics:?} frame {k}, {threads} threads");
-                assert_eq!(bits(&view), bits(&want), "{optics:?} frame {k}, {threads} threads");
+                let case = format!("{optics:?} frame {k}, {threads} threads, avx2 {avx2}");
+                assert!(view.rgb == want.rgb && view.ids == want.ids, "{case}");
+                assert_eq!(bits(&view), bits(&want), "{case}");
             }
         }
     }
