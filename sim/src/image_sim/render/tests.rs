@@ -7,6 +7,38 @@ use crate::image_sim::scene::GroundPlane;
 use crate::image_sim::texture::intensity;
 use nalgebra::Translation3;
 
+/// A box hit: distance along the ray and the local hit point and face axis.
+fn hit_box(origin: &Point3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) -> Option<(f64, Point3<f64>, usize, f64)> {
+    let (mut t0, mut t1) = (0.0f64, FAR);
+    let mut axis = usize::MAX;
+    let mut sign = 1.0;
+    for a in 0..3 {
+        let (o, d, h) = (origin[a], dir[a], half[a]);
+        if d.abs() < 1e-12 {
+            if o.abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (mut near, mut far) = ((-h - o) / d, (h - o) / d);
+        let mut s = -1.0;
+        if near > far {
+            std::mem::swap(&mut near, &mut far);
+            s = 1.0;
+        }
+        if near > t0 {
+            t0 = near;
+            axis = a;
+            sign = s;
+        }
+        t1 = t1.min(far);
+        if t0 > t1 {
+            return None;
+        }
+    }
+    (axis != usize::MAX).then(|| (t0, origin + dir * t0, axis, sign))
+}
+
 /// The renderer as first written: ground and sky everywhere, then every box over them.
 fn reference(
     cam: &Camera,
@@ -287,6 +319,35 @@ fn the_sensor_gives_a_row_the_bytes_of_its_pixels() {
                 sensor.bytes(1000 + k, [row[3 * k], row[3 * k + 1], row[3 * k + 2]], &mut want);
                 assert_eq!(out[3 * k..3 * k + 3], want, "{noise} {:?}", &row[3 * k..3 * k + 3]);
             }
+        }
+    }
+}
+
+#[test]
+fn the_masked_box_test_is_the_branching_one() {
+    let mut r = 0x0bad_5eedu32;
+    let mut next = || {
+        r = hash(r);
+        f64::from(r) / f64::from(u32::MAX) - 0.5
+    };
+    let special = [0.0, -0.0, 1e-13, -1e-13, 1e-12, 0.5, -0.5, 1.0, f64::INFINITY];
+    for k in 0..400_000 {
+        let half = Vector3::new(next().abs() * 6.0, next().abs() * 3.0, next().abs() * 2.0);
+        let mut origin = Point3::new(next() * 40.0, next() * 10.0, next() * 40.0);
+        let mut dir = Vector3::new(next(), next(), next());
+        // Rays along the faces' planes, from their corners, parallel to axes.
+        if k % 7 == 0 {
+            dir[k % 3] = special[k / 7 % special.len()];
+        }
+        if k % 11 == 0 {
+            origin[k % 3] = half[k % 3] * [1.0, -1.0][k / 11 % 2];
+        }
+        let want = hit_box(&origin, &dir, &half);
+        let (found, t, p, axis, positive) = hit_box_masked(&origin, &dir, &half);
+        assert_eq!(found, want.is_some(), "{origin} {dir} {half}");
+        if let Some((wt, wp, waxis, wsign)) = want {
+            assert_eq!((t.to_bits(), axis as usize, positive), (wt.to_bits(), waxis, wsign > 0.0), "{origin} {dir}");
+            assert!(p.coords.iter().zip(wp.coords.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{origin} {dir}");
         }
     }
 }
