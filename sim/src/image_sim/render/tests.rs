@@ -39,6 +39,40 @@ fn hit_box(origin: &Point3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) -> Opt
     (axis != usize::MAX).then(|| (t0, origin + dir * t0, axis, sign))
 }
 
+/// [`place`] as first written: a box partly behind the camera tests every pixel.
+fn reference_place<'a>(cam: &Camera, world_to_cam: &Isometry3<f64>, c: &'a Cuboid, id: u16) -> Option<Placed<'a>> {
+    let to_cam = world_to_cam * c.pose;
+    let (w, h) = (cam.width, cam.height);
+    let mut rect = (usize::MAX, usize::MAX, 0usize, 0usize);
+    let mut behind = 0;
+    for i in 0..8 {
+        let s = |b: usize| if i & b == 0 { -1.0 } else { 1.0 };
+        let p = to_cam * Point3::new(s(1) * c.half.x, s(2) * c.half.y, s(4) * c.half.z);
+        if p.z < 0.05 {
+            behind += 1;
+            continue;
+        }
+        let u = cam.fx * p.x / p.z + cam.cx;
+        let v = cam.fy * p.y / p.z + cam.cy;
+        let cl = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0);
+        rect.0 = rect.0.min(cl(u.floor(), w) as usize);
+        rect.1 = rect.1.min(cl(v.floor(), h) as usize);
+        rect.2 = rect.2.max(cl(u.ceil(), w) as usize);
+        rect.3 = rect.3.max(cl(v.ceil(), h) as usize);
+    }
+    if behind == 8 {
+        return None;
+    }
+    if behind > 0 {
+        // Part of the box is behind the camera: its projection is unbounded, test every pixel.
+        rect = (0, 0, w - 1, h - 1);
+    }
+    (rect.0 <= rect.2 && rect.1 <= rect.3).then(|| {
+        let to_local = to_cam.inverse();
+        Placed { to_local, origin: to_local * Point3::origin(), cuboid: c, id, rect }
+    })
+}
+
 /// The renderer as first written: ground and sky everywhere, then every box over them.
 fn reference(
     cam: &Camera,
@@ -90,8 +124,8 @@ fn reference(
     let placed: Vec<Placed<'_>> = scene
         .structures
         .iter()
-        .filter_map(|c| place(cam, &world_to_cam, c, 0))
-        .chain(objects.iter().filter_map(|(id, c)| place(cam, &world_to_cam, c, *id)))
+        .filter_map(|c| reference_place(cam, &world_to_cam, c, 0))
+        .chain(objects.iter().filter_map(|(id, c)| reference_place(cam, &world_to_cam, c, *id)))
         .collect();
     for b in &placed {
         let origin = b.origin;
@@ -350,4 +384,70 @@ fn the_masked_box_test_is_the_branching_one() {
             assert!(p.coords.iter().zip(wp.coords.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{origin} {dir}");
         }
     }
+}
+
+#[test]
+fn boxes_partly_behind_the_camera_give_the_reference_view() {
+    // Boxes around the camera, turned every way, most of them straddling its plane: the rows
+    // tested are those of the part in front, which must hold every pixel the reference hits.
+    let cam = Camera { optics: Optics::IDEAL, ..Camera::kitti(0.15) };
+    let scene = StaticScene { ground: GroundPlane::level(1.65), ground_texture: 1, structures: Vec::new() };
+    let mut r = 0x5eed_0001u32;
+    let mut next = || {
+        r = hash(r);
+        f64::from(r) / f64::from(u32::MAX) - 0.5
+    };
+    let (mut straddling, mut near) = (0, 0);
+    for k in 0..60 {
+        let boxes: Vec<(u16, Cuboid)> = (0..4)
+            .map(|i| {
+                let axis = nalgebra::Vector3::new(next(), next(), next());
+                let rotation = nalgebra::UnitQuaternion::from_scaled_axis(axis * 6.0);
+                // Beside, above or below the camera, reaching from behind it to just in front.
+                let side = if i % 2 == 0 { 1.0 } else { -1.0 };
+                let (x, y) = (side * (0.4 + 4.0 * next().abs()), next() * 2.0);
+                let centre =
+                    if i < 2 { Translation3::new(x, y, next() * 3.0) } else { Translation3::new(y, x, next() * 3.0) };
+                let half = Vector3::new(0.1 + next().abs() * 3.0, 0.1 + next().abs() * 3.0, 0.1 + next().abs() * 3.0);
+                // The last one square to the camera, its front face a few centimetres ahead.
+                let (centre, rotation) = if i == 3 {
+                    let front = 0.06 + 0.3 * next().abs();
+                    // Its side a little off the axis: the camera outside, the near face in view.
+                    let x = side * (half.x + 0.02 + 0.2 * next().abs());
+                    (Translation3::new(x, next() * 0.5, front - half.z), nalgebra::UnitQuaternion::identity())
+                } else {
+                    (centre, rotation)
+                };
+                let c = Cuboid {
+                    pose: Isometry3::from_parts(centre, rotation),
+                    half,
+                    texture: 3 + i,
+                    colour: [0.8, 0.4, 0.2],
+                    texture_scale: 1.0,
+                };
+                (i as u16 + 1, c)
+            })
+            .collect();
+        let pose = Isometry3::identity();
+        straddling += boxes
+            .iter()
+            .filter(|(_, c)| {
+                let z = |s: f64| (c.pose * Point3::new(s * c.half.x, s * c.half.y, s * c.half.z)).z;
+                z(1.0).min(z(-1.0)) < 0.05 && z(1.0).max(z(-1.0)) > 0.05
+            })
+            .count();
+        let want = reference(&cam, &pose, &scene, &boxes, k);
+        near += want.depth.iter().filter(|&&z| z > 0.0 && z < 0.5).count();
+        for avx2 in [false, true] {
+            #[cfg(target_arch = "x86_64")]
+            let avx2 = avx2 && std::arch::is_x86_feature_detected!("avx2");
+            #[cfg(not(target_arch = "x86_64"))]
+            let avx2 = avx2 && false;
+            let view = render_with(&cam, &pose, &scene, &boxes, k, 1, avx2);
+            assert!(view.rgb == want.rgb && view.ids == want.ids, "scene {k}, avx2 {avx2}");
+            assert!(view.depth.iter().zip(&want.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "scene {k}");
+        }
+    }
+    assert!(straddling > 30, "{straddling} boxes straddle the camera's plane");
+    assert!(near > 1000, "{near} pixels nearer than 0.5 m");
 }
