@@ -7,6 +7,72 @@ use crate::image_sim::scene::GroundPlane;
 use crate::image_sim::texture::intensity;
 use nalgebra::Translation3;
 
+/// A box hit: distance along the ray and the local hit point and face axis.
+fn hit_box(origin: &Point3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) -> Option<(f64, Point3<f64>, usize, f64)> {
+    let (mut t0, mut t1) = (0.0f64, FAR);
+    let mut axis = usize::MAX;
+    let mut sign = 1.0;
+    for a in 0..3 {
+        let (o, d, h) = (origin[a], dir[a], half[a]);
+        if d.abs() < 1e-12 {
+            if o.abs() > h {
+                return None;
+            }
+            continue;
+        }
+        let (mut near, mut far) = ((-h - o) / d, (h - o) / d);
+        let mut s = -1.0;
+        if near > far {
+            std::mem::swap(&mut near, &mut far);
+            s = 1.0;
+        }
+        if near > t0 {
+            t0 = near;
+            axis = a;
+            sign = s;
+        }
+        t1 = t1.min(far);
+        if t0 > t1 {
+            return None;
+        }
+    }
+    (axis != usize::MAX).then(|| (t0, origin + dir * t0, axis, sign))
+}
+
+/// [`place`] as first written: a box partly behind the camera tests every pixel.
+fn reference_place<'a>(cam: &Camera, world_to_cam: &Isometry3<f64>, c: &'a Cuboid, id: u16) -> Option<Placed<'a>> {
+    let to_cam = world_to_cam * c.pose;
+    let (w, h) = (cam.width, cam.height);
+    let mut rect = (usize::MAX, usize::MAX, 0usize, 0usize);
+    let mut behind = 0;
+    for i in 0..8 {
+        let s = |b: usize| if i & b == 0 { -1.0 } else { 1.0 };
+        let p = to_cam * Point3::new(s(1) * c.half.x, s(2) * c.half.y, s(4) * c.half.z);
+        if p.z < 0.05 {
+            behind += 1;
+            continue;
+        }
+        let u = cam.fx * p.x / p.z + cam.cx;
+        let v = cam.fy * p.y / p.z + cam.cy;
+        let cl = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0);
+        rect.0 = rect.0.min(cl(u.floor(), w) as usize);
+        rect.1 = rect.1.min(cl(v.floor(), h) as usize);
+        rect.2 = rect.2.max(cl(u.ceil(), w) as usize);
+        rect.3 = rect.3.max(cl(v.ceil(), h) as usize);
+    }
+    if behind == 8 {
+        return None;
+    }
+    if behind > 0 {
+        // Part of the box is behind the camera: its projection is unbounded, test every pixel.
+        rect = (0, 0, w - 1, h - 1);
+    }
+    (rect.0 <= rect.2 && rect.1 <= rect.3).then(|| {
+        let to_local = to_cam.inverse();
+        Placed { to_local, origin: to_local * Point3::origin(), cuboid: c, id, rect }
+    })
+}
+
 /// The renderer as first written: ground and sky everywhere, then every box over them.
 fn reference(
     cam: &Camera,
@@ -58,8 +124,8 @@ fn reference(
     let placed: Vec<Placed<'_>> = scene
         .structures
         .iter()
-        .filter_map(|c| place(cam, &world_to_cam, c, 0))
-        .chain(objects.iter().filter_map(|(id, c)| place(cam, &world_to_cam, c, *id)))
+        .filter_map(|c| reference_place(cam, &world_to_cam, c, 0))
+        .chain(objects.iter().filter_map(|(id, c)| reference_place(cam, &world_to_cam, c, *id)))
         .collect();
     for b in &placed {
         let origin = b.origin;
@@ -206,18 +272,20 @@ fn drive_scene(k: usize) -> (Camera, Isometry3<f64>, StaticScene, Vec<(u16, Cubo
 }
 
 #[test]
-fn tiles_on_any_number_of_threads_give_the_reference_view() {
+fn tiles_on_any_number_of_threads_with_either_instruction_set_give_the_reference_view() {
     for optics in [Optics::IDEAL, Optics::CAMERA] {
         for k in [0, 3] {
             let (cam, pose, scene, boxes) = drive_scene(k);
             let cam = Camera { optics, ..cam };
             let want = reference(&cam, &pose, &scene, &boxes, 9);
             assert!(want.ids.iter().any(|&id| id != 0), "an object in view");
-            for threads in [1, 2, 3, 64] {
-                let view = render_with_threads(&cam, &pose, &scene, &boxes, 9, threads);
+            // The generic build and the one for this CPU (AVX2 where it has it).
+            for (threads, for_this_cpu) in [1, 2, 3, 64].into_iter().flat_map(|t| [(t, false), (t, true)]) {
+                let view = render_with(&cam, &pose, &scene, &boxes, 9, threads, for_this_cpu);
                 let bits = |v: &View| v.depth.iter().map(|z| z.to_bits()).collect::<Vec<_>>();
-                assert!(view.rgb == want.rgb && view.ids == want.ids, "{optics:?} frame {k}, {threads} threads");
-                assert_eq!(bits(&view), bits(&want), "{optics:?} frame {k}, {threads} threads");
+                let case = format!("{optics:?} frame {k}, {threads} threads, for this CPU {for_this_cpu}");
+                assert!(view.rgb == want.rgb && view.ids == want.ids, "{case}");
+                assert_eq!(bits(&view), bits(&want), "{case}");
             }
         }
     }
@@ -248,4 +316,130 @@ fn an_empty_image_renders_empty() {
         let view = render_with_threads(&Camera { width, height, ..cam }, &pose, &scene, &[], 1, 2);
         assert!(view.rgb.is_empty() && view.depth.is_empty() && view.ids.is_empty());
     }
+}
+
+#[test]
+fn the_sensor_gives_a_row_the_bytes_of_its_pixels() {
+    let mut a = 7u32;
+    let mut tame = vec![0.0f32, -0.0, 0.5, -0.5, 0.9999, -0.9999, 1.0, -1.0, 254.5, 255.0, 255.99, 256.0, 767.5];
+    tame.extend([1023.9, 1024.0, -1024.0, f32::NAN, f32::MIN_POSITIVE, -1e-40]);
+    for _ in 0..30_000 {
+        a = hash(a);
+        tame.push((f64::from(a) / f64::from(u32::MAX) * 2048.0 - 1024.0) as f32);
+    }
+    let wild = [1024.5, -1024.5, 1e9, -1e9, 2.2e9, f32::INFINITY, f32::NEG_INFINITY, 3e38];
+    for noise in [0, 1, 2, 255, 256, 1 << 20] {
+        let sensor = Sensor::new(&Camera { noise, ..Camera::kitti(0.1) }, 9);
+        // A whole row of tame values, then rows with one wild value each (where the cast plus
+        // the noise does not overflow).
+        let mut rows = vec![tame.clone()];
+        for w in
+            wild.into_iter().filter(|&w| (w as i32).checked_add(noise).and((w as i32).checked_sub(noise)).is_some())
+        {
+            let mut row = tame[..300].to_vec();
+            row[100] = w;
+            rows.push(row);
+        }
+        for row in &rows {
+            let n = row.len() / 3;
+            let mut out = vec![0u8; 3 * n];
+            sensor.row_bytes(1000, row, &mut Vec::new(), &mut out);
+            for k in 0..n {
+                let mut want = [0u8; 3];
+                sensor.bytes(1000 + k, [row[3 * k], row[3 * k + 1], row[3 * k + 2]], &mut want);
+                assert_eq!(out[3 * k..3 * k + 3], want, "{noise} {:?}", &row[3 * k..3 * k + 3]);
+            }
+        }
+    }
+}
+
+#[test]
+fn the_masked_box_test_is_the_branching_one() {
+    let mut r = 0x0bad_5eedu32;
+    let mut next = || {
+        r = hash(r);
+        f64::from(r) / f64::from(u32::MAX) - 0.5
+    };
+    let special = [0.0, -0.0, 1e-13, -1e-13, 1e-12, 0.5, -0.5, 1.0, f64::INFINITY];
+    for k in 0..400_000 {
+        let half = Vector3::new(next().abs() * 6.0, next().abs() * 3.0, next().abs() * 2.0);
+        let mut origin = Point3::new(next() * 40.0, next() * 10.0, next() * 40.0);
+        let mut dir = Vector3::new(next(), next(), next());
+        // Rays along the faces' planes, from their corners, parallel to axes.
+        if k % 7 == 0 {
+            dir[k % 3] = special[k / 7 % special.len()];
+        }
+        if k % 11 == 0 {
+            origin[k % 3] = half[k % 3] * [1.0, -1.0][k / 11 % 2];
+        }
+        let want = hit_box(&origin, &dir, &half);
+        let (found, t, p, axis, positive) = hit_box_masked(&origin, &dir, &half);
+        assert_eq!(found, want.is_some(), "{origin} {dir} {half}");
+        if let Some((wt, wp, waxis, wsign)) = want {
+            assert_eq!((t.to_bits(), axis as usize, positive), (wt.to_bits(), waxis, wsign > 0.0), "{origin} {dir}");
+            assert!(p.coords.iter().zip(wp.coords.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{origin} {dir}");
+        }
+    }
+}
+
+#[test]
+fn boxes_partly_behind_the_camera_give_the_reference_view() {
+    // Boxes around the camera, turned every way, most of them straddling its plane: the rows
+    // tested are those of the part in front, which must hold every pixel the reference hits.
+    let cam = Camera { optics: Optics::IDEAL, ..Camera::kitti(0.15) };
+    let scene = StaticScene { ground: GroundPlane::level(1.65), ground_texture: 1, structures: Vec::new() };
+    let mut r = 0x5eed_0001u32;
+    let mut next = || {
+        r = hash(r);
+        f64::from(r) / f64::from(u32::MAX) - 0.5
+    };
+    let (mut straddling, mut near) = (0, 0);
+    for k in 0..60 {
+        let boxes: Vec<(u16, Cuboid)> = (0..4)
+            .map(|i| {
+                let axis = nalgebra::Vector3::new(next(), next(), next());
+                let rotation = nalgebra::UnitQuaternion::from_scaled_axis(axis * 6.0);
+                // Beside, above or below the camera, reaching from behind it to just in front.
+                let side = if i % 2 == 0 { 1.0 } else { -1.0 };
+                let (x, y) = (side * (0.4 + 4.0 * next().abs()), next() * 2.0);
+                let centre =
+                    if i < 2 { Translation3::new(x, y, next() * 3.0) } else { Translation3::new(y, x, next() * 3.0) };
+                let half = Vector3::new(0.1 + next().abs() * 3.0, 0.1 + next().abs() * 3.0, 0.1 + next().abs() * 3.0);
+                // The last one square to the camera, its front face a few centimetres ahead.
+                let (centre, rotation) = if i == 3 {
+                    let front = 0.06 + 0.3 * next().abs();
+                    // Its side a little off the axis: the camera outside, the near face in view.
+                    let x = side * (half.x + 0.02 + 0.2 * next().abs());
+                    (Translation3::new(x, next() * 0.5, front - half.z), nalgebra::UnitQuaternion::identity())
+                } else {
+                    (centre, rotation)
+                };
+                let c = Cuboid {
+                    pose: Isometry3::from_parts(centre, rotation),
+                    half,
+                    texture: 3 + i,
+                    colour: [0.8, 0.4, 0.2],
+                    texture_scale: 1.0,
+                };
+                (i as u16 + 1, c)
+            })
+            .collect();
+        let pose = Isometry3::identity();
+        straddling += boxes
+            .iter()
+            .filter(|(_, c)| {
+                let z = |s: f64| (c.pose * Point3::new(s * c.half.x, s * c.half.y, s * c.half.z)).z;
+                z(1.0).min(z(-1.0)) < 0.05 && z(1.0).max(z(-1.0)) > 0.05
+            })
+            .count();
+        let want = reference(&cam, &pose, &scene, &boxes, k);
+        near += want.depth.iter().filter(|&&z| z > 0.0 && z < 0.5).count();
+        for for_this_cpu in [false, true] {
+            let view = render_with(&cam, &pose, &scene, &boxes, k, 1, for_this_cpu);
+            assert!(view.rgb == want.rgb && view.ids == want.ids, "scene {k}, for this CPU {for_this_cpu}");
+            assert!(view.depth.iter().zip(&want.depth).all(|(a, b)| a.to_bits() == b.to_bits()), "scene {k}");
+        }
+    }
+    assert!(straddling > 30, "{straddling} boxes straddle the camera's plane");
+    assert!(near > 1000, "{near} pixels nearer than 0.5 m");
 }
