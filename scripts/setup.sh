@@ -51,4 +51,9 @@ if ! command -v flip-link >/dev/null 2>&1; then
   echo "setup: installing flip-link"
   cargo install flip-link --locked
 fi
+# The test runner of scripts/test.sh, which spreads test binaries over the cores.
+if ! cargo nextest --version >/dev/null 2>&1; then
+  echo "setup: installing cargo-nextest"
+  cargo install cargo-nextest --locked --quiet
+fi
 echo "setup: ok"

@@ -40,19 +40,28 @@ cargo clippy --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-
 cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
 phase "cargo doc (core, edge, ffi): no warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
-phase "tests"
+phase "tests: building"
+cargo nextest run --locked --workspace --no-run --cargo-quiet
+phase "tests: running"
 log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG
 DYNOTRAJ_SKIP_LOG=$(mktemp)
 trap 'rm -f "$log" "$DYNOTRAJ_SKIP_LOG"; phase_table' EXIT
 status=0
-# --no-fail-fast: a failing test binary must not hide what the others would say.
-cargo test --locked --workspace --no-fail-fast 2>&1 | tee "$log" || status=$?
-# One closing line for the whole suite (cargo prints one per test binary, the last often a
-# doc-test run with nothing in it). A test that skips (no real data here, say) returns early
-# and cargo counts it as passed; it is counted as skipped instead, and named.
+# nextest runs every test in a process of its own and keeps both cores busy across test
+# binaries (cargo test runs one binary at a time, so a binary with one long test left a core
+# idle); it does not run doc-tests, which cargo test does after it. --no-fail-fast: a failing
+# test must not hide what the others would say.
+cargo nextest run --locked --workspace --no-fail-fast --cargo-quiet 2>&1 | tee "$log" || status=$?
+cargo test --locked --workspace --doc 2>&1 | tee -a "$log" || status=$?
+# One closing line for the whole suite: nextest's summary plus the doc-tests'. A test that skips
+# (no real data here, say) returns early and is counted as passed; it is counted as skipped
+# instead, and named.
 skipped=$(awk '{ sub(/:$/, "", $2); print $2 }' "$DYNOTRAJ_SKIP_LOG" | sort -u | grep -c . || true)
-awk -v s="$skipped" '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed, %d skipped\n", p - s, f, s }' "$log"
+awk -v s="$skipped" '
+  /tests run:/ { for (i = 1; i < NF; i++) { if ($(i + 1) ~ /^passed/) p += $i; if ($(i + 1) ~ /^failed/) f += $i } }
+  /^test result:/ { p += $4; f += $6 }
+  END { printf "tests: %d passed, %d failed, %d skipped\n", p - s, f, s }' "$log"
 sort -u "$DYNOTRAJ_SKIP_LOG" | sed 's/^/  /'
 echo "$audit_line"
 exit "$status"
