@@ -204,7 +204,7 @@ fn write_seeds(root: &Path) {
         smoothed: vec![track.clone()],
         rpe: None,
         truth: vec![track],
-        truth_of: std::collections::BTreeMap::new(),
+        truth_of: None,
         cameras: std::collections::BTreeMap::new(),
         observer: std::collections::BTreeMap::new(),
         rpe_frames: [vec![], vec![], vec![]],

@@ -135,7 +135,7 @@ mod tests {
             smoothed: vec![],
             rpe: Some(crate::estimation::RunScores::default()),
             truth: vec![track],
-            truth_of: [(20_000, 3)].into(),
+            truth_of: Some([(20_000, 3)].into()),
             cameras: [(
                 4,
                 crate::estimation::CameraPair {
@@ -179,7 +179,7 @@ mod tests {
             smoothed: vec![track.clone()],
             rpe: None,
             truth: vec![track],
-            truth_of: std::collections::BTreeMap::new(),
+            truth_of: None,
             cameras: std::collections::BTreeMap::new(),
             observer: std::collections::BTreeMap::new(),
             rpe_frames: [vec![], vec![], vec![]],

@@ -103,14 +103,18 @@ fn track_images(dir: &Path, seq: &str, opt: &EvalOptions) -> anyhow::Result<Esti
     Ok(run_with_window(&frames, params, opt))
 }
 
+/// Front-end object id to the id of the true object it followed
+/// ([`dynotraj_sim::track_sim::truth_association::Association::truth_of`]).
+pub type TrueIds = BTreeMap<u16, u16>;
+
 /// A rendered sequence, tracked by the front-end, through the estimator.
 #[derive(Debug, Clone)]
 pub struct RenderedRun {
     /// The front-end's tracks with the simulator's truth, per frame.
     pub frames: Vec<SimFrame>,
-    /// The true object id of each object the front-end named itself (box or motion masks;
-    /// empty with the rendered ids, which are the truth's).
-    pub truth_of: BTreeMap<u16, u16>,
+    /// Where the front-end named its objects itself (box or motion masks), the true object id
+    /// of each that followed one; `None` with the rendered ids, which are the truth's.
+    pub truth_of: Option<TrueIds>,
     /// The estimator's outputs.
     pub run: EstimatorRun,
     /// RPE per output kind.
@@ -122,7 +126,7 @@ pub struct RenderedRun {
 /// (SGBM stereo, `opt`'s masks, KLT); with `cache`, the frames are read from it when it holds
 /// this rendering, and stored there otherwise. With masks other than the rendered ids, the
 /// truth is also named after the front-end's objects ([`name_truth_after`]), and returned
-/// beside the frames is the true object id of each of them (empty with the rendered ids).
+/// beside the frames is the true object id of each of them (`None` with the rendered ids).
 ///
 /// # Errors
 /// A bad scale, a front-end failure, or a cache file that cannot be written, named.
@@ -132,7 +136,7 @@ pub fn render_and_track(
     opt: &EvalOptions,
     scale: f64,
     cache: Option<&Path>,
-) -> anyhow::Result<(Vec<SimFrame>, BTreeMap<u16, u16>)> {
+) -> anyhow::Result<(Vec<SimFrame>, Option<TrueIds>)> {
     anyhow::ensure!(
         scale.is_finite() && (0.05..=2.0).contains(&scale),
         "--render-scale: expected 0.05..=2, found {scale}"
@@ -164,7 +168,7 @@ pub fn render_and_track(
         frames
     };
     if opt.point_depth.masks == RenderedMasks::Ids {
-        return Ok((frames, BTreeMap::new()));
+        return Ok((frames, None));
     }
     // The front-end named the objects itself: the truth is named after them too.
     let association = associate(&frames, &render_camera(scale).intrinsics());
@@ -177,7 +181,7 @@ pub fn render_and_track(
         association.points
     );
     name_truth_after(&mut frames, &association);
-    Ok((frames, association.truth_of))
+    Ok((frames, Some(association.truth_of)))
 }
 
 /// Frames of `input` rendered under `opt`'s frame limit.

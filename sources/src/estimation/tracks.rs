@@ -77,10 +77,11 @@ pub struct EstimatedTracks {
     /// speed 0: only positions are used), the common reference every arm can be scored
     /// against; empty on real images.
     pub truth: Vec<ObjectTrack>,
-    /// The true track id of each track whose id the front-end gave itself (box or motion
-    /// masks), the object holding most of its points; `truth` holds a copy of that object's
-    /// path under the track's own id too. Empty where the track ids are the truth's.
-    pub truth_of: BTreeMap<i32, i32>,
+    /// Where the front-end gave its objects ids of its own (box or motion masks): the true
+    /// track id of each track that followed a true object, the one holding most of its points
+    /// (`truth` holds a copy of that object's path under the track's own id too). `None`
+    /// where the track ids are the truth's.
+    pub truth_of: Option<BTreeMap<i32, i32>>,
     /// Per frame: the camera on the bird's-eye plane, true and as the causal estimate has it
     /// (position and heading; speed 0), each in its own world: what turns the estimator's
     /// world into the truth's ([`EstimatedTracks::world_yaw`]) and places an object relative to
@@ -114,7 +115,7 @@ fn track_id_of(object: u16) -> i32 {
 #[must_use]
 pub fn rendered_estimated_tracks(e: &crate::estimation::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
     let mut tracks = EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m);
-    tracks.truth_of = e.truth_of.iter().map(|(&o, &t)| (track_id_of(o), track_id_of(t))).collect();
+    tracks.truth_of = e.truth_of.as_ref().map(|m| m.iter().map(|(&o, &t)| (track_id_of(o), track_id_of(t))).collect());
     tracks
 }
 
@@ -130,7 +131,10 @@ impl EstimatedTracks {
     /// object).
     #[must_use]
     pub fn true_track_id(&self, id: i32) -> Option<i32> {
-        if self.truth_of.is_empty() { Some(id) } else { self.truth_of.get(&id).copied() }
+        match &self.truth_of {
+            None => Some(id),
+            Some(m) => m.get(&id).copied(),
+        }
     }
 
     /// Per frame, [`CameraPair::world_yaw`]. The estimator's world drifts from the truth's as
@@ -175,7 +179,7 @@ impl EstimatedTracks {
             smoothed: tracks_of_estimates(run.of(Kind::Smoothed)),
             rpe,
             truth: truth_tracks(sim),
-            truth_of: BTreeMap::new(),
+            truth_of: None,
             cameras,
             observer,
             rpe_frames,
@@ -302,5 +306,15 @@ mod tests {
         let tracks = tracks_of_estimates(&est);
         assert_eq!(tracks.len(), 1);
         assert_eq!(tracks[0].frames, vec![1]);
+    }
+
+    #[test]
+    fn a_track_named_by_the_front_end_has_the_true_id_it_was_mapped_to_or_none() {
+        let mut e = image_estimated_tracks(&EstimatorRun::empty(0));
+        assert_eq!(e.true_track_id(4), Some(4), "ids that are the truth's");
+        e.truth_of = Some(BTreeMap::from([(19_999, 4)]));
+        assert_eq!((e.true_track_id(19_999), e.true_track_id(20_000)), (Some(4), None));
+        e.truth_of = Some(BTreeMap::new());
+        assert_eq!(e.true_track_id(4), None, "no object followed a true one");
     }
 }
