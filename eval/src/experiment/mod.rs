@@ -409,8 +409,10 @@ fn score_agents(
         .collect();
     // The instances every arm has, named by the true object they follow (a front-end with box
     // or motion masks names its objects itself), then each arm's share of them in its own ids.
-    let true_keys = |source: Source, test: &SequenceTracks, runs: &[EligibleRun]| -> BTreeSet<(i32, u32)> {
-        instance_keys(runs).into_iter().filter_map(|(id, f)| Some((test.true_track_id(source, id)?, f))).collect()
+    let own_keys: Vec<Vec<BTreeSet<(i32, u32)>>> =
+        runs_by_arm.iter().map(|per_test| per_test.iter().map(|r| instance_keys(r)).collect()).collect();
+    let true_keys = |source: Source, test: &SequenceTracks, keys: &BTreeSet<(i32, u32)>| -> BTreeSet<(i32, u32)> {
+        keys.iter().filter_map(|&(id, f)| Some((test.true_track_id(source, id)?, f))).collect()
     };
     let common_true: Vec<BTreeSet<(i32, u32)>> = tests
         .iter()
@@ -419,8 +421,8 @@ fn score_agents(
             let mut sets = config
                 .arms
                 .iter()
-                .zip(&runs_by_arm)
-                .filter_map(|(&a, per_test)| per_test.get(i).map(|r| true_keys(a, test, r)));
+                .zip(&own_keys)
+                .filter_map(|(&a, per_test)| per_test.get(i).map(|k| true_keys(a, test, k)));
             let first = sets.next().unwrap_or_default();
             sets.fold(first, |acc, k| acc.intersection(&k).copied().collect())
         })
@@ -428,16 +430,16 @@ fn score_agents(
     let common_keys: Vec<Vec<BTreeSet<(i32, u32)>>> = config
         .arms
         .iter()
-        .zip(&runs_by_arm)
+        .zip(&own_keys)
         .map(|(&a, per_test)| {
             tests
                 .iter()
                 .zip(per_test)
                 .zip(&common_true)
-                .map(|((test, runs), common)| {
+                .map(|((test, keys), common)| {
                     let shared =
                         |&(id, f): &(i32, u32)| test.true_track_id(a, id).is_some_and(|t| common.contains(&(t, f)));
-                    instance_keys(runs).into_iter().filter(shared).collect()
+                    keys.iter().copied().filter(shared).collect()
                 })
                 .collect()
         })

@@ -171,7 +171,7 @@ pub fn render_and_track(
         return Ok((frames, None));
     }
     // The front-end named the objects itself: the truth is named after them too.
-    let association = associate(&frames, &render_camera(scale).intrinsics());
+    let association = associate(&frames, &rendered_intrinsics(scale));
     log::info!(
         "sequence {id}: {} front-end objects matched to a true object, {} not ({} of {} object points in their \
          matched boxes)",

@@ -418,7 +418,7 @@ fn smoothness_table(
     let mut truth = SmoothnessSum::default();
     let dt = f64::from(opt.dt);
     for &(object_id, i) in &pairs {
-        let kitti_id = i32::from(object_id) - 1;
+        let kitti_id = super::tracks::track_id_of(object_id);
         if let Some(t) = gt.iter().find(|t| t.track_id == kitti_id) {
             let at = |frame: usize| t.frames.iter().position(|&f| f as usize == frame).map(|j| t.states[j]);
             if let (Some(a), Some(b)) = (at(i), at(i + 1)) {

@@ -105,8 +105,9 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
     EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim, r.min_step_m)
 }
 
-/// Track id of wire object id `object` ([`truth_tracks`] and the estimates number them alike).
-fn track_id_of(object: u16) -> i32 {
+/// Track id of wire object id `object` ([`truth_tracks`] and the estimates number them alike:
+/// KITTI's track id).
+pub(crate) fn track_id_of(object: u16) -> i32 {
     i32::from(object) - 1
 }
 

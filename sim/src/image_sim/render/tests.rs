@@ -42,30 +42,10 @@ fn hit_box(origin: &Point3<f64>, dir: &Vector3<f64>, half: &Vector3<f64>) -> Opt
 /// [`place`] as first written: a box partly behind the camera tests every pixel.
 fn reference_place<'a>(cam: &Camera, world_to_cam: &Isometry3<f64>, c: &'a Cuboid, id: u16) -> Option<Placed<'a>> {
     let to_cam = world_to_cam * c.pose;
-    let (w, h) = (cam.width, cam.height);
-    let mut rect = (usize::MAX, usize::MAX, 0usize, 0usize);
-    let mut behind = 0;
-    for i in 0..8 {
-        let s = |b: usize| if i & b == 0 { -1.0 } else { 1.0 };
-        let p = to_cam * Point3::new(s(1) * c.half.x, s(2) * c.half.y, s(4) * c.half.z);
-        if p.z < 0.05 {
-            behind += 1;
-            continue;
-        }
-        let u = cam.fx * p.x / p.z + cam.cx;
-        let v = cam.fy * p.y / p.z + cam.cy;
-        let cl = |x: f64, n: usize| x.clamp(0.0, n as f64 - 1.0);
-        rect.0 = rect.0.min(cl(u.floor(), w) as usize);
-        rect.1 = rect.1.min(cl(v.floor(), h) as usize);
-        rect.2 = rect.2.max(cl(u.ceil(), w) as usize);
-        rect.3 = rect.3.max(cl(v.ceil(), h) as usize);
-    }
-    if behind == 8 {
-        return None;
-    }
+    let (mut rect, behind) = corner_rect(cam, &to_cam, &c.half)?;
     if behind > 0 {
         // Part of the box is behind the camera: its projection is unbounded, test every pixel.
-        rect = (0, 0, w - 1, h - 1);
+        rect = (0, 0, cam.width - 1, cam.height - 1);
     }
     (rect.0 <= rect.2 && rect.1 <= rect.3).then(|| {
         let to_local = to_cam.inverse();

@@ -1,0 +1,85 @@
+//! Moving probes grouped into objects: linked in 3D, kept when their residual directions
+//! agree, classed by size.
+
+use std::collections::BTreeMap;
+
+use dynotraj_core::estimate::PointModel;
+use dynotraj_core::wire::ObjectClass;
+
+/// Groups of `points` (indices into it) linked by distance: across the viewing ray within
+/// `link_m`, along it within `link_m` plus both points' stereo depth error at 1 px.
+pub(super) fn clusters(points: &[(usize, nalgebra::Point3<f32>)], model: &PointModel, link_m: f32) -> Vec<Vec<usize>> {
+    let n = points.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while let Some(&p) = parent.get(i) {
+            if p == i {
+                break;
+            }
+            let grand = parent.get(p).copied().unwrap_or(p);
+            if let Some(slot) = parent.get_mut(i) {
+                *slot = grand;
+            }
+            i = p;
+        }
+        i
+    }
+    for (i, (_, a)) in points.iter().enumerate() {
+        for (j, (_, b)) in points.iter().enumerate().skip(i + 1) {
+            let across = (a.x - b.x).hypot(a.y - b.y);
+            let along = (a.z - b.z).abs();
+            let slack = model.depth_error(a.z, 1.0) + model.depth_error(b.z, 1.0);
+            if across < link_m && along < link_m + slack {
+                let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                if ri != rj
+                    && let Some(slot) = parent.get_mut(ri)
+                {
+                    *slot = rj;
+                }
+            }
+        }
+    }
+    let mut groups: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    groups.into_values().collect()
+}
+
+/// The length of the mean of unit `directions` (1: all alike; near 0: spread every way).
+pub(super) fn coherence<'a>(directions: impl Iterator<Item = &'a nalgebra::Vector3<f32>>) -> f32 {
+    let (sum, n) = directions.fold((nalgebra::Vector3::zeros(), 0usize), |(a, n), d| (a + d, n + 1));
+    if n == 0 { 0.0 } else { sum.norm() / n as f32 }
+}
+
+/// A pedestrian is narrower than 1.2 m and taller than wide; anything else moving is taken for
+/// a vehicle.
+pub(super) fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
+    if width_m < 1.2 && height_m > 0.8 && height_m > 1.2 * width_m { ObjectClass::Pedestrian } else { ObjectClass::Car }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dynotraj_core::estimate::{EstimatorParams, Intrinsics};
+
+    #[test]
+    fn probes_are_clustered_by_distance_across_and_along_the_ray() {
+        let params = EstimatorParams::kitti(Intrinsics::KITTI_0926, 0.1);
+        let model = PointModel::new(&params);
+        let at = |x: f32, z: f32| (0, nalgebra::Point3::new(x, 0.0, z));
+        // Two groups 5 m apart across the ray; along it, 1 m apart at 40 m is within the
+        // stereo's depth error there and stays one group.
+        let points = [at(0.0, 10.0), at(1.0, 10.0), at(6.0, 10.0), at(6.5, 10.2), at(20.0, 40.0), at(20.5, 41.0)];
+        let mut groups = clusters(&points, &model, 1.5);
+        groups.sort();
+        assert_eq!(groups, vec![vec![0, 1], vec![2, 3], vec![4, 5]]);
+        assert_eq!(class_of((0.6, 1.7)), ObjectClass::Pedestrian);
+        let (x, y) = (nalgebra::Vector3::x(), nalgebra::Vector3::y());
+        assert!((coherence([x, x, x].iter()) - 1.0).abs() < 1e-6, "one rigid motion");
+        assert!(coherence([x, -x, y, -y].iter()) < 1e-6, "noise every way");
+        assert!((coherence([x, y].iter()) - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
+        assert_eq!(class_of((1.8, 1.5)), ObjectClass::Car);
+    }
+}
