@@ -55,3 +55,36 @@ fn output_files_are_written_whole_or_not_at_all() {
         offenders.join("\n")
     );
 }
+
+/// With the integration tests gathered into one binary per crate (`tests/suite.rs`) rather
+/// than found by cargo, a test file that neither the suite nor the crate's manifest names would
+/// never be built or run: every file must be named by one of them.
+#[test]
+fn every_integration_test_file_is_built() {
+    let root = manifest_dir().join("..");
+    let mut files = 0;
+    let mut unnamed = Vec::new();
+    for krate in ["tests", "cli"] {
+        let dir = root.join(krate).join("tests");
+        let suite = std::fs::read_to_string(dir.join("suite.rs")).unwrap();
+        let manifest = std::fs::read_to_string(root.join(krate).join("Cargo.toml")).unwrap();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let Some(stem) = path.file_stem().and_then(|s| s.to_str()) else { continue };
+            if path.extension().is_none_or(|e| e != "rs") || stem == "suite" {
+                continue;
+            }
+            files += 1;
+            let in_suite = suite.lines().any(|l| l.trim() == format!("mod {stem};"));
+            let own_target = manifest.contains(&format!("path = \"tests/{stem}.rs\""));
+            if !in_suite && !own_target {
+                unnamed.push(format!("{krate}/tests/{stem}.rs"));
+            }
+        }
+    }
+    assert!(files > 50, "{files} test files read");
+    assert!(
+        unnamed.is_empty(),
+        "test files built by nothing (add `mod NAME;` to the crate's tests/suite.rs): {unnamed:?}"
+    );
+}
