@@ -29,19 +29,28 @@ phase "edge firmware for QEMU mps2-an386 (Cortex-M4F)"
 bash scripts/build-firmware.sh
 cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml -- -D warnings
 cargo clippy --locked --release --target thumbv7em-none-eabihf --manifest-path edge/firmware/Cargo.toml --features embassy -- -D warnings
-phase "clippy (core: no unwrap/expect/panic/indexing)"
+phase "clippy (core, edge, ffi: no unwrap/expect/panic/indexing)"
 cargo clippy --locked -p dynotraj-core -p dynotraj-edge --lib -- -D warnings
 cargo clippy --locked -p dynotraj-edge --lib --features async -- -D warnings
 cargo clippy --locked -p dynotraj-ffi --all-targets -- -D warnings
 cargo clippy --locked -p dynotraj-ffi --target thumbv7em-none-eabihf -- -D warnings
-cargo clippy --locked --workspace --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
+# Every host build from here on compiles the workspace's own crates with clippy-driver, the
+# compiler with clippy's lints, so the tests' build is also the workspace's clippy run (every
+# target, warnings denied, core's no-panic rules relaxed elsewhere): the dependencies are
+# compiled once, where a separate `cargo clippy --workspace` would check all of them first. The
+# flags go in RUSTFLAGS only for these host builds: the MCU builds keep their own.
+linted() {
+  RUSTC_WORKSPACE_WRAPPER="$(rustc --print sysroot)/bin/clippy-driver" \
+    RUSTFLAGS="-D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing" \
+    "$@"
+}
+phase "tests: building, linted by clippy"
+linted cargo nextest run --locked --workspace --all-targets --no-run --cargo-quiet
 phase "the host without the image front-end (no OpenCV): builds, and says what it lacks"
-cargo clippy --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --all-targets -- -D warnings -A clippy::unwrap_used -A clippy::expect_used -A clippy::panic -A clippy::indexing_slicing
-cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
+linted cargo test --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --all-targets --no-run --quiet
+linted cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
 phase "cargo doc (core, edge, ffi): no warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
-phase "tests: building"
-cargo nextest run --locked --workspace --no-run --cargo-quiet
 phase "tests: running"
 log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG
@@ -52,8 +61,8 @@ status=0
 # binaries (cargo test runs one binary at a time, so a binary with one long test left a core
 # idle); it does not run doc-tests, which cargo test does after it. --no-fail-fast: a failing
 # test must not hide what the others would say.
-cargo nextest run --locked --workspace --no-fail-fast --cargo-quiet 2>&1 | tee "$log" || status=$?
-cargo test --locked --workspace --doc 2>&1 | tee -a "$log" || status=$?
+linted cargo nextest run --locked --workspace --no-fail-fast --cargo-quiet 2>&1 | tee "$log" || status=$?
+linted cargo test --locked --workspace --doc 2>&1 | tee -a "$log" || status=$?
 # One closing line for the whole suite: nextest's summary plus the doc-tests'. A test that skips
 # (no real data here, say) returns early and is counted as passed; it is counted as skipped
 # instead, and named.

@@ -128,6 +128,9 @@ fn build_staticlib(target: Option<&str>) {
     let root = target_root();
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);
+    // The library as a user builds it: not with the lint flags and clippy's compiler that
+    // scripts/test.sh builds the tests with, which would also replace the MCU target's own flags.
+    cmd.env_remove("RUSTFLAGS").env_remove("RUSTC_WORKSPACE_WRAPPER");
     cmd.args(["build", "--locked", "--release", "-p", "dynotraj-ffi", "--manifest-path"])
         .arg(dynotraj_tests::manifest_dir().join("../Cargo.toml"))
         .arg("--target-dir")
