@@ -50,21 +50,56 @@ fn drives(dir: &Path) -> std::path::PathBuf {
 }
 
 /// A local cluster: a head and a second worker process joined to it, one CPU each; its address.
+/// A worker that cannot reach the head's GCS retries for many minutes: each `ray start` gets
+/// [`RAY_START_LIMIT`], and a cluster that did not come up is stopped and started once more on
+/// a new port, the first attempt's log printed (seen once on a fresh machine: the worker found
+/// no GCS for 14 minutes).
 fn start_cluster(python: &Path) -> (Cluster, String) {
     let ray = python.parent().unwrap().join("ray");
     let cluster = Cluster { ray: ray.clone() };
+    let mut failed = String::new();
+    for attempt in 1..=2 {
+        match try_start_cluster(&ray) {
+            Ok(address) => {
+                if !failed.is_empty() {
+                    eprintln!("the local cluster came up at its second attempt; the first:\n{failed}");
+                }
+                return (cluster, address);
+            }
+            Err(log) => {
+                let _ = Command::new(&ray).args(["stop", "--force"]).output();
+                failed.push_str(&format!("attempt {attempt}: {log}\n"));
+            }
+        }
+    }
+    panic!("the local Ray cluster did not come up:\n{failed}");
+}
+
+/// Seconds each `ray start` may take.
+const RAY_START_LIMIT: &str = "120";
+
+/// One attempt at [`start_cluster`]: the address, or what `ray start` said.
+fn try_start_cluster(ray: &Path) -> Result<String, String> {
     let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port().to_string();
     // Every process of the local cluster on loopback (Ray's services bind the node's address).
     let common = ["--num-cpus", "1", "--disable-usage-stats", "--node-ip-address", "127.0.0.1"];
-    ok(
-        Command::new(&ray).args(["start", "--head", "--port", &port, "--include-dashboard", "false"]).args(common),
-        "ray start --head",
-    );
-    ok(
-        Command::new(&ray).args(["start", "--address", &format!("127.0.0.1:{port}")]).args(common),
-        "ray start (worker)",
-    );
-    (cluster, format!("127.0.0.1:{port}"))
+    let head = ["start", "--head", "--port", &port, "--include-dashboard", "false"];
+    let worker_address = format!("127.0.0.1:{port}");
+    let worker = ["start", "--address", &worker_address];
+    for (what, args) in [("ray start --head", &head[..]), ("ray start (worker)", &worker[..])] {
+        let out = Command::new("timeout")
+            .arg(RAY_START_LIMIT)
+            .arg(ray)
+            .args(args)
+            .args(common)
+            .output()
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        if !out.status.success() {
+            let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+            return Err(format!("{what}: {} (124: over {RAY_START_LIMIT} s)\n{said}", out.status));
+        }
+    }
+    Ok(worker_address)
 }
 
 /// The driver's command for the drives of `data` (`--kitti DIR` or `--drives MANIFEST`), report
