@@ -14,7 +14,7 @@ fn embedded_io_halves_and_whole_drivers_plug_in_and_answer_as_the_reference_link
     assert!(reference.len() > 16, "the fixture is answered ({} replies)", reference.len());
 
     let mut halves_out = Vec::new();
-    let mut session: Box<Session<'static>> = Box::new(Session::new());
+    let mut session: Box<Session<'static>> = Box::default();
     session.run(&mut Split(&stream[..], &mut halves_out), &mut NoClock).unwrap();
     assert_eq!(outputs(&decode_all(&halves_out)), reference, "Split(rx, tx)");
 

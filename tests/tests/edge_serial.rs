@@ -49,7 +49,7 @@ fn serial_pty_edge_matches_the_in_process_edge() {
     master.set_timeout(Duration::from_millis(100)).unwrap();
     let path = slave.name().unwrap();
     let edge = std::thread::spawn(move || {
-        let mut session: Box<Session<'static>> = Box::new(Session::new());
+        let mut session: Box<Session<'static>> = Box::default();
         let mut pty = Pty(master);
         session.run(&mut pty, &mut NoClock).unwrap();
         // Both ends stay open until the host has read everything: closing the master hangs up

@@ -139,7 +139,7 @@ fn a_session_reset_in_place_answers_as_a_new_one() {
     // forget everything (the estimator's windows, runs and joint-solve scratch among them).
     let tracks = scene_tracks(12);
     let stream = encode_all(&host_messages(&tracks, None));
-    let mut session: Box<Session<'static>> = Box::new(Session::new());
+    let mut session: Box<Session<'static>> = Box::default();
     let mut first = MemLink { input: &stream, chunk: 256, output: Vec::new() };
     session.run(&mut first, &mut NoClock).unwrap();
     session.reset();

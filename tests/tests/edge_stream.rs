@@ -37,7 +37,7 @@ fn edge_reassembles_frames_through_garbage_and_counts_losses() {
         stream.extend((0..noise).map(|_| rng.random_range(1..=255u8)));
         garbage += noise;
     }
-    let mut session: Box<Session<'static>> = Box::new(Session::new());
+    let mut session: Box<Session<'static>> = Box::default();
     let mut sink = MemLink { input: &[], chunk: 1, output: Vec::new() };
     let mut rest = &stream[..];
     while !rest.is_empty() {

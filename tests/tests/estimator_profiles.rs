@@ -11,7 +11,7 @@ use dynotraj_sources::estimation::simulated::EvalOptions;
 #[test]
 fn the_edge_runs_the_edge_profile() {
     let dt = 1.0 / PAPER_FRAME_RATE_HZ;
-    let edge: Box<Pipeline<'_>> = Box::new(Pipeline::new());
+    let edge: Box<Pipeline<'_>> = Box::default();
     assert_eq!(edge.estimator().params(), &EDGE_PROFILE.params(Intrinsics::KITTI_0926, dt));
     assert_eq!(EDGE_WINDOW, EDGE_PROFILE.window);
     assert_eq!(dynotraj_edge::EDGE_WINDOW, EDGE_PROFILE.window);
