@@ -45,6 +45,20 @@ pub fn rerun_python() -> Result<PathBuf, String> {
         .clone()
 }
 
+/// The Python of kitti2mcap's environment (tests/python/kitti2mcap-requirements.txt), made on
+/// first use.
+///
+/// # Errors
+/// Why there is no environment, for the test to say it skipped.
+pub fn kitti2mcap_python() -> Result<PathBuf, String> {
+    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(|| {
+        make_venv(&manifest_dir().join("python/kitti2mcap-requirements.txt"), "dynotraj-kitti2mcap-venv")
+    })
+    .clone()
+}
+
 fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, String> {
     let wanted = std::fs::read_to_string(requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
     let home_cache = std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache"));

@@ -1,13 +1,17 @@
 //! A ROS 2 bag in, through the built `dynotraj`: the committed rendered fixture written as a
 //! bag (`export-bag`), imported back (`import`), and tracked: the tracks file is byte for byte
 //! the one tracked from the fixture itself at the bag's rate, with instance masks and with the
-//! detector's boxes; and the bag decodes with ROS 2's MCAP decoder in Python.
+//! detector's boxes; and the bag decodes with ROS 2's MCAP decoder in Python. A bag that another
+//! tool wrote from the fixture (kitti2mcap) imports with no flags to the fixture's pixels and
+//! projections.
 
 use std::path::Path;
 
 use dynotraj_tests::edge_fixture::dynotraj_command;
 use dynotraj_tests::manifest_dir;
-use dynotraj_tests::python_env::python;
+use dynotraj_tests::python_env::{kitti2mcap_python, python};
+use opencv::imgcodecs::{IMREAD_UNCHANGED, imread};
+use opencv::prelude::*;
 
 fn run(args: &[&str]) -> String {
     let out = dynotraj_command().args(args).output().unwrap();
@@ -147,4 +151,104 @@ fn rosbags_reads_the_exported_bag_and_its_conversions_import_alike() {
     let e = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{e}");
     assert!(e.contains("a rosbag2 bag in sqlite3 storage: convert it to MCAP first"), "{e}");
+}
+
+/// A bag made by kitti2mcap (tests/python/kitti2mcap-requirements.txt), a converter of KITTI
+/// raw drives to ROS 2 MCAP that users run on their own drives, imports with no flags: its
+/// topics are found by name and type, and the layout holds the fixture's frames, pixels, 10 Hz
+/// stamps and stereo projections. The fixture is written as a raw drive first
+/// (tests/python/kitti_raw_from_layout.py), as that is what kitti2mcap reads. Skipped, and said
+/// so, without Python or the package index.
+#[test]
+fn a_kitti2mcap_bag_imports_with_no_flags() {
+    let python = match kitti2mcap_python() {
+        Ok(p) => p,
+        Err(why) => {
+            dynotraj_testkit::skipped("a_kitti2mcap_bag_imports_with_no_flags", &format!("no kitti2mcap: {why}"));
+            return;
+        }
+    };
+    let fixture = manifest_dir().join("../sim/data/image_sim");
+    let tmp = tempfile::tempdir().unwrap();
+    let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
+    let python_run = |args: &[&str]| {
+        let out = std::process::Command::new(&python).args(args).output().unwrap();
+        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        eprintln!("{said}");
+        assert!(out.status.success(), "python {args:?}: {said}");
+        said
+    };
+    let script = manifest_dir().join("python/kitti_raw_from_layout.py");
+    python_run(&[script.to_str().unwrap(), fixture.to_str().unwrap(), "0000", &p("raw"), "2011_09_26", "0001"]);
+    let bag = p("drive.mcap");
+    let said = python_run(&[
+        "-m",
+        "kitti2mcap",
+        "--date",
+        "2011_09_26",
+        "--drive",
+        "0001",
+        "--kitti-dir",
+        &p("raw"),
+        "--output",
+        &bag,
+        "--cameras",
+        "2,3",
+        "--no-lidar",
+        "--no-imu",
+    ]);
+    let frames = std::fs::read_dir(fixture.join("image_02/0000")).unwrap().count();
+    assert!(said.contains(&format!("{frames} frames, cameras=[2, 3], lidar=False, imu=False")), "{said}");
+
+    let said = run(&["import", "--bag", &bag, "--out", &p("layout")]);
+    let listed: Vec<&str> = said.lines().take_while(|l| !l.starts_with("imported")).map(str::trim).collect();
+    assert_eq!(
+        listed,
+        [
+            "left: /kitti/camera_color_left/image_raw",
+            "right: /kitti/camera_color_right/image_raw",
+            "left camera info: /kitti/camera_color_left/camera_info",
+            "right camera info: /kitti/camera_color_right/camera_info",
+        ],
+        "{said}"
+    );
+    // Nothing dropped: images without a frame would be listed before ` into`.
+    assert!(
+        said.contains(&format!(
+            "imported {frames} frames at 10.00 Hz (measured from the left stamps), 0 detection boxes into"
+        )),
+        "{said}"
+    );
+    let layout = tmp.path().join("layout");
+    for folder in ["image_02", "image_03"] {
+        assert_eq!(std::fs::read_dir(layout.join(folder).join("0000")).unwrap().count(), frames, "{folder}");
+        for k in 0..frames {
+            let png = |root: &Path| root.join(folder).join("0000").join(format!("{k:06}.png"));
+            let (a, b) = (png(&fixture), png(&layout));
+            let (a, b) = (
+                imread(a.to_str().unwrap(), IMREAD_UNCHANGED).unwrap(),
+                imread(b.to_str().unwrap(), IMREAD_UNCHANGED).unwrap(),
+            );
+            // The import writes the pixels it decoded with its own PNG encoder: the pixels are
+            // the fixture's, the file's bytes need not be.
+            assert!(!a.empty() && !b.empty(), "{folder} frame {k}: an image that does not decode");
+            assert_eq!((a.size().unwrap(), a.typ()), (b.size().unwrap(), b.typ()), "{folder} frame {k}");
+            assert!(a.data_bytes().unwrap() == b.data_bytes().unwrap(), "{folder} frame {k}: the pixels differ");
+        }
+    }
+    let times = std::fs::read_to_string(layout.join("times/0000.txt")).unwrap();
+    let want: String = (0..frames).map(|k| format!("{:.9}\n", k as f64 * 0.1)).collect();
+    assert_eq!(times, want);
+    let source = dynotraj_formats::kitti::read_calib(fixture.join("calib/0000.txt")).unwrap();
+    let imported = dynotraj_formats::kitti::read_calib(layout.join("calib/0000.txt")).unwrap();
+    for cam in [2, 3] {
+        for (a, b) in source.p[cam].iter().zip(imported.p[cam].iter()) {
+            assert!(
+                (a - b).abs() <= 1e-6 * a.abs().max(b.abs()),
+                "P{cam}: {} imported as {}",
+                source.p[cam],
+                imported.p[cam]
+            );
+        }
+    }
 }
