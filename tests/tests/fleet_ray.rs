@@ -202,15 +202,20 @@ fn a_worker_killed_mid_task_costs_a_retry_and_the_report_is_the_same() {
     one_machine(["--kitti", kitti.to_str().unwrap()], &one, &slow);
     let (cluster, address) = start_cluster(&python);
     let out = dir.path().join("fleet");
-    let child = driver(&python, &address, ["--kitti", kitti.to_str().unwrap()], dir.path(), &out, &slow)
+    let mut child = driver(&python, &address, ["--kitti", kitti.to_str().unwrap()], dir.path(), &out, &slow)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Kill the first worker seen running a training unit.
+    // Kill the first worker seen running a training unit. The drives are estimated first; once,
+    // in a cold run of the whole suite, none was seen within two minutes, so the wait is longer
+    // and a driver that never trains says what it did instead.
     let waited = std::time::Instant::now();
     let mut killed = None;
-    while killed.is_none() && waited.elapsed() < std::time::Duration::from_secs(120) {
+    while killed.is_none()
+        && waited.elapsed() < std::time::Duration::from_secs(300)
+        && child.try_wait().unwrap().is_none()
+    {
         let ps = Command::new("ps").args(["-eo", "pid=,args="]).output().unwrap();
         killed = String::from_utf8_lossy(&ps.stdout)
             .lines()
@@ -220,7 +225,16 @@ fn a_worker_killed_mid_task_costs_a_retry_and_the_report_is_the_same() {
             std::thread::sleep(std::time::Duration::from_millis(100));
         }
     }
-    let pid = killed.expect("no worker was seen training a unit");
+    let Some(pid) = killed else {
+        let _ = child.kill();
+        let done = child.wait_with_output().unwrap();
+        panic!(
+            "no worker was seen training a unit in {:.0?}; the driver said:\n{}{}",
+            waited.elapsed(),
+            String::from_utf8_lossy(&done.stdout),
+            String::from_utf8_lossy(&done.stderr)
+        );
+    };
     assert!(Command::new("kill").args(["-9", &pid]).status().unwrap().success());
     let done = child.wait_with_output().unwrap();
     let said = format!("{}{}", String::from_utf8_lossy(&done.stdout), String::from_utf8_lossy(&done.stderr));
