@@ -56,7 +56,7 @@ fn output_files_are_written_whole_or_not_at_all() {
     );
 }
 
-/// With the integration tests gathered into one binary per crate (`tests/suite.rs`) rather
+/// With the integration tests gathered into one binary per crate (tests/tests/suite.rs, cli/tests/suite.rs) rather
 /// than found by cargo, a test file that neither the suite nor the crate's manifest names would
 /// never be built or run: every file must be named by one of them.
 #[test]
