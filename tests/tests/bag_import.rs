@@ -14,9 +14,14 @@ use opencv::imgcodecs::{IMREAD_UNCHANGED, imread};
 use opencv::prelude::*;
 
 fn run(args: &[&str]) -> String {
-    let out = dynotraj_command().args(args).output().unwrap();
+    succeeded(dynotraj_command().args(args), &format!("dynotraj {args:?}"))
+}
+
+/// What `cmd` said on stdout and stderr, once it succeeded.
+fn succeeded(cmd: &mut std::process::Command, what: &str) -> String {
+    let out = cmd.output().unwrap();
     let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "dynotraj {args:?}: {text}");
+    assert!(out.status.success(), "{what}: {text}");
     text
 }
 
@@ -172,10 +177,8 @@ fn a_kitti2mcap_bag_imports_with_no_flags() {
     let tmp = tempfile::tempdir().unwrap();
     let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
     let python_run = |args: &[&str]| {
-        let out = std::process::Command::new(&python).args(args).output().unwrap();
-        let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        let said = succeeded(std::process::Command::new(&python).args(args), &format!("python {args:?}"));
         eprintln!("{said}");
-        assert!(out.status.success(), "python {args:?}: {said}");
         said
     };
     let script = manifest_dir().join("python/kitti_raw_from_layout.py");

@@ -23,9 +23,16 @@ struct Cluster {
     ray: std::path::PathBuf,
 }
 
+impl Cluster {
+    /// Ends every Ray process of the machine.
+    fn stop(&self) {
+        let _ = Command::new(&self.ray).args(["stop", "--force"]).output();
+    }
+}
+
 impl Drop for Cluster {
     fn drop(&mut self) {
-        let _ = Command::new(&self.ray).args(["stop", "--force"]).output();
+        self.stop();
     }
 }
 
@@ -67,7 +74,7 @@ fn start_cluster(python: &Path) -> (Cluster, String) {
                 return (cluster, address);
             }
             Err(log) => {
-                let _ = Command::new(&ray).args(["stop", "--force"]).output();
+                cluster.stop();
                 failed.push_str(&format!("attempt {attempt}: {log}\n"));
             }
         }
