@@ -36,6 +36,7 @@ use super::masks::Detection;
 use super::stats::FrontEndStats;
 
 mod cluster;
+mod dense;
 mod params;
 use cluster::{class_of, clusters, coherence};
 pub use params::MotionParams;
@@ -134,6 +135,11 @@ pub struct MotionSegmenter {
     pub fates: Vec<(f32, f32, Fate)>,
     /// The boxes of the last frame's clusters of moving probes, where probes are added.
     cluster_boxes: Vec<[f32; 4]>,
+    /// The dense flow's history, with [`MotionParams::dense_step_px`].
+    dense: Option<dense::DenseFlow>,
+    /// The last frame's dense samples, row by row: 0 static or unjudged, [`dense::MOVING`]
+    /// moving, else the id of the object they were in.
+    dense_labels: Vec<u16>,
 }
 
 /// Fresh ids start here, apart from the ids labels give (KITTI track id + 1) and from those of
@@ -155,6 +161,8 @@ impl MotionSegmenter {
             judged: Vec::new(),
             fates: Vec::new(),
             cluster_boxes: Vec::new(),
+            dense: None,
+            dense_labels: Vec::new(),
         }
     }
 
@@ -188,9 +196,18 @@ impl MotionSegmenter {
             }
             self.probes = kept;
         }
+        if p.dense_step_px > 0 {
+            if self.dense.is_none() {
+                self.dense = Some(dense::DenseFlow::new(dense::PRESET)?);
+            }
+            if let Some(flow) = &mut self.dense {
+                flow.push(grey, depth, p.history())?;
+            }
+        }
         self.judged.clear();
         self.fates.clear();
-        let found = if self.previous.is_some() { self.segment(intrinsics, stats) } else { Vec::new() };
+        let size = (grey.cols(), grey.rows());
+        let found = if self.previous.is_some() { self.segment(intrinsics, size, stats) } else { Vec::new() };
         self.replenish(grey, depth)?;
         self.densify(grey, depth)?;
         self.previous = Some(pyramid);
@@ -198,7 +215,7 @@ impl MotionSegmenter {
     }
 
     /// Fits the camera's motion, judges the probes and clusters the moving ones.
-    fn segment(&mut self, intrinsics: &Intrinsics, stats: &mut FrontEndStats) -> Vec<Detection> {
+    fn segment(&mut self, intrinsics: &Intrinsics, size: (i32, i32), stats: &mut FrontEndStats) -> Vec<Detection> {
         let p = self.params;
         let mut params = EstimatorParams::kitti(*intrinsics, 0.1);
         params.pixel_sigma = p.pixel_sigma;
@@ -217,6 +234,10 @@ impl MotionSegmenter {
                     q.object = None;
                 }
                 self.objects.clear();
+                self.dense_labels.clear();
+                if let Some(flow) = &mut self.dense {
+                    flow.restart();
+                }
                 return Vec::new();
             }
         };
@@ -233,6 +254,9 @@ impl MotionSegmenter {
         }
         let long = self.long_motion(&since, model, &fit_params);
         since.truncate(p.baseline_frames);
+        if self.dense.is_some() {
+            return self.segment_dense(&since, model, intrinsics, size, stats);
+        }
         let mut moving: Vec<(usize, nalgebra::Point3<f32>)> = Vec::new();
         let mut directions: Vec<nalgebra::Vector3<f32>> = Vec::new();
         // A probe not judged this frame starts its streak again.
@@ -314,12 +338,7 @@ impl MotionSegmenter {
             let Some((bbox, size_m)) = self.extent(&probes, intrinsics) else { continue };
             let id = self.id_of(&probes, &ids_now);
             ids_now.push(id);
-            let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0 });
-            followed.streak += 1;
-            if followed.streak >= p.confirm_frames {
-                stats.motion_objects += 1;
-                out.push(Detection { bbox, class: followed.class, object_id: Some(id) });
-            }
+            out.extend(self.follow(id, (bbox, size_m), stats));
             members_of.push((id, probes));
         }
         for q in &mut self.probes {
@@ -371,6 +390,12 @@ impl MotionSegmenter {
                 *votes.entry(id).or_default() += 1;
             }
         }
+        self.id_by_votes(votes, taken)
+    }
+
+    /// The id most `votes` went to, when no cluster of this frame took it already, else a
+    /// fresh one.
+    fn id_by_votes(&mut self, votes: BTreeMap<u16, usize>, taken: &[u16]) -> u16 {
         let best = votes.into_iter().filter(|(id, _)| !taken.contains(id)).max_by_key(|&(id, n)| (n, u16::MAX - id));
         best.map_or_else(
             || {
@@ -384,18 +409,24 @@ impl MotionSegmenter {
 
     /// The grown box of `probes` and the object's width and height, metres.
     fn extent(&self, probes: &[usize], intrinsics: &Intrinsics) -> Option<([f32; 4], (f32, f32))> {
-        let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
-        let mut depths = Vec::with_capacity(probes.len());
-        for s in probes.iter().filter_map(|&i| self.probes.get(i)?.seen.back()) {
-            b = [b[0].min(s.u), b[1].min(s.v), b[2].max(s.u), b[3].max(s.v)];
-            depths.extend(s.depth);
-        }
-        depths.sort_by(f32::total_cmp);
-        let z = *depths.get(depths.len() / 2)?;
-        let (w, h) = (b[2] - b[0], b[3] - b[1]);
-        let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
-        let g = self.params.grow;
-        Some(([b[0] - g * w, b[1] - g * h, b[2] + g * w, b[3] + g * h], size_m))
+        let seen = probes.iter().filter_map(|&i| self.probes.get(i)?.seen.back().copied());
+        grown_box(seen, self.params.grow, intrinsics)
+    }
+
+    /// Counts a cluster found this frame as object `id` with `bbox` and size `size_m`, and
+    /// reports it once it was found in enough frames in a row.
+    fn follow(
+        &mut self,
+        id: u16,
+        (bbox, size_m): ([f32; 4], (f32, f32)),
+        stats: &mut FrontEndStats,
+    ) -> Option<Detection> {
+        let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0 });
+        followed.streak += 1;
+        (followed.streak >= self.params.confirm_frames).then(|| {
+            stats.motion_objects += 1;
+            Detection { bbox, class: followed.class, object_id: Some(id) }
+        })
     }
 
     /// Probes added in each box of [`MotionSegmenter::cluster_boxes`] up to
@@ -457,6 +488,22 @@ impl MotionSegmenter {
         }));
         Ok(())
     }
+}
+
+/// The box around the observations `seen` grown by `grow` of its size on each side, and the
+/// object's width and height at their median depth, metres.
+fn grown_box(seen: impl Iterator<Item = Seen>, grow: f32, intrinsics: &Intrinsics) -> Option<([f32; 4], (f32, f32))> {
+    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+    let mut depths = Vec::new();
+    for s in seen {
+        b = [b[0].min(s.u), b[1].min(s.v), b[2].max(s.u), b[3].max(s.v)];
+        depths.extend(s.depth);
+    }
+    depths.sort_by(f32::total_cmp);
+    let z = *depths.get(depths.len() / 2)?;
+    let (w, h) = (b[2] - b[0], b[3] - b[1]);
+    let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
+    Some(([b[0] - grow * w, b[1] - grow * h, b[2] + grow * w, b[3] + grow * h], size_m))
 }
 
 /// The residual of a probe seen at `then` and at `now` under the camera motion `pose` between
@@ -526,7 +573,9 @@ mod tests {
         // The default, and with the longer baseline (judged on probes at least 7 frames old) and
         // probes added around motion.
         let both = MotionParams { long_baseline_frames: 6, dense_probes: 30, ..MotionParams::default() };
-        for motion in [MotionParams::default(), both] {
+        // Samples on the dense flow in place of the probes.
+        let dense = MotionParams { dense_step_px: 6, moving_sigmas: 6.0, ..MotionParams::default() };
+        for motion in [MotionParams::default(), both, dense] {
             let mut scores = MotionScores::default();
             let tracked =
                 track_motion_scored(&sim, sim.len(), (stereo, TrackerParams::default(), motion), 0.1, &mut scores)
@@ -534,8 +583,8 @@ mod tests {
             let recall = scores.recall_within(80.0).unwrap_or(0.0);
             let precision = scores.precision_within(80.0).unwrap_or(0.0);
             eprintln!(
-                "long baseline {}, dense probes {}: recall {recall:.3}, precision {precision:.3}",
-                motion.long_baseline_frames, motion.dense_probes
+                "long baseline {}, dense probes {}, dense flow step {}: recall {recall:.3}, precision {precision:.3}",
+                motion.long_baseline_frames, motion.dense_probes, motion.dense_step_px
             );
             assert!(recall >= 0.5 && precision >= 0.7, "recall {recall:.3}, precision {precision:.3}");
             assert!(
