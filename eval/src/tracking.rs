@@ -339,6 +339,18 @@ pub fn real_image_checks(root: &Path, stereo: StereoParams, tracker: TrackerPara
             None => writeln!(out, "odometry 06 ego-motion {pair}: the fit failed"),
         };
     }
+    for (pair, s) in ["12->13", "12->14"].iter().zip(&c.segments) {
+        if let Some(s) = s {
+            let _ = writeln!(
+                out,
+                "odometry 06 motion segmentation {pair} (depth at 12 only, judged in the image; the street is \
+                    static): {} corners judged, {} moving, {} moving segments",
+                s.judged,
+                s.moving,
+                s.segments.len()
+            );
+        }
+    }
     Ok(out)
 }
 

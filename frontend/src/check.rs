@@ -24,6 +24,7 @@ use super::error::{FrontEndError, cv};
 use super::features::detect;
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::{Detection, Instances, from_boxes};
+use super::motion::{MotionParams, segments_one_ended};
 use super::stereo::{D1, Stereo, StereoParams, d1_error};
 use super::tracker::{Tracker, TrackerParams};
 
@@ -229,7 +230,7 @@ pub struct MotionError {
 }
 
 /// What the odometry check measured.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct OdometryCheck {
     /// Static corners sent at frame 12 (with stereo depth).
     pub corners: usize,
@@ -239,6 +240,9 @@ pub struct OdometryCheck {
     pub motion: [Option<MotionError>; 2],
     /// The tracker's counters after frame 14.
     pub stats: super::FrontEndStats,
+    /// The motion segmentation's verdict on the corners of frame 12 in frames 13 and 14, under
+    /// the fitted ego-motion (the street is static: every segment is false).
+    pub segments: [Option<super::motion::OneEndedSegments>; 2],
 }
 
 /// Reads `Camera.<key>: value` from an ORB-SLAM style camera.yaml.
@@ -307,6 +311,7 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
     let sent12 = tracker.process(&frames[0].1, &depth12, &background)?;
     let mut survival = [0.0; 2];
     let mut motion = [None, None];
+    let mut segments = [None, None];
     let mut est_params = EstimatorParams::kitti(
         Intrinsics { fx: fx as f32, fy: fy as f32, cx: cx as f32, cy: cy as f32, stereo_fb: 0.0 },
         0.1,
@@ -331,19 +336,28 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
             })
             .collect();
         let truth = pose(*k)?.inverse() * pose(12)?;
-        motion[i] = fit_pose(&corrs, Some(&Pose3::identity()), &est_params.camera_fit, &model, &mut Pcg32::new(1))
-            .ok()
-            .map(|fit| {
-                let est: Isometry3<f64> = fit.pose.cast::<f64>();
-                let e = truth.inverse() * est;
-                MotionError {
-                    points: corrs.len(),
-                    inliers: fit.inliers,
-                    translation_m: e.translation.vector.norm(),
-                    rotation_deg: e.rotation.angle().to_degrees(),
-                    true_translation_m: truth.translation.vector.norm(),
-                }
-            });
+        let fit = fit_pose(&corrs, Some(&Pose3::identity()), &est_params.camera_fit, &model, &mut Pcg32::new(1)).ok();
+        if let (Some(fit), Some(slot)) = (&fit, segments.get_mut(i)) {
+            let corners: Vec<_> = sent12
+                .iter()
+                .filter_map(|t| {
+                    let (_, u, v) = now.iter().find(|(id, _, _)| *id == t.track_id)?;
+                    Some(((t.u, t.v, t.depth), (*u, *v)))
+                })
+                .collect();
+            *slot = Some(segments_one_ended(&corners, &fit.pose, &model, bf as f32, &MotionParams::default()));
+        }
+        motion[i] = fit.map(|fit| {
+            let est: Isometry3<f64> = fit.pose.cast::<f64>();
+            let e = truth.inverse() * est;
+            MotionError {
+                points: corrs.len(),
+                inliers: fit.inliers,
+                translation_m: e.translation.vector.norm(),
+                rotation_deg: e.rotation.angle().to_degrees(),
+                true_translation_m: truth.translation.vector.norm(),
+            }
+        });
     }
-    Ok(OdometryCheck { corners: sent12.len(), survival, motion, stats: tracker.stats })
+    Ok(OdometryCheck { corners: sent12.len(), survival, motion, stats: tracker.stats, segments })
 }

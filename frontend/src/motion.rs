@@ -37,8 +37,10 @@ use super::stats::FrontEndStats;
 
 mod cluster;
 mod dense;
+mod one_ended;
 mod params;
-use cluster::{class_of, clusters, coherence};
+use cluster::{class_of, clusters, coherence, grown_box};
+pub use one_ended::{OneEndedCorner, OneEndedSegments, segments_one_ended};
 pub use params::MotionParams;
 
 /// A probe judged in the last frame: where it is, how deep, and its residual against the
@@ -490,27 +492,12 @@ impl MotionSegmenter {
     }
 }
 
-/// The box around the observations `seen` grown by `grow` of its size on each side, and the
-/// object's width and height at their median depth, metres.
-fn grown_box(seen: impl Iterator<Item = Seen>, grow: f32, intrinsics: &Intrinsics) -> Option<([f32; 4], (f32, f32))> {
-    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
-    let mut depths = Vec::new();
-    for s in seen {
-        b = [b[0].min(s.u), b[1].min(s.v), b[2].max(s.u), b[3].max(s.v)];
-        depths.extend(s.depth);
-    }
-    depths.sort_by(f32::total_cmp);
-    let z = *depths.get(depths.len() / 2)?;
-    let (w, h) = (b[2] - b[0], b[3] - b[1]);
-    let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
-    Some(([b[0] - grow * w, b[1] - grow * h, b[2] + grow * w, b[3] + grow * h], size_m))
-}
-
 /// The residual of a probe seen at `then` and at `now` under the camera motion `pose` between
 /// them, and its squared Mahalanobis distance: both observations have pixel noise
 /// `pixel_sigma` and disparity noise `disparity_sigma` (with stereo `fb`), the older one's
 /// carried through the motion by finite differences. Along the epipolar line a wrong depth then
 /// moves the prediction as far as the stereo allows, across it only as far as the pixels do.
+/// Without a depth now, the image part alone (its disparity part 0).
 fn normalised_residual(
     model: &PointModel,
     pose: &Pose3,
@@ -518,7 +505,9 @@ fn normalised_residual(
     fb: f32,
     p: &MotionParams,
 ) -> Option<(nalgebra::Vector3<f32>, f32)> {
-    let (z_then, z_now) = (then.depth?, now.depth?);
+    let z_then = then.depth?;
+    // The image part of the residual does not depend on the depth now.
+    let z_now = now.depth.unwrap_or(z_then);
     let residual_of = |u: f32, v: f32, z: f32| {
         let src = model.back_project(u, v, z).coords;
         model.residual(pose, &Correspondence { src, u: now.u, v: now.v, depth: z_now })
@@ -538,8 +527,13 @@ fn normalised_residual(
         // The disparity residual is scaled by pixel_sigma / disparity_sigma in the point model.
         cov[(2, 2)] += sp * sp;
     }
-    let info = cov.try_inverse()?;
-    let m2 = (r.transpose() * info * r).x;
+    let m2 = if now.depth.is_some() {
+        (r.transpose() * cov.try_inverse()? * r).x
+    } else {
+        let image = r.xy();
+        (image.transpose() * cov.fixed_view::<2, 2>(0, 0).into_owned().try_inverse()? * image).x
+    };
+    let r = if now.depth.is_some() { r } else { nalgebra::Vector3::new(r.x, r.y, 0.0) };
     m2.is_finite().then_some((r, m2))
 }
 

@@ -34,4 +34,11 @@ fn klt_survival_and_ego_motion_on_odometry_06() {
         assert!(m.translation_m < 0.10 * m.true_translation_m.max(1.0), "translation error {m:?}");
         assert!(m.rotation_deg < 0.3, "rotation error {m:?}");
     }
+    // The street of frames 12-14 is static (parked cars, buildings, trees): the motion
+    // segmentation's verdict on its corners must find no moving object there.
+    for s in &c.segments {
+        let s = s.as_ref().expect("no verdict: the ego-motion fit failed");
+        assert!(s.judged >= 100, "only {} corners judged", s.judged);
+        assert!(s.segments.is_empty(), "moving segments on a static street: {s:?}");
+    }
 }

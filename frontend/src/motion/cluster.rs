@@ -1,10 +1,12 @@
 //! Moving probes grouped into objects: linked in 3D, kept when their residual directions
-//! agree, classed by size.
+//! agree, boxed and classed by size.
 
 use std::collections::BTreeMap;
 
-use dynotraj_core::estimate::PointModel;
+use dynotraj_core::estimate::{Intrinsics, PointModel};
 use dynotraj_core::wire::ObjectClass;
+
+use super::Seen;
 
 /// Groups of `points` (indices into it) linked by distance: across the viewing ray within
 /// `link_m`, along it within `link_m` plus both points' stereo depth error at 1 px.
@@ -57,6 +59,26 @@ pub(super) fn coherence<'a>(directions: impl Iterator<Item = &'a nalgebra::Vecto
 /// a vehicle.
 pub(super) fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
     if width_m < 1.2 && height_m > 0.8 && height_m > 1.2 * width_m { ObjectClass::Pedestrian } else { ObjectClass::Car }
+}
+
+/// The box around the observations `seen` grown by `grow` of its size on each side, and the
+/// object's width and height at their median depth, metres.
+pub(super) fn grown_box(
+    seen: impl Iterator<Item = Seen>,
+    grow: f32,
+    intrinsics: &Intrinsics,
+) -> Option<([f32; 4], (f32, f32))> {
+    let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
+    let mut depths = Vec::new();
+    for s in seen {
+        b = [b[0].min(s.u), b[1].min(s.v), b[2].max(s.u), b[3].max(s.v)];
+        depths.extend(s.depth);
+    }
+    depths.sort_by(f32::total_cmp);
+    let z = *depths.get(depths.len() / 2)?;
+    let (w, h) = (b[2] - b[0], b[3] - b[1]);
+    let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
+    Some(([b[0] - grow * w, b[1] - grow * h, b[2] + grow * w, b[3] + grow * h], size_m))
 }
 
 #[cfg(test)]

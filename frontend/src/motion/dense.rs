@@ -19,10 +19,8 @@ use super::super::depth::DepthMap;
 use super::super::error::{FrontEndError, cv};
 use super::super::masks::Detection;
 use super::super::stats::FrontEndStats;
-use super::cluster::{clusters, coherence};
-use super::{
-    FIRST_ID, Fate, Judged, MotionParams, MotionSegmenter, Seen, grown_box, normalised_residual, smooth_depth,
-};
+use super::cluster::{clusters, coherence, grown_box};
+use super::{FIRST_ID, Fate, Judged, MotionParams, MotionSegmenter, Seen, normalised_residual, smooth_depth};
 
 /// DIS's preset: the slowest and most accurate of OpenCV's three (on the training sequences
 /// `PRESET_FAST`'s static pixels reached 27 standard deviations at the 99th percentile within
