@@ -418,7 +418,7 @@ fn smoothness_table(
     let mut truth = SmoothnessSum::default();
     let dt = f64::from(opt.dt);
     for &(object_id, i) in &pairs {
-        let kitti_id = super::tracks::track_id_of(object_id);
+        let kitti_id = kitti_track_id(object_id);
         if let Some(t) = gt.iter().find(|t| t.track_id == kitti_id) {
             let at = |frame: usize| t.frames.iter().position(|&f| f as usize == frame).map(|j| t.states[j]);
             if let (Some(a), Some(b)) = (at(i), at(i + 1)) {
@@ -476,4 +476,10 @@ pub fn simulated_stream(dir: &Path, id: &str, frames: Option<usize>) -> anyhow::
         .map(|f| TracksFrame::split(f.frame, f.timestamp_us, &f.tracks).with_context(|| format!("frame {}", f.frame)))
         .collect::<anyhow::Result<_>>()?;
     Ok(Tracks { camera, frames })
+}
+
+/// The KITTI track id of wire object id `object` (the truth's tracks and the estimates number
+/// them alike: the wire's id is the track id + 1).
+pub(crate) fn kitti_track_id(object: u16) -> i32 {
+    i32::from(object) - 1
 }

@@ -25,7 +25,7 @@ use dynotraj_core::estimate::{PoseEstimate, bev_heading};
 use dynotraj_core::wire::ObjectClass;
 
 use crate::estimation::score::{FrameRpe, moving_objects, rpe_over_time};
-use crate::estimation::simulated::{EvalOptions, evaluate_sequence};
+use crate::estimation::simulated::{EvalOptions, evaluate_sequence, kitti_track_id};
 use crate::estimation::{EstimatorRun, Kind, RunScores};
 use crate::trajectory::ObjectTrack;
 use dynotraj_formats::kitti::SequenceData;
@@ -105,18 +105,13 @@ pub fn estimated_tracks(id: &str, data: &SequenceData, opt: &EvalOptions) -> Est
     EstimatedTracks::of_run(EstimateInput::Tracks, &r.run, Some(r.scores), &r.sim, r.min_step_m)
 }
 
-/// Track id of wire object id `object` ([`truth_tracks`] and the estimates number them alike:
-/// KITTI's track id).
-pub(crate) fn track_id_of(object: u16) -> i32 {
-    i32::from(object) - 1
-}
-
 /// The tracks of the front-end and estimator on a rendering of the sequence, with its truth;
 /// objects moving at least `min_step_m` per frame are scored (as for `e.scores`).
 #[must_use]
 pub fn rendered_estimated_tracks(e: &crate::estimation::from_images::RenderedRun, min_step_m: f64) -> EstimatedTracks {
     let mut tracks = EstimatedTracks::of_run(EstimateInput::Rendered, &e.run, Some(e.scores), &e.frames, min_step_m);
-    tracks.truth_of = e.truth_of.as_ref().map(|m| m.iter().map(|(&o, &t)| (track_id_of(o), track_id_of(t))).collect());
+    tracks.truth_of =
+        e.truth_of.as_ref().map(|m| m.iter().map(|(&o, &t)| (kitti_track_id(o), kitti_track_id(t))).collect());
     tracks
 }
 
@@ -197,7 +192,7 @@ pub fn truth_tracks(sim: &[SimFrame]) -> Vec<ObjectTrack> {
     for f in sim {
         for o in &f.objects {
             let t = by_id.entry(o.object_id).or_insert_with(|| ObjectTrack {
-                track_id: track_id_of(o.object_id),
+                track_id: kitti_track_id(o.object_id),
                 class: o.class,
                 frames: Vec::new(),
                 states: Vec::new(),
@@ -244,7 +239,7 @@ pub fn tracks_of_estimates(estimates: &[Option<PoseEstimate>]) -> Vec<ObjectTrac
     by_id
         .into_iter()
         .map(|(object_id, (class, rows))| ObjectTrack {
-            track_id: track_id_of(object_id),
+            track_id: kitti_track_id(object_id),
             class,
             frames: rows.iter().map(|r| r.0).collect(),
             states: rows.iter().map(|r| r.2).collect(),
