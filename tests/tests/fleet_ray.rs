@@ -15,7 +15,8 @@ use dynotraj_tests::python_env::ray_python;
 use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 /// One cluster at a time: `ray stop` ends every Ray process of the machine, so the tests of
-/// this file take turns.
+/// this file take turns (within one test process; nextest, which runs each test in a process
+/// of its own, puts them in one test group instead: .config/nextest.toml).
 static ONE_CLUSTER: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// `ray stop` when the test ends, however it ends.
