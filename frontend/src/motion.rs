@@ -39,9 +39,11 @@ mod cluster;
 mod dense;
 mod one_ended;
 mod params;
+mod residual;
 use cluster::{class_of, clusters, coherence, grown_box};
 pub use one_ended::{OneEndedCorner, OneEndedSegments, segments_one_ended};
 pub use params::MotionParams;
+use residual::{least_residual, normalised_residual, step};
 
 /// A probe judged in the last frame: where it is, how deep, and its residual against the
 /// camera's motion, pixels (the disparity part scaled as the point model does).
@@ -85,8 +87,30 @@ struct Seen {
     u: f32,
     v: f32,
     /// Depth, metres, when the map has one there and the depth around agrees with it
-    /// ([`smooth_depth`]).
+    /// ([`smooth_depth`]), or with [`MotionParams::depth_hypotheses_px`] wherever it has one.
     depth: Option<f32>,
+    /// With [`MotionParams::depth_hypotheses_px`], the nearest and farthest depths around:
+    /// near a depth edge, the surfaces the stereo may have given the probe.
+    around: Option<(f32, f32)>,
+}
+
+impl Seen {
+    /// The observation at `(u, v)` in `depth`.
+    fn observe(depth: &DepthMap, u: f32, v: f32, p: &MotionParams) -> Self {
+        let r = p.depth_hypotheses_px;
+        if r <= 0.0 {
+            return Self { u, v, depth: smooth_depth(depth, u, v, p), around: None };
+        }
+        let z = depth.at(u, v);
+        let mut range = z.map(|z| (z, z));
+        for (du, dv) in [(-r, -r), (0.0, -r), (r, -r), (-r, 0.0), (r, 0.0), (-r, r), (0.0, r), (r, r)] {
+            if let (Some((lo, hi)), Some(n)) = (&mut range, depth.at(u + du, v + dv)) {
+                *lo = lo.min(n);
+                *hi = hi.max(n);
+            }
+        }
+        Self { u, v, depth: z, around: range }
+    }
 }
 
 /// The depth of `depth` at `(u, v)` where the depth around it agrees ([`Seen::depth`]): within
@@ -189,7 +213,7 @@ impl MotionSegmenter {
             let mut kept = Vec::with_capacity(self.probes.len());
             for (mut probe, t) in std::mem::take(&mut self.probes).into_iter().zip(moved) {
                 if let Tracked::At(at) = t {
-                    probe.seen.push_back(Seen { u: at.x, v: at.y, depth: smooth_depth(depth, at.x, at.y, &p) });
+                    probe.seen.push_back(Seen::observe(depth, at.x, at.y, &p));
                     while probe.seen.len() > p.history() {
                         probe.seen.pop_front();
                     }
@@ -275,14 +299,13 @@ impl MotionSegmenter {
             }
             let Some(pose) = back.checked_sub(1).and_then(|j| since.get(j)) else { continue };
             let Some(then) = q.seen.len().checked_sub(1 + back).and_then(|j| q.seen.get(j)) else { continue };
-            let Some((short_r, short_m2)) = normalised_residual(model, pose, (then, now), intrinsics.stereo_fb, &p)
-            else {
+            let Some((short_r, short_m2)) = least_residual(model, pose, (then, now), intrinsics.stereo_fb, &p) else {
                 continue;
             };
             // The longer baseline's verdict where the probe is old enough, the stronger of the two.
             let long_judged = long.as_ref().and_then(|(n, pose)| {
                 let then = q.seen.len().checked_sub(1 + n).and_then(|j| q.seen.get(j))?;
-                normalised_residual(model, pose, (then, now), intrinsics.stereo_fb, &p)
+                least_residual(model, pose, (then, now), intrinsics.stereo_fb, &p)
             });
             let (r, m2) = match long_judged {
                 Some((r, m2)) if m2 > short_m2 => (r, m2),
@@ -463,7 +486,7 @@ impl MotionSegmenter {
             let dense = DetectParams { grid_cols: 1, grid_rows: 1, min_distance: 3.0, ..p.detect };
             let found = detect(grey, &allowed, &existing, want, &dense)?;
             self.probes.extend(found.points.into_iter().map(|at| Probe {
-                seen: VecDeque::from([Seen { u: at.x, v: at.y, depth: smooth_depth(depth, at.x, at.y, &p) }]),
+                seen: VecDeque::from([Seen::observe(depth, at.x, at.y, &p)]),
                 streak: 0,
                 object: None,
             }));
@@ -484,67 +507,12 @@ impl MotionSegmenter {
         let found = detect(grey, &allowed, &existing, want, &self.params.detect)?;
         let p = self.params;
         self.probes.extend(found.points.into_iter().map(|at| Probe {
-            seen: VecDeque::from([Seen { u: at.x, v: at.y, depth: smooth_depth(depth, at.x, at.y, &p) }]),
+            seen: VecDeque::from([Seen::observe(depth, at.x, at.y, &p)]),
             streak: 0,
             object: None,
         }));
         Ok(())
     }
-}
-
-/// The residual of a probe seen at `then` and at `now` under the camera motion `pose` between
-/// them, and its squared Mahalanobis distance: both observations have pixel noise
-/// `pixel_sigma` and disparity noise `disparity_sigma` (with stereo `fb`), the older one's
-/// carried through the motion by finite differences. Along the epipolar line a wrong depth then
-/// moves the prediction as far as the stereo allows, across it only as far as the pixels do.
-/// Without a depth now, the image part alone (its disparity part 0).
-fn normalised_residual(
-    model: &PointModel,
-    pose: &Pose3,
-    (then, now): (&Seen, &Seen),
-    fb: f32,
-    p: &MotionParams,
-) -> Option<(nalgebra::Vector3<f32>, f32)> {
-    let z_then = then.depth?;
-    // The image part of the residual does not depend on the depth now.
-    let z_now = now.depth.unwrap_or(z_then);
-    let residual_of = |u: f32, v: f32, z: f32| {
-        let src = model.back_project(u, v, z).coords;
-        model.residual(pose, &Correspondence { src, u: now.u, v: now.v, depth: z_now })
-    };
-    let r = residual_of(then.u, then.v, z_then)?;
-    let h = 0.5;
-    let du = (residual_of(then.u + h, then.v, z_then)? - r) / h;
-    let dv = (residual_of(then.u, then.v + h, z_then)? - r) / h;
-    let (sp, sd) = (p.pixel_sigma, p.disparity_sigma);
-    let mut cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(sp * sp, sp * sp, 0.0));
-    cov += du * du.transpose() * (sp * sp) + dv * dv.transpose() * (sp * sp);
-    if fb > 0.0 {
-        let d_then = fb / z_then;
-        let z_moved = fb / (d_then - h).max(0.05);
-        let dd = (residual_of(then.u, then.v, z_moved)? - r) / h;
-        cov += dd * dd.transpose() * (sd * sd);
-        // The disparity residual is scaled by pixel_sigma / disparity_sigma in the point model.
-        cov[(2, 2)] += sp * sp;
-    }
-    let m2 = if now.depth.is_some() {
-        (r.transpose() * cov.try_inverse()? * r).x
-    } else {
-        let image = r.xy();
-        (image.transpose() * cov.fixed_view::<2, 2>(0, 0).into_owned().try_inverse()? * image).x
-    };
-    let r = if now.depth.is_some() { r } else { nalgebra::Vector3::new(r.x, r.y, 0.0) };
-    m2.is_finite().then_some((r, m2))
-}
-
-/// The correspondence of a probe between `back` frames ago (its point there) and now (its pixel
-/// and depth), when it has both depths.
-fn step(q: &Probe, back: usize, model: &PointModel) -> Option<Correspondence> {
-    let now = q.seen.back()?;
-    let then = q.seen.get(q.seen.len().checked_sub(1 + back)?)?;
-    let (z_then, z_now) = (then.depth?, now.depth?);
-    let src = model.back_project(then.u, then.v, z_then).coords;
-    Some(Correspondence { src, u: now.u, v: now.v, depth: z_now })
 }
 
 #[cfg(test)]
@@ -569,7 +537,9 @@ mod tests {
         let both = MotionParams { long_baseline_frames: 6, dense_probes: 30, ..MotionParams::default() };
         // Samples on the dense flow in place of the probes.
         let dense = MotionParams { dense_step_px: 6, moving_sigmas: 6.0, ..MotionParams::default() };
-        for motion in [MotionParams::default(), both, dense] {
+        // Depth hypotheses around each probe in place of the edge test.
+        let hypotheses = MotionParams { depth_hypotheses_px: 4.0, ..MotionParams::default() };
+        for motion in [MotionParams::default(), both, dense, hypotheses] {
             let mut scores = MotionScores::default();
             let tracked =
                 track_motion_scored(&sim, sim.len(), (stereo, TrackerParams::default(), motion), 0.1, &mut scores)
@@ -577,8 +547,9 @@ mod tests {
             let recall = scores.recall_within(80.0).unwrap_or(0.0);
             let precision = scores.precision_within(80.0).unwrap_or(0.0);
             eprintln!(
-                "long baseline {}, dense probes {}, dense flow step {}: recall {recall:.3}, precision {precision:.3}",
-                motion.long_baseline_frames, motion.dense_probes, motion.dense_step_px
+                "long baseline {}, dense probes {}, dense flow step {}, depth hypotheses {}: recall {recall:.3}, \
+                 precision {precision:.3}",
+                motion.long_baseline_frames, motion.dense_probes, motion.dense_step_px, motion.depth_hypotheses_px
             );
             assert!(recall >= 0.5 && precision >= 0.7, "recall {recall:.3}, precision {precision:.3}");
             assert!(

@@ -201,8 +201,9 @@ impl MotionSegmenter {
                 self.fates.push((u, v, Fate::Young));
                 continue;
             };
-            let then = Seen { u: tu, v: tv, depth: flow.depth(back).and_then(|d| smooth_depth(d, tu, tv, &p)) };
-            let now = Seen { u, v, depth: Some(z) };
+            let then =
+                Seen { u: tu, v: tv, depth: flow.depth(back).and_then(|d| smooth_depth(d, tu, tv, &p)), around: None };
+            let now = Seen { u, v, depth: Some(z), around: None };
             let Some((r, m2)) = normalised_residual(model, pose, (&then, &now), intrinsics.stereo_fb, &judge) else {
                 self.fates.push((u, v, Fate::NoDepth));
                 continue;

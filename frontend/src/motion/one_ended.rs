@@ -39,8 +39,8 @@ pub fn segments_one_ended(
     let mut moving = Vec::new();
     let mut directions = Vec::new();
     for (i, &((u0, v0, z), (u1, v1))) in corners.iter().enumerate() {
-        let then = Seen { u: u0, v: v0, depth: Some(z) };
-        let now = Seen { u: u1, v: v1, depth: None };
+        let then = Seen { u: u0, v: v0, depth: Some(z), around: None };
+        let now = Seen { u: u1, v: v1, depth: None, around: None };
         let Some((r, m2)) = normalised_residual(model, pose, (&then, &now), fb, p) else { continue };
         out.judged += 1;
         if m2 > p.moving_sigmas * p.moving_sigmas {
