@@ -24,7 +24,7 @@ use super::error::{FrontEndError, cv};
 use super::features::detect;
 use super::image_io::{read_grey, read_u16, same_size};
 use super::masks::{Detection, Instances, from_boxes};
-use super::motion::{MotionParams, segments_one_ended};
+use super::motion::{MotionParams, OneEndedCorner, segments_one_ended};
 use super::stereo::{D1, Stereo, StereoParams, d1_error};
 use super::tracker::{Tracker, TrackerParams};
 
@@ -327,24 +327,21 @@ pub fn odometry06(root: &Path, stereo: StereoParams, params: TrackerParams) -> R
             tracked + (s.static_lost - before.static_lost) + (s.static_failed_check - before.static_failed_check);
         survival[i] = if tried == 0 { 0.0 } else { tracked as f64 / tried as f64 };
         let now = tracker.static_points();
-        let corrs: Vec<Correspondence> = sent12
+        // Each corner of frame 12 still tracked: its pixel and depth then, its pixel now.
+        let corners: Vec<OneEndedCorner> = sent12
             .iter()
             .filter_map(|t| {
                 let (_, u, v) = now.iter().find(|(id, _, _)| *id == t.track_id)?;
-                let src = model.back_project(t.u, t.v, t.depth).coords;
-                Some(Correspondence { src, u: *u, v: *v, depth: t.depth })
+                Some(((t.u, t.v, t.depth), (*u, *v)))
             })
+            .collect();
+        let corrs: Vec<Correspondence> = corners
+            .iter()
+            .map(|&((u0, v0, z), (u, v))| Correspondence { src: model.back_project(u0, v0, z).coords, u, v, depth: z })
             .collect();
         let truth = pose(*k)?.inverse() * pose(12)?;
         let fit = fit_pose(&corrs, Some(&Pose3::identity()), &est_params.camera_fit, &model, &mut Pcg32::new(1)).ok();
         if let (Some(fit), Some(slot)) = (&fit, segments.get_mut(i)) {
-            let corners: Vec<_> = sent12
-                .iter()
-                .filter_map(|t| {
-                    let (_, u, v) = now.iter().find(|(id, _, _)| *id == t.track_id)?;
-                    Some(((t.u, t.v, t.depth), (*u, *v)))
-                })
-                .collect();
             *slot = Some(segments_one_ended(&corners, &fit.pose, &model, bf as f32, &MotionParams::default()));
         }
         motion[i] = fit.map(|fit| {

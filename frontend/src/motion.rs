@@ -40,7 +40,7 @@ mod dense;
 mod one_ended;
 mod params;
 mod residual;
-use cluster::{class_of, clusters, coherence, grown_box};
+use cluster::{class_of, clusters, coherent, grown_box};
 pub use one_ended::{OneEndedCorner, OneEndedSegments, segments_one_ended};
 pub use params::MotionParams;
 use residual::{least_residual, normalised_residual, step};
@@ -346,16 +346,14 @@ impl MotionSegmenter {
         let mut ids_now = Vec::new();
         let mut members_of: Vec<(u16, Vec<usize>)> = Vec::new();
         for members in clusters {
-            // Three probes are the fewest whose directions can agree by more than chance.
-            let coherent =
-                members.len() >= 3 && coherence(members.iter().filter_map(|&m| directions.get(m))) >= p.min_coherence;
-            if p.dense_probes > 0 && coherent {
+            let agree = coherent(&members, &directions, p.min_coherence);
+            if p.dense_probes > 0 && agree {
                 let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
                 if let Some((bbox, _)) = self.extent(&probes, intrinsics) {
                     self.cluster_boxes.push(bbox);
                 }
             }
-            if members.len() < p.min_points || !coherent {
+            if members.len() < p.min_points || !agree {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }

@@ -16,11 +16,8 @@ use crate::manifest_dir;
 /// # Errors
 /// Why there is no environment, for the test to say it skipped.
 pub fn python() -> Result<PathBuf, String> {
-    // The tests of one binary run in one process: the environment is made once, not twice at
-    // the same time.
-    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
-    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(|| make_venv(&manifest_dir().join("python/requirements.txt"), "dynotraj-venv")).clone()
+    static MADE: Made = Mutex::new(None);
+    made_once(&MADE, "python/requirements.txt", "dynotraj-venv")
 }
 
 /// The Python of the Ray environment (fleet/requirements.txt), made on first use.
@@ -28,10 +25,8 @@ pub fn python() -> Result<PathBuf, String> {
 /// # Errors
 /// Why there is no environment, for the test to say it skipped.
 pub fn ray_python() -> Result<PathBuf, String> {
-    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
-    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(|| make_venv(&manifest_dir().join("../fleet/requirements.txt"), "dynotraj-ray-venv"))
-        .clone()
+    static MADE: Made = Mutex::new(None);
+    made_once(&MADE, "../fleet/requirements.txt", "dynotraj-ray-venv")
 }
 
 /// The Python of rerun's environment (tests/python/rerun-requirements.txt), made on first use.
@@ -39,10 +34,8 @@ pub fn ray_python() -> Result<PathBuf, String> {
 /// # Errors
 /// Why there is no environment, for the test to say it skipped.
 pub fn rerun_python() -> Result<PathBuf, String> {
-    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
-    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(|| make_venv(&manifest_dir().join("python/rerun-requirements.txt"), "dynotraj-rerun-venv"))
-        .clone()
+    static MADE: Made = Mutex::new(None);
+    made_once(&MADE, "python/rerun-requirements.txt", "dynotraj-rerun-venv")
 }
 
 /// The Python of kitti2mcap's environment (tests/python/kitti2mcap-requirements.txt), made on
@@ -51,12 +44,25 @@ pub fn rerun_python() -> Result<PathBuf, String> {
 /// # Errors
 /// Why there is no environment, for the test to say it skipped.
 pub fn kitti2mcap_python() -> Result<PathBuf, String> {
-    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
-    let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(|| {
-        make_venv(&manifest_dir().join("python/kitti2mcap-requirements.txt"), "dynotraj-kitti2mcap-venv")
-    })
-    .clone()
+    static MADE: Made = Mutex::new(None);
+    made_once(&MADE, "python/kitti2mcap-requirements.txt", "dynotraj-kitti2mcap-venv")
+}
+
+/// The environment `env` gave, or `None` once the running test (`test` where its thread has
+/// no name) is recorded as skipped because `missing` is missing.
+pub fn or_skip(env: Result<PathBuf, String>, test: &str, missing: &str) -> Option<PathBuf> {
+    env.map_err(|why| dynotraj_testkit::skipped(test, &format!("{missing}: {why}"))).ok()
+}
+
+/// An environment made once per test process, or why it could not be.
+type Made = Mutex<Option<Result<PathBuf, String>>>;
+
+/// The environment of `requirements` (relative to this crate) in the folder `name`, made the
+/// first time `made` is asked. The tests of one binary run in one process: the environment is
+/// made once, not twice at the same time.
+fn made_once(made: &Made, requirements: &str, name: &str) -> Result<PathBuf, String> {
+    let mut made = made.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    made.get_or_insert_with(|| make_venv(&manifest_dir().join(requirements), name)).clone()
 }
 
 fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, String> {

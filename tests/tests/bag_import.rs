@@ -9,7 +9,7 @@ use std::path::Path;
 
 use dynotraj_tests::edge_fixture::dynotraj_command;
 use dynotraj_tests::manifest_dir;
-use dynotraj_tests::python_env::{kitti2mcap_python, python};
+use dynotraj_tests::python_env::{kitti2mcap_python, or_skip, python};
 use opencv::imgcodecs::{IMREAD_UNCHANGED, imread};
 use opencv::prelude::*;
 
@@ -53,12 +53,8 @@ fn a_bag_of_the_fixture_imports_and_tracks_to_the_same_tracks() {
 /// The bag decodes with the ROS 2 MCAP decoder of Python's `mcap-ros2-support`, as ROS 2
 /// tools read it (tests/python/read_bag.py); skipped, and said so, without Python.
 fn ros2_tools_read(bag: &Path) {
-    let python = match python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("ros2_tools_read", &format!("no Python environment to decode the bag: {why}"));
-            return;
-        }
+    let Some(python) = or_skip(python(), "ros2_tools_read", "no Python environment to decode the bag") else {
+        return;
     };
     let script = manifest_dir().join("python/read_bag.py");
     let out = std::process::Command::new(python).arg(script).arg(bag).arg("24").output().unwrap();
@@ -96,13 +92,7 @@ fn a_bag_that_is_not_there_or_an_out_that_exists_is_refused() {
 /// and said so, without Python.
 #[test]
 fn rosbags_reads_the_exported_bag_and_its_conversions_import_alike() {
-    let python = match python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("rosbags_reads_the_exported_bag", &format!("no Python environment: {why}"));
-            return;
-        }
-    };
+    let Some(python) = or_skip(python(), "rosbags_reads_the_exported_bag", "no Python environment") else { return };
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("../sim/data/image_sim");
     let tmp = tempfile::tempdir().unwrap();
     let p = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
@@ -166,12 +156,8 @@ fn rosbags_reads_the_exported_bag_and_its_conversions_import_alike() {
 /// so, without Python or the package index.
 #[test]
 fn a_kitti2mcap_bag_imports_with_no_flags() {
-    let python = match kitti2mcap_python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("a_kitti2mcap_bag_imports_with_no_flags", &format!("no kitti2mcap: {why}"));
-            return;
-        }
+    let Some(python) = or_skip(kitti2mcap_python(), "a_kitti2mcap_bag_imports_with_no_flags", "no kitti2mcap") else {
+        return;
     };
     let fixture = manifest_dir().join("../sim/data/image_sim");
     let tmp = tempfile::tempdir().unwrap();

@@ -11,7 +11,7 @@ use std::process::Command;
 
 use dynotraj_tests::edge_fixture::dynotraj_command;
 use dynotraj_tests::manifest_dir;
-use dynotraj_tests::python_env::ray_python;
+use dynotraj_tests::python_env::{or_skip, ray_python};
 use dynotraj_tests::synthetic_kitti::{FOUR_DRIVES, write_drives};
 
 /// One cluster at a time: `ray stop` ends every Ray process of the machine, so the tests of
@@ -141,13 +141,7 @@ fn same_tables(a: &Path, b: &Path) {
 }
 
 fn ray_or_skip(test: &str) -> Option<std::path::PathBuf> {
-    match ray_python() {
-        Ok(p) => Some(p),
-        Err(why) => {
-            dynotraj_testkit::skipped(test, &format!("no Python environment with Ray: {why}"));
-            None
-        }
-    }
+    or_skip(ray_python(), test, "no Python environment with Ray")
 }
 
 #[test]

@@ -24,7 +24,7 @@ use dynotraj_link::in_process::forecast;
 use dynotraj_sim::cost_inputs::random_blob;
 use dynotraj_tests::edge_fixture::{dynotraj_command, scene_tracks};
 use dynotraj_tests::manifest_dir;
-use dynotraj_tests::python_env::{foxglove_json_schemas, python};
+use dynotraj_tests::python_env::{foxglove_json_schemas, or_skip, python};
 
 /// Frames of the fixture's sequence 0000.
 const FIXTURE_FRAMES: usize = 24;
@@ -56,13 +56,7 @@ fn read_back(path: &Path, command: &str, script_args: &[&str]) {
     assert!(!partial_path(path).exists(), "the temporary file of {} is left", path.display());
     let bytes = std::fs::metadata(path).unwrap().len();
     eprintln!("{}: {bytes} bytes", path.display());
-    let python = match python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("recording", &format!("no Python environment to read the recording: {why}"));
-            return;
-        }
-    };
+    let Some(python) = or_skip(python(), "recording", "no Python environment to read the recording") else { return };
     let script = manifest_dir().join("python/read_recording.py");
     let mut cmd = Command::new(python);
     cmd.arg(script).arg(command).arg(path).args(script_args);
@@ -218,12 +212,12 @@ fn estimate_with_several_profiles_records_a_folder() {
 /// channels become. Skipped, and said so, without rerun's environment.
 #[test]
 fn rerun_reads_every_recording_channel_as_typed_data() {
-    let python = match dynotraj_tests::python_env::rerun_python() {
-        Ok(p) => p,
-        Err(why) => {
-            dynotraj_testkit::skipped("rerun_reads_every_recording_channel", &format!("no rerun environment: {why}"));
-            return;
-        }
+    let Some(python) = or_skip(
+        dynotraj_tests::python_env::rerun_python(),
+        "rerun_reads_every_recording_channel",
+        "no rerun environment",
+    ) else {
+        return;
     };
     let rerun = python.with_file_name("rerun");
     let dir = tempfile::tempdir().unwrap();

@@ -55,6 +55,13 @@ pub(super) fn coherence<'a>(directions: impl Iterator<Item = &'a nalgebra::Vecto
     if n == 0 { 0.0 } else { sum.norm() / n as f32 }
 }
 
+/// Whether the residual directions of a cluster's `members` (indices into `directions`) agree
+/// by at least `min_coherence`: the probes of one rigid object disagree with the camera's motion
+/// alike, noise does not. Three are the fewest whose directions can agree by more than chance.
+pub(super) fn coherent(members: &[usize], directions: &[nalgebra::Vector3<f32>], min_coherence: f32) -> bool {
+    members.len() >= 3 && coherence(members.iter().filter_map(|&m| directions.get(m))) >= min_coherence
+}
+
 /// A pedestrian is narrower than 1.2 m and taller than wide; anything else moving is taken for
 /// a vehicle.
 pub(super) fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {

@@ -19,7 +19,7 @@ use super::super::depth::DepthMap;
 use super::super::error::{FrontEndError, cv};
 use super::super::masks::Detection;
 use super::super::stats::FrontEndStats;
-use super::cluster::{clusters, coherence, grown_box};
+use super::cluster::{clusters, coherent, grown_box};
 use super::{FIRST_ID, Fate, Judged, MotionParams, MotionSegmenter, Seen, normalised_residual, smooth_depth};
 
 /// DIS's preset: the slowest and most accurate of OpenCV's three (on the training sequences
@@ -158,16 +158,43 @@ struct Moving {
     before: (f32, f32),
 }
 
-impl MotionSegmenter {
-    /// The grid's index of the sample nearest `(u, v)`.
-    fn cell_of(&self, (u, v): (f32, f32), size: (i32, i32)) -> Option<usize> {
-        let step = self.params.dense_step_px.max(1);
-        let (cols, rows) = (size.0.max(0) as usize / step, size.1.max(0) as usize / step);
-        let half = (step / 2) as f32;
-        let (x, y) = (((u - half) / step as f32).round(), ((v - half) / step as f32).round());
-        (x >= 0.0 && y >= 0.0 && (x as usize) < cols && (y as usize) < rows).then(|| y as usize * cols + x as usize)
+/// The samples' grid over an image: a sample every `step` pixels, at the centres of the
+/// cells, numbered row by row.
+#[derive(Debug, Clone, Copy)]
+struct SampleGrid {
+    step: usize,
+    cols: usize,
+    rows: usize,
+}
+
+impl SampleGrid {
+    /// The grid of an image of `size` (width, height) with samples `step` pixels apart.
+    fn new(size: (i32, i32), step: usize) -> Self {
+        let step = step.max(1);
+        Self { step, cols: size.0.max(0) as usize / step, rows: size.1.max(0) as usize / step }
     }
 
+    /// How many samples it holds.
+    const fn len(self) -> usize {
+        self.cols * self.rows
+    }
+
+    /// The pixel of sample `cell`.
+    fn pixel(self, cell: usize) -> (f32, f32) {
+        let centre = |i: usize| (i * self.step + self.step / 2) as f32;
+        (centre(cell % self.cols.max(1)), centre(cell / self.cols.max(1)))
+    }
+
+    /// The sample nearest `(u, v)`.
+    fn cell_of(self, (u, v): (f32, f32)) -> Option<usize> {
+        let (half, step) = ((self.step / 2) as f32, self.step as f32);
+        let (x, y) = (((u - half) / step).round(), ((v - half) / step).round());
+        (x >= 0.0 && y >= 0.0 && (x as usize) < self.cols && (y as usize) < self.rows)
+            .then(|| y as usize * self.cols + x as usize)
+    }
+}
+
+impl MotionSegmenter {
     /// Judges the dense samples of the newest frame against the camera motions `since`
     /// (`since[j - 1]` = T_{k, k-j}) and clusters the moving ones, as [`Self::segment`] does
     /// the probes.
@@ -180,18 +207,17 @@ impl MotionSegmenter {
         stats: &mut FrontEndStats,
     ) -> Vec<Detection> {
         let p = self.params;
-        let step = p.dense_step_px.max(1);
-        let (cols, rows) = (size.0.max(0) as usize / step, size.1.max(0) as usize / step);
+        let grid = SampleGrid::new(size, p.dense_step_px);
         let judge = MotionParams { pixel_sigma: p.flow_sigma_px, ..p };
         let previous = std::mem::take(&mut self.dense_labels);
-        let mut labels = vec![0u16; cols * rows];
+        let mut labels = vec![0u16; grid.len()];
         let mut moving: Vec<Moving> = Vec::new();
         let mut points = Vec::new();
         let mut directions = Vec::new();
         let Some(flow) = &self.dense else { return Vec::new() };
         let Some(now_depth) = flow.depth(0) else { return Vec::new() };
-        for cell in 0..cols * rows {
-            let (u, v) = (((cell % cols) * step + step / 2) as f32, ((cell / cols) * step + step / 2) as f32);
+        for cell in 0..grid.len() {
+            let (u, v) = grid.pixel(cell);
             let Some(z) = smooth_depth(now_depth, u, v, &p).filter(|z| *z <= p.max_depth_m) else { continue };
             let traced = flow.trace(u, v, since.len(), p.flow_check_px);
             let back = traced.positions.len() - 1;
@@ -227,7 +253,7 @@ impl MotionSegmenter {
             let before = traced.positions.get(1).copied().unwrap_or((u, v));
             // Moving in the frame before too, where the confirmation asks for it.
             let confirmed = p.probe_confirm_frames < 2
-                || self.cell_of(before, size).and_then(|c| previous.get(c)).is_some_and(|&l| l != 0);
+                || grid.cell_of(before).and_then(|c| previous.get(c)).is_some_and(|&l| l != 0);
             if !confirmed {
                 self.fates.push((u, v, Fate::Unconfirmed));
                 continue;
@@ -241,9 +267,7 @@ impl MotionSegmenter {
         let mut ids_now = Vec::new();
         let mut in_object = vec![false; moving.len()];
         for members in clusters(&points, model, p.link_m) {
-            let coherent =
-                members.len() >= 3 && coherence(members.iter().filter_map(|&m| directions.get(m))) >= p.min_coherence;
-            if members.len() < p.dense_min_samples || !coherent {
+            if members.len() < p.dense_min_samples || !coherent(&members, &directions, p.min_coherence) {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
@@ -251,7 +275,7 @@ impl MotionSegmenter {
             let Some(extent) = grown_box(samples.iter().map(|s| s.now), p.grow, intrinsics) else { continue };
             let mut votes: BTreeMap<u16, usize> = BTreeMap::new();
             for s in &samples {
-                if let Some(&l) = self.cell_of(s.before, size).and_then(|c| previous.get(c))
+                if let Some(&l) = grid.cell_of(s.before).and_then(|c| previous.get(c))
                     && l >= FIRST_ID
                 {
                     *votes.entry(l).or_default() += 1;

@@ -6,7 +6,7 @@
 use dynotraj_core::estimate::PointModel;
 use dynotraj_core::geometry::Pose3;
 
-use super::cluster::{clusters, coherence};
+use super::cluster::{clusters, coherent};
 use super::{MotionParams, Seen, normalised_residual};
 
 /// A corner's pixel and depth then, and its pixel now.
@@ -50,9 +50,7 @@ pub fn segments_one_ended(
         }
     }
     for members in clusters(&moving, model, p.link_m) {
-        let coherent =
-            members.len() >= 3 && coherence(members.iter().filter_map(|&m| directions.get(m))) >= p.min_coherence;
-        if members.len() >= p.min_points && coherent {
+        if members.len() >= p.min_points && coherent(&members, &directions, p.min_coherence) {
             out.segments.push(members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect());
         }
     }
