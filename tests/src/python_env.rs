@@ -1,8 +1,8 @@
 //! The Python environments of the tests that use another ecosystem's own tools: the readers
-//! (Python's `mcap` and `mcap-ros2-support`, tests/python/requirements.txt) and Ray
-//! (fleet/requirements.txt). Each is a virtual environment outside the repository (under
-//! `$DYNOTRAJ_VENV`'s parent, else `$HOME/.cache`), made once and made again when the pins
-//! change.
+//! (Python's `mcap` and `mcap-ros2-support`, tests/python/requirements.txt), Ray
+//! (fleet/requirements.txt), rerun and kitti2mcap. scripts/python-env.sh makes each one, a
+//! virtual environment outside the repository, once and again when its pins change; it is the
+//! one place that knows their requirements and folders.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -10,14 +10,14 @@ use std::sync::Mutex;
 
 use crate::manifest_dir;
 
-/// The Python of the tests' virtual environment, made on first use; `Err` says why there is
-/// none (no python3, no venv module or pip, no network for the packages).
+/// The Python of the readers' environment, made on first use; `Err` says why there is none
+/// (no python3, no venv module or pip, no network for the packages).
 ///
 /// # Errors
 /// Why there is no environment, for the test to say it skipped.
 pub fn python() -> Result<PathBuf, String> {
     static MADE: Made = Mutex::new(None);
-    made_once(&MADE, "python/requirements.txt", "dynotraj-venv")
+    made_once(&MADE, "readers")
 }
 
 /// The Python of the Ray environment (fleet/requirements.txt), made on first use.
@@ -26,7 +26,7 @@ pub fn python() -> Result<PathBuf, String> {
 /// Why there is no environment, for the test to say it skipped.
 pub fn ray_python() -> Result<PathBuf, String> {
     static MADE: Made = Mutex::new(None);
-    made_once(&MADE, "../fleet/requirements.txt", "dynotraj-ray-venv")
+    made_once(&MADE, "ray")
 }
 
 /// The Python of rerun's environment (tests/python/rerun-requirements.txt), made on first use.
@@ -35,7 +35,7 @@ pub fn ray_python() -> Result<PathBuf, String> {
 /// Why there is no environment, for the test to say it skipped.
 pub fn rerun_python() -> Result<PathBuf, String> {
     static MADE: Made = Mutex::new(None);
-    made_once(&MADE, "python/rerun-requirements.txt", "dynotraj-rerun-venv")
+    made_once(&MADE, "rerun")
 }
 
 /// The Python of kitti2mcap's environment (tests/python/kitti2mcap-requirements.txt), made on
@@ -45,7 +45,7 @@ pub fn rerun_python() -> Result<PathBuf, String> {
 /// Why there is no environment, for the test to say it skipped.
 pub fn kitti2mcap_python() -> Result<PathBuf, String> {
     static MADE: Made = Mutex::new(None);
-    made_once(&MADE, "python/kitti2mcap-requirements.txt", "dynotraj-kitti2mcap-venv")
+    made_once(&MADE, "kitti2mcap")
 }
 
 /// The environment `env` gave, or `None` once the running test (`test` where its thread has
@@ -57,50 +57,22 @@ pub fn or_skip(env: Result<PathBuf, String>, test: &str, missing: &str) -> Optio
 /// An environment made once per test process, or why it could not be.
 type Made = Mutex<Option<Result<PathBuf, String>>>;
 
-/// The environment of `requirements` (relative to this crate) in the folder `name`, made the
-/// first time `made` is asked. The tests of one binary run in one process: the environment is
-/// made once, not twice at the same time.
-fn made_once(made: &Made, requirements: &str, name: &str) -> Result<PathBuf, String> {
+/// The environment `name` of scripts/python-env.sh, asked for once per process (the script's
+/// own lock orders the processes).
+fn made_once(made: &Made, name: &str) -> Result<PathBuf, String> {
     let mut made = made.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    made.get_or_insert_with(|| make_venv(&manifest_dir().join(requirements), name)).clone()
+    made.get_or_insert_with(|| make_venv(name)).clone()
 }
 
-fn make_venv(requirements: &std::path::Path, name: &str) -> Result<PathBuf, String> {
-    let wanted = std::fs::read_to_string(requirements).map_err(|e| format!("{}: {e}", requirements.display()))?;
-    let home_cache = std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache"));
-    let parent = std::env::var_os("DYNOTRAJ_VENV")
-        .map(PathBuf::from)
-        .and_then(|v| v.parent().map(std::path::Path::to_path_buf))
-        .or(home_cache);
-    let venv = parent.map(|p| p.join(name));
-    let venv = venv.ok_or("neither DYNOTRAJ_VENV nor HOME is set")?;
-    let python = venv.join("bin").join("python");
-    // The requirements the environment was completed with: a change of pins installs again.
-    let stamp = venv.join("dynotraj-requirements.txt");
-    if python.exists() && std::fs::read_to_string(&stamp).is_ok_and(|s| s == wanted) {
-        return Ok(python);
+fn make_venv(name: &str) -> Result<PathBuf, String> {
+    let script = manifest_dir().join("../scripts/python-env.sh");
+    let out =
+        Command::new("bash").arg(&script).arg(name).output().map_err(|e| format!("bash {}: {e}", script.display()))?;
+    if out.status.success() {
+        Ok(PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()))
+    } else {
+        Err(format!("{} {name}: {}\n{}", script.display(), out.status, String::from_utf8_lossy(&out.stderr).trim()))
     }
-    let run = |cmd: &mut Command, what: &str| -> Result<(), String> {
-        let out = cmd.output().map_err(|e| format!("{what}: {e}"))?;
-        if out.status.success() {
-            Ok(())
-        } else {
-            Err(format!("{what}: {}\n{}", out.status, String::from_utf8_lossy(&out.stderr).trim()))
-        }
-    };
-    run(Command::new("python3").arg("--version"), "python3")?;
-    if !python.exists() {
-        run(Command::new("python3").args(["-m", "venv"]).arg(&venv), "python3 -m venv")?;
-    }
-    run(Command::new(&python).args(["-m", "pip", "--version"]), "pip in the virtual environment")?;
-    run(
-        Command::new(&python)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check", "-r"])
-            .arg(requirements),
-        &format!("pip install -r {}", requirements.display()),
-    )?;
-    std::fs::write(&stamp, wanted).map_err(|e| format!("{}: {e}", stamp.display()))?;
-    Ok(python)
 }
 
 /// The version of Foxglove's official schemas (the npm package `@foxglove/schemas`) that
