@@ -26,7 +26,8 @@ cargo metadata --locked --format-version 1 >/dev/null
 (cd fuzz && cargo metadata --locked --format-version 1 >/dev/null)
 (cd fuzz && cargo fmt --all --check)
 phase "dependency audit (cargo-deny: licences, bans, sources, advisories)"
-audit_line=$(bash scripts/audit.sh | tee /dev/stderr | tail -1)
+# Appending: a plain `tee /dev/stderr` truncates a log file that stderr is redirected to.
+audit_line=$(bash scripts/audit.sh | tee -a /dev/stderr | tail -1)
 phase "core for thumbv7em-none-eabihf"
 cargo build --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --lib --target thumbv7em-none-eabihf --release
 phase "edge firmware for QEMU mps2-an386 (Cortex-M4F)"
@@ -52,7 +53,9 @@ phase "tests: building, linted by clippy"
 linted cargo nextest run --locked --workspace --all-targets --no-run --cargo-quiet
 phase "the host without the image front-end (no OpenCV): builds, and says what it lacks"
 linted cargo test --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --all-targets --no-run --quiet
-linted cargo test --locked -p dynotraj-sources --no-default-features --lib without_images
+# The same three packages as the build above, so that the same features are unified and its
+# test binaries run as built (sources alone would compile another set of dependencies).
+linted cargo test --locked -p dynotraj-sources -p dynotraj-eval -p dynotraj-cli --no-default-features --lib without_images
 phase "cargo doc (core, edge, ffi): no warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc --locked -p dynotraj-core -p dynotraj-edge -p dynotraj-ffi --no-deps --quiet
 phase "the tests' Python environments (what is left of making them)"

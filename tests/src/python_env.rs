@@ -115,6 +115,13 @@ fn make_foxglove_schemas() -> Result<PathBuf, String> {
     let dump = "const s = require('./package/dist/jsonschema/index.js'); const fs = require('fs'); \
         for (const [name, schema] of Object.entries(s)) fs.writeFileSync(name + '.json', JSON.stringify(schema));";
     run(Command::new("node").args(["-e", dump]), "node")?;
-    std::fs::rename(&staging, &dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    Ok(dir)
+    match std::fs::rename(&staging, &dir) {
+        Ok(()) => Ok(dir),
+        // Another test process made them first (each test runs in a process of its own).
+        Err(_) if dir.join("SceneUpdate.json").is_file() => {
+            let _ = std::fs::remove_dir_all(&staging);
+            Ok(dir)
+        }
+        Err(e) => Err(format!("{}: {e}", dir.display())),
+    }
 }
