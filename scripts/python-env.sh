@@ -13,33 +13,28 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 
-requirements_of() {
+# NAME's folder and requirements file, as "FOLDER REQUIREMENTS" (the path may hold spaces).
+env_of() {
   case "$1" in
-    readers) echo "$root/tests/python/requirements.txt" ;;
-    ray) echo "$root/fleet/requirements.txt" ;;
-    rerun) echo "$root/tests/python/rerun-requirements.txt" ;;
-    kitti2mcap) echo "$root/tests/python/kitti2mcap-requirements.txt" ;;
+    readers) echo "dynotraj-venv $root/tests/python/requirements.txt" ;;
+    ray) echo "dynotraj-ray-venv $root/fleet/requirements.txt" ;;
+    rerun) echo "dynotraj-rerun-venv $root/tests/python/rerun-requirements.txt" ;;
+    kitti2mcap) echo "dynotraj-kitti2mcap-venv $root/tests/python/kitti2mcap-requirements.txt" ;;
     *) echo "python-env: unknown environment '$1' (expected readers, ray, rerun or kitti2mcap)" >&2; return 2 ;;
   esac
 }
 
-folder_of() {
-  case "$1" in
-    readers) echo "dynotraj-venv" ;;
-    *) echo "dynotraj-$1-venv" ;;
-  esac
-}
-
 make_env() {
-  local name="$1" requirements parent venv
-  requirements=$(requirements_of "$name")
+  local name="$1" env requirements folder parent venv
+  env=$(env_of "$name")
+  read -r folder requirements <<<"$env"
   if [ -n "${DYNOTRAJ_VENV:-}" ]; then
     parent=$(dirname "$DYNOTRAJ_VENV")
   else
     parent="${HOME:?neither DYNOTRAJ_VENV nor HOME is set}/.cache"
   fi
   mkdir -p "$parent"
-  venv="$parent/$(folder_of "$name")"
+  venv="$parent/$folder"
   exec 9>"$venv.lock"
   flock 9
   # The requirements the environment was completed with: a change of pins installs again.

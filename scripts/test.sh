@@ -6,16 +6,19 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 source scripts/phases.sh
-trap phase_table EXIT
+# The run's temporary files: the Python environments' log, the tests' log, and the skips the
+# tests record.
+envs_log=$(mktemp)
+log=$(mktemp)
+DYNOTRAJ_SKIP_LOG=$(mktemp)
+trap 'rm -f "$envs_log" "$log" "$DYNOTRAJ_SKIP_LOG"; phase_table' EXIT
 phase "set-up (scripts/setup.sh)"
 bash scripts/setup.sh
 source scripts/env.sh
 # The tests' Python environments (about 1.2 GB from PyPI on a fresh machine) are made beside
 # the compiling instead of by the first test that needs one.
-envs_log=$(mktemp)
 bash scripts/python-env.sh >"$envs_log" 2>&1 &
 envs_pid=$!
-trap 'rm -f "$envs_log"; phase_table' EXIT
 
 phase "rustfmt (workspace, firmware, fuzz)"
 cargo fmt --all --check
@@ -64,10 +67,7 @@ if ! wait "$envs_pid"; then
   cat "$envs_log"
 fi
 phase "tests: running"
-log=$(mktemp)
 export DYNOTRAJ_SKIP_LOG
-DYNOTRAJ_SKIP_LOG=$(mktemp)
-trap 'rm -f "$envs_log" "$log" "$DYNOTRAJ_SKIP_LOG"; phase_table' EXIT
 status=0
 # nextest runs every test in a process of its own and keeps both cores busy across test
 # binaries (cargo test runs one binary at a time, so a binary with one long test left a core

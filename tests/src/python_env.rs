@@ -86,7 +86,7 @@ pub const FOXGLOVE_SCHEMAS_VERSION: &str = "2.1.0";
 /// # Errors
 /// Why there are no schemas, for the test to say it skipped.
 pub fn foxglove_json_schemas() -> Result<PathBuf, String> {
-    static MADE: Mutex<Option<Result<PathBuf, String>>> = Mutex::new(None);
+    static MADE: Made = Mutex::new(None);
     let mut made = MADE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     made.get_or_insert_with(make_foxglove_schemas).clone()
 }

@@ -71,13 +71,13 @@ pub(super) fn normalised_residual(
         // The disparity residual is scaled by pixel_sigma / disparity_sigma in the point model.
         cov[(2, 2)] += sp * sp;
     }
-    let m2 = if now.depth.is_some() {
-        (r.transpose() * cov.try_inverse()? * r).x
+    let (r, m2) = if now.depth.is_some() {
+        (r, (r.transpose() * cov.try_inverse()? * r).x)
     } else {
         let image = r.xy();
-        (image.transpose() * cov.fixed_view::<2, 2>(0, 0).into_owned().try_inverse()? * image).x
+        let m2 = (image.transpose() * cov.fixed_view::<2, 2>(0, 0).into_owned().try_inverse()? * image).x;
+        (nalgebra::Vector3::new(r.x, r.y, 0.0), m2)
     };
-    let r = if now.depth.is_some() { r } else { nalgebra::Vector3::new(r.x, r.y, 0.0) };
     m2.is_finite().then_some((r, m2))
 }
 
