@@ -82,13 +82,14 @@ pub fn motion_segmentation(
     let _ = writeln!(
         header,
         "segmentation: {} frames, camera motion not fitted in {}, probes judged {}, moving {}, in no object {}, \
-         objects reported {}; masks {:.1} ms a frame of {:.1} ms\n",
+         objects reported {} ({} coasted); masks {:.1} ms a frame of {:.1} ms\n",
         stats.frames,
         stats.motion_ego_failed,
         stats.motion_probes_judged,
         stats.motion_probes_moving,
         stats.motion_probes_unclustered,
         stats.motion_objects,
+        stats.motion_objects_coasted,
         per_frame(times.masks),
         per_frame(times.wall),
     );

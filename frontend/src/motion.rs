@@ -15,7 +15,8 @@
 //! within that plus the stereo depth error) into clusters; a cluster of at least
 //! [`MotionParams::min_points`] probes is an object. Its id is the one most of its probes had in
 //! the previous frame, else a fresh one; its class (pedestrian or car) is read from its size and
-//! kept by its id. Each object becomes a box around its probes, grown by
+//! kept by its id. A reported object that is not found is followed on the probes it held for up
+//! to [`MotionParams::coast_frames`] frames (`coast`). Each object becomes a box around its probes, grown by
 //! [`MotionParams::grow`], which [`super::masks::from_boxes`] then turns into a mask by depth
 //! consistency, as for detector boxes.
 
@@ -36,6 +37,7 @@ use super::masks::Detection;
 use super::stats::FrontEndStats;
 
 mod cluster;
+mod coast;
 mod dense;
 mod one_ended;
 mod params;
@@ -140,8 +142,10 @@ struct Probe {
 #[derive(Debug, Clone, Copy)]
 struct Followed {
     class: ObjectClass,
-    /// Frames in a row it was found, up to now.
+    /// Frames in a row it was found (or coasted through), up to now.
     streak: u32,
+    /// Frames since it was last found (0: found this frame).
+    missed: u32,
 }
 
 /// The motion segmentation's state between frames.
@@ -364,8 +368,12 @@ impl MotionSegmenter {
             out.extend(self.follow(id, (bbox, size_m), stats));
             members_of.push((id, probes));
         }
+        // A probe keeps its object only while the object coasts: a found object's id goes to
+        // its members alone (kept longer, the id drifts onto the static edges beside it).
         for q in &mut self.probes {
-            q.object = None;
+            if q.object.is_none_or(|id| ids_now.contains(&id)) {
+                q.object = None;
+            }
         }
         for (id, probes) in members_of {
             for i in probes {
@@ -378,7 +386,7 @@ impl MotionSegmenter {
             }
         }
         self.fates = self.probes.iter().zip(fates).filter_map(|(q, f)| q.seen.back().map(|s| (s.u, s.v, f))).collect();
-        self.forget_unseen(&ids_now);
+        out.extend(self.coast(&ids_now, intrinsics, stats));
         out
     }
 
@@ -397,11 +405,6 @@ impl MotionSegmenter {
         let guess = since.get(n.checked_sub(1)?)?;
         let corrs: Vec<Correspondence> = self.probes.iter().filter_map(|q| step(q, n, model)).collect();
         fit_pose(&corrs, Some(guess), fit_params, model, &mut self.rng).ok().map(|fit| (n, fit.pose))
-    }
-
-    /// Drops the objects not found this frame (their streak starts again).
-    fn forget_unseen(&mut self, seen: &[u16]) {
-        self.objects.retain(|id, _| seen.contains(id));
     }
 
     /// The id of the cluster of `probes`: the one most of them had, when no cluster of this
@@ -444,8 +447,9 @@ impl MotionSegmenter {
         (bbox, size_m): ([f32; 4], (f32, f32)),
         stats: &mut FrontEndStats,
     ) -> Option<Detection> {
-        let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0 });
+        let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0, missed: 0 });
         followed.streak += 1;
+        followed.missed = 0;
         (followed.streak >= self.params.confirm_frames).then(|| {
             stats.motion_objects += 1;
             Detection { bbox, class: followed.class, object_id: Some(id) }

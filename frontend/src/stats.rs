@@ -56,12 +56,15 @@ pub struct FrontEndStats {
     pub motion_probes_unclustered: u64,
     /// Objects the motion segmentation reported, summed over frames.
     pub motion_objects: u64,
+    /// Of those, objects not found in the frame but reported from the probes they held
+    /// ([`crate::motion::MotionParams::coast_frames`]).
+    pub motion_objects_coasted: u64,
 }
 
 impl FrontEndStats {
     /// Every counter with its name, in declaration order (for tables).
     #[must_use]
-    pub const fn named(&self) -> [(&'static str, u64); 25] {
+    pub const fn named(&self) -> [(&'static str, u64); 26] {
         [
             ("frames", self.frames),
             ("static_tracked", self.static_tracked),
@@ -88,6 +91,7 @@ impl FrontEndStats {
             ("motion_probes_moving", self.motion_probes_moving),
             ("motion_probes_unclustered", self.motion_probes_unclustered),
             ("motion_objects", self.motion_objects),
+            ("motion_objects_coasted", self.motion_objects_coasted),
         ]
     }
 
@@ -95,7 +99,7 @@ impl FrontEndStats {
     #[must_use]
     pub fn plus(&self, other: &Self) -> Self {
         let mut out = *self;
-        let pairs: [(&mut u64, u64); 25] = [
+        let pairs: [(&mut u64, u64); 26] = [
             (&mut out.frames, other.frames),
             (&mut out.static_tracked, other.static_tracked),
             (&mut out.static_lost, other.static_lost),
@@ -121,6 +125,7 @@ impl FrontEndStats {
             (&mut out.motion_probes_moving, other.motion_probes_moving),
             (&mut out.motion_probes_unclustered, other.motion_probes_unclustered),
             (&mut out.motion_objects, other.motion_objects),
+            (&mut out.motion_objects_coasted, other.motion_objects_coasted),
         ];
         for (a, b) in pairs {
             *a += b;

@@ -297,7 +297,7 @@ impl MotionSegmenter {
             self.fates.push((s.now.u, s.now.v, if found { Fate::InObject } else { Fate::Unclustered }));
         }
         self.dense_labels = labels;
-        self.forget_unseen(&ids_now);
+        out.extend(self.coast(&ids_now, intrinsics, stats));
         out
     }
 }
