@@ -15,10 +15,10 @@
 //! within that plus the stereo depth error) into clusters; a cluster of at least
 //! [`MotionParams::min_points`] probes is an object. Its id is the one most of its probes had in
 //! the previous frame, else a fresh one; its class (pedestrian or car) is read from its size and
-//! kept by its id. A reported object that is not found is followed on the probes it held for up
-//! to [`MotionParams::coast_frames`] frames (`coast`). Each object becomes a box around its probes, grown by
-//! [`MotionParams::grow`], which [`super::masks::from_boxes`] then turns into a mask by depth
-//! consistency, as for detector boxes.
+//! kept by its id. An object found for long that is then missed is followed on the probes it
+//! held for up to [`MotionParams::coast_frames`] frames (`coast`). Each object becomes a box
+//! around its probes, grown by [`MotionParams::grow`], which [`super::masks::from_boxes`] then
+//! turns into a mask by depth consistency, as for detector boxes.
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -142,7 +142,7 @@ struct Probe {
 #[derive(Debug, Clone, Copy)]
 struct Followed {
     class: ObjectClass,
-    /// Frames in a row it was found (or coasted through), up to now.
+    /// Frames in a row it was found, up to its last find (coasting keeps it).
     streak: u32,
     /// Frames since it was last found (0: found this frame).
     missed: u32,
