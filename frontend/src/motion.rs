@@ -371,7 +371,7 @@ impl MotionSegmenter {
         // A probe keeps its object only while the object coasts: a found object's id goes to
         // its members alone (kept longer, the id drifts onto the static edges beside it).
         for q in &mut self.probes {
-            if q.object.is_none_or(|id| ids_now.contains(&id)) {
+            if q.object.is_some_and(|id| ids_now.contains(&id)) {
                 q.object = None;
             }
         }

@@ -61,7 +61,7 @@ mod tests {
 
     #[test]
     fn a_reported_object_that_is_missed_coasts_on_its_probes_then_is_forgotten() {
-        let intrinsics = dynotraj_core::estimate::Intrinsics::KITTI_0926;
+        let intrinsics = Intrinsics::KITTI_0926;
         let probe = |u: f32, object: u16| Probe {
             seen: VecDeque::from([Seen { u, v: 200.0, depth: Some(10.0), around: None }]),
             object: Some(object),
