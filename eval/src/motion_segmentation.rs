@@ -3,6 +3,7 @@
 //! objects, precision of segments, id switches, frames to the first detection), with the
 //! segmentation's counters and the front-end's stage times.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -82,7 +83,7 @@ pub fn motion_segmentation(
     let _ = writeln!(
         header,
         "segmentation: {} frames, camera motion not fitted in {}, probes judged {}, moving {}, in no object {}, \
-         objects reported {} ({} coasted); masks {:.1} ms a frame of {:.1} ms\n",
+         objects reported {} ({} coasted), {} found again after they were forgotten; masks {:.1} ms a frame of {:.1} ms\n",
         stats.frames,
         stats.motion_ego_failed,
         stats.motion_probes_judged,
@@ -90,6 +91,7 @@ pub fn motion_segmentation(
         stats.motion_probes_unclustered,
         stats.motion_objects,
         stats.motion_objects_coasted,
+        stats.motion_objects_reacquired,
         per_frame(times.masks),
         per_frame(times.wall),
     );
@@ -118,26 +120,34 @@ pub fn motion_segmentation(
         );
     }
     header.push('\n');
-    let _ = writeln!(header, "probes on moving objects, by what became of them:\n");
-    let _ = writeln!(
-        header,
-        "| range | no depth | young | static | unconfirmed | unclustered | in an object |\n|---|---|---|---|---|---|---|"
-    );
-    for (b, _) in BANDS.iter().enumerate() {
-        let n = |f: Fate| scores.fates.get(&(b, f)).copied().unwrap_or(0);
+    let fates_table = |header: &mut String, title: &str, fates: &BTreeMap<(usize, Fate), usize>| {
+        let _ = writeln!(header, "{title}\n");
         let _ = writeln!(
             header,
-            "| {} | {} | {} | {} | {} | {} | {} |",
-            band_name(b),
-            n(Fate::NoDepth),
-            n(Fate::Young),
-            n(Fate::Static),
-            n(Fate::Unconfirmed),
-            n(Fate::Unclustered),
-            n(Fate::InObject)
+            "| range | no depth | young | static | unconfirmed | unclustered | in an object |\n|---|---|---|---|---|---|---|"
         );
-    }
-    header.push('\n');
+        for (b, _) in BANDS.iter().enumerate() {
+            let n = |f: Fate| fates.get(&(b, f)).copied().unwrap_or(0);
+            let _ = writeln!(
+                header,
+                "| {} | {} | {} | {} | {} | {} | {} |",
+                band_name(b),
+                n(Fate::NoDepth),
+                n(Fate::Young),
+                n(Fate::Static),
+                n(Fate::Unconfirmed),
+                n(Fate::Unclustered),
+                n(Fate::InObject)
+            );
+        }
+        header.push('\n');
+    };
+    fates_table(&mut header, "probes on moving objects, by what became of them:", &scores.fates);
+    fates_table(
+        &mut header,
+        "of them, probes on objects that a segment touched but covered less than half of:",
+        &scores.fates_undercovered,
+    );
     let _ = writeln!(header, "moving objects' frames by the probes on them (found / frames):\n");
     let buckets: Vec<String> = PROBE_BUCKETS
         .iter()
@@ -179,6 +189,9 @@ fn recall_table(scores: &MotionScores) -> Table {
         ("found", ColumnKind::Int),
         ("recall", ColumnKind::Num),
         ("touched by a segment", ColumnKind::Num),
+        ("half covered by its segments together", ColumnKind::Num),
+        ("standing still", ColumnKind::Int),
+        ("standing still, found", ColumnKind::Int),
     ]);
     for (&(band, class), c) in &scores.found {
         data.push(vec![
@@ -188,6 +201,9 @@ fn recall_table(scores: &MotionScores) -> Table {
             Cell::int(c.found),
             share(c.found, c.visible),
             share(c.touched, c.visible),
+            share(c.covered_together, c.visible),
+            Cell::int(c.at_rest),
+            Cell::int(c.at_rest_found),
         ]);
     }
     let headers: Vec<String> = data.names().into_iter().map(str::to_string).collect();

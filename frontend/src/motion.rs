@@ -17,8 +17,9 @@
 //! the previous frame, else a fresh one; its class (pedestrian or car) is read from its size and
 //! kept by its id. An object found for long that is then missed is followed on the probes it
 //! held for up to [`MotionParams::coast_frames`] frames (`coast`). Each object becomes a box
-//! around its probes, grown by [`MotionParams::grow`], which [`super::masks::from_boxes`] then
-//! turns into a mask by depth consistency, as for detector boxes.
+//! around its probes, grown by [`MotionParams::grow`] and to at least its class's size at its
+//! depth ([`MotionParams::min_box_m`]), which [`super::masks::from_boxes`] then turns into a
+//! mask by depth consistency, as for detector boxes.
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -41,8 +42,9 @@ mod coast;
 mod dense;
 mod one_ended;
 mod params;
+mod reacquire;
 mod residual;
-use cluster::{class_of, clusters, coherent, grown_box};
+use cluster::{Extent, class_of, clusters, coherent, grown_box};
 pub use one_ended::{OneEndedCorner, OneEndedSegments, segments_one_ended};
 pub use params::MotionParams;
 use residual::{least_residual, normalised_residual, step};
@@ -146,6 +148,8 @@ struct Followed {
     streak: u32,
     /// Frames since it was last found (0: found this frame).
     missed: u32,
+    /// Where it is, once found.
+    place: Option<reacquire::Place>,
 }
 
 /// The motion segmentation's state between frames.
@@ -157,6 +161,8 @@ pub struct MotionSegmenter {
     /// Camera motions `T_{k, k-1}` of the last frames, newest last.
     motions: VecDeque<Pose3>,
     objects: BTreeMap<u16, Followed>,
+    /// Objects forgotten lately, which a new cluster where they would be takes the id of.
+    lost: Vec<reacquire::Lost>,
     next_id: u16,
     rng: Pcg32,
     /// The probes judged in the last frame.
@@ -186,6 +192,7 @@ impl MotionSegmenter {
             probes: Vec::new(),
             motions: VecDeque::new(),
             objects: BTreeMap::new(),
+            lost: Vec::new(),
             next_id: FIRST_ID,
             rng: Pcg32::new(0x6d6f_7469_6f6e),
             judged: Vec::new(),
@@ -264,6 +271,7 @@ impl MotionSegmenter {
                     q.object = None;
                 }
                 self.objects.clear();
+                self.lost.clear();
                 self.dense_labels.clear();
                 if let Some(flow) = &mut self.dense {
                     flow.restart();
@@ -272,6 +280,7 @@ impl MotionSegmenter {
             }
         };
         self.motions.push_back(motion);
+        self.advance_places(&motion);
         while self.motions.len() > p.history() - 1 {
             self.motions.pop_front();
         }
@@ -353,8 +362,8 @@ impl MotionSegmenter {
             let agree = coherent(&members, &directions, p.min_coherence);
             if p.dense_probes > 0 && agree {
                 let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
-                if let Some((bbox, _)) = self.extent(&probes, intrinsics) {
-                    self.cluster_boxes.push(bbox);
+                if let Some(extent) = self.extent(&probes, intrinsics) {
+                    self.cluster_boxes.push(extent.bbox);
                 }
             }
             if members.len() < p.min_points || !agree {
@@ -362,10 +371,14 @@ impl MotionSegmenter {
                 continue;
             }
             let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
-            let Some((bbox, size_m)) = self.extent(&probes, intrinsics) else { continue };
-            let id = self.id_of(&probes, &ids_now);
+            let Some(extent) = self.extent(&probes, intrinsics) else { continue };
+            let centre =
+                members.iter().filter_map(|&m| moving.get(m)).map(|(_, x)| x.coords).sum::<nalgebra::Vector3<f32>>()
+                    / members.len() as f32;
+            let id = self.id_of(&probes, &ids_now, &centre.into(), stats);
             ids_now.push(id);
-            out.extend(self.follow(id, (bbox, size_m), stats));
+            out.extend(self.follow(id, extent, intrinsics, stats));
+            self.place_found(id, centre.into());
             members_of.push((id, probes));
         }
         // A probe keeps its object only while the object coasts: a found object's id goes to
@@ -407,14 +420,27 @@ impl MotionSegmenter {
         fit_pose(&corrs, Some(guess), fit_params, model, &mut self.rng).ok().map(|fit| (n, fit.pose))
     }
 
-    /// The id of the cluster of `probes`: the one most of them had, when no cluster of this
-    /// frame took it already, else a fresh one.
-    fn id_of(&mut self, probes: &[usize], taken: &[u16]) -> u16 {
+    /// The id of the cluster of `probes` centred at `centre`: the one most of them had, when no
+    /// cluster of this frame took it already, else a forgotten object's found again there
+    /// ([`MotionParams::reacquire_frames`]), else a fresh one.
+    fn id_of(
+        &mut self,
+        probes: &[usize],
+        taken: &[u16],
+        centre: &nalgebra::Point3<f32>,
+        stats: &mut FrontEndStats,
+    ) -> u16 {
         let mut votes: BTreeMap<u16, usize> = BTreeMap::new();
         for q in probes.iter().filter_map(|&i| self.probes.get(i)) {
             if let Some(id) = q.object {
                 *votes.entry(id).or_default() += 1;
             }
+        }
+        if !votes.keys().any(|id| !taken.contains(id))
+            && let Some(id) = self.reacquire(centre)
+        {
+            stats.motion_objects_reacquired += 1;
+            return id;
         }
         self.id_by_votes(votes, taken)
     }
@@ -433,25 +459,33 @@ impl MotionSegmenter {
         )
     }
 
-    /// The grown box of `probes` and the object's width and height, metres.
-    fn extent(&self, probes: &[usize], intrinsics: &Intrinsics) -> Option<([f32; 4], (f32, f32))> {
+    /// The grown box of `probes`, the object's width and height, metres, and its depth.
+    fn extent(&self, probes: &[usize], intrinsics: &Intrinsics) -> Option<Extent> {
         let seen = probes.iter().filter_map(|&i| self.probes.get(i)?.seen.back().copied());
         grown_box(seen, self.params.grow, intrinsics)
     }
 
-    /// Counts a cluster found this frame as object `id` with `bbox` and size `size_m`, and
-    /// reports it once it was found in enough frames in a row.
+    /// Counts a cluster found this frame as object `id` at `extent`, and reports it once it was
+    /// found in enough frames in a row, boxed at least as large as its class
+    /// ([`MotionParams::min_box_m`]).
     fn follow(
         &mut self,
         id: u16,
-        (bbox, size_m): ([f32; 4], (f32, f32)),
+        extent: Extent,
+        intrinsics: &Intrinsics,
         stats: &mut FrontEndStats,
     ) -> Option<Detection> {
-        let followed = self.objects.entry(id).or_insert(Followed { class: class_of(size_m), streak: 0, missed: 0 });
+        let followed = self.objects.entry(id).or_insert(Followed {
+            class: class_of(extent.size_m),
+            streak: 0,
+            missed: 0,
+            place: None,
+        });
         followed.streak += 1;
         followed.missed = 0;
         (followed.streak >= self.params.confirm_frames).then(|| {
             stats.motion_objects += 1;
+            let bbox = extent.at_least(self.params.min_box_m(followed.class), intrinsics);
             Detection { bbox, class: followed.class, object_id: Some(id) }
         })
     }

@@ -105,6 +105,7 @@ pub fn track_motion_scored(
             truth_depth: &f.depth,
             segments,
             moving: &moving,
+            at_rest: &at_rest(sim, k, min_step_m),
         };
         scores.add_frame(&frame);
         scores.add_residuals(&fe.motion.judged, &frame);
@@ -114,3 +115,24 @@ pub fn track_motion_scored(
     scores.end_sequence();
     Ok(RenderingTracked { frames: out, times: fe.times, stats: fe.tracker.stats })
 }
+
+/// The objects of frame `k` of `sim` that moved less than `min_step_m` a frame on average over
+/// the last [`REST_FRAMES`] frames (or as many as they were seen in).
+fn at_rest(sim: &ImageSim, k: usize, min_step_m: f64) -> std::collections::BTreeSet<u16> {
+    let Some(now) = sim.truth.get(k) else { return std::collections::BTreeSet::new() };
+    let then = k.saturating_sub(REST_FRAMES);
+    now.iter()
+        .filter(|o| {
+            (then..k)
+                .find_map(|j| {
+                    let before = sim.truth.get(j)?.iter().find(|b| b.object_id == o.object_id)?;
+                    Some((o.pose.translation.vector - before.pose.translation.vector).norm() / (k - j) as f64)
+                })
+                .is_some_and(|step| step < min_step_m)
+        })
+        .map(|o| o.object_id)
+        .collect()
+}
+
+/// The frames over which an object's motion decides whether it stands still in a frame.
+const REST_FRAMES: usize = 3;

@@ -59,12 +59,15 @@ pub struct FrontEndStats {
     /// Of those, objects not found in the frame but reported from the probes they held
     /// ([`crate::motion::MotionParams::coast_frames`]).
     pub motion_objects_coasted: u64,
+    /// Forgotten objects whose id a new cluster took back
+    /// ([`crate::motion::MotionParams::reacquire_frames`]).
+    pub motion_objects_reacquired: u64,
 }
 
 impl FrontEndStats {
     /// Every counter with its name, in declaration order (for tables).
     #[must_use]
-    pub const fn named(&self) -> [(&'static str, u64); 26] {
+    pub const fn named(&self) -> [(&'static str, u64); 27] {
         [
             ("frames", self.frames),
             ("static_tracked", self.static_tracked),
@@ -92,6 +95,7 @@ impl FrontEndStats {
             ("motion_probes_unclustered", self.motion_probes_unclustered),
             ("motion_objects", self.motion_objects),
             ("motion_objects_coasted", self.motion_objects_coasted),
+            ("motion_objects_reacquired", self.motion_objects_reacquired),
         ]
     }
 
@@ -99,7 +103,7 @@ impl FrontEndStats {
     #[must_use]
     pub fn plus(&self, other: &Self) -> Self {
         let mut out = *self;
-        let pairs: [(&mut u64, u64); 26] = [
+        let pairs: [(&mut u64, u64); 27] = [
             (&mut out.frames, other.frames),
             (&mut out.static_tracked, other.static_tracked),
             (&mut out.static_lost, other.static_lost),
@@ -126,6 +130,7 @@ impl FrontEndStats {
             (&mut out.motion_probes_unclustered, other.motion_probes_unclustered),
             (&mut out.motion_objects, other.motion_objects),
             (&mut out.motion_objects_coasted, other.motion_objects_coasted),
+            (&mut out.motion_objects_reacquired, other.motion_objects_reacquired),
         ];
         for (a, b) in pairs {
             *a += b;

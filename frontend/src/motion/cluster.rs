@@ -68,13 +68,34 @@ pub(super) fn class_of((width_m, height_m): (f32, f32)) -> ObjectClass {
     if width_m < 1.2 && height_m > 0.8 && height_m > 1.2 * width_m { ObjectClass::Pedestrian } else { ObjectClass::Car }
 }
 
-/// The box around the observations `seen` grown by `grow` of its size on each side, and the
-/// object's width and height at their median depth, metres.
-pub(super) fn grown_box(
-    seen: impl Iterator<Item = Seen>,
-    grow: f32,
-    intrinsics: &Intrinsics,
-) -> Option<([f32; 4], (f32, f32))> {
+/// A cluster's place in the image: its box, its size and its depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Extent {
+    /// `[left, top, right, bottom]`, pixels.
+    pub bbox: [f32; 4],
+    /// Width and height at the median depth, metres.
+    pub size_m: (f32, f32),
+    /// The median depth, metres.
+    pub depth_m: f32,
+}
+
+impl Extent {
+    /// The box grown to at least `min_m` (width, height, metres) at its depth, about its
+    /// centre across and upward from its bottom: where the moving probes hold only part of an
+    /// object (its textured part, or the part with depth), the box still spans what an object
+    /// of its class spans at least. Its bottom stays, since below an object lies the road at
+    /// the object's own depth, which the mask's depth test would keep.
+    pub fn at_least(self, (min_w, min_h): (f32, f32), intrinsics: &Intrinsics) -> [f32; 4] {
+        let b = self.bbox;
+        let (w, h) = (min_w * intrinsics.fx / self.depth_m, min_h * intrinsics.fy / self.depth_m);
+        let (cx, half_w) = (0.5 * (b[0] + b[2]), 0.5 * (b[2] - b[0]).max(w));
+        [cx - half_w, b[3] - (b[3] - b[1]).max(h), cx + half_w, b[3]]
+    }
+}
+
+/// The box around the observations `seen` grown by `grow` of its size on each side, the
+/// object's width and height at their median depth, metres, and that depth.
+pub(super) fn grown_box(seen: impl Iterator<Item = Seen>, grow: f32, intrinsics: &Intrinsics) -> Option<Extent> {
     let mut b = [f32::MAX, f32::MAX, f32::MIN, f32::MIN];
     let mut depths = Vec::new();
     for s in seen {
@@ -85,7 +106,7 @@ pub(super) fn grown_box(
     let z = *depths.get(depths.len() / 2)?;
     let (w, h) = (b[2] - b[0], b[3] - b[1]);
     let size_m = (w * z / intrinsics.fx, h * z / intrinsics.fy);
-    Some(([b[0] - grow * w, b[1] - grow * h, b[2] + grow * w, b[3] + grow * h], size_m))
+    Some(Extent { bbox: [b[0] - grow * w, b[1] - grow * h, b[2] + grow * w, b[3] + grow * h], size_m, depth_m: z })
 }
 
 #[cfg(test)]
@@ -110,5 +131,21 @@ mod tests {
         assert!(coherence([x, -x, y, -y].iter()) < 1e-6, "noise every way");
         assert!((coherence([x, y].iter()) - std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
         assert_eq!(class_of((1.8, 1.5)), ObjectClass::Car);
+    }
+
+    #[test]
+    fn a_box_smaller_than_its_class_grows_across_and_upward_and_a_larger_one_stays() {
+        let k = Intrinsics::KITTI_0926;
+        let seen = |u: f32, v: f32| Seen { u, v, depth: Some(20.0), around: None };
+        let small = grown_box([seen(95.0, 95.0), seen(105.0, 105.0)].into_iter(), 0.0, &k).unwrap();
+        assert_eq!(small.depth_m, 20.0);
+        let b = small.at_least((2.0, 1.5), &k);
+        let (w, h) = (2.0 * k.fx / 20.0, 1.5 * k.fy / 20.0);
+        assert!((b[2] - b[0] - w).abs() < 1e-3 && (b[3] - b[1] - h).abs() < 1e-3, "{b:?}");
+        assert!(((b[0] + b[2]) / 2.0 - 100.0).abs() < 1e-3 && b[3] == 105.0, "centred across, the bottom kept");
+        let wide = grown_box([seen(0.0, 95.0), seen(300.0, 105.0)].into_iter(), 0.0, &k).unwrap();
+        let b = wide.at_least((2.0, 1.5), &k);
+        assert_eq!((b[0], b[2]), (0.0, 300.0), "wider than a car already");
+        assert!((b[3] - b[1] - h).abs() < 1e-3);
     }
 }

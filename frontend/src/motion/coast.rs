@@ -22,25 +22,32 @@ impl MotionSegmenter {
         let p = self.params;
         let mut out = Vec::new();
         let probes = &self.probes;
+        let mut forgotten = Vec::new();
         self.objects.retain(|id, followed| {
             if seen.contains(id) {
                 return true;
             }
             followed.missed += 1;
             if followed.streak < p.confirm_frames.max(p.coast_after_frames) || followed.missed > p.coast_frames {
+                forgotten.push((*id, *followed));
                 return false;
             }
             let held: Vec<Seen> =
                 probes.iter().filter(|q| q.object == Some(*id)).filter_map(|q| q.seen.back().copied()).collect();
             if held.len() < MIN_COASTED_PROBES {
+                forgotten.push((*id, *followed));
                 return false;
             }
-            let Some((bbox, _)) = grown_box(held.into_iter(), p.grow, intrinsics) else { return false };
+            let Some(extent) = grown_box(held.into_iter(), p.grow, intrinsics) else { return false };
+            let bbox = extent.at_least(p.min_box_m(followed.class), intrinsics);
             stats.motion_objects += 1;
             stats.motion_objects_coasted += 1;
             out.push(Detection { bbox, class: followed.class, object_id: Some(*id) });
             true
         });
+        for (id, followed) in forgotten {
+            self.forget(id, followed);
+        }
         for q in &mut self.probes {
             if q.object.is_some_and(|id| !self.objects.contains_key(&id)) {
                 q.object = None;
@@ -57,7 +64,7 @@ mod tests {
     use dynotraj_core::wire::ObjectClass;
 
     use super::*;
-    use crate::motion::{Followed, MotionParams, Probe};
+    use crate::motion::{Extent, Followed, MotionParams, Probe};
 
     #[test]
     fn a_reported_object_that_is_missed_coasts_on_its_probes_then_is_forgotten() {
@@ -67,15 +74,21 @@ mod tests {
             object: Some(object),
             streak: 0,
         };
-        let params = MotionParams { coast_frames: 2, coast_after_frames: 3, ..MotionParams::default() };
+        // Boxes as the probes give them (no least size), so that the box shows which it used.
+        let params = MotionParams {
+            coast_frames: 2,
+            coast_after_frames: 3,
+            min_vehicle_box_m: (0.0, 0.0),
+            ..MotionParams::default()
+        };
         let mut seg = MotionSegmenter::new(params);
         // Object 1 was found in 3 frames in a row and holds four probes; object 2 was found in
         // 2 (reported, but not long enough to coast); object 3 holds too few probes to be boxed.
         seg.probes = vec![probe(100.0, 1), probe(110.0, 1), probe(120.0, 1), probe(130.0, 1), probe(300.0, 2)];
         seg.probes.extend([probe(400.0, 2), probe(410.0, 2), probe(500.0, 3), probe(510.0, 3)]);
-        seg.objects.insert(1, Followed { class: ObjectClass::Car, streak: 3, missed: 0 });
-        seg.objects.insert(2, Followed { class: ObjectClass::Car, streak: 2, missed: 0 });
-        seg.objects.insert(3, Followed { class: ObjectClass::Car, streak: 5, missed: 0 });
+        seg.objects.insert(1, Followed { class: ObjectClass::Car, streak: 3, missed: 0, place: None });
+        seg.objects.insert(2, Followed { class: ObjectClass::Car, streak: 2, missed: 0, place: None });
+        seg.objects.insert(3, Followed { class: ObjectClass::Car, streak: 5, missed: 0, place: None });
         let mut stats = FrontEndStats::default();
         for frame in 1..=3 {
             let out = seg.coast(&[], &intrinsics, &mut stats);
@@ -97,9 +110,10 @@ mod tests {
         assert_eq!((stats.motion_objects_coasted, stats.motion_objects), (2, 2));
         assert!(seg.objects.is_empty() && seg.probes.iter().all(|q| q.object.is_none()));
         // Found again within its coast, an object keeps its streak: it is reported at once.
-        seg.objects.insert(4, Followed { class: ObjectClass::Pedestrian, streak: 2, missed: 1 });
+        seg.objects.insert(4, Followed { class: ObjectClass::Pedestrian, streak: 2, missed: 1, place: None });
         assert!(seg.coast(&[4], &intrinsics, &mut stats).is_empty(), "found objects are not coasted");
-        let again = seg.follow(4, ([0.0, 0.0, 10.0, 10.0], (0.5, 1.7)), &mut stats);
+        let extent = Extent { bbox: [0.0, 0.0, 10.0, 10.0], size_m: (0.5, 1.7), depth_m: 10.0 };
+        let again = seg.follow(4, extent, &intrinsics, &mut stats);
         assert_eq!(again.map(|d| (d.object_id, d.class)), Some((Some(4), ObjectClass::Pedestrian)));
         assert_eq!(seg.objects.get(&4).map(|f| (f.streak, f.missed)), Some((3, 0)));
     }

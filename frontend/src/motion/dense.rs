@@ -283,7 +283,7 @@ impl MotionSegmenter {
             }
             let id = self.id_by_votes(votes, &ids_now);
             ids_now.push(id);
-            out.extend(self.follow(id, extent, stats));
+            out.extend(self.follow(id, extent, intrinsics, stats));
             for (&m, s) in members.iter().zip(&samples) {
                 if let Some(l) = labels.get_mut(s.cell) {
                     *l = id;
