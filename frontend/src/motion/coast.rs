@@ -38,7 +38,10 @@ impl MotionSegmenter {
                 forgotten.push((*id, *followed));
                 return false;
             }
-            let Some(extent) = grown_box(held.into_iter(), p.grow, intrinsics) else { return false };
+            let Some(extent) = grown_box(held.into_iter(), p.grow, intrinsics) else {
+                forgotten.push((*id, *followed));
+                return false;
+            };
             let bbox = extent.at_least(p.min_box_m(followed.class), intrinsics);
             stats.motion_objects += 1;
             stats.motion_objects_coasted += 1;
