@@ -82,7 +82,8 @@ impl MotionSegmenter {
     }
 
     /// The id of the forgotten object nearest where a new cluster with `centre` lies, within
-    /// the gate, which is followed again (with its streak, so it is reported at once).
+    /// the gate, which is followed again. It starts its streak afresh, so that it is reported
+    /// and coasted as a new object would be: only its id differs.
     pub(super) fn reacquire(&mut self, centre: &Point3<f32>) -> Option<u16> {
         let (at, _) = self
             .lost
@@ -92,7 +93,7 @@ impl MotionSegmenter {
             .min_by(|a, b| a.1.total_cmp(&b.1))?;
         let lost = self.lost.get(at).copied()?;
         self.lost.remove(at);
-        self.objects.insert(lost.id, Followed { missed: 0, ..lost.followed });
+        self.objects.insert(lost.id, Followed { streak: 0, missed: 0, ..lost.followed });
         Some(lost.id)
     }
 
@@ -136,7 +137,7 @@ mod tests {
         // Two frames on it would be at x 2, z 18: a cluster far from there takes no id.
         assert_eq!(seg.reacquire(&Point3::new(-3.0, 0.0, 18.0)), None);
         assert_eq!(seg.reacquire(&Point3::new(2.3, 0.1, 18.5)), Some(7));
-        assert_eq!(seg.objects.get(&7).map(|f| (f.streak, f.missed)), Some((10, 0)));
+        assert_eq!(seg.objects.get(&7).map(|f| (f.streak, f.missed)), Some((0, 0)));
         assert!(seg.lost.is_empty());
         // Seen again, its step is what it moved apart from the camera.
         seg.advance_places(&t);
