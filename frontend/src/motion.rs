@@ -372,13 +372,14 @@ impl MotionSegmenter {
             }
             let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
             let Some(extent) = self.extent(&probes, intrinsics) else { continue };
-            let centre =
-                members.iter().filter_map(|&m| moving.get(m)).map(|(_, x)| x.coords).sum::<nalgebra::Vector3<f32>>()
-                    / members.len() as f32;
-            let id = self.id_of(&probes, &ids_now, &centre.into(), stats);
+            let centre: nalgebra::Point3<f32> =
+                (members.iter().filter_map(|&m| moving.get(m)).map(|(_, x)| x.coords).sum::<nalgebra::Vector3<f32>>()
+                    / members.len() as f32)
+                    .into();
+            let id = self.id_of(&probes, &ids_now, &centre, stats);
             ids_now.push(id);
             out.extend(self.follow(id, extent, intrinsics, stats));
-            self.place_found(id, centre.into());
+            self.place_found(id, centre);
             members_of.push((id, probes));
         }
         // A probe keeps its object only while the object coasts: a found object's id goes to
@@ -436,7 +437,7 @@ impl MotionSegmenter {
                 *votes.entry(id).or_default() += 1;
             }
         }
-        if !votes.keys().any(|id| !taken.contains(id))
+        if votes.keys().all(|id| taken.contains(id))
             && let Some(id) = self.reacquire(centre)
         {
             stats.motion_objects_reacquired += 1;
@@ -485,8 +486,7 @@ impl MotionSegmenter {
         followed.missed = 0;
         (followed.streak >= self.params.confirm_frames).then(|| {
             stats.motion_objects += 1;
-            let bbox = extent.at_least(self.params.min_box_m(followed.class), intrinsics);
-            Detection { bbox, class: followed.class, object_id: Some(id) }
+            extent.reported(id, followed.class, &self.params, intrinsics)
         })
     }
 

@@ -4,7 +4,7 @@
 //! segment is false when most of its pixels belong to no moving object), id switches, and the
 //! frames from an object's first visible frame to its first detection.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use dynotraj_core::wire::ObjectClass;
 
@@ -69,7 +69,7 @@ pub struct FrameSegments<'a> {
     /// The moving objects among the truth ids, with their classes.
     pub moving: &'a BTreeMap<u16, ObjectClass>,
     /// Those of them that stand (nearly) still in this frame.
-    pub at_rest: &'a std::collections::BTreeSet<u16>,
+    pub at_rest: &'a BTreeSet<u16>,
 }
 
 impl FrameSegments<'_> {
@@ -116,7 +116,7 @@ pub struct MotionScores {
     /// The objects of the last frame added, as counted for recall: band and whether found.
     last_frame: BTreeMap<u16, (usize, bool)>,
     /// The objects of the last frame that a segment touched without finding them.
-    last_undercovered: std::collections::BTreeSet<u16>,
+    last_undercovered: BTreeSet<u16>,
     /// Probes on objects a segment touched without finding them (covering too little), by
     /// band and fate: why the segment stopped short.
     pub fates_undercovered: BTreeMap<(usize, Fate), usize>,
@@ -155,17 +155,15 @@ impl MotionScores {
             }
         }
         for (&id, &class) in f.moving {
-            let visible: usize = overlap.iter().filter(|((t, _), _)| *t == id).map(|(_, n)| n).sum();
+            // This object's pixels by segment (0: none), in one pass over its part of the map.
+            let on_it = || overlap.range((id, 0)..=(id, u16::MAX)).map(|(&(_, s), &n)| (s, n));
+            let visible: usize = on_it().map(|(_, n)| n).sum();
             if visible < MIN_VISIBLE_PX {
                 continue;
             }
             let Some(z) = depth_of_truth.remove(&id).and_then(median) else { continue };
-            let best = overlap
-                .iter()
-                .filter(|((t, s), _)| *t == id && *s != 0)
-                .max_by_key(|(_, n)| **n)
-                .map(|((_, s), n)| (*s, *n));
-            let together: usize = overlap.iter().filter(|((t, s), _)| *t == id && *s != 0).map(|(_, n)| n).sum();
+            let best = on_it().filter(|(s, _)| *s != 0).max_by_key(|(_, n)| *n);
+            let together = visible - on_it().find(|(s, _)| *s == 0).map_or(0, |(_, n)| n);
             let found = best.filter(|(_, n)| 2 * n >= visible);
             self.last_frame.insert(id, (band_of(z), found.is_some()));
             if best.is_some() && found.is_none() {
@@ -370,11 +368,7 @@ mod tests {
                 truth_depth: &truth_depth,
                 segments,
                 moving: &moving,
-                at_rest: &if frame == 0 {
-                    std::collections::BTreeSet::from([5])
-                } else {
-                    std::collections::BTreeSet::new()
-                },
+                at_rest: &if frame == 0 { BTreeSet::from([5]) } else { BTreeSet::new() },
             });
         }
         scores.end_sequence();

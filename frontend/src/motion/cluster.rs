@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use dynotraj_core::estimate::{Intrinsics, PointModel};
 use dynotraj_core::wire::ObjectClass;
 
-use super::Seen;
+use super::{Detection, MotionParams, Seen};
 
 /// Groups of `points` (indices into it) linked by distance: across the viewing ray within
 /// `link_m`, along it within `link_m` plus both points' stereo depth error at 1 px.
@@ -90,6 +90,12 @@ impl Extent {
         let (w, h) = (min_w * intrinsics.fx / self.depth_m, min_h * intrinsics.fy / self.depth_m);
         let (cx, half_w) = (0.5 * (b[0] + b[2]), 0.5 * (b[2] - b[0]).max(w));
         [cx - half_w, b[3] - (b[3] - b[1]).max(h), cx + half_w, b[3]]
+    }
+
+    /// What is reported of object `id` of `class` here: its box grown to at least its class's
+    /// size ([`MotionParams::min_box_m`]), found this frame or coasting.
+    pub fn reported(self, id: u16, class: ObjectClass, p: &MotionParams, intrinsics: &Intrinsics) -> Detection {
+        Detection { bbox: self.at_least(p.min_box_m(class), intrinsics), class, object_id: Some(id) }
     }
 }
 

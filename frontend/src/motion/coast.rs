@@ -28,24 +28,20 @@ impl MotionSegmenter {
                 return true;
             }
             followed.missed += 1;
-            if followed.streak < p.confirm_frames.max(p.coast_after_frames) || followed.missed > p.coast_frames {
-                forgotten.push((*id, *followed));
-                return false;
-            }
-            let held: Vec<Seen> =
-                probes.iter().filter(|q| q.object == Some(*id)).filter_map(|q| q.seen.back().copied()).collect();
-            if held.len() < MIN_COASTED_PROBES {
-                forgotten.push((*id, *followed));
-                return false;
-            }
-            let Some(extent) = grown_box(held.into_iter(), p.grow, intrinsics) else {
+            let extent = (followed.streak >= p.confirm_frames.max(p.coast_after_frames)
+                && followed.missed <= p.coast_frames)
+                .then(|| {
+                    probes.iter().filter(|q| q.object == Some(*id)).filter_map(|q| q.seen.back().copied()).collect()
+                })
+                .filter(|held: &Vec<Seen>| held.len() >= MIN_COASTED_PROBES)
+                .and_then(|held| grown_box(held.into_iter(), p.grow, intrinsics));
+            let Some(extent) = extent else {
                 forgotten.push((*id, *followed));
                 return false;
             };
-            let bbox = extent.at_least(p.min_box_m(followed.class), intrinsics);
             stats.motion_objects += 1;
             stats.motion_objects_coasted += 1;
-            out.push(Detection { bbox, class: followed.class, object_id: Some(*id) });
+            out.push(extent.reported(*id, followed.class, &p, intrinsics));
             true
         });
         for (id, followed) in forgotten {

@@ -91,8 +91,7 @@ impl MotionSegmenter {
             .enumerate()
             .filter_map(|(i, l)| l.followed.place.filter(|p| p.holds(centre)).map(|p| (i, (p.centre - centre).norm())))
             .min_by(|a, b| a.1.total_cmp(&b.1))?;
-        let lost = self.lost.get(at).copied()?;
-        self.lost.remove(at);
+        let lost = self.lost.remove(at);
         self.objects.insert(lost.id, Followed { streak: 0, missed: 0, ..lost.followed });
         Some(lost.id)
     }
