@@ -360,18 +360,19 @@ impl MotionSegmenter {
         let mut members_of: Vec<(u16, Vec<usize>)> = Vec::new();
         for members in clusters {
             let agree = coherent(&members, &directions, p.min_coherence);
-            if p.dense_probes > 0 && agree {
-                let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
-                if let Some(extent) = self.extent(&probes, intrinsics) {
-                    self.cluster_boxes.push(extent.bbox);
-                }
+            // A coherent cluster's extent, once: the dense probes' boxes and the objects share it.
+            let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
+            let extent = if agree { self.extent(&probes, intrinsics) } else { None };
+            if p.dense_probes > 0
+                && let Some(extent) = &extent
+            {
+                self.cluster_boxes.push(extent.bbox);
             }
             if members.len() < p.min_points || !agree {
                 stats.motion_probes_unclustered += members.len() as u64;
                 continue;
             }
-            let probes: Vec<usize> = members.iter().filter_map(|&m| moving.get(m).map(|(i, _)| *i)).collect();
-            let Some(extent) = self.extent(&probes, intrinsics) else { continue };
+            let Some(extent) = extent else { continue };
             let centre: nalgebra::Point3<f32> =
                 (members.iter().filter_map(|&m| moving.get(m)).map(|(_, x)| x.coords).sum::<nalgebra::Vector3<f32>>()
                     / members.len() as f32)

@@ -1,6 +1,8 @@
 //! The front-end on a rendered sequence: its tracks with the simulator's truth, per frame (the
 //! estimator and its scores are the host's `estimation::end_to_end`).
 
+use std::collections::BTreeSet;
+
 use dynotraj_sim::image_sim::{ImageSim, RenderedMasks};
 use dynotraj_sim::track_sim::{SimFrame, moving_objects};
 use opencv::prelude::*;
@@ -118,8 +120,8 @@ pub fn track_motion_scored(
 
 /// The objects of frame `k` of `sim` that moved less than `min_step_m` a frame on average over
 /// the last [`REST_FRAMES`] frames (or as many as they were seen in).
-fn at_rest(sim: &ImageSim, k: usize, min_step_m: f64) -> std::collections::BTreeSet<u16> {
-    let Some(now) = sim.truth.get(k) else { return std::collections::BTreeSet::new() };
+fn at_rest(sim: &ImageSim, k: usize, min_step_m: f64) -> BTreeSet<u16> {
+    let Some(now) = sim.truth.get(k) else { return BTreeSet::new() };
     let then = k.saturating_sub(REST_FRAMES);
     now.iter()
         .filter(|o| {
